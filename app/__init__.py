@@ -1,0 +1,1 @@
+"""The isl dashboard: a Panel app over :mod:`isl_core` (state → views → app)."""

@@ -1,0 +1,18 @@
+"""isl_core — Kalman–Bucy vs the inverse-statistical-linearization (ISL) filter.
+
+Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kalman–Bucy filter (A.21–A.24),
+the ISL filter (A.16–A.18) and a compiled simulator of both on one Euler grid (B.30–B.34).
+Imports numpy, scipy and numba only — never a UI library.
+"""
+from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .model import M_MAX, Model
+from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
+from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
+from .simulate import DivergenceError, RmseResult, Run, Track, simulate, simulate_rmse, step_size
+
+__all__ = [
+    "M_MAX", "Model", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0",
+    "gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi",
+    "FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf",
+    "DivergenceError", "RmseResult", "Run", "Track", "simulate", "simulate_rmse", "step_size",
+]

@@ -1,0 +1,84 @@
+"""The signal-and-observation model (A.1–A.6, A.14, A.19–A.20).
+
+State ``X = (X_1..X_m)``, ``X_i`` the (i−1)-th derivative of a scalar signal:
+
+    dX_i = X_{i+1} dt              (i < m)
+    dX_m = −α X_m dt + β dv        (Ornstein–Uhlenbeck top derivative, A.5)
+    dY   = X_1 dt + σ dε           (observation, A.6; σ unknown to the ISL filter)
+
+Symbols: ``A0`` ones on the superdiagonal (A.11), ``E = e_m``, ``C = e_1ᵀ``, ``A = A0 − α E Eᵀ`` (A.20).
+α = 0 is the white-noise-derivative model of paper B. Paper A fixes ``β²/(2α) = w²`` (A.25).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validate import check_int, check_real
+
+__all__ = ["Model", "M_MAX", "shift_matrix"]
+
+#: Largest state dimension supported (the UI and the kernels are sized for it).
+M_MAX = 6
+
+
+def shift_matrix(m: int) -> np.ndarray:
+    """``A0``: ones on the superdiagonal, size m×m (A.11)."""
+    return np.eye(m, k=1)
+
+
+@dataclass(frozen=True)
+class Model:
+    """Model (A.19): ``dX = A X dt + β E dv``, ``dY = C X dt + σ dε``.
+
+    Parameters are validated at construction: ``alpha`` finite ≥ 0, ``beta`` and ``sigma`` finite > 0,
+    ``m`` an integer 1..6.
+    """
+
+    alpha: float
+    beta: float
+    sigma: float
+    m: int = 3
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "alpha", check_real("alpha", self.alpha, lo=0.0))
+        object.__setattr__(self, "beta", check_real("beta", self.beta, lo=0.0, lo_open=True))
+        object.__setattr__(self, "sigma", check_real("sigma", self.sigma, lo=0.0, lo_open=True))
+        object.__setattr__(self, "m", check_int("m", self.m, lo=1, hi=M_MAX))
+
+    @classmethod
+    def from_w(cls, alpha: float, w: float, sigma: float, m: int = 3) -> "Model":
+        """Paper A's parametrization (A.25): stationary std ``w`` of X_m, so ``β = w·√(2α)``; needs α > 0."""
+        a = check_real("alpha", alpha, lo=0.0, lo_open=True)
+        w = check_real("w", w, lo=0.0, lo_open=True)
+        return cls(a, w * math.sqrt(2.0 * a), sigma, m)
+
+    @property
+    def A0(self) -> np.ndarray:
+        return shift_matrix(self.m)
+
+    @property
+    def E(self) -> np.ndarray:
+        e = np.zeros((self.m, 1))
+        e[-1, 0] = 1.0
+        return e
+
+    @property
+    def C(self) -> np.ndarray:
+        c = np.zeros((1, self.m))
+        c[0, 0] = 1.0
+        return c
+
+    @property
+    def A(self) -> np.ndarray:
+        """``A = A0 − α E Eᵀ`` (A.20)."""
+        a = self.A0
+        a[-1, -1] = -self.alpha
+        return a
+
+    @property
+    def stationary_var(self) -> float:
+        """Variance ``β²/(2α)`` of the stationary X_m (A.25); ``inf`` when α = 0."""
+        return math.inf if self.alpha == 0.0 else self.beta**2 / (2.0 * self.alpha)

@@ -1,0 +1,67 @@
+"""The ISL nonlinearity φ and its statistical linearization (A.17, B.23–B.27, B.40–B.43).
+
+    φ_i(x) = c_i · sign(x)·|x|^{q_i},   c_i = G_i1 · γ_{p_i}^{-1/2} · ν^{i/m},   q_i = 1 − i/m,  p_i = 2 q_i   (A.17)
+    γ_p    = E|U|^p = 2^{p/2} Γ((p+1)/2) / √π,   U ~ N(0, 1)
+
+For ξ ~ N(0, σ²) the power law has closed-form moments (SPEC §6):
+
+    L_i  = E[φ_i(ξ) ξ]  = c_i γ_{1+q_i} σ^{1+q_i}                  (B.40)
+    Φ_ij = E[φ_i φ_j]   = c_i c_j γ_{q_i+q_j} σ^{q_i+q_j}           (B.43)
+
+Symbols: ``coef`` = c, ``q`` = exponents, ``L`` (m,), ``Phi`` (m, m).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._validate import check_int, check_real
+from .model import M_MAX
+from .riccati import G_matrix
+
+__all__ = ["gamma_abs", "isl_exponents", "isl_gains", "phi", "linearization"]
+
+
+def gamma_abs(p: float) -> float:
+    """Absolute moment ``γ_p = E|U|^p = 2^{p/2} Γ((p+1)/2)/√π`` of U ~ N(0, 1), for p > −1."""
+    p = check_real("p", p, lo=-1.0, lo_open=True)
+    return 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+
+
+def isl_exponents(m: int) -> np.ndarray:
+    """Exponents ``q_i = 1 − i/m``, i = 1..m, of the power laws in (A.17)."""
+    m = check_int("m", m, lo=1, hi=M_MAX)
+    return 1.0 - np.arange(1, m + 1) / m
+
+
+def isl_gains(m: int, nu: float) -> np.ndarray:
+    """Coefficients ``c_i = G_i1 γ_{p_i}^{-1/2} ν^{i/m}`` of φ (A.17), p_i = 2(1 − i/m)."""
+    m = check_int("m", m, lo=1, hi=M_MAX)
+    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    g1 = G_matrix(m)[:, 0]
+    q = isl_exponents(m)
+    i = np.arange(1, m + 1)
+    gam = np.array([gamma_abs(2.0 * qi) for qi in q])
+    return g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+
+
+def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Evaluate ``φ_i(x) = c_i sign(x)|x|^{q_i}`` (A.17); returns shape ``x.shape + (m,)``."""
+    x = np.asarray(x, dtype=float)[..., None]
+    return coef * np.sign(x) * np.abs(x) ** q
+
+
+def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form ``L = E[φ(ξ)ξ]`` and ``Φ = E[φ(ξ)φ(ξ)ᵀ]`` for ξ ~ N(0, σ²) (B.40, B.43).
+
+    A linear φ (q = 1) gives ``L = σ² c`` and ``Φ = σ² c cᵀ``.
+    """
+    sigma = check_real("sigma", sigma, lo=0.0, lo_open=True)
+    coef = np.asarray(coef, dtype=float)
+    q = np.asarray(q, dtype=float)
+    L = coef * np.array([gamma_abs(1.0 + qi) for qi in q]) * sigma ** (1.0 + q)  # (B.40)
+    qq = q[:, None] + q[None, :]
+    gam = np.vectorize(gamma_abs)(qq)
+    Phi = np.outer(coef, coef) * gam * sigma**qq  # (B.43)
+    return L, Phi

@@ -1,0 +1,95 @@
+"""Stationary Kalman–Bucy filter: the CARE, its gain, RMSE and settling rate (A.10, A.21–A.24, B.16–B.18).
+
+    A Δ + Δ Aᵀ + β² E Eᵀ − σ⁻² Δ Cᵀ C Δ = 0        (A.23)
+    K = σ⁻² Δ Cᵀ,   s_i = √Δ_ii                       (A.21, A.29–A.30)
+    r_min = min_i −Re λ_i(A − K C)                    (A.24)
+
+α = 0 has a closed form through the normalized solution G = G(m) of
+``A0 G + G A0ᵀ + E Eᵀ − G Cᵀ C G = 0`` (A.10, B.17):
+
+    Δ_ij = G_ij σ² (β/σ)^{(i+j−1)/m},   K_i = G_i1 (β/σ)^{i/m}      (B.16, B.18)
+
+Symbols: ``delta`` = Δ, ``K`` gain (m,), ``eig`` eigenvalues of ``A − K C``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy.linalg import solve_continuous_are
+
+from ._validate import check_int, check_real
+from .model import M_MAX, Model, shift_matrix
+
+__all__ = ["G_matrix", "KalmanBucy", "kalman_bucy", "kalman_bucy_alpha0", "care_residual"]
+
+
+@lru_cache(maxsize=None)
+def _G(m: int) -> np.ndarray:
+    a0 = shift_matrix(m)
+    e = np.zeros((m, 1))
+    e[-1, 0] = 1.0
+    c = np.zeros((1, m))
+    c[0, 0] = 1.0
+    g = solve_continuous_are(a0.T, c.T, e @ e.T, np.eye(1))  # (A.10)
+    g = 0.5 * (g + g.T)
+    g.flags.writeable = False
+    return g
+
+
+def G_matrix(m: int) -> np.ndarray:
+    """Positive-definite solution G(m) of ``A0 G + G A0ᵀ + E Eᵀ − G Cᵀ C G = 0`` (A.10, B.17)."""
+    return _G(check_int("m", m, lo=1, hi=M_MAX)).copy()
+
+
+@dataclass(frozen=True)
+class KalmanBucy:
+    """Stationary Kalman–Bucy filter of a :class:`Model` (A.21–A.24).
+
+    ``K`` gain (m,), ``delta`` error covariance Δ (m, m), ``s = √diag Δ``, ``eig`` eigenvalues of
+    ``A − K C`` and ``r_min = min −Re eig`` (A.24).
+    """
+
+    K: np.ndarray
+    delta: np.ndarray
+    s: np.ndarray
+    eig: np.ndarray
+    r_min: float
+
+
+def _result(A: np.ndarray, delta: np.ndarray, sigma: float) -> KalmanBucy:
+    delta = 0.5 * (delta + delta.T)
+    K = delta[:, 0] / sigma**2  # K = σ⁻² Δ Cᵀ (A.21)
+    closed = A.copy()
+    closed[:, 0] -= K  # A − K C
+    eig = np.linalg.eigvals(closed)
+    for arr in (K, delta, eig):
+        arr.flags.writeable = False
+    s = np.sqrt(np.diag(delta))
+    s.flags.writeable = False
+    return KalmanBucy(K=K, delta=delta, s=s, eig=eig, r_min=float(np.min(-eig.real)))  # (A.24)
+
+
+def kalman_bucy(model: Model) -> KalmanBucy:
+    """Solve the CARE (A.23) for ``model`` and return gain, Δ, s_i and r_min (A.24)."""
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    A, E, C = model.A, model.E, model.C
+    delta = solve_continuous_are(A.T, C.T, model.beta**2 * (E @ E.T), np.array([[model.sigma**2]]))  # (A.23)
+    return _result(A, delta, model.sigma)
+
+
+def kalman_bucy_alpha0(m: int, beta: float, sigma: float) -> KalmanBucy:
+    """Closed form for α = 0: ``Δ_ij = G_ij σ² (β/σ)^{(i+j−1)/m}`` (B.16), ``K_i = G_i1 (β/σ)^{i/m}`` (B.18)."""
+    model = Model(0.0, beta, sigma, m)
+    i = np.arange(1, model.m + 1)
+    expo = (i[:, None] + i[None, :] - 1) / model.m
+    delta = _G(model.m) * model.sigma**2 * (model.beta / model.sigma) ** expo  # (B.16)
+    return _result(model.A, delta, model.sigma)
+
+
+def care_residual(model: Model, delta: np.ndarray) -> np.ndarray:
+    """Left-hand side of (A.23) at ``delta``; zero for the exact solution."""
+    A, E, C = model.A, model.E, model.C
+    return A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2

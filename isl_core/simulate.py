@@ -1,0 +1,261 @@
+"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30).
+
+The truth is simulated by Euler–Maruyama **on the filters' grid** (B.33–B.34): an exact-in-continuous-time
+truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (SPEC §4).
+
+Step size (B.47): every closed-loop rate must satisfy ``h·|λ| ≪ 1``. We take the fastest rate in play,
+``max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` with Λ_f the linearized matrix of each filter (B.46), and set
+``h = H_RATE / rate`` (H_RATE = 0.02); then ``N = ⌈T/h⌉`` and h is shrunk to ``T/N`` so that t_N = T.
+
+Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ._validate import check_int, check_real
+from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .kernels import advance
+from .model import Model
+from .riccati import KalmanBucy, kalman_bucy
+
+__all__ = [
+    "H_RATE", "MAX_STORED_STEPS", "MAX_STEPS", "DivergenceError", "Track", "Run", "RmseResult",
+    "step_size", "simulate", "simulate_rmse", "draw_noise", "initial_state",
+]
+
+H_RATE = 0.02  #: h × (fastest rate): the SPEC's margin
+MAX_STORED_STEPS = 4_000_000  #: cap on N when trajectories are kept (memory ≈ 24·m·(filters+1)·N bytes)
+MAX_STEPS = 200_000_000  #: cap on N when only squared errors are accumulated
+CHUNK = 1 << 16  #: noise is drawn in bulk, this many steps at a time
+
+
+class DivergenceError(ArithmeticError):
+    """A filter left the finite numbers; the message says which and when."""
+
+
+def _freeze(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class Track:
+    """One filter's estimate along a run and its empirical RMSE (A.30) and ratio ``š_i/s_i``."""
+
+    name: str
+    label: str
+    estimate: np.ndarray
+    rmse: np.ndarray
+    ratio: np.ndarray
+
+
+@dataclass(frozen=True)
+class Run:
+    """One simulated trajectory with the optimal and the ISL filter (and any extra filters).
+
+    ``t`` (N+1,), ``X`` truth (N+1, m), ``tracks`` in order: Kalman–Bucy, ISL, extras.
+    ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = t_N``.
+    """
+
+    model: Model
+    nu: float
+    seed: int
+    t: np.ndarray
+    X: np.ndarray
+    tracks: tuple[Track, ...]
+    s: np.ndarray
+    r_min: float
+    h: float
+    T: float
+
+    @property
+    def N(self) -> int:
+        return len(self.t) - 1
+
+    def track(self, name: str) -> Track:
+        for tr in self.tracks:
+            if tr.name == name:
+                return tr
+        raise KeyError(f"no filter named {name!r} in this run; have {[tr.name for tr in self.tracks]}")
+
+    X_hat = property(lambda self: self.tracks[0].estimate, doc="Kalman–Bucy estimate X̂ (N+1, m)")
+    X_check = property(lambda self: self.tracks[1].estimate, doc="ISL estimate X̌ (N+1, m)")
+    s_hat = property(lambda self: self.tracks[0].rmse, doc="empirical RMSE ŝ_i of X̂ (A.30)")
+    s_check = property(lambda self: self.tracks[1].rmse, doc="empirical RMSE š_i of X̌ (A.30)")
+    ratio_hat = property(lambda self: self.tracks[0].ratio, doc="ŝ_i/s_i (≈ 1 on long runs)")
+    ratio_check = property(lambda self: self.tracks[1].ratio, doc="š_i/s_i")
+
+
+def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
+    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, SPEC §4)."""
+    rate = max(float(np.max(np.abs(kb.eig))), model.alpha, kb.r_min)
+    for spec in filters:
+        rate = max(rate, float(np.max(np.abs(np.linalg.eigvals(linearized_matrix(model, spec))))))
+    return H_RATE / rate
+
+
+def draw_noise(rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` rows of (v_k, ε_k) ~ N(0, 1): column 0 drives the signal (B.33), column 1 the observation (B.34)."""
+    return rng.standard_normal((n, 2))
+
+
+def initial_state(model: Model, rng: np.random.Generator) -> np.ndarray:
+    """Truth at t = 0: zero except X_m(0) ~ N(0, β²/(2α)) when α > 0 (SPEC §4)."""
+    x = np.zeros(model.m)
+    if model.alpha > 0.0:
+        x[-1] = math.sqrt(model.stationary_var) * rng.standard_normal()
+    return x
+
+
+def _grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int) -> tuple[float, float, int]:
+    T = 10.0 / kb.r_min if T is None else check_real("T", T, lo=0.0, lo_open=True)
+    h = step_size(model, kb, filters) if h is None else check_real("h", h, lo=0.0, lo_open=True)
+    if h > T:
+        raise ValueError(f"h must be <= T = {T:g}, got {h:g}")
+    n = math.ceil(T / h - 1e-9)
+    if n > cap:
+        raise ValueError(
+            f"T/h = {T:g}/{h:.4g} needs {n:,} steps, over the limit of {cap:,}; shorten T or enlarge h"
+        )
+    return T, T / n, n
+
+
+def _pack(model: Model, filters: Sequence[FilterSpec]):
+    damp = np.array([f.damp for f in filters], dtype=np.float64)
+    coef = np.array([f.coef for f in filters], dtype=np.float64).reshape(len(filters), model.m)
+    power = np.array([f.power for f in filters], dtype=np.bool_)
+    return damp, coef, power
+
+
+def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store):
+    """Run the kernel over ``n`` steps chunk by chunk; returns squared-error sums (batches, nf, m)."""
+    rng = np.random.default_rng(seed)
+    x = initial_state(model, rng)
+    z = np.zeros((len(filters), model.m))
+    damp, coef, power = _pack(model, filters)
+    if store:
+        X_out[0] = x
+    sq = np.zeros((batches, len(filters), model.m))
+    batch_len = (n - burn) // batches  # the remainder goes to the last batch
+    k = 0
+    while k < n:
+        noise = draw_noise(rng, min(CHUNK, n - k))
+        done = advance(x, z, noise, h, model.alpha, model.beta, model.sigma, damp, coef, power,
+                       k, burn, batch_len, sq, X_out, Z_out, store)
+        if done < len(noise):
+            bad = [f.label for f, row in zip(filters, z) if not np.all(np.isfinite(row))]
+            t_bad = (k + done) * h
+            raise DivergenceError(
+                f"filter {', '.join(bad)} diverged at t = {t_bad:.4g} (step {k + done:,} of {n:,}, h = {h:.3g}); "
+                "a smaller step h or a different nu keeps it finite"
+            )
+        k += done
+    return sq
+
+
+def _check_filters(model: Model, nu, extra) -> list[FilterSpec]:
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    for spec in extra:
+        if not isinstance(spec, FilterSpec) or len(spec.coef) != model.m:
+            raise ValueError(f"extra filters must be FilterSpec objects of size m = {model.m}, got {spec!r}")
+    return [isl_filter(model, nu), *extra]
+
+
+def simulate(
+    model: Model,
+    nu: float,
+    *,
+    T: float | None = None,
+    h: float | None = None,
+    seed: int = 0,
+    extra: Sequence[FilterSpec] = (),
+) -> Run:
+    """Simulate truth, the optimal Kalman–Bucy filter and the ISL filter with tuning ``nu`` on one grid.
+
+    Defaults: ``T = 10/r_min`` (A, Fig. 3) and ``h`` by :func:`step_size`. ``seed`` (int ≥ 0) fixes the
+    noise: the same seed gives the same run, bit for bit. ``extra`` filters ride on the same noise.
+    Raises ``ValueError`` for bad input or too many steps, :class:`DivergenceError` for a blown-up filter.
+    """
+    filters = _check_filters(model, nu, extra)
+    seed = check_int("seed", seed, lo=0)
+    kb = kalman_bucy(model)
+    filters.insert(0, optimal_kbf(model, kb))
+    T, h, n = _grid(model, kb, filters, T, h, MAX_STORED_STEPS)
+    X = np.empty((n + 1, model.m))
+    Z = np.empty((len(filters), n + 1, model.m))
+    for f in range(len(filters)):
+        Z[f, 0] = 0.0
+    sq = _loop(model, filters, h, n, seed, burn=0, batches=1, X_out=X, Z_out=Z, store=True)
+    s = _freeze(kb.s.copy())
+    tracks = []
+    for f, spec in enumerate(filters):
+        rmse = np.sqrt(sq[0, f] / n)  # (A.30)
+        tracks.append(Track(spec.name, spec.label, _freeze(Z[f]), _freeze(rmse), _freeze(rmse / s)))
+    t = _freeze(np.arange(n + 1) * h)
+    return Run(model, float(nu), seed, t, _freeze(X), tuple(tracks), s, kb.r_min, h, T)
+
+
+@dataclass(frozen=True)
+class RmseResult:
+    """Squared-error sums of a long run without stored trajectories.
+
+    ``sq`` (batches, nf, m) holds per-batch sums of ``(Z_f,i − X_i)²`` over ``batch_len`` steps each
+    (the last batch takes the remainder: ``counts``); ``s`` is the optimal RMSE √diag Δ (theory).
+    """
+
+    names: tuple[str, ...]
+    sq: np.ndarray
+    counts: np.ndarray
+    s: np.ndarray
+    r_min: float
+    h: float
+    T: float
+
+    def ratios(self) -> np.ndarray:
+        """Whole-run ratios ``š_i/s_i`` (nf, m), (A.30)."""
+        return np.sqrt(self.sq.sum(axis=0) / self.counts.sum()) / self.s
+
+    def batch_ratios(self) -> np.ndarray:
+        """Per-batch ratios (batches, nf, m), for batch-means confidence intervals."""
+        return np.sqrt(self.sq / self.counts[:, None, None]) / self.s
+
+
+def simulate_rmse(
+    model: Model,
+    filters: Sequence[FilterSpec],
+    *,
+    T: float,
+    h: float | None = None,
+    seed: int = 0,
+    burn: float = 0.0,
+    batches: int = 1,
+) -> RmseResult:
+    """Long run of ``filters`` on one truth (common random numbers), accumulating squared errors only.
+
+    The first ``burn`` time units are left out of the averages; the rest is cut into ``batches``.
+    """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    filters = list(filters)
+    if not filters or not all(isinstance(f, FilterSpec) and len(f.coef) == model.m for f in filters):
+        raise ValueError(f"filters must be a non-empty sequence of FilterSpec of size m = {model.m}")
+    seed = check_int("seed", seed, lo=0)
+    batches = check_int("batches", batches, lo=1, hi=10_000)
+    kb = kalman_bucy(model)
+    T, h, n = _grid(model, kb, filters, T, h, MAX_STEPS)
+    burn_steps = min(int(check_real("burn", burn, lo=0.0) / h), n - batches)
+    if burn_steps < 0:
+        raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
+    dummy_x, dummy_z = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
+    sq = _loop(model, filters, h, n, seed, burn=burn_steps, batches=batches,
+               X_out=dummy_x, Z_out=dummy_z, store=False)
+    counts = np.full(batches, float((n - burn_steps) // batches))
+    counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
+    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T)
