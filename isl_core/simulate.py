@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -31,7 +31,7 @@ __all__ = [
 H_RATE = 0.02  #: h × (fastest rate): the SPEC's margin
 MAX_STORED_STEPS = 4_000_000  #: cap on N when trajectories are kept (memory ≈ 24·m·(filters+1)·N bytes)
 MAX_STEPS = 200_000_000  #: cap on N when only squared errors are accumulated
-CHUNK = 1 << 16  #: noise is drawn in bulk, this many steps at a time
+CHUNK = 1 << 17  #: steps per kernel call (progress reports and cancellation happen between calls)
 
 
 class DivergenceError(ArithmeticError):
@@ -100,7 +100,10 @@ def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> fl
 
 
 def draw_noise(rng: np.random.Generator, n: int) -> np.ndarray:
-    """``n`` rows of (v_k, ε_k) ~ N(0, 1): column 0 drives the signal (B.33), column 1 the observation (B.34)."""
+    """``n`` rows of (v_k, ε_k) ~ N(0, 1): column 0 drives the signal (B.33), column 1 the observation (B.34).
+
+    The compiled kernel draws the same stream from the same generator, one number at a time.
+    """
     return rng.standard_normal((n, 2))
 
 
@@ -132,8 +135,11 @@ def _pack(model: Model, filters: Sequence[FilterSpec]):
     return damp, coef, power
 
 
-def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store):
-    """Run the kernel over ``n`` steps chunk by chunk; returns squared-error sums (batches, nf, m)."""
+def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store, progress=None):
+    """Run the kernel over ``n`` steps chunk by chunk; returns squared-error sums (batches, nf, m).
+
+    ``progress(fraction)`` is called after every chunk; an exception it raises (e.g. to cancel) propagates.
+    """
     rng = np.random.default_rng(seed)
     x = initial_state(model, rng)
     z = np.zeros((len(filters), model.m))
@@ -144,10 +150,10 @@ def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store):
     batch_len = (n - burn) // batches  # the remainder goes to the last batch
     k = 0
     while k < n:
-        noise = draw_noise(rng, min(CHUNK, n - k))
-        done = advance(x, z, noise, h, model.alpha, model.beta, model.sigma, damp, coef, power,
+        todo = min(CHUNK, n - k)
+        done = advance(x, z, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, power,
                        k, burn, batch_len, sq, X_out, Z_out, store)
-        if done < len(noise):
+        if done < todo:
             bad = [f.label for f, row in zip(filters, z) if not np.all(np.isfinite(row))]
             t_bad = (k + done) * h
             raise DivergenceError(
@@ -155,6 +161,8 @@ def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store):
                 "a smaller step h or a different nu keeps it finite"
             )
         k += done
+        if progress is not None:
+            progress(k / n)
     return sq
 
 
@@ -236,10 +244,12 @@ def simulate_rmse(
     seed: int = 0,
     burn: float = 0.0,
     batches: int = 1,
+    progress: Callable[[float], None] | None = None,
 ) -> RmseResult:
     """Long run of ``filters`` on one truth (common random numbers), accumulating squared errors only.
 
     The first ``burn`` time units are left out of the averages; the rest is cut into ``batches``.
+    ``progress(fraction)`` is called between kernel chunks; raising from it cancels the run.
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
@@ -255,7 +265,7 @@ def simulate_rmse(
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
     dummy_x, dummy_z = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
     sq = _loop(model, filters, h, n, seed, burn=burn_steps, batches=batches,
-               X_out=dummy_x, Z_out=dummy_z, store=False)
+               X_out=dummy_x, Z_out=dummy_z, store=False, progress=progress)
     counts = np.full(batches, float((n - burn_steps) // batches))
     counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
     return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T)
