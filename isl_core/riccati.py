@@ -9,7 +9,15 @@
 
     Δ_ij = G_ij σ² (β/σ)^{(i+j−1)/m},   K_i = G_i1 (β/σ)^{i/m}      (B.16, B.18)
 
-Symbols: ``delta`` = Δ, ``K`` gain (m,), ``eig`` eigenvalues of ``A − K C``.
+The CARE is solved in normalized form, which keeps it well conditioned for every σ/β (a direct solve
+fails for e.g. σ = 0.01, β = 21, α = 25): with the rate ``ϱ = (β/σ)^{1/m}`` and ``S = diag(ϱ^1 … ϱ^m)``,
+
+    Δ = σ² ϱ⁻¹ S Δ' S,   A' Δ' + Δ' A'ᵀ + E Eᵀ − Δ' Cᵀ C Δ' = 0,   A' = A0 − (α/ϱ) E Eᵀ
+
+(substitute: ``A S = ϱ S A'``, ``β² EEᵀ = σ² S EEᵀ S``, ``S CᵀC S = ϱ² CᵀC``). For α = 0, Δ' = G and
+this is (B.16).
+
+Symbols: ``delta`` = Δ, ``K`` gain (m,), ``eig`` eigenvalues of ``A − K C``, ``rho`` = ϱ.
 """
 from __future__ import annotations
 
@@ -25,15 +33,21 @@ from .model import M_MAX, Model, shift_matrix
 __all__ = ["G_matrix", "KalmanBucy", "kalman_bucy", "kalman_bucy_alpha0", "care_residual"]
 
 
-@lru_cache(maxsize=None)
-def _G(m: int) -> np.ndarray:
-    a0 = shift_matrix(m)
+def _normalized_care(m: int, a: float) -> np.ndarray:
+    """Solution Δ' of ``A'Δ' + Δ'A'ᵀ + EEᵀ − Δ'CᵀCΔ' = 0`` with ``A' = A0 − a EEᵀ`` (A.10 when a = 0)."""
+    a1 = shift_matrix(m)
+    a1[-1, -1] = -a
     e = np.zeros((m, 1))
     e[-1, 0] = 1.0
     c = np.zeros((1, m))
     c[0, 0] = 1.0
-    g = solve_continuous_are(a0.T, c.T, e @ e.T, np.eye(1))  # (A.10)
-    g = 0.5 * (g + g.T)
+    d = solve_continuous_are(a1.T, c.T, e @ e.T, np.eye(1))
+    return 0.5 * (d + d.T)
+
+
+@lru_cache(maxsize=None)
+def _G(m: int) -> np.ndarray:
+    g = _normalized_care(m, 0.0)  # (A.10)
     g.flags.writeable = False
     return g
 
@@ -75,9 +89,11 @@ def kalman_bucy(model: Model) -> KalmanBucy:
     """Solve the CARE (A.23) for ``model`` and return gain, Δ, s_i and r_min (A.24)."""
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
-    A, E, C = model.A, model.E, model.C
-    delta = solve_continuous_are(A.T, C.T, model.beta**2 * (E @ E.T), np.array([[model.sigma**2]]))  # (A.23)
-    return _result(A, delta, model.sigma)
+    rho = (model.beta / model.sigma) ** (1.0 / model.m)
+    scale = rho ** np.arange(1, model.m + 1)
+    delta1 = _normalized_care(model.m, model.alpha / rho)
+    delta = model.sigma**2 / rho * scale[:, None] * delta1 * scale[None, :]  # (A.23), normalized form
+    return _result(model.A, delta, model.sigma)
 
 
 def kalman_bucy_alpha0(m: int, beta: float, sigma: float) -> KalmanBucy:
