@@ -9,10 +9,14 @@ from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .simulate import DivergenceError, RmseResult, Run, Track, simulate, simulate_rmse, step_size
+from .theory import (
+    mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios, predicted_ratios_grid,
+)
 
 __all__ = [
     "M_MAX", "Model", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0",
     "gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi",
     "FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf",
     "DivergenceError", "RmseResult", "Run", "Track", "simulate", "simulate_rmse", "step_size",
+    "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
 ]

@@ -1,0 +1,195 @@
+"""Statistical-linearization theory of a filter's stationary error (B.40–B.48, SPEC §6).
+
+Every filter of :mod:`isl_core.filters` is ``dZ = (A0 − a·EEᵀ) Z dt + φ(innovation)``. Over one Euler step
+the innovation is ``u = −√h·e_1 + σε`` with ``e = Z − X``, and for small h
+
+    √h·φ(u) ≈ −h·σ⁻² L e_1 + √h·φ(σε),   L = E[φ(ξ)ξ],  ξ ~ N(0, σ²)   (Stein: E φ'(ξ) = L/σ²)  (B.40)
+
+so the drift of φ is linear in the error and its noise has covariance ``Φ = E[φφᵀ]`` per unit time (B.43).
+With the truth ``dX = A X dt + βE dv`` and ``(A0 − aEEᵀ) Z − A X = (A0 − aEEᵀ) e + (α − a) X_m E``:
+
+    de   = Λ e dt + (α − a)·X_m E dt − βE dv + dW_φ,     Λ = A0 − a·EEᵀ − σ⁻² L C      (B.46)
+    dX_m = −α X_m dt + β dv                                                             (A.5)
+
+with the **same** dv in both lines and the φ-noise ``dW_φ`` (covariance Φ dt) independent of dv: it is made
+of the observation noise ε only. The stacked state ξ = (e, X_m) obeys ``dξ = M ξ dt + dη`` with
+
+    M = [[Λ, (α − a)E], [0, −α]],     Q = Cov(dη)/dt = [[Φ + β²EEᵀ, −β²E], [−β²Eᵀ, β²]]
+
+(the off-diagonal block is Cov(−βE dv, β dv)/dt), and its stationary covariance P solves the Lyapunov
+equation ``M P + P Mᵀ + Q = 0``. The predicted RMSE of coordinate i is ``√P_ii``.
+
+* a = α (a filter that propagates with the true A: the optimal or a mismatched Kalman–Bucy filter, a
+  model-aware ISL filter) — the coupling vanishes and the e-block alone is (B.48):
+  ``Λ Δ̌ + Δ̌ Λᵀ + β² EEᵀ + Φ = 0``; for a linear φ = K̄u this is the mismatched-gain equation
+  ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` (SPEC §7).
+* α = 0, a = 0 (paper B) — the same m×m equation (B.48); m = 1, ν = β gives Δ̌/Q = √(π/2) (B.52).
+* α > 0, a ≠ α (paper A's ISL filter propagates with A0, a = 0) — the full (m+1)-system above.
+* α = 0, a ≠ 0 — X_m is a Brownian motion that the error follows: no stationary error (ratio inf).
+
+When Λ (or M) is not Hurwitz there is no stationary error: the prediction is ``inf``.
+The prediction is accurate near the best ν; it under-predicts badly when the filter loses lock (SPEC §6).
+
+Symbols: ``spec.damp`` = a, ``L``, ``Phi`` = Φ, ``lam`` = Λ, ``P`` the (m+1) covariance.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from functools import lru_cache
+
+import numpy as np
+
+from ._validate import check_real
+from .filters import FilterSpec, isl_filter
+from .model import Model
+from .nonlinearity import gamma_abs
+from .riccati import KalmanBucy, kalman_bucy
+
+__all__ = [
+    "predicted_covariance", "predicted_ratios", "predicted_ratios_grid", "mismatched_kbf",
+    "mismatched_kbf_ratios", "lyapunov",
+]
+
+
+def lyapunov(M: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """Solve ``M P + P Mᵀ + Q = 0`` for stacks of small matrices (..., n, n) by the Kronecker form.
+
+    ``(I ⊗ M + M ⊗ I) vec P = −vec Q`` (row-major vec); n ≤ 7 here, so the n²×n² solve is cheap and batches.
+    """
+    M = np.asarray(M, dtype=float)
+    n = M.shape[-1]
+    eye = np.eye(n)
+    K = np.einsum("...ik,jl->...ijkl", M, eye) + np.einsum("ik,...jl->...ijkl", eye, M)
+    K = K.reshape(M.shape[:-2] + (n * n, n * n))
+    q = np.broadcast_to(Q, M.shape).reshape(M.shape[:-2] + (n * n, 1))
+    P = np.linalg.solve(K, -q).reshape(M.shape)
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+@lru_cache(maxsize=64)
+def _gammas(q: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """``γ_{1+q_i}`` (m,) and ``γ_{q_i+q_j}`` (m, m) for the exponents ``q``."""
+    g1 = np.array([gamma_abs(1.0 + qi) for qi in q])
+    g2 = np.array([[gamma_abs(qi + qj) for qj in q] for qi in q])
+    return g1, g2
+
+
+@lru_cache(maxsize=1024)
+def _kb(model: Model) -> KalmanBucy:
+    """The stationary Kalman–Bucy filter (A.23), cached per (frozen, hashable) model; its arrays are read-only."""
+    return kalman_bucy(model)
+
+
+def _optimal_s(model: Model) -> np.ndarray:
+    """Optimal RMSE ``s_i = √Δ_ii`` (A.29–A.30)."""
+    return _kb(model).s
+
+
+def _moments(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """Batched closed forms ``L = c γ_{1+q} σ^{1+q}``, ``Φ = c cᵀ γ_{q_i+q_j} σ^{q_i+q_j}`` (B.40, B.43).
+
+    ``coef`` (..., m) shares the exponents ``q`` (m,).
+    """
+    g1, g2 = _gammas(tuple(float(x) for x in q))
+    qq = q[:, None] + q[None, :]
+    L = coef * g1 * sigma ** (1.0 + q)  # (B.40)
+    Phi = coef[..., :, None] * coef[..., None, :] * g2 * sigma**qq  # (B.43)
+    return L, Phi
+
+
+def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Stationary error covariances (..., m, m) of filters with gains ``coef`` (..., m); inf if none exists."""
+    m, alpha, beta, sigma = model.m, model.alpha, model.beta, model.sigma
+    L, Phi = _moments(coef, q, sigma)
+    lam = np.broadcast_to(model.A0, L.shape + (m,)).copy()
+    lam[..., -1, -1] -= damp
+    lam[..., :, 0] -= L / sigma**2  # Λ = A0 − a EEᵀ − σ⁻² L C   (B.46)
+    stable = np.all(np.linalg.eigvals(lam).real < 0.0, axis=-1)
+    coupled = damp != alpha
+    if coupled and alpha == 0.0:
+        return np.full(lam.shape, np.inf)
+    n = m + 1 if coupled else m
+    M = np.zeros(L.shape[:-1] + (n, n))
+    Q = np.zeros(L.shape[:-1] + (n, n))
+    M[..., :m, :m] = lam
+    Q[..., :m, :m] = Phi
+    Q[..., m - 1, m - 1] += beta**2  # β² EEᵀ + Φ   (B.48)
+    if coupled:
+        M[..., m - 1, m] = alpha - damp  # (α − a) X_m E
+        M[..., m, m] = -alpha  # dX_m = −α X_m dt + β dv   (A.5)
+        Q[..., m - 1, m] = Q[..., m, m - 1] = -beta**2  # Cov(−βE dv, β dv)
+        Q[..., m, m] = beta**2
+    M = np.where(stable[..., None, None], M, -np.eye(n))  # keep the solve regular; unstable ones → inf below
+    P = lyapunov(M, Q)[..., :m, :m]
+    ok = stable & np.all(np.isfinite(P), axis=(-2, -1)) & np.all(np.diagonal(P, axis1=-2, axis2=-1) > 0, axis=-1)
+    return np.where(ok[..., None, None], P, np.inf)
+
+
+def _check_spec(model: Model, spec: FilterSpec) -> None:
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    if not isinstance(spec, FilterSpec) or len(spec.coef) != model.m:
+        raise ValueError(f"spec must be a FilterSpec of size m = {model.m}, got {spec!r}")
+
+
+def predicted_covariance(model: Model, spec: FilterSpec) -> np.ndarray:
+    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48, SPEC §6).
+
+    Solves the (m+1)-dimensional Lyapunov equation of the (e, X_m) system in the module docstring
+    (m-dimensional (B.48) when ``spec.damp == model.alpha``). All entries are ``inf`` when the linearized
+    filter is not stable (Λ not Hurwitz) or the error has no stationary law (α = 0 with damp ≠ 0).
+    """
+    _check_spec(model, spec)
+    P = _stationary(model, float(spec.damp), np.asarray(spec.coef, dtype=float), spec.exponents())
+    P.flags.writeable = False
+    return P
+
+
+def _isl_spec(model: Model, nu: float, damp: float | None) -> FilterSpec:
+    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    spec = isl_filter(model, nu)
+    if damp is not None:
+        spec = dataclasses.replace(spec, damp=check_real("damp", damp, lo=0.0))
+    return spec
+
+
+def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> np.ndarray:
+    """Predicted RMSE ratios ``š_i/s_i`` (m,) of the ISL filter with tuning ``nu`` (B.48, SPEC §6).
+
+    ``damp`` is the filter's propagation damping a: ``None`` (default) is paper A's filter with A0 (a = 0);
+    ``damp=model.alpha`` is an ISL filter that propagates with the true A. ``inf`` when unstable.
+    """
+    spec = _isl_spec(model, nu, damp)
+    s = _optimal_s(model)
+    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / s
+
+
+def predicted_ratios_grid(model: Model, nus: Sequence[float], *, damp: float | None = None) -> np.ndarray:
+    """:func:`predicted_ratios` for many ν at once: shape (len(nus), m), one batched Lyapunov solve."""
+    nus = [check_real("nu", v, lo=0.0, lo_open=True) for v in np.atleast_1d(np.asarray(nus, dtype=object))]
+    base = _isl_spec(model, 1.0, damp)
+    m = model.m
+    i = np.arange(1, m + 1)
+    coef = base.coef * np.asarray(nus)[:, None] ** (i / m)  # c_i ∝ ν^{i/m}   (A.17)
+    P = _stationary(model, float(base.damp), coef, base.exponents())
+    return np.sqrt(np.diagonal(P, axis1=-2, axis2=-1)) / _optimal_s(model)
+
+
+def mismatched_kbf(model: Model, sigma_design: float) -> FilterSpec:
+    """Kalman–Bucy filter whose gain K̄ solves the CARE (A.23) for σ̄ = ``sigma_design`` instead of σ."""
+    sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
+    design = Model(model.alpha, model.beta, sigma_design, model.m)
+    K = np.array(_kb(design).K, dtype=float)
+    return FilterSpec("kbf_mismatched", f"Kalman–Bucy designed for σ̄ = {sigma_design:.4g}", model.alpha, K, False)
+
+
+def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
+    """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (SPEC §7).
+
+    P solves ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` with the true σ; it equals Δ (ratio 1) when σ̄ = σ.
+    """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    spec = mismatched_kbf(model, sigma_design)
+    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
