@@ -7,8 +7,10 @@ Imports numpy, scipy and numba only — never a UI library.
 from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
+from .recommend import Recommendation, recommend_nu
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .simulate import DivergenceError, RmseResult, Run, Track, simulate, simulate_rmse, step_size
+from .sweep import SweepResult, sweep
 from .theory import (
     mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios, predicted_ratios_grid,
 )
@@ -19,4 +21,5 @@ __all__ = [
     "FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf",
     "DivergenceError", "RmseResult", "Run", "Track", "simulate", "simulate_rmse", "step_size",
     "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
+    "SweepResult", "sweep", "Recommendation", "recommend_nu",
 ]

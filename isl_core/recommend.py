@@ -1,0 +1,131 @@
+"""Computed choice of the ISL tuning ν: minimise the worst-case RMSE ratio over a range of σ (A.31, SPEC §5–§6).
+
+Paper A reads a recommended ν/β per α off its Fig. 2 by eye (table A.31). Here
+
+    ν* = argmin_ν  max_{σ ∈ sigmas, i = 1..m}  š_i(ν, σ)/s_i(σ)
+
+is found on the statistical-linearization prediction (B.48, SPEC §6): a grid in log₂(ν/β) then a bounded
+scalar refinement around its best point. The answer is then *verified* by simulation (:func:`isl_core.sweep`)
+and returned with its simulated worst-case ratio and interval. For comparison the best fixed-gain
+Kalman–Bucy filter (designed for one σ̄ ∈ [min σ, max σ], SPEC §7) has its own predicted worst case.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ._validate import check_int, check_real
+from .model import M_MAX, Model
+from .sweep import FIG2_SIGMAS, sweep
+from .theory import mismatched_kbf_ratios, predicted_ratios_grid
+
+__all__ = ["Recommendation", "recommend_nu", "worst_case_theory", "best_fixed_kbf"]
+
+LOG2_RANGE = (-12.0, 4.0)  #: search interval of log₂(ν/β)
+GRID_STEP = 1.0 / 16.0  #: spacing of the coarse search grid in log₂(ν/β)
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """Recommended ν for one α and its worst-case ratios (over ``sigmas`` and coordinates).
+
+    ``theory_worst`` predicted (SPEC §6); ``simulated_worst`` measured with interval
+    ``[simulated_low, simulated_high]`` (the max over σ, i of each bound), nan if not verified;
+    ``worst_sigma``, ``worst_i`` where the simulated (else predicted) worst case sits;
+    ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case.
+    """
+
+    alpha: float
+    beta: float
+    m: int
+    w: float
+    sigmas: tuple[float, ...]
+    nu: float
+    nu_over_beta: float
+    theory_worst: float
+    simulated_worst: float
+    simulated_low: float
+    simulated_high: float
+    worst_sigma: float
+    worst_i: int
+    kbf_worst: float
+    kbf_sigma_design: float
+
+
+def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0) -> np.ndarray:
+    """Predicted ``max_{σ, i} š_i/s_i`` for each ν/β (same shape as ``nu_over_beta``), β = w√(2α) (A.25)."""
+    x = np.asarray(nu_over_beta, dtype=float)
+    worst = np.full(x.size, -np.inf)
+    for sigma in sigmas:
+        model = Model.from_w(alpha, w, sigma, m)
+        worst = np.maximum(worst, predicted_ratios_grid(model, model.beta * x.ravel()).max(axis=1))
+    return worst.reshape(x.shape)
+
+
+def _search(alpha: float, sigmas, m: int, w: float) -> float:
+    """log₂(ν*/β) minimising the predicted worst case: grid, then bounded Brent around the grid's best."""
+    grid = np.arange(LOG2_RANGE[0], LOG2_RANGE[1] + GRID_STEP / 2, GRID_STEP)
+    worst = worst_case_theory(alpha, 2.0**grid, sigmas=sigmas, m=m, w=w)
+    k = int(np.argmin(worst))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    res = minimize_scalar(lambda ell: float(worst_case_theory(alpha, 2.0**ell, sigmas=sigmas, m=m, w=w)),
+                          bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
+    return float(res.x) if res.fun <= worst[k] else float(grid[k])
+
+
+def best_fixed_kbf(alpha: float, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0, n: int = 49):
+    """Best design σ̄ (log grid of ``n`` points in [min σ, max σ]) of a fixed-gain Kalman–Bucy filter and its
+    predicted worst case ``max_{σ, i}`` ratio (SPEC §7). Returns ``(worst, sigma_design)``."""
+    designs = np.geomspace(min(sigmas), max(sigmas), n)
+    worst = [max(float(mismatched_kbf_ratios(Model.from_w(alpha, w, s, m), d).max()) for s in sigmas)
+             for d in designs]
+    k = int(np.argmin(worst))
+    return worst[k], float(designs[k])
+
+
+def recommend_nu(
+    alpha: float,
+    *,
+    sigmas: Sequence[float] = FIG2_SIGMAS,
+    m: int = 3,
+    w: float = 3.0,
+    verify: bool = True,
+    horizon: float = 1000.0,
+    seeds: Sequence[int] = (0, 1),
+    batches: int = 10,
+    level: float = 0.95,
+    executor=None,
+    progress: Callable[[float], None] | None = None,
+) -> Recommendation:
+    """The ν minimising the predicted worst-case ratio over ``sigmas`` and coordinates, verified by simulation.
+
+    β = w√(2α) (A.25). ``verify=False`` skips the simulation (simulated fields nan). ``horizon`` (in 1/r_min),
+    ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to :func:`isl_core.sweep`.
+    """
+    alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
+    sig = [check_real("sigmas", s, lo=0.0, lo_open=True) for s in np.atleast_1d(np.asarray(sigmas, dtype=object))]
+    if not sig:
+        raise ValueError("sigmas must be a non-empty sequence of numbers > 0, got ()")
+    m = check_int("m", m, lo=1, hi=M_MAX)
+    w = check_real("w", w, lo=0.0, lo_open=True)
+    beta = w * math.sqrt(2.0 * alpha)
+    ell = _search(alpha, sig, m, w)
+    nob = 2.0**ell
+    theory = float(worst_case_theory(alpha, nob, sigmas=sig, m=m, w=w))
+    kbf_worst, kbf_design = best_fixed_kbf(alpha, sigmas=sig, m=m, w=w)
+    sim = low = high = math.nan
+    if verify:
+        res = sweep([alpha], sig, [nob], m=m, w=w, horizon=horizon, seeds=seeds, batches=batches, level=level,
+                    executor=executor, progress=progress)
+        ratio = res.ratio[0, :, 0]  # (nσ, m)
+        b, i = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
+        sim, low, high = float(ratio[b, i]), float(res.ratio_low[0, :, 0].max()), float(res.ratio_high[0, :, 0].max())
+    else:
+        ratios = np.array([predicted_ratios_grid(Model.from_w(alpha, w, s, m), [beta * nob])[0] for s in sig])
+        b, i = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
+    return Recommendation(alpha, beta, m, w, tuple(sig), beta * nob, nob, theory, sim, low, high,
+                          float(sig[b]), int(i) + 1, kbf_worst, kbf_design)

@@ -1,0 +1,330 @@
+"""Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, SPEC §5).
+
+For every (α, σ) with β = w·√(2α) (A.25) and every seed, ONE long run carries the optimal Kalman–Bucy filter
+and the ISL filters of all ν together (common random numbers), accumulating squared errors on the fly
+(:func:`isl_core.simulate_rmse`); this unit of work is a *group*. Groups run in parallel on a local thread
+pool (the kernel releases the GIL), or on any ``concurrent.futures.Executor``, or on a
+``dask.distributed.Client`` (optional extra ``isl[dask]``), in chunks of groups.
+
+Conventions, all documented choices:
+
+* step h of a group: the SPEC §4 rule over all filters of the group (:func:`isl_core.step_size`), so one
+  grid serves every ν; the horizon is ``horizon/r_min`` after a burn-in of ``BURN/r_min`` (BURN = 10: the
+  optimal filter's start-up transient has decayed by e^{-10}; near its best ν the ISL filter settles as fast).
+* seed of a group: derived from ``(seed, α, σ, w, m)`` by ``numpy.random.SeedSequence`` — it does not depend
+  on the other α, σ of the sweep, on chunking or on the executor, so results are identical across them.
+* confidence interval: batch means. Each run is cut into ``batches`` equal batches (each ≥ 100/r_min long by
+  default, ≫ the error's correlation time 1/r_min near the best ν); with n_b = batches × seeds batch
+  mean squared errors y_b, the pooled MSE ȳ has the Student interval ``ȳ ± t_{n_b−1}·sd(y)/√n_b``, mapped
+  through the monotone ``√(·)/s_i``. Where the ISL filter loses lock (very small ν) its errors decorrelate
+  slowly and the interval is too narrow — a known limit of batch means.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import os
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import t as student_t
+
+from ._validate import check_int, check_real
+from .filters import FilterSpec, isl_filter, optimal_kbf
+from .model import M_MAX, Model
+from .riccati import kalman_bucy
+from .simulate import MAX_STEPS, DivergenceError, simulate_rmse, step_size
+from .theory import predicted_ratios_grid
+
+__all__ = ["BURN", "SweepResult", "group_seed", "ratio_interval", "sweep"]
+
+BURN = 10.0  #: burn-in left out of every average, in units of 1/r_min
+FIG2_ALPHAS = (0.04, 0.2, 1.0, 5.0, 25.0)  #: paper A, Fig. 2 rows
+FIG2_SIGMAS = (2.0, 20.0, 200.0)  #: paper A, Fig. 2 line styles
+FIG2_NU_OVER_BETA = tuple(2.0**ell for ell in range(-8, 3))  #: paper A, Fig. 2 abscissae ν/β = 2^ℓ
+
+
+def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int) -> int:
+    """Seed of one (α, σ) group, from the user's seed and the group's own parameters only."""
+    bits = [int(np.float64(x).view(np.uint64)) for x in (alpha, sigma, w)]
+    return int(np.random.SeedSequence([seed, *bits, m]).generate_state(1, np.uint64)[0])
+
+
+def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: float):
+    """Pooled ratio √(Σsq/Σn)/s and its batch-means interval at ``level`` (module docstring).
+
+    ``sq`` (n_b, ..., m) squared-error sums per batch, ``counts`` (n_b,) steps per batch, ``s`` (m,).
+    Returns ``(ratio, low, high)`` with the shape of ``sq[0]``.
+    """
+    counts = np.asarray(counts, dtype=float).reshape((-1,) + (1,) * (sq.ndim - 1))
+    y = sq / counts
+    pooled = sq.sum(axis=0) / counts.sum()
+    n_b = sq.shape[0]
+    half = student_t.ppf(0.5 + level / 2.0, n_b - 1) * y.std(axis=0, ddof=1) / math.sqrt(n_b)
+    return np.sqrt(pooled) / s, np.sqrt(np.maximum(pooled - half, 0.0)) / s, np.sqrt(pooled + half) / s
+
+
+def _freeze(a) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _frozen_int(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=np.int64)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Simulated and predicted ratios on the grid ``alphas × sigmas × nu_over_beta`` (coordinates last).
+
+    ``ratio`` (nα, nσ, nν, m) simulated š_i/s_i (A.30) pooled over seeds and batches, with the interval
+    ``[ratio_low, ratio_high]`` at ``level``; nan where a filter diverged. ``kbf_ratio`` (nα, nσ, m) the optimal
+    filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
+    statistical-linearization prediction (B.48, SPEC §6). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
+    ``steps`` (nα, nσ) per group and seed.
+    """
+
+    alphas: np.ndarray
+    sigmas: np.ndarray
+    nu_over_beta: np.ndarray
+    m: int
+    w: float
+    horizon: float
+    seeds: tuple[int, ...]
+    batches: int
+    level: float
+    ratio: np.ndarray
+    ratio_low: np.ndarray
+    ratio_high: np.ndarray
+    kbf_ratio: np.ndarray
+    kbf_low: np.ndarray
+    kbf_high: np.ndarray
+    theory: np.ndarray
+    s: np.ndarray
+    r_min: np.ndarray
+    h: np.ndarray
+    steps: np.ndarray = field(repr=False)
+
+    @property
+    def betas(self) -> np.ndarray:
+        """β = w·√(2α) per α (A.25)."""
+        return self.w * np.sqrt(2.0 * self.alphas)
+
+    @property
+    def nus(self) -> np.ndarray:
+        """ν (nα, nν) = (ν/β)·β."""
+        return self.betas[:, None] * self.nu_over_beta[None, :]
+
+    def records(self) -> list[dict]:
+        """One flat row per (α, σ, ν, i) — for CSV/JSON export."""
+        rows = []
+        for a, alpha in enumerate(self.alphas):
+            for b, sigma in enumerate(self.sigmas):
+                for n, nob in enumerate(self.nu_over_beta):
+                    for i in range(self.m):
+                        rows.append({
+                            "alpha": float(alpha), "beta": float(self.betas[a]), "sigma": float(sigma),
+                            "nu_over_beta": float(nob), "nu": float(self.nus[a, n]), "i": i + 1,
+                            "ratio": float(self.ratio[a, b, n, i]), "ratio_low": float(self.ratio_low[a, b, n, i]),
+                            "ratio_high": float(self.ratio_high[a, b, n, i]), "theory": float(self.theory[a, b, n, i]),
+                            "kbf_ratio": float(self.kbf_ratio[a, b, i]), "kbf_low": float(self.kbf_low[a, b, i]),
+                            "kbf_high": float(self.kbf_high[a, b, i]), "s": float(self.s[a, b, i]),
+                            "r_min": float(self.r_min[a, b]), "h": float(self.h[a, b]),
+                        })
+        return rows
+
+
+@dataclass(frozen=True)
+class _Task:
+    """One group: model, filters (KBF first), fixed grid and seed. Picklable for process pools and Dask."""
+
+    key: tuple[int, int, int]
+    model: Model
+    filters: tuple[FilterSpec, ...]
+    T: float
+    h: float
+    burn: float
+    batches: int
+    seed: int
+    steps: int
+
+
+def _run_task(task: _Task, progress: Callable[[float], None] | None = None):
+    """Squared-error sums (batches, nf, m) and counts of one group; a diverged filter gets nan."""
+    kw = dict(T=task.T, h=task.h, burn=task.burn, batches=task.batches, seed=task.seed)
+    try:
+        res = simulate_rmse(task.model, task.filters, progress=progress, **kw)
+        return task.key, res.sq, res.counts
+    except DivergenceError:  # the noise stream does not depend on the filter set: rerun them one by one
+        parts = []
+        for spec in task.filters:
+            try:
+                one = simulate_rmse(task.model, [spec], **kw)
+                parts.append(one.sq[:, 0])
+                counts = one.counts
+            except DivergenceError:
+                parts.append(np.full((task.batches, task.model.m), np.nan))
+        return task.key, np.stack(parts, axis=1), counts
+
+
+def _run_chunk(tasks: Sequence[_Task]) -> list:
+    return [_run_task(t) for t in tasks]
+
+
+def _check_list(name: str, values, *, lo: float) -> np.ndarray:
+    vals = np.atleast_1d(np.asarray(values, dtype=object))
+    if vals.ndim != 1 or vals.size == 0:
+        raise ValueError(f"{name} must be a non-empty sequence of numbers > {lo:g}, got {values!r}")
+    return np.array([check_real(name, v, lo=lo, lo_open=True) for v in vals])
+
+
+def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches):
+    """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
+    shape = (len(alphas), len(sigmas))
+    s, r_min, h, steps = np.empty(shape + (m,)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
+    theory = np.empty(shape + (len(nob), m))
+    tasks = []
+    for a, alpha in enumerate(alphas):
+        for b, sigma in enumerate(sigmas):
+            model = Model.from_w(alpha, w, sigma, m)
+            kb = kalman_bucy(model)
+            filters = (optimal_kbf(model, kb), *(isl_filter(model, model.beta * x) for x in nob))
+            T = (BURN + horizon) / kb.r_min
+            n = math.ceil(T / step_size(model, kb, filters) - 1e-9)
+            if n > MAX_STEPS:
+                raise ValueError(f"horizon needs {n:,} steps at alpha = {alpha:g}, sigma = {sigma:g}, "
+                                 f"over the limit of {MAX_STEPS:,}; shorten horizon")
+            s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
+            theory[a, b] = predicted_ratios_grid(model, model.beta * nob)
+            for k, seed in enumerate(seeds):
+                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN / kb.r_min, batches,
+                                   group_seed(seed, alpha, sigma, w, m), n))
+    tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
+    return tasks, s, r_min, h, steps, theory
+
+
+class _Progress:
+    """Thread-safe aggregation of per-group fractions into one overall fraction; also the cancel switch."""
+
+    def __init__(self, weights: dict, callback):
+        self.weights, self.callback = weights, callback
+        self.total = float(sum(weights.values()))
+        self.done = dict.fromkeys(weights, 0.0)
+        self.lock = threading.Lock()
+        self.cancelled = threading.Event()
+
+    def update(self, key, fraction: float) -> None:
+        if self.cancelled.is_set():
+            raise RuntimeError("sweep cancelled")
+        with self.lock:
+            self.done[key] = fraction
+            overall = sum(self.weights[k] * f for k, f in self.done.items()) / self.total
+            if self.callback is not None:
+                self.callback(overall)
+
+
+def _local(tasks, workers, prog: _Progress):
+    def job(task):
+        return _run_task(task, progress=lambda f, key=task.key: prog.update(key, f))
+
+    with cf.ThreadPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(job, t) for t in tasks]
+        try:
+            return [f.result() for f in futures]
+        except BaseException:
+            prog.cancelled.set()
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def _remote(tasks, executor, chunk, prog: _Progress):
+    chunks = [tasks[i:i + chunk] for i in range(0, len(tasks), chunk)]
+    if isinstance(executor, cf.Executor):
+        futures = [executor.submit(_run_chunk, c) for c in chunks]
+        completed = cf.as_completed(futures)
+    else:  # a dask.distributed.Client
+        from distributed import as_completed  # optional extra isl[dask]
+
+        futures = [executor.submit(_run_chunk, c, pure=False) for c in chunks]
+        completed = as_completed(futures)
+    out = []
+    try:
+        for fut in completed:
+            part = fut.result()
+            out.extend(part)
+            for key, _, _ in part:
+                prog.update(key, 1.0)
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    return out
+
+
+def sweep(
+    alphas: Sequence[float] = FIG2_ALPHAS,
+    sigmas: Sequence[float] = FIG2_SIGMAS,
+    nu_over_beta: Sequence[float] = FIG2_NU_OVER_BETA,
+    *,
+    m: int = 3,
+    w: float = 3.0,
+    horizon: float = 1000.0,
+    seeds: Sequence[int] = (0, 1),
+    batches: int = 10,
+    level: float = 0.95,
+    executor=None,
+    chunk: int = 1,
+    workers: int | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> SweepResult:
+    """Simulate š_i/s_i on the grid ``alphas × sigmas × nu_over_beta`` (paper A's Fig. 2 by default).
+
+    β = w·√(2α) (A.25); ``horizon`` in units of 1/r_min per seed, after a burn-in of BURN/r_min.
+    ``executor``: None (a local pool of ``workers`` threads, default the CPU count), a
+    ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; work goes out in chunks of ``chunk``
+    groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
+    completes; an exception raised from it cancels the sweep and propagates.
+    """
+    alphas = _check_list("alphas", alphas, lo=0.0)
+    sigmas = _check_list("sigmas", sigmas, lo=0.0)
+    nob = _check_list("nu_over_beta", nu_over_beta, lo=0.0)
+    m = check_int("m", m, lo=1, hi=M_MAX)
+    w = check_real("w", w, lo=0.0, lo_open=True)
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    seeds = tuple(check_int("seeds", x, lo=0) for x in np.atleast_1d(np.asarray(seeds, dtype=object)))
+    if not seeds:
+        raise ValueError("seeds must be a non-empty sequence of integers >= 0, got ()")
+    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
+    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    chunk = check_int("chunk", chunk, lo=1)
+    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
+
+    tasks, s, r_min, h, steps, theory = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches)
+    prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
+    out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
+    return _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
+
+
+def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
+    na, ns, nn = len(alphas), len(sigmas), len(nob)
+    sq = np.empty((na, ns, len(seeds) * batches, nn + 1, m))
+    counts = np.empty((na, ns, len(seeds) * batches))
+    for (a, b, k), part, cnt in out:
+        sq[a, b, k * batches:(k + 1) * batches] = part
+        counts[a, b, k * batches:(k + 1) * batches] = cnt
+    ratio, low, high = (np.empty((na, ns, nn + 1, m)) for _ in range(3))
+    for a in range(na):
+        for b in range(ns):
+            ratio[a, b], low[a, b], high[a, b] = ratio_interval(sq[a, b], counts[a, b], s[a, b], level)
+    return SweepResult(
+        _freeze(alphas), _freeze(sigmas), _freeze(nob), m, w, horizon, seeds, batches, level,
+        _freeze(ratio[:, :, 1:]), _freeze(low[:, :, 1:]), _freeze(high[:, :, 1:]),
+        _freeze(ratio[:, :, 0]), _freeze(low[:, :, 0]), _freeze(high[:, :, 0]),
+        _freeze(theory), _freeze(s), _freeze(r_min), _freeze(h), _frozen_int(steps),
+    )
