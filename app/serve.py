@@ -1,0 +1,277 @@
+"""Serve the dashboard: ``panel serve app/app.py`` with safe defaults.
+
+Run as ``isl serve``, ``python -m app.serve`` or ``./scripts/serve``; ``--help`` lists the options. Every option
+also has an environment variable, so a container is configured at ``docker run`` time:
+
+================================  =====================  ======================================================
+option                            environment            default
+================================  =====================  ======================================================
+``--address``                     ``ISL_ADDRESS``        ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
+``--port``                        ``ISL_PORT``           5006
+``--allow-websocket-origin``      ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
+``--num-procs``                   ``ISL_NUM_PROCS``      1 (a classroom of 100: one per core, see README)
+``--num-threads``                 ``ISL_NUM_THREADS``    4 worker threads for callbacks (the kernel is nogil)
+``--unused-session-lifetime``     —                      10000 ms after the last connection closes
+``--check-unused-sessions``       —                      2000 ms between sweeps for unused sessions
+================================  =====================  ======================================================
+
+Always on: ``--liveness`` (``GET /liveness`` → 200 while the server's event loop answers), ``--warm`` (the app runs
+once before the port opens), a global exception handler and per-session release hooks (:mod:`app.hardening`).
+Never on: ``--admin``, ``--dev``/``--autoreload``, a ``*`` websocket origin.
+
+Why in-process: this module builds the argument list of ``panel serve`` and runs Panel's own ``serve``
+sub-command in this process (the code path of the ``panel`` executable, so every flag means what Panel
+documents), rather than spawning ``panel serve`` as a child. That lets it
+
+* install :mod:`app.hardening` in the serving process before any session exists, so the exception handler and
+  the session-release hook cover every session without the app having to import anything;
+* make ``--warm`` strict: Panel logs a failing app script and serves an empty page anyway; here the failure of
+  the warm-up run ends the process with exit code 1, so a broken image never reports healthy;
+* print the URL once the port is bound (also for ``--port 0``) and return an exit code to ``isl serve``;
+* stay one process for a container (PID 1 receives ``docker stop``'s SIGTERM directly).
+
+``--check`` runs the warm-up only (a small simulation to fill the numba cache, then the app once) and exits:
+the Docker build uses it. ``--health`` asks ``/liveness`` of a local server and exits 0/1: the image's
+HEALTHCHECK uses it (no curl in a slim image).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+import urllib.request
+from collections.abc import Sequence
+from importlib.util import find_spec
+
+log = logging.getLogger("isl.serve")
+
+DEFAULT_ADDRESS = "127.0.0.1"
+DEFAULT_PORT = 5006
+DEFAULT_NUM_THREADS = 4
+UNUSED_SESSION_LIFETIME_MS = 10_000
+CHECK_UNUSED_SESSIONS_MS = 2_000
+STATS_INTERVAL_MS = 60_000
+# Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
+WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
+LIVENESS_ENDPOINT = "liveness"
+ENV = {"address": "ISL_ADDRESS", "port": "ISL_PORT", "origins": "ISL_ALLOWED_ORIGINS",
+       "num_procs": "ISL_NUM_PROCS", "num_threads": "ISL_NUM_THREADS"}
+# Bokeh reads this variable and lets it REPLACE the allow-list; the origins come from ISL_ALLOWED_ORIGINS only.
+BOKEH_ORIGIN_ENV = "BOKEH_ALLOW_WS_ORIGIN"
+
+
+class AppStartupError(RuntimeError):
+    """The app script failed during the warm-up run."""
+
+
+def app_script() -> str:
+    """Path of ``app/app.py`` inside the installed (or checked-out) package, found without importing it."""
+    spec = find_spec("app.app")
+    if spec is None or spec.origin is None:
+        raise AppStartupError("cannot find the dashboard module app/app.py")
+    return spec.origin
+
+
+def allowed_origins(port: int, spec: str | None, extra: Sequence[str] = ()) -> list[str]:
+    """Websocket origins ``host[:port]`` from a comma-separated ``spec`` plus ``extra``.
+
+    With neither, only this machine's browser: ``localhost:PORT`` and ``127.0.0.1:PORT``. A ``*`` host (any site
+    may open a session in a visitor's browser) and URLs with a scheme are refused with a ``ValueError``.
+    """
+    entries = [e.strip() for e in (spec or "").split(",") if e.strip()] + [e.strip() for e in extra if e.strip()]
+    if not entries:
+        return [f"localhost:{port}", f"127.0.0.1:{port}"]
+    for entry in entries:
+        host, _, entry_port = entry.partition(":")
+        if "/" in entry or not host:
+            raise ValueError(f"websocket origin must be host[:port] (no scheme, no path), got {entry!r}")
+        if host.strip("*.") == "":
+            raise ValueError(f"websocket origin must name a host, a bare wildcard is refused: {entry!r}")
+        if entry_port and not (entry_port == "*" or entry_port.isdigit()):
+            raise ValueError(f"websocket origin port must be a number, got {entry!r}")
+    return list(dict.fromkeys(entries))
+
+
+def _env_int(name: str, default: int) -> int:
+    value = os.environ.get(name, "").strip()
+    if not value:
+        return default
+    try:
+        return int(value)
+    except ValueError:
+        raise SystemExit(f"{name} must be an integer, got {value!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``isl serve`` / ``python -m app.serve`` command line."""
+    p = argparse.ArgumentParser(prog="isl serve", description="Serve the isl dashboard with safe defaults.")
+    p.add_argument("--address", default=os.environ.get(ENV["address"], DEFAULT_ADDRESS),
+                   help=f"interface to listen on; 0.0.0.0 for every interface (env {ENV['address']}, "
+                        f"default {DEFAULT_ADDRESS})")
+    p.add_argument("--port", type=int, default=_env_int(ENV["port"], DEFAULT_PORT),
+                   help=f"port to listen on, 0 for any free one (env {ENV['port']}, default {DEFAULT_PORT})")
+    p.add_argument("--allow-websocket-origin", action="append", default=[], metavar="HOST[:PORT]",
+                   help=f"a host a browser may open the dashboard from (repeatable; added to env "
+                        f"{ENV['origins']}, comma-separated; default localhost and 127.0.0.1 on PORT)")
+    p.add_argument("--num-procs", type=int, default=_env_int(ENV["num_procs"], 1),
+                   help=f"worker processes, 0 = one per core (env {ENV['num_procs']}, default 1)")
+    p.add_argument("--num-threads", type=int, default=_env_int(ENV["num_threads"], DEFAULT_NUM_THREADS),
+                   help=f"threads per process that run callbacks and simulations (env {ENV['num_threads']}, "
+                        f"default {DEFAULT_NUM_THREADS})")
+    p.add_argument("--unused-session-lifetime", type=int, default=UNUSED_SESSION_LIFETIME_MS, metavar="MS",
+                   help=f"how long a session outlives its last connection (default {UNUSED_SESSION_LIFETIME_MS})")
+    p.add_argument("--check-unused-sessions", type=int, default=CHECK_UNUSED_SESSIONS_MS, metavar="MS",
+                   help=f"interval of the sweep for unused sessions (default {CHECK_UNUSED_SESSIONS_MS})")
+    p.add_argument("--stats-interval", type=int, default=STATS_INTERVAL_MS, metavar="MS",
+                   help=f"log live sessions, connections and RSS this often, 0 = never (default {STATS_INTERVAL_MS})")
+    p.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error", "critical"])
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--check", action="store_true", help="run the warm-up (numba cache, the app once) and exit")
+    mode.add_argument("--health", action="store_true", help="exit 0 if a local server answers /liveness, else 1")
+    return p
+
+
+def panel_argv(opts: argparse.Namespace, script: str, origins: Sequence[str]) -> list[str]:
+    """Arguments for Panel's ``serve`` sub-command (without the leading ``serve``)."""
+    argv = [script, "--address", opts.address, "--port", str(opts.port),
+            "--num-procs", str(opts.num_procs), "--num-threads", str(opts.num_threads),
+            "--unused-session-lifetime", str(opts.unused_session_lifetime),
+            "--check-unused-sessions", str(opts.check_unused_sessions),
+            "--websocket-max-message-size", str(WEBSOCKET_MAX_MESSAGE_BYTES),
+            "--log-level", opts.log_level, "--warm", "--liveness", "--liveness-endpoint", LIVENESS_ENDPOINT]
+    for origin in origins:
+        argv += ["--allow-websocket-origin", origin]
+    return argv
+
+
+def browser_url(address: str, port: int) -> str:
+    """The URL to open: loopback and wildcard addresses are reached as ``localhost``."""
+    host = "localhost" if address in ("", "0.0.0.0", "::", "127.0.0.1", "::1", "localhost") else address
+    return f"http://{host}:{port}/"
+
+
+def rss_mb() -> float:
+    """Resident memory of this process in MB (Linux ``/proc``; nan elsewhere)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+def log_stats(server) -> None:
+    """One ``isl stats`` line: live sessions, open connections, resident memory of this process."""
+    sessions = server.get_sessions()
+    connections = sum(s.connection_count for s in sessions)
+    log.info("isl stats: sessions=%d connections=%d rss_mb=%.1f", len(sessions), connections, rss_mb())
+
+
+def _serve_command(origins: Sequence[str], stats_interval_ms: int):
+    """Panel's ``serve`` sub-command with a strict warm-up and a URL banner (imports panel lazily)."""
+    from panel.command.serve import Serve
+
+    class StrictServe(Serve):
+        def warm_applications(self, applications, *args, **kwargs):
+            super().warm_applications(applications, *args, **kwargs)
+            _raise_if_failed(applications.values())
+
+        def customize_server(self, server):
+            from tornado.process import task_id
+            if task_id() in (None, 0):
+                print(f"isl dashboard: {browser_url(server.address or '', server.port)}  (listening on "
+                      f"{server.address}:{server.port}; websocket origins: {', '.join(origins)}; "
+                      f"set {ENV['origins']} to add hosts)", flush=True)
+            if stats_interval_ms > 0:
+                from tornado.ioloop import PeriodicCallback
+                PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
+            return super().customize_server(server)
+
+    return StrictServe
+
+
+def _raise_if_failed(applications) -> None:
+    for application in applications:
+        for handler in application.handlers:
+            if getattr(handler, "failed", False):
+                raise AppStartupError(f"the dashboard app failed during warm-up: "
+                                      f"{getattr(handler, 'error', 'unknown error')}")
+
+
+def warm_core() -> None:
+    """Compile (or load from the numba cache) the simulation kernel with one short run."""
+    from isl_core import Model, simulate
+    model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
+    simulate(model, nu=3.0, seed=0, T=1.0)
+
+
+def check_app(script: str) -> None:
+    """Run the app script once in a session, as the server's warm-up does; raise if it fails."""
+    import panel  # noqa: F401  (installs Panel's script handler into bokeh)
+    from bokeh.command.util import build_single_handler_application
+    from panel.io.session import generate_session
+
+    application = build_single_handler_application(script)
+    generate_session(application)
+    _raise_if_failed([application])
+
+
+def health(port: int, timeout: float = 3.0) -> int:
+    """0 if ``http://127.0.0.1:PORT/liveness`` answers 200, else 1."""
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/{LIVENESS_ENDPOINT}", timeout=timeout) as r:
+            return 0 if r.status == 200 else 1
+    except OSError:
+        return 1
+
+
+def serve(opts: argparse.Namespace, origins: Sequence[str]) -> int:
+    """Serve until interrupted; 1 if the app fails its warm-up or the port cannot be bound."""
+    from app import hardening
+
+    if os.environ.pop(BOKEH_ORIGIN_ENV, None) is not None:
+        log.warning("ignoring %s; set %s instead", BOKEH_ORIGIN_ENV, ENV["origins"])
+    hardening.install()
+    warm_core()
+    argv = panel_argv(opts, app_script(), origins)
+    parser = argparse.ArgumentParser(prog="panel serve")
+    command = _serve_command(origins, opts.stats_interval)(parser=parser)
+    args = parser.parse_args(argv)
+    try:
+        command.invoke(args)
+    except AppStartupError as exc:
+        log.error("%s", exc)
+        return 1
+    except SystemExit as exc:            # bokeh exits 1 when the port is in use
+        return exc.code if isinstance(exc.code, int) else 1
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``isl serve`` and ``python -m app.serve``; returns the exit code."""
+    opts = build_parser().parse_args(argv)
+    logging.basicConfig(format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    logging.getLogger("isl").setLevel(opts.log_level.upper())
+    try:
+        origins = allowed_origins(opts.port, os.environ.get(ENV["origins"]), opts.allow_websocket_origin)
+    except ValueError as exc:
+        log.error("%s", exc)
+        return 2
+    if opts.health:
+        return health(opts.port)
+    if opts.check:
+        try:
+            warm_core()
+            check_app(app_script())
+        except AppStartupError as exc:
+            log.error("%s", exc)
+            return 1
+        print("isl dashboard: warm-up passed", flush=True)
+        return 0
+    return serve(opts, origins)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,439 @@
+#!/usr/bin/env python3
+"""Classroom load test for the isl dashboard: many concurrent sessions moving a slider.
+
+Each simulated student is one bokeh session opened over the websocket exactly as a browser opens it (same
+``Origin`` header, same session token, same ``PULL-DOC`` / ``PATCH-DOC`` messages, a ``document_ready`` event
+after the pull), but without rendering: the client keeps its own copy of the document, so it sees every update
+the server sends. Every ``--interval`` seconds (±25 % jitter) each session sets a slider to a new value (``value``
+and ``value_throttled``, as a released drag does) and measures the *update latency*: the time until the server's
+first change to plot data (a ``ColumnDataSource``) arrives. An ``ERROR`` reply, a lost connection, or no update
+within ``--update-timeout`` counts as an error.
+
+Usage (the long classroom run: 100 sessions for 5 minutes, against a server this script starts):
+
+    PYTHONPATH=. python scripts/load_test.py --sessions 100 --duration 300
+
+or against a running server (``./scripts/serve`` or the container)::
+
+    python scripts/load_test.py --url http://127.0.0.1:5006 --server-pid <pid> --sessions 100 --duration 300
+
+It prints one line per figure: sessions held, errors, update latency (median, p95, max), the server's resident
+memory before / with every session open, and RSS per session. Only loopback URLs are accepted. The test suite
+(``tests/test_load.py``) runs a short version of the same function, :func:`run_load`.
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import random
+import re
+import subprocess
+import sys
+import time
+import urllib.request
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Self
+from urllib.parse import urlparse
+
+import panel  # noqa: F401  (registers Panel's bokeh models, so pulled documents deserialize)
+from bokeh.document import Document
+from bokeh.document.events import MessageSentEvent, ModelChangedEvent
+from bokeh.events import DocumentReady, Event
+from bokeh.models import ColumnDataSource, Model
+from bokeh.protocol import Protocol
+from bokeh.protocol.receiver import Receiver
+from bokeh.util.token import generate_jwt_token, generate_session_id
+from tornado.httpclient import HTTPRequest
+from tornado.websocket import websocket_connect
+
+REPO = Path(__file__).resolve().parents[1]
+LOOPBACK = {"127.0.0.1", "localhost", "::1"}
+DATA_EVENTS = {"ColumnDataChanged", "ColumnsStreamed", "ColumnsPatched"}
+TRACEBACK_MARKERS = ("Traceback (most recent call last)", 'File "/', ".py\", line ")
+
+
+# ------------------------------------------------------------------------------------------------ protocol client
+@dataclass
+class Reply:
+    """What the server sent back after one of our messages."""
+
+    msgtype: str                       # OK or ERROR
+    text: str = ""
+    traceback: str | None = None
+
+
+@dataclass
+class BokehClient:
+    """One dashboard session over a websocket, driven from an asyncio loop (no rendering)."""
+
+    url: str
+    doc: Document
+    _socket: Any
+    _receiver: Receiver
+    _protocol: Protocol
+    replies: dict[str, Reply] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+    patches: list[tuple[float, set[str], set[str]]] = field(default_factory=list)  # (time, event kinds, models)
+    closed: bool = False
+    _changed: asyncio.Event = field(default_factory=asyncio.Event)
+    _reader: asyncio.Task | None = None
+
+    @classmethod
+    async def connect(cls, base_url: str, app_path: str = "/app", *, origin: str | None = None,
+                      timeout: float = 60.0) -> BokehClient:
+        """Open a session like a browser on ``base_url`` would, pull the document and announce it ready."""
+        parsed = urlparse(base_url)
+        session_id = generate_session_id()
+        token = generate_jwt_token(session_id)
+        ws_url = f"ws://{parsed.netloc}{app_path}/ws"
+        request = HTTPRequest(ws_url, headers={"Origin": origin or f"http://{parsed.netloc}"},
+                              connect_timeout=timeout, request_timeout=timeout)
+        socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
+        protocol = Protocol()
+        client = cls(ws_url, Document(), socket, Receiver(protocol), protocol)
+        try:
+            await client._handshake(timeout)
+        except BaseException:
+            socket.close()
+            raise
+        return client
+
+    async def _handshake(self, timeout: float) -> None:
+        ack = await asyncio.wait_for(self._read(), timeout)
+        if ack is None or ack.msgtype != "ACK":
+            raise ConnectionError(f"expected ACK from {self.url}, got {ack!r}")
+        await self._send(self._protocol.create("PULL-DOC-REQ"))
+        reply = await asyncio.wait_for(self._read(), timeout)
+        if reply is None or reply.msgtype != "PULL-DOC-REPLY":
+            raise ConnectionError(f"expected PULL-DOC-REPLY from {self.url}, got {reply!r}")
+        reply.push_to_document(self.doc)
+        self._reader = asyncio.ensure_future(self._read_forever())
+        await self.send_event(DocumentReady())
+
+    # -- sending
+    async def _send(self, message: Any) -> str:
+        from bokeh.client.websocket import WebSocketClientConnectionWrapper
+        await message.send(WebSocketClientConnectionWrapper(self._socket))
+        return message.header["msgid"]
+
+    async def change(self, model: Model, **attrs: Any) -> tuple[str, float]:
+        """Send one ``PATCH-DOC`` setting ``attrs`` on ``model``, unvalidated (a scripted client can send anything).
+
+        Returns the message id and the time it was sent (``time.perf_counter``).
+        """
+        events = [ModelChangedEvent(self.doc, model, attr, value) for attr, value in attrs.items()]
+        message = self._protocol.create("PATCH-DOC", events)
+        sent_at = time.perf_counter()
+        return await self._send(message), sent_at
+
+    async def send_event(self, event: Event) -> str:
+        """Send a UI event (``document_ready``, ``button_click`` …) as the browser does."""
+        message = self._protocol.create("PATCH-DOC", [MessageSentEvent(self.doc, "bokeh_event", event)])
+        return await self._send(message)
+
+    # -- receiving
+    async def _read(self) -> Any:
+        while True:
+            fragment = await self._socket.read_message()
+            if fragment is None:
+                return None
+            message = await self._receiver.consume(fragment)
+            if message is not None:
+                return message
+
+    async def _read_forever(self) -> None:
+        try:
+            while (message := await self._read()) is not None:
+                self._handle(message)
+        except Exception as exc:  # noqa: BLE001  (a broken stream is this session's error, not the runner's)
+            self.errors.append(f"reader: {exc!r}")
+        finally:
+            self.closed = True
+            self._changed.set()
+
+    def _handle(self, message: Any) -> None:
+        kind = message.msgtype
+        if kind == "PATCH-DOC":
+            events = message.content.get("events", [])
+            kinds = {e.get("kind", "") for e in events}
+            models = {str(e.get("model", {}).get("id", "")) for e in events if isinstance(e.get("model"), dict)}
+            message.apply_to_document(self.doc, self)
+            self.patches.append((time.perf_counter(), kinds, models))
+        elif kind in ("OK", "ERROR"):
+            reply = Reply(kind, message.content.get("text", ""), message.content.get("traceback"))
+            self.replies[message.header.get("reqid", "")] = reply
+            if kind == "ERROR":
+                self.errors.append(f"ERROR reply: {reply.text}")
+        self._changed.set()
+
+    async def wait_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Wait until ``predicate()`` holds (checked after every message) or ``timeout`` s pass."""
+        deadline = time.perf_counter() + timeout
+        while not predicate():
+            if self.closed:
+                return predicate()
+            remaining = deadline - time.perf_counter()
+            if remaining <= 0:
+                return False
+            self._changed.clear()
+            try:
+                await asyncio.wait_for(self._changed.wait(), remaining)
+            except TimeoutError:
+                return predicate()
+        return True
+
+    async def reply_to(self, msgid: str, timeout: float) -> Reply | None:
+        """The ``OK`` / ``ERROR`` answer to message ``msgid`` (None if none came in time)."""
+        await self.wait_until(lambda: msgid in self.replies, timeout)
+        return self.replies.get(msgid)
+
+    def data_update_after(self, t0: float) -> float | None:
+        """Time of the first plot-data change received after ``t0``."""
+        cds = {m.id for m in self.doc.models if isinstance(m, ColumnDataSource)}
+        for t, kinds, models in self.patches:
+            if t >= t0 and (kinds & DATA_EVENTS or models & cds):
+                return t
+        return None
+
+    async def __aenter__(self) -> Self:
+        return self
+
+    async def __aexit__(self, *exc_info: object) -> None:
+        await self.close()
+
+    async def close(self) -> None:
+        self._socket.close()
+        if self._reader is not None:
+            try:
+                await asyncio.wait_for(self._reader, 10)
+            except TimeoutError:
+                self._reader.cancel()
+
+
+# --------------------------------------------------------------------------------------------- finding widgets
+def sliders(doc: Document) -> list[Model]:
+    """Every slider-like model (has ``start``, ``end`` and ``value``) in the document."""
+    return [m for m in doc.models if all(hasattr(m, a) for a in ("start", "end", "value", "value_throttled"))]
+
+
+def find_slider(doc: Document, pattern: str = "") -> Model:
+    """The first slider whose title or name matches the regular expression ``pattern``."""
+    regex = re.compile(pattern, re.IGNORECASE)
+    for model in sorted(sliders(doc), key=lambda m: str(m.id)):
+        if regex.search(f"{getattr(model, 'title', '') or ''} {model.name or ''}"):
+            return model
+    titles = [getattr(m, "title", "") for m in sliders(doc)]
+    raise LookupError(f"no slider matches {pattern!r}; sliders: {titles}")
+
+
+def new_value(slider: Model, rng: random.Random) -> float:
+    """A value inside the slider's range, on its step grid, different from the current one."""
+    start, end, step = float(slider.start), float(slider.end), float(getattr(slider, "step", 0) or 0)
+    for _ in range(20):
+        value = rng.uniform(start, end)
+        if step > 0:
+            value = start + round((value - start) / step) * step
+        value = type(slider.value)(value) if isinstance(slider.value, int) else value
+        if value != slider.value:
+            return value
+    return end if slider.value != end else start
+
+
+# ------------------------------------------------------------------------------------------------ server helpers
+def check_loopback(url: str) -> None:
+    host = urlparse(url).hostname or ""
+    if host not in LOOPBACK:
+        raise SystemExit(f"load tests run against loopback only, got {url}")
+
+
+def rss_mb(pid: int) -> float:
+    """Resident memory of process ``pid`` in MB (Linux ``/proc``)."""
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    raise RuntimeError(f"no VmRSS for pid {pid}")
+
+
+def free_port() -> int:
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_healthy(port: int, timeout: float, proc: subprocess.Popen | None = None) -> float:
+    """Seconds until ``/liveness`` answers 200; raises if the server exits or ``timeout`` passes."""
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < timeout:
+        if proc is not None and proc.poll() is not None:
+            raise RuntimeError(f"server exited with code {proc.returncode} before it was healthy")
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/liveness", timeout=2) as r:
+                if r.status == 200:
+                    return time.perf_counter() - t0
+        except OSError:
+            pass
+        time.sleep(0.1)
+    raise TimeoutError(f"server on port {port} not healthy after {timeout} s")
+
+
+def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict | None = None,
+                 script: str | None = None) -> subprocess.Popen:
+    """Start ``python -m app.serve`` on 127.0.0.1:``port`` (optionally serving another app ``script``)."""
+    code = ("import sys, app.serve as s\n"
+            + (f"s.app_script = lambda: {script!r}\n" if script else "")
+            + "sys.exit(s.main(sys.argv[1:]))")
+    full_env = {**os.environ, "PYTHONPATH": f"{REPO}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}
+    with open(log_path, "w") as log:                       # the child keeps its own descriptor
+        return subprocess.Popen([sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
+                                stdout=log, stderr=subprocess.STDOUT, env=full_env, cwd=REPO)
+
+
+def stop_server(proc: subprocess.Popen, timeout: float = 15.0) -> int:
+    """SIGTERM, then SIGKILL after ``timeout``; the exit code."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    return proc.returncode
+
+
+# -------------------------------------------------------------------------------------------------------- load
+@dataclass
+class LoadResult:
+    sessions: int                      # sessions that connected
+    held: int                          # sessions still connected with zero errors at the end
+    updates: int
+    errors: list[str]
+    latencies: list[float]             # seconds, one per slider change that got its update
+    rss_before_mb: float
+    rss_loaded_mb: float
+
+    def p(self, q: float) -> float:
+        if not self.latencies:
+            return float("nan")
+        data = sorted(self.latencies)
+        return data[min(len(data) - 1, int(q * len(data)))]
+
+    @property
+    def rss_per_session_mb(self) -> float:
+        return (self.rss_loaded_mb - self.rss_before_mb) / max(self.sessions, 1)
+
+    def report(self) -> str:
+        return "\n".join([
+            f"sessions connected        {self.sessions}",
+            f"sessions held, 0 errors   {self.held}",
+            f"slider updates            {self.updates}",
+            f"errors                    {len(self.errors)}" + (f"  (first: {self.errors[0]})" if self.errors else ""),
+            f"update latency median     {1000 * self.p(0.5):.0f} ms",
+            f"update latency p95        {1000 * self.p(0.95):.0f} ms",
+            f"update latency max        {1000 * self.p(1.0):.0f} ms",
+            f"server RSS before         {self.rss_before_mb:.0f} MB",
+            f"server RSS, all open      {self.rss_loaded_mb:.0f} MB",
+            f"RSS per session           {self.rss_per_session_mb:.1f} MB",
+        ])
+
+
+async def _student(base_url: str, index: int, slider_pattern: str, duration: float, interval: float,
+                   update_timeout: float, opened: asyncio.Event, all_open: asyncio.Event,
+                   out: dict[int, tuple[BokehClient | None, list[float], list[str]]]) -> None:
+    rng = random.Random(index)
+    latencies: list[float] = []
+    errors: list[str] = []
+    out[index] = (None, latencies, errors)
+    try:
+        client = await BokehClient.connect(base_url)
+    except Exception as exc:  # noqa: BLE001  (a refused or failed session is counted, not raised)
+        errors.append(f"connect: {exc!r}")
+        opened.set()
+        return
+    out[index] = (client, latencies, errors)
+    opened.set()
+    await all_open.wait()
+    deadline = time.perf_counter() + duration
+    await asyncio.sleep(rng.uniform(0, interval))
+    while time.perf_counter() < deadline and not client.closed:
+        slider = find_slider(client.doc, slider_pattern)
+        value = new_value(slider, rng)
+        _, t0 = await client.change(slider, value=value, value_throttled=value)
+        if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, update_timeout):
+            latencies.append(client.data_update_after(t0) - t0)
+        else:
+            errors.append(f"no plot update within {update_timeout} s (closed={client.closed})")
+        await asyncio.sleep(interval * rng.uniform(0.75, 1.25))
+    if client.closed:
+        errors.append("connection lost")
+
+
+async def run_load(base_url: str, *, sessions: int, duration: float, interval: float = 3.0,
+                   slider: str = "", server_pid: int | None = None, update_timeout: float = 30.0,
+                   connect_batch: int = 10) -> LoadResult:
+    """Open ``sessions`` sessions (``connect_batch`` at a time), then move ``slider`` in each for ``duration`` s."""
+    check_loopback(base_url)
+    rss = (lambda: rss_mb(server_pid)) if server_pid else (lambda: float("nan"))
+    rss_before = rss()
+    out: dict[int, tuple[BokehClient | None, list[float], list[str]]] = {}
+    all_open = asyncio.Event()
+    tasks = []
+    for first in range(0, sessions, connect_batch):
+        events = []
+        for i in range(first, min(first + connect_batch, sessions)):
+            events.append(opened := asyncio.Event())
+            tasks.append(asyncio.ensure_future(_student(base_url, i, slider, duration, interval, update_timeout,
+                                                        opened, all_open, out)))
+        await asyncio.gather(*(e.wait() for e in events))
+    rss_loaded = rss()
+    all_open.set()
+    await asyncio.gather(*tasks)
+    clients = [c for c, _, _ in out.values() if c is not None]
+    errors = [e for _, _, errs in out.values() for e in errs] + [e for c in clients for e in c.errors]
+    held = sum(1 for c, _, errs in out.values() if c is not None and not c.closed and not errs and not c.errors)
+    latencies = [x for _, lat, _ in out.values() for x in lat]
+    await asyncio.gather(*(c.close() for c in clients))
+    return LoadResult(len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--url", help="a running server (loopback); default: start one on a free port")
+    p.add_argument("--server-pid", type=int, help="pid of that server, for its RSS")
+    p.add_argument("--sessions", type=int, default=100)
+    p.add_argument("--duration", type=float, default=300.0, help="seconds of slider changes")
+    p.add_argument("--interval", type=float, default=3.0, help="seconds between one session's changes")
+    p.add_argument("--slider", default="", help="regular expression for the slider's title (default: first)")
+    p.add_argument("--num-threads", type=int, default=4, help="worker threads of the server started here")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON too")
+    opts = p.parse_args(argv)
+    proc = None
+    url, pid = opts.url, opts.server_pid
+    if url is None:
+        port = free_port()
+        log_path = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-load-{port}.log"
+        proc = start_server(port, log_path, ["--num-threads", str(opts.num_threads)])
+        startup = wait_healthy(port, 180, proc)
+        print(f"server started in {startup:.1f} s (log: {log_path})", flush=True)
+        url, pid = f"http://127.0.0.1:{port}", proc.pid
+    try:
+        result = asyncio.run(run_load(url, sessions=opts.sessions, duration=opts.duration, interval=opts.interval,
+                                      slider=opts.slider, server_pid=pid))
+    finally:
+        if proc is not None:
+            stop_server(proc)
+    print(result.report())
+    if opts.json:
+        print(json.dumps({"sessions": result.sessions, "held": result.held, "updates": result.updates,
+                          "errors": len(result.errors), "p50_ms": 1000 * result.p(0.5),
+                          "p95_ms": 1000 * result.p(0.95), "rss_per_session_mb": result.rss_per_session_mb}))
+    return 0 if not result.errors and result.held == opts.sessions else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,92 @@
+"""Helpers for the tests that start a real server on 127.0.0.1 (serve, Dockerfile, load, hostile, memory, origin).
+
+The websocket client and the server start/stop helpers live in ``scripts/load_test.py`` (the documented load
+script); this module loads that file as ``load_test`` and adds a context manager and a small fixture app.
+"""
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import importlib.util
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _load_script():
+    if "load_test" in sys.modules:
+        return sys.modules["load_test"]
+    spec = importlib.util.spec_from_file_location("load_test", REPO / "scripts" / "load_test.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["load_test"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+load_test = _load_script()
+
+# A tiny Panel app with the dashboard's moving parts: a slider that redraws a plot, a button whose callback
+# fails with a message that must never reach the browser.
+FIXTURE_APP = '''
+import numpy as np
+import panel as pn
+from bokeh.models import ColumnDataSource
+from bokeh.plotting import figure
+
+slider = pn.widgets.FloatSlider(name="sigma", start=0.1, end=10.0, value=1.0)
+boom = pn.widgets.Button(name="boom")
+source = ColumnDataSource({"x": [0.0], "y": [1.0]})
+fig = figure(height=200, width=300)
+fig.line("x", "y", source=source)
+
+def redraw(event):
+    source.data = {"x": np.arange(10.0), "y": np.full(10, float(event.new))}
+
+def explode(event):
+    raise RuntimeError("SECRET-DETAIL in /srv/private/config.py")
+
+slider.param.watch(redraw, "value_throttled")
+boom.on_click(explode)
+pn.Column(slider, boom, pn.pane.Bokeh(fig)).servable(title="fixture")
+'''
+
+
+def fixture_app(tmp_path: Path) -> str:
+    """Write the fixture app as ``app.py`` (so it is served at ``/app`` like the dashboard); its path."""
+    path = tmp_path / "fixture" / "app.py"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(FIXTURE_APP)
+    return str(path)
+
+
+@contextlib.contextmanager
+def served(tmp_path: Path, *args: str, script: str | None = None, env: dict | None = None,
+           timeout: float = 180.0) -> Iterator[tuple[str, object, Path]]:
+    """Run ``python -m app.serve`` on a free loopback port; yields (base URL, process, log path); always stops it."""
+    port = load_test.free_port()
+    log = tmp_path / f"server-{port}.log"
+    proc = load_test.start_server(port, log, args, env=env, script=script)
+    try:
+        load_test.wait_healthy(port, timeout, proc)
+        yield f"http://127.0.0.1:{port}", proc, log
+    finally:
+        load_test.stop_server(proc)
+
+
+def run(coro, timeout: float = 600.0):
+    """Run a coroutine on a fresh event loop, bounded in time."""
+    return asyncio.run(asyncio.wait_for(coro, timeout))
+
+
+def wait_for_log(log: Path, needle: str, timeout: float = 30.0) -> str:
+    """The server log once it contains ``needle`` (raises after ``timeout`` s)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        text = log.read_text()
+        if needle in text:
+            return text
+        time.sleep(0.1)
+    raise TimeoutError(f"{needle!r} not in the server log after {timeout} s:\n{log.read_text()[-3000:]}")

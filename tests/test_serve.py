@@ -1,0 +1,228 @@
+"""The serve entry point (app.serve) and the server-side hardening (app.hardening)."""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import re
+import subprocess
+import sys
+
+import panel as pn
+import param
+import pytest
+from _serving import REPO, fixture_app, load_test, run, served, wait_for_log
+from bokeh.events import ButtonClick
+from bokeh.models import Button
+from panel.command.serve import Serve
+
+from app import hardening, serve
+
+
+def panel_args(argv: list[str]) -> argparse.Namespace:
+    """Parse with the installed Panel's own ``serve`` parser: every flag we build must be one it knows."""
+    parser = argparse.ArgumentParser()
+    Serve(parser=parser)
+    return parser.parse_args(argv)
+
+
+def options(*argv: str) -> argparse.Namespace:
+    return serve.build_parser().parse_args(list(argv))
+
+
+@pytest.fixture
+def clean_env(monkeypatch):
+    for name in [*serve.ENV.values(), serve.BOKEH_ORIGIN_ENV]:
+        monkeypatch.delenv(name, raising=False)
+    return monkeypatch
+
+
+# ------------------------------------------------------------------------------------------------ origins
+def test_default_origins_are_this_machine_only():
+    assert serve.allowed_origins(5006, None) == ["localhost:5006", "127.0.0.1:5006"]
+    assert serve.allowed_origins(8080, " , ") == ["localhost:8080", "127.0.0.1:8080"]
+
+
+def test_origins_from_environment_and_flags_without_duplicates():
+    got = serve.allowed_origins(5006, "class.example.edu:5006, 10.0.0.7:5006", ["class.example.edu:5006", "x:1"])
+    assert got == ["class.example.edu:5006", "10.0.0.7:5006", "x:1"]
+
+
+@pytest.mark.parametrize("bad", ["*", "*:5006", "*.*", "http://host:5006", "host/path", ":5006", "host:port"])
+def test_wildcard_and_malformed_origins_are_refused(bad):
+    with pytest.raises(ValueError, match="websocket origin"):
+        serve.allowed_origins(5006, bad)
+
+
+def test_bad_origin_environment_exits_with_usage_error(clean_env):
+    clean_env.setenv(serve.ENV["origins"], "*")
+    assert serve.main(["--health", "--port", "1"]) == 2
+
+
+# ---------------------------------------------------------------------------------------------- arguments
+def test_panel_arguments_are_the_safe_defaults(clean_env):
+    opts = options()
+    argv = serve.panel_argv(opts, "app.py", serve.allowed_origins(opts.port, None))
+    args = panel_args(argv)
+    assert (args.address, args.port) == (serve.DEFAULT_ADDRESS, serve.DEFAULT_PORT)
+    assert args.warm and args.liveness and args.liveness_endpoint == serve.LIVENESS_ENDPOINT
+    assert not args.admin and not args.dev and not args.autoreload
+    assert args.allow_websocket_origin == ["localhost:5006", "127.0.0.1:5006"]
+    assert args.num_threads == serve.DEFAULT_NUM_THREADS and args.num_procs == 1
+    assert args.unused_session_lifetime == serve.UNUSED_SESSION_LIFETIME_MS
+    assert args.check_unused_sessions == serve.CHECK_UNUSED_SESSIONS_MS
+    assert args.websocket_max_message_size == serve.WEBSOCKET_MAX_MESSAGE_BYTES
+    assert "*" not in " ".join(argv)
+
+
+def test_environment_configures_a_container(clean_env):
+    clean_env.setenv("ISL_ADDRESS", "0.0.0.0")
+    clean_env.setenv("ISL_PORT", "7000")
+    clean_env.setenv("ISL_NUM_PROCS", "2")
+    clean_env.setenv("ISL_NUM_THREADS", "8")
+    opts = options()
+    args = panel_args(serve.panel_argv(opts, "app.py", ["lab.example.edu:7000"]))
+    assert (args.address, args.port, args.num_procs, args.num_threads) == ("0.0.0.0", 7000, 2, 8)
+    assert args.allow_websocket_origin == ["lab.example.edu:7000"]
+    assert options("--port", "7100").port == 7100      # a flag beats the environment
+
+
+def test_non_integer_environment_is_a_clear_error(clean_env):
+    clean_env.setenv("ISL_PORT", "50o6")
+    with pytest.raises(SystemExit, match="ISL_PORT must be an integer"):
+        options()
+
+
+@pytest.mark.parametrize("address, url", [("0.0.0.0", "http://localhost:5006/"), ("127.0.0.1", "http://localhost:5006/"),
+                                          ("192.168.1.20", "http://192.168.1.20:5006/")])
+def test_printed_url(address, url):
+    assert serve.browser_url(address, 5006) == url
+
+
+def test_app_script_is_found_in_the_package_without_running_it():
+    path = serve.app_script()
+    assert path.endswith("app.py") and "app" in path.split("/")[-2]
+
+
+def test_health_of_a_closed_port_is_failure(clean_env):
+    assert serve.main(["--health", "--port", str(load_test.free_port())]) == 1
+
+
+# ---------------------------------------------------------------------------------------------- hardening
+def test_exception_handler_logs_traceback_and_never_raises(caplog):
+    try:
+        raise RuntimeError("internal detail")
+    except RuntimeError as exc:
+        error = exc
+    with caplog.at_level(logging.ERROR, logger="isl.app"):
+        hardening.handle_exception(error)
+    record = caplog.records[-1]
+    assert re.search(r"incident [0-9a-f]{8}", record.getMessage())
+    assert record.exc_info[1] is error           # the traceback goes to the server log
+
+
+def test_install_is_idempotent_and_global():
+    before = list(pn.state._on_session_destroyed)
+    hardening.install()
+    hardening.install()
+    assert pn.config.exception_handler is hardening.handle_exception
+    assert pn.config.notifications is True
+    registered = [cb for cb in pn.state._on_session_destroyed if cb is hardening.release_session]
+    assert len(registered) == 1 and len(pn.state._on_session_destroyed) - len(before) <= 1
+
+
+class _Payload(param.Parameterized):
+    run = param.Parameter(default=None)
+    traces = param.Parameter(default=None)
+    seed = param.Integer(1)
+
+
+def test_drop_payloads_resets_parameters_without_firing_watchers():
+    obj = _Payload(run=list(range(10)), traces="big", seed=5)
+    fired = []
+    obj.param.watch(fired.append, ["run", "traces"])
+    hardening.drop_payloads(obj)
+    assert obj.run is None and obj.traces is None and obj.seed == 5 and fired == []
+
+
+def test_release_hooks_run_once_when_the_session_is_destroyed(monkeypatch):
+    class Ctx:
+        id = "session-1"
+
+    class Doc:
+        session_context = Ctx()
+
+    monkeypatch.setattr(type(pn.state), "curdoc", property(lambda self: Doc()))
+    calls = []
+    hardening.release_on_destroy(lambda: calls.append("callable"))
+    hardening.release_on_destroy(type("R", (), {"release": lambda self: calls.append("release")})())
+    hardening.release_on_destroy(lambda: 1 / 0)                         # a failing hook does not stop the others
+    obj = _Payload(run=[1, 2, 3])
+    hardening.release_on_destroy(obj)
+    assert hardening.live_release_hooks() >= 1
+    hardening.release_session(Ctx())
+    hardening.release_session(Ctx())
+    assert calls == ["callable", "release"] and obj.run is None
+    assert "session-1" not in hardening._releases
+
+
+# ------------------------------------------------------------------------------------------- real servers
+def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path):
+    broken = tmp_path / "broken.py"
+    broken.write_text("import panel as pn\nraise RuntimeError('broken on purpose')\n")
+    with pytest.raises(serve.AppStartupError, match="broken on purpose"):
+        serve.check_app(str(broken))
+    port = load_test.free_port()
+    log = tmp_path / "broken.log"
+    proc = load_test.start_server(port, log, ["--stats-interval", "0"], script=str(broken))
+    try:
+        code = proc.wait(120)
+    finally:
+        load_test.stop_server(proc)
+    assert code == 1
+    assert "failed during warm-up" in log.read_text()
+
+
+def test_check_mode_passes_for_a_working_app(tmp_path):
+    code = ("import sys, app.serve as s\n"
+            f"s.app_script = lambda: {fixture_app(tmp_path)!r}\n"
+            "sys.exit(s.main(['--check']))")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(REPO)}, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "warm-up passed" in done.stdout
+
+
+def test_port_in_use_is_exit_code_1(tmp_path):
+    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (url, _, _):
+        port = int(url.rsplit(":", 1)[1])
+        log = tmp_path / "second.log"
+        second = load_test.start_server(port, log, ["--stats-interval", "0"], script=fixture_app(tmp_path))
+        try:
+            assert second.wait(120) == 1
+        finally:
+            load_test.stop_server(second)
+
+
+def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(tmp_path):
+    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (url, proc, log):
+        async def click() -> list[str]:
+            async with await load_test.BokehClient.connect(url) as client:
+                button = next(m for m in client.doc.models if isinstance(m, Button))
+                await client.send_event(ButtonClick(button))
+                await client.wait_until(lambda: bool(_notifications(client.doc)), 30)
+                return _notifications(client.doc)
+
+        messages = run(click(), 120)
+        text = wait_for_log(log, "SECRET-DETAIL")
+        server_exit_code_while_running = proc.poll()
+    assert server_exit_code_while_running is None           # the server survived the error
+    assert len(messages) == 1
+    incident = re.search(r"incident ([0-9a-f]{8})", messages[0]).group(1)
+    assert "SECRET-DETAIL" not in messages[0] and "Traceback" not in messages[0] and ".py" not in messages[0]
+    assert f"incident {incident}" in text and "Traceback (most recent call last)" in text
+
+
+def _notifications(doc) -> list[str]:
+    """Messages of the Panel notifications in a client's copy of the document."""
+    return [m.message for m in doc.models if hasattr(m, "notification_type") and hasattr(m, "message")]
