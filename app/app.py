@@ -1,4 +1,70 @@
-"""Placeholder until the dashboard lands: serves a page naming the project."""
+"""The isl dashboard: assembles state and views into a page (``panel serve app/app.py``).
+
+:func:`create_app` builds a fresh, independent page per browser session: its own :class:`AppState`, with
+the parameters read from (and written back to) the URL, compute on the shared thread pools of
+:mod:`app.jobs`, and the session's results released when it closes. Outside a server session (scripts,
+tests) jobs run inline.
+"""
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+if not __package__:  # run as a script (`panel serve app/app.py`): make `app` the package, not this file
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
 import panel as pn
 
-pn.pane.Markdown("# isl\nKalman–Bucy vs the ISL filter — the dashboard is being built.").servable(title="isl")
+from app.jobs import RUN_POOL, SWEEP_POOL, Jobs
+from app.state import INPUTS, SWEEP_INPUTS, AppState
+from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
+
+__all__ = ["TITLE", "create_app", "session_jobs"]
+
+TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
+
+pn.extension(notifications=False)
+
+
+def _loop_scheduler(doc) -> Callable[[Callable[[], None]], None]:
+    """``schedule(fn)``: run ``fn`` on ``doc``'s event loop with its lock held (callable from any thread)."""
+    from panel.io.state import set_curdoc
+
+    def schedule(fn: Callable[[], None]) -> None:
+        with set_curdoc(doc):
+            pn.state.execute(fn, schedule=True)
+
+    return schedule
+
+
+def session_jobs() -> Jobs:
+    """Thread-pool jobs bound to the current server session, or inline jobs outside a server."""
+    doc = pn.state.curdoc
+    if doc is None or doc.session_context is None:
+        return Jobs()
+    pools = {"run": RUN_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL}
+    return Jobs(pools, schedule=_loop_scheduler(doc))
+
+
+def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
+    """A new dashboard page over ``state`` (a fresh :class:`AppState` by default), URL-synced when served."""
+    if state is None:
+        state = AppState(jobs=session_jobs())
+    if pn.state.location is not None:
+        pn.state.location.sync(state, {p: p for p in (*INPUTS, *SWEEP_INPUTS)})
+    state.start()
+    if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
+        pn.state.on_session_destroyed(lambda ctx: state.close())
+    trajectories = pn.Row(TrajectoriesView(state=state), NumbersView(state=state), sizing_mode="stretch_width")
+    tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories), ("ν sweep (paper A, Fig. 2)", SweepView(state=state)),
+                   sizing_mode="stretch_width", dynamic=False)
+    return pn.template.FastListTemplate(
+        title=TITLE, sidebar=[ControlsView(state=state), about_card()], main=[tabs],
+        sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
+        main_layout=None,
+    )
+
+
+if pn.state.served:
+    create_app().servable(title="isl — Kalman–Bucy vs ISL")

@@ -1,0 +1,379 @@
+"""The dashboard's state: every user input (bounds, label, doc), the latest run, and what went wrong.
+
+:class:`AppState` is the only place that talks to :mod:`isl_core`. Its inputs are the model (α, β or w,
+σ, m; SPEC §1), the ISL filter's ν (A.17), the noise seed and the horizon ``T = horizon / r_min`` (A.24);
+the Fig. 2 view adds the σ values and the horizon of its sweep. Every assignment to an input — from a
+widget, from the URL, from a script — is checked here, once: a bad value (nan, inf, out of range, wrong
+type, None, a string, a boolean) is refused with a message naming the input and its range, and the last
+good run stays on screen. Errors of the core (too many steps, a diverged filter) become messages too.
+
+Runs and sweeps are computed by :class:`app.jobs.Jobs`: off the event loop when the app gives it thread
+pools, inline otherwise (tests, scripts). Outputs (``run``, ``traces``, ``prediction``, ``curves``,
+``points``, ``message`` …) are written only by the state itself.
+"""
+from __future__ import annotations
+
+import io
+import logging
+import math
+import threading
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+import param
+
+from isl_core import DivergenceError, Model, Run, isl_filter, kalman_bucy, optimal_kbf, simulate, step_size
+from isl_core._validate import check_int, check_real
+
+from . import sweeps
+from .decimate import DISPLAY_POINTS, minmax
+from .export import run_csv
+from .jobs import Jobs, Outcome, call
+from .presets import PRESETS
+
+__all__ = [
+    "APP_MAX_STEPS",
+    "COORDINATES",
+    "INPUTS",
+    "LIVE_MAX_STEPS",
+    "SWEEP_INPUTS",
+    "AppState",
+    "Request",
+    "Result",
+    "Traces",
+    "compute",
+]
+
+log = logging.getLogger(__name__)
+
+APP_MAX_STEPS = 1_000_000  #: steps per displayed run (memory ≈ 72·m bytes a step: 216 MB at m = 3)
+LIVE_MAX_STEPS = 50_000  #: runs up to this size follow a slider while it is dragged; larger ones on release
+INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "nu", "m", "seed", "horizon")
+SWEEP_INPUTS = ("sweep_sigmas", "sweep_horizon")
+SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
+COORDINATES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")  #: X_1 … X_6
+
+
+class SweepCancelled(Exception):
+    """Raised from the sweep's progress callback to stop it."""
+
+
+@dataclass(frozen=True)
+class Request:
+    """One run to compute: the model, the ISL filter's ν, the seed and the horizon in units of 1/r_min."""
+
+    alpha: float
+    beta: float
+    sigma: float
+    nu: float
+    m: int
+    seed: int
+    horizon: float
+
+
+@dataclass(frozen=True)
+class Traces:
+    """Display copies of a run, decimated (:mod:`app.decimate`): ``series[i][name] = (t, y)`` in float32.
+
+    ``name`` is ``"truth"`` (X_i), ``"kbf"`` (X̂_i) or ``"isl"`` (X̌_i).
+    """
+
+    series: tuple[dict[str, tuple[np.ndarray, np.ndarray]], ...]
+
+
+@dataclass(frozen=True)
+class Result:
+    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (None if unavailable)."""
+
+    run: Run
+    traces: Traces
+    prediction: np.ndarray | None
+
+
+def decimated(run: Run, max_points: int = DISPLAY_POINTS) -> Traces:
+    """Min/max-decimated float32 copies of X_i, X̂_i, X̌_i for the plots."""
+    series = []
+    for i in range(run.model.m):
+        pairs = {}
+        for name, arr in (("truth", run.X), ("kbf", run.X_hat), ("isl", run.X_check)):
+            t, y = minmax(run.t, arr[:, i], max_points)
+            pairs[name] = (t.astype(np.float32), y.astype(np.float32))
+        series.append(pairs)
+    return Traces(tuple(series))
+
+
+def compute(req: Request) -> Result:
+    """Simulate ``req`` (T = horizon/r_min, h by the SPEC §4 rule), decimate it and predict its ratios.
+
+    Raises ``ValueError`` when the run would exceed :data:`APP_MAX_STEPS`, :class:`DivergenceError` when a
+    filter blows up.
+    """
+    model = Model(req.alpha, req.beta, req.sigma, req.m)
+    kb = kalman_bucy(model)
+    T = req.horizon / kb.r_min
+    h = step_size(model, kb, [optimal_kbf(model, kb), isl_filter(model, req.nu)])
+    n = math.ceil(T / h)
+    if n > APP_MAX_STEPS:
+        longest = req.horizon * APP_MAX_STEPS / n
+        raise ValueError(
+            f"horizon = {req.horizon:g} needs {n:,} steps here, over the dashboard's limit of {APP_MAX_STEPS:,}; "
+            f"choose a horizon <= {longest:.3g}"
+        )
+    run = simulate(model, req.nu, T=T, h=h, seed=req.seed)
+    theory = sweeps.theory_module()
+    prediction = None if theory is None else np.asarray(theory.predicted_ratios(model, req.nu))
+    return Result(run, decimated(run), prediction)
+
+
+def _describe(exc: BaseException) -> str:
+    if isinstance(exc, (ValueError, DivergenceError, sweeps.TheoryMissing)):
+        return str(exc)
+    log.error("unexpected error in a dashboard job", exc_info=exc)
+    return f"internal error ({type(exc).__name__}); details are in the server log"
+
+
+class AppState(param.Parameterized):
+    """Inputs of the dashboard, validated on assignment, and the latest results (see the module docstring)."""
+
+    alpha = param.Number(0.5, bounds=(0.0, 100.0), label="α", doc=(
+        "Damping of the top derivative X_m, dX_m = −α X_m dt + β dv (A.5); α = 0 is paper B's white-noise model."))
+    beta_from_w = param.Boolean(True, label="β from w", doc=(
+        "Paper A's parametrization (A.25): β = w·√(2α), w = stationary std of X_m. Off: β is set directly."))
+    w = param.Number(3.0, bounds=(0.01, 100.0), label="w", doc=(
+        "Stationary standard deviation of X_m (A.25); used when 'β from w' is on. Paper A: w = 3."))
+    beta = param.Number(3.0, bounds=(0.01, 1000.0), label="β", doc=(
+        "Intensity of the noise driving X_m (A.5); used when 'β from w' is off."))
+    sigma = param.Number(20.0, bounds=(0.1, 1000.0), label="σ", doc=(
+        "Observation noise intensity, dY = X_1 dt + σ dε (A.6). Known to the Kalman–Bucy filter only."))
+    nu = param.Number(3.0, bounds=(0.001, 10000.0), label="ν", doc=(
+        "The ISL filter's only tuning knob (A.17); paper A studies ν/β = 2^ℓ, ℓ = −8..2."))
+    m = param.Integer(3, bounds=(1, 6), label="m", doc="State dimension: X_1 and its m − 1 derivatives (A.1).")
+    seed = param.Integer(1, bounds=(0, 2**31 - 1), label="seed", doc="Seed of the noise: same seed, same run.")
+    horizon = param.Number(10.0, bounds=(1.0, 1000.0), label="horizon (× 1/r_min)", doc=(
+        "Simulated time T in units of the optimal filter's settling time 1/r_min (A.24); paper A, Fig. 3: 10."))
+    sweep_sigmas = param.List([2.0, 20.0, 200.0], item_type=float, bounds=(1, 5), label="σ values", doc=(
+        "σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."))
+    sweep_horizon = param.Number(200.0, bounds=(20.0, 2000.0), label="sweep horizon (× 1/r_min)", doc=(
+        "Length of each simulated sweep run in units of 1/r_min; ±2 % needs about 1000."))
+
+    run = param.ClassSelector(class_=Run, default=None, allow_None=True, precedence=-1, doc="The latest good run.")
+    traces = param.ClassSelector(class_=Traces, default=None, allow_None=True, precedence=-1)
+    prediction = param.Array(default=None, allow_None=True, precedence=-1, doc="Predicted š_i/s_i of `run`.")
+    compute_seconds = param.Number(0.0, precedence=-1, doc="Wall time of the latest run's computation.")
+    busy = param.Boolean(False, precedence=-1, doc="A run is being computed.")
+    message = param.String("", precedence=-1, doc="What the user should know: a refused input, an error.")
+    message_kind = param.Selector(objects=["info", "warning", "danger"], default="info", precedence=-1)
+    curves = param.ClassSelector(class_=sweeps.SweepCurves, default=None, allow_None=True, precedence=-1)
+    curves_note = param.String("", precedence=-1, doc="Why there are no theory curves, if there are none.")
+    points = param.ClassSelector(class_=sweeps.SweepPoints, default=None, allow_None=True, precedence=-1)
+    sweep_busy = param.Boolean(False, precedence=-1)
+    sweep_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
+    sweep_note = param.String("", precedence=-1, doc="Status line of the simulated sweep / recommendation.")
+
+    def __init__(self, *, jobs: Jobs | None = None, **params) -> None:
+        self._refused: str | None = None
+        super().__init__(**params)
+        self._jobs = jobs or Jobs()
+        self._started = False
+        self._serial = 0
+        self._cancel = threading.Event()
+        self.param.watch(self._on_inputs, list(INPUTS))
+        self.param.watch(self._on_context, ["alpha", "beta_from_w", "w", "beta", "m", "sweep_sigmas"])
+
+    # ---- validation at the boundary -------------------------------------------------------------------
+    def __setattr__(self, name: str, value) -> None:
+        if name in INPUTS or name in SWEEP_INPUTS:
+            try:
+                value = self._clean(name, value)
+            except ValueError as exc:
+                self._refuse(name, exc)
+                return
+            if self._refused == name:  # the refused input has a good value again
+                self._clear()
+        super().__setattr__(name, value)
+
+    def _clean(self, name: str, value):
+        p = self.param[name]
+        if isinstance(p, param.Boolean):
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"{name} must be true or false, got {value!r}")
+            return bool(value)
+        if isinstance(p, param.Integer):
+            return check_int(name, value, lo=p.bounds[0], hi=p.bounds[1])
+        if isinstance(p, param.Number):
+            return check_real(name, value, lo=p.bounds[0], hi=p.bounds[1])
+        lo, hi = SWEEP_SIGMA_BOUNDS
+        n_lo, n_hi = p.bounds
+        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)) or not n_lo <= len(value) <= n_hi:
+            raise ValueError(f"{name} must be a list of {n_lo} to {n_hi} numbers in [{lo:g}, {hi:g}], got {value!r}")
+        return sorted({check_real(f"every entry of {name}", v, lo=lo, hi=hi) for v in value})
+
+    def _refuse(self, name: str, exc: ValueError) -> None:
+        """A refusal stays on screen until that input gets a good value (or a preset, or another message)."""
+        label = self.param[name].label
+        self._say(f"Refused {label}: {exc}. The last good run is kept.", "danger")
+        self._refused = name
+
+    def _say(self, text: str, kind: str = "info") -> None:
+        """Show a message; a run requested before it will not clear it (see ``_apply_run``)."""
+        self._serial += 1
+        self._refused = None
+        self.param.update(message=text, message_kind=kind)
+
+    def _clear(self) -> None:
+        self._refused = None
+        if self.message:
+            self.param.update(message="", message_kind="info")
+
+    # ---- derived values ------------------------------------------------------------------------------
+    @property
+    def beta_effective(self) -> float:
+        """β of the model: ``w·√(2α)`` (A.25) when 'β from w' is on, else the β input."""
+        return self.w * math.sqrt(2.0 * self.alpha) if self.beta_from_w else self.beta
+
+    @property
+    def live(self) -> bool:
+        """Whether the current run is small enough to follow a slider while it is dragged."""
+        return self.run is None or self.run.N <= LIVE_MAX_STEPS
+
+    def request(self) -> Request:
+        return Request(self.alpha, self.beta_effective, self.sigma, self.nu, self.m, self.seed, self.horizon)
+
+    # ---- runs ----------------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Compute the first run (inline: the page shows it at once) and the sweep's theory curves."""
+        self._started = True
+        if self.alpha == 0.0 and self.beta_from_w:
+            self._switch_to_beta()
+        self._apply_run(self._serial, call(partial(compute, self.request())), False)
+        self._refresh_curves()
+
+    def _switch_to_beta(self) -> None:
+        beta = self.run.model.beta if self.run is not None else self.beta
+        beta = min(max(beta, self.param.beta.bounds[0]), self.param.beta.bounds[1])
+        self.param.update(beta_from_w=False, beta=beta)
+        self._say(f"α = 0: β = w√(2α) would vanish, so β is now set directly (β = {beta:.4g}).", "info")
+
+    def _on_inputs(self, *events) -> None:
+        if not self._started:
+            return
+        if self.alpha == 0.0 and self.beta_from_w:
+            self._switch_to_beta()  # its own assignments come back here with a valid model
+            return
+        self.busy = True
+        self._jobs.submit("run", partial(compute, self.request()), partial(self._apply_run, self._serial))
+
+    def _apply_run(self, serial: int, outcome: Outcome, superseded: bool) -> None:
+        if outcome.error is not None:
+            if not superseded:
+                self._say(f"{_describe(outcome.error)}. The last good run is kept.", "danger")
+            self.busy = superseded
+            return
+        res: Result = outcome.value
+        self.param.update(run=res.run, traces=res.traces, prediction=res.prediction,
+                          compute_seconds=outcome.seconds, busy=superseded)
+        if serial == self._serial and self._refused is None:
+            self._clear()
+
+    def apply_preset(self, name: str) -> None:
+        """Set the inputs of preset ``name`` (see :mod:`app.presets`) in one batch: one new run."""
+        if name not in PRESETS:
+            self._say(f"Unknown preset {name!r}; choose one of {', '.join(PRESETS)}.", "danger")
+            return
+        self._clear()
+        self.param.update(**PRESETS[name].values)
+
+    def csv(self) -> io.StringIO:
+        """The current run as CSV (:func:`app.export.run_csv`), for the download button."""
+        return io.StringIO(run_csv(self.run))
+
+    # ---- the ν-sweep (Fig. 2) ------------------------------------------------------------------------
+    def _on_context(self, *events) -> None:
+        if self._started:
+            self._refresh_curves()
+
+    def _sweep_model(self) -> tuple[float, float, int, tuple[float, ...]]:
+        return self.alpha, self.beta_effective, self.m, tuple(self.sweep_sigmas)
+
+    def _refresh_curves(self) -> None:
+        """Theory curves for the current α, β, m and sweep σ; simulated points of another context go stale."""
+        key = self._sweep_model()
+        pts = self.points
+        if pts is not None and (pts.alpha, pts.beta, pts.m, pts.sigmas) != key:
+            self.points = None
+        self._jobs.submit("theory", partial(sweeps.theory_curves, *key), self._apply_curves)
+
+    def _apply_curves(self, outcome: Outcome, superseded: bool) -> None:
+        if outcome.error is None:
+            self.param.update(curves=outcome.value, curves_note="")
+        elif not superseded:
+            self.param.update(curves=None, curves_note=f"No theory curves: {_describe(outcome.error)}.")
+
+    def _long_job(self, kind: str, fn, apply, note: str) -> None:
+        """Run ``fn(progress=…)`` on the sweep pool with a progress bar and a cancel button."""
+        self._cancel = cancel = threading.Event()
+        self.param.update(sweep_busy=True, sweep_progress=0.0, sweep_note=note)
+        last = [0.0]
+
+        def progress(f: float) -> None:  # called on a worker thread
+            if cancel.is_set():
+                raise SweepCancelled()
+            if f - last[0] >= 0.01 or f >= 1.0:
+                last[0] = f
+                self._jobs.later(partial(self._set_progress, cancel, f))
+
+        self._jobs.submit(kind, partial(fn, progress=progress), partial(self._finish_long_job, apply))
+
+    def _set_progress(self, token: threading.Event, f: float) -> None:
+        if token is self._cancel and self.sweep_busy:
+            self.sweep_progress = min(f, 1.0)
+
+    def cancel_sweep(self) -> None:
+        """Stop the running sweep or recommendation at its next progress report."""
+        self._cancel.set()
+
+    def _finish_long_job(self, apply, outcome: Outcome, superseded: bool) -> None:
+        if superseded:
+            return
+        self.param.update(sweep_busy=False, sweep_progress=0.0)
+        if isinstance(outcome.error, SweepCancelled):
+            self.sweep_note = "Cancelled."
+        elif outcome.error is not None:
+            self.sweep_note = f"Failed: {_describe(outcome.error)}."
+        else:
+            apply(outcome)
+
+    def simulate_sweep(self) -> None:
+        """Simulate the sweep's points for the current context (progress in ``sweep_progress``; cancellable)."""
+        alpha, beta, m, sigmas = self._sweep_model()
+        fn = partial(sweeps.simulate_points, alpha, beta, m, sigmas, horizon=self.sweep_horizon, seed=self.seed)
+        self._long_job("sweep", fn, self._apply_points,
+                       f"Simulating {len(sigmas)} × {len(sweeps.SIM_LEVELS)} configurations …")
+
+    def _apply_points(self, outcome: Outcome) -> None:
+        pts: sweeps.SweepPoints = outcome.value
+        if (pts.alpha, pts.beta, pts.m, pts.sigmas) != self._sweep_model():
+            self.sweep_note = "The parameters changed while the sweep ran; run it again."
+        else:
+            self.param.update(points=pts, sweep_note=f"Simulated in {outcome.seconds:.1f} s "
+                                                     "(95 % batch-means intervals).")
+
+    def recommend(self) -> None:
+        """Set ν to the value minimizing the worst-case ratio over the sweep's σ (``recommend_nu``, verified)."""
+        alpha, beta, m, sigmas = self._sweep_model()
+        fn = partial(sweeps.recommend, alpha, beta, m, sigmas, horizon=self.sweep_horizon, seed=self.seed)
+        self._long_job("sweep", fn, self._apply_recommendation,
+                       "Searching the theory for the best ν, then checking it by simulation …")
+
+    def _apply_recommendation(self, outcome: Outcome) -> None:
+        nu, text = outcome.value
+        self.nu = min(max(nu, self.param.nu.bounds[0]), self.param.nu.bounds[1])
+        self.sweep_note = text
+
+    def close(self) -> None:
+        """End of the session: stop the sweep, drop pending work and the large arrays."""
+        self._cancel.set()
+        self._jobs.close()
+        self.param.update(run=None, traces=None, points=None, curves=None)
+

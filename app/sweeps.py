@@ -1,0 +1,158 @@
+"""ν-sweeps behind the dashboard's Fig. 2 view (paper A, Fig. 2; SPEC §5–§6).
+
+For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_i`` against ``ν/β = 2^ℓ``.
+
+* Theory curves: statistical linearization (B.48 and its α > 0 extension, :mod:`isl_core.theory`), a
+  batched Lyapunov solve per σ — instant.
+* Recommended ν: :func:`isl_core.sweep.recommend_nu` (minimax over σ on the theory, verified by simulation);
+  it uses paper A's parametrization, so it needs α > 0 (w = β/√(2α)).
+* Simulated points: for each σ, **one** long run carries the optimal Kalman–Bucy filter and the ISL filter
+  at every ν of the grid on the same noise (common random numbers, :func:`isl_core.simulate_rmse`); the
+  run is cut into ``BATCHES`` batches after a burn-in, and the 95 % interval of each ratio is the
+  batch-means interval ``t_{0.975, B−1} · sd(batch ratios) / √B``. The Kalman–Bucy column must sit at 1
+  within its interval: it is the check that the horizon is long enough.
+"""
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from types import ModuleType
+
+import numpy as np
+from scipy.stats import t as student_t
+
+from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse
+
+__all__ = [
+    "BATCHES",
+    "BURN",
+    "SIM_LEVELS",
+    "THEORY_LEVELS",
+    "SweepCurves",
+    "SweepPoints",
+    "TheoryMissing",
+    "simulate_points",
+    "sweep_module",
+    "theory_curves",
+    "theory_module",
+]
+
+THEORY_LEVELS = np.linspace(-8.0, 2.0, 81)  #: ℓ of the theory curves, ν/β = 2^ℓ (paper A: ℓ = −8..2)
+SIM_LEVELS = np.arange(-8, 3).astype(float)  #: ℓ of the simulated points
+BATCHES = 10  #: batch means for the confidence intervals
+BURN = 5.0  #: burn-in, in units of 1/r_min, left out of the averages (the filters start at 0)
+
+
+class TheoryMissing(RuntimeError):
+    """The theory module (statistical linearization) is not available in this installation."""
+
+
+def _optional(name: str) -> ModuleType | None:
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name != name:  # a genuine missing dependency inside the module: do not hide it
+            raise
+        return None
+
+
+def theory_module() -> ModuleType | None:
+    """:mod:`isl_core.theory`, or None when this installation has no theory module."""
+    return _optional("isl_core.theory")
+
+
+def sweep_module() -> ModuleType | None:
+    """:mod:`isl_core.sweep` (``recommend_nu``), or None when this installation has none."""
+    return _optional("isl_core.sweep")
+
+
+@dataclass(frozen=True)
+class SweepCurves:
+    """Predicted ratios ``ratios[s, k, i]`` at σ = ``sigmas[s]``, ν/β = ``nu_over_beta[k]``, coordinate i."""
+
+    alpha: float
+    beta: float
+    m: int
+    sigmas: tuple[float, ...]
+    nu_over_beta: np.ndarray
+    ratios: np.ndarray
+
+
+@dataclass(frozen=True)
+class SweepPoints:
+    """Simulated ratios and 95 % half-widths (S, K, m) of the ISL filter; ``kbf*`` (S, m) the optimal filter's."""
+
+    alpha: float
+    beta: float
+    m: int
+    sigmas: tuple[float, ...]
+    nu_over_beta: np.ndarray
+    ratio: np.ndarray
+    half_width: np.ndarray
+    kbf: np.ndarray
+    kbf_half_width: np.ndarray
+    horizon: float
+    seed: int
+
+
+def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float]) -> SweepCurves:
+    """Predicted ``š_i/s_i`` over ``ν/β = 2^THEORY_LEVELS`` for each σ (B.48, SPEC §6); inf where unstable."""
+    theory = theory_module()
+    if theory is None:
+        raise TheoryMissing("the statistical-linearization theory (isl_core.theory) is not installed")
+    nob = 2.0 ** THEORY_LEVELS
+    ratios = np.stack([
+        theory.predicted_ratios_grid(Model(alpha, beta, s, m), beta * nob) for s in sigmas
+    ])
+    return SweepCurves(alpha, beta, m, tuple(sigmas), nob, ratios)
+
+
+def _interval(batch: np.ndarray) -> np.ndarray:
+    """95 % batch-means half-width over axis 0 (Student t with B − 1 degrees of freedom)."""
+    b = batch.shape[0]
+    return float(student_t.ppf(0.975, b - 1)) * batch.std(axis=0, ddof=1) / np.sqrt(b)
+
+
+def simulate_points(
+    alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,
+    progress: Callable[[float], None] | None = None,
+) -> SweepPoints:
+    """Simulated ratios at ``ν/β = 2^SIM_LEVELS``, one common-noise run of ``horizon/r_min`` per σ.
+
+    ``progress(fraction)`` receives the overall fraction done; an exception raised from it cancels.
+    """
+    nob = 2.0 ** SIM_LEVELS
+    S, K = len(sigmas), len(nob)
+    ratio, half = np.empty((S, K, m)), np.empty((S, K, m))
+    kbf, kbf_half = np.empty((S, m)), np.empty((S, m))
+    for j, sigma in enumerate(sigmas):
+        model = Model(alpha, beta, sigma, m)
+        kb = kalman_bucy(model)
+        filters = [optimal_kbf(model, kb), *(isl_filter(model, beta * x) for x in nob)]
+        report = None if progress is None else (lambda f, j=j: progress((j + f) / S))
+        res = simulate_rmse(model, filters, T=horizon / kb.r_min, seed=seed, burn=BURN / kb.r_min,
+                            batches=BATCHES, progress=report)
+        whole, batch = res.ratios(), res.batch_ratios()
+        width = _interval(batch)
+        kbf[j], kbf_half[j] = whole[0], width[0]
+        ratio[j], half[j] = whole[1:], width[1:]
+    return SweepPoints(alpha, beta, m, tuple(sigmas), nob, ratio, half, kbf, kbf_half, float(horizon), int(seed))
+
+
+def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,
+              progress: Callable[[float], None] | None = None) -> tuple[float, str]:
+    """``(ν, summary)`` from :func:`isl_core.sweep.recommend_nu` with its simulated check (``horizon``, ``seed``)."""
+    mod = sweep_module()
+    if mod is None:
+        raise TheoryMissing("the recommendation (isl_core.sweep.recommend_nu) is not installed")
+    if alpha <= 0.0:
+        raise ValueError("the recommendation needs alpha > 0 (paper A's parametrization β = w√(2α))")
+    rec = mod.recommend_nu(alpha, sigmas=list(sigmas), m=m, w=beta / np.sqrt(2.0 * alpha), horizon=horizon,
+                           seeds=(seed,), progress=progress)
+    sig = ", ".join(f"{s:g}" for s in sigmas)
+    text = (f"Recommended ν = {rec.nu:.4g} (ν/β = {rec.nu_over_beta:.3g}) for σ ∈ {{{sig}}}: worst-case ratio "
+            f"{rec.theory_worst:.3f} predicted, {rec.simulated_worst:.3f} "
+            f"[{rec.simulated_low:.3f}, {rec.simulated_high:.3f}] simulated ({horizon:g}/r_min). "
+            f"Best fixed-gain Kalman–Bucy filter: {rec.kbf_worst:.3f} (designed for σ̄ = {rec.kbf_sigma_design:.3g}).")
+    return float(rec.nu), text

@@ -1,0 +1,187 @@
+"""Sidebar controls: presets, model and filter inputs, status and export — widgets bound to :class:`AppState`.
+
+Scale parameters (α, w, β, σ, ν, horizon) get log-scale sliders: the widget moves over log10 of the
+value, shows the value itself, and hands the state the value rounded to 3 significant digits (so links
+read ``sigma=20``, not ``sigma=19.952623…``). A slider follows the mouse while it is dragged when the
+current run is small (:attr:`AppState.live`), otherwise it applies on release (``value_throttled``).
+"""
+from __future__ import annotations
+
+import math
+
+import panel as pn
+import param
+from bokeh.models import CustomJSTickFormatter
+from panel.viewable import Viewer
+
+from ..presets import PRESETS
+from ..state import AppState
+
+__all__ = ["ControlsView", "log_slider", "round_sig", "with_help"]
+
+_LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toString();"
+
+
+def round_sig(x: float, digits: int = 3) -> float:
+    """``x`` rounded to ``digits`` significant digits."""
+    return float(f"{x:.{digits - 1}e}")
+
+
+class _Binding:
+    """Two-way link between one widget and one state input, with a guard against echoes."""
+
+    def __init__(self, state: AppState, name: str, widget, to_widget, to_state, *, live: bool = True) -> None:
+        self.state, self.name, self.widget = state, name, widget
+        self._to_widget, self._to_state = to_widget, to_state
+        self._quiet = False
+        events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
+        widget.param.watch(self._from_widget, events)
+        state.param.watch(self._from_state, [name])
+        self._from_state()
+
+    def _from_widget(self, event) -> None:
+        if self._quiet or (event.name == "value" and "value_throttled" in self.widget.param
+                           and not self.state.live):
+            return
+        value = self._to_state(event.new)
+        if value is not None:
+            setattr(self.state, self.name, value)
+
+    def _from_state(self, *events) -> None:
+        self._quiet = True
+        try:
+            self.widget.value = self._to_widget(getattr(self.state, self.name))
+        finally:
+            self._quiet = False
+
+
+def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float = 0.01) -> pn.widgets.FloatSlider:
+    """A slider over log10 of input ``name`` between ``lo`` and ``hi`` (within the input's bounds)."""
+    p = state.param[name]
+    a, b = math.log10(lo), math.log10(hi)
+    widget = pn.widgets.FloatSlider(name=p.label, start=a, end=b, step=step,
+                                    format=CustomJSTickFormatter(code=_LOG_FORMAT), sizing_mode="stretch_width")
+
+    def to_widget(x: float) -> float:
+        return min(max(math.log10(x), a), b) if x > 0 else a
+
+    def to_state(v: float) -> float | None:
+        current = getattr(state, name)
+        if current > 0 and abs(math.log10(current) - v) <= step / 2:
+            return None  # the widget already shows the state's value: not a change
+        return round_sig(10.0**v)
+
+    _Binding(state, name, widget, to_widget, to_state)  # kept alive by the watchers it registers
+    return widget
+
+
+def with_help(widget, doc: str) -> pn.Row:
+    """``widget`` with a (?) icon showing ``doc`` on hover."""
+    return pn.Row(widget, pn.widgets.TooltipIcon(value=doc, margin=(22, 5, 0, 0)), sizing_mode="stretch_width")
+
+
+def _plain(state: AppState, name: str, widget):
+    _Binding(state, name, widget, lambda x: x, lambda v: v)
+    return widget
+
+
+class ControlsView(Viewer):
+    """Presets, inputs (α, β/w, σ, ν, m, seed, horizon), the status line and the CSV download."""
+
+    state = param.ClassSelector(class_=AppState)
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        s = self.state
+        self._alpha = log_slider(s, "alpha", 0.01, 100.0)
+        self._alpha_zero = pn.widgets.Checkbox(name="α = 0 (white-noise derivative, paper B)")
+        self._alpha_zero.param.watch(self._on_alpha_zero, "value")
+        s.param.watch(self._sync_alpha_zero, ["alpha"])
+        self._from_w = _plain(s, "beta_from_w", pn.widgets.Checkbox(name="β from w: β = w·√(2α) (paper A)"))
+        self._w = log_slider(s, "w", 0.01, 100.0)
+        self._beta = log_slider(s, "beta", 0.01, 1000.0)
+        self._sigma = log_slider(s, "sigma", 0.1, 1000.0)
+        self._nu = log_slider(s, "nu", 0.001, 10000.0)
+        self._m = _plain(s, "m", pn.widgets.IntSlider(name="m (state dimension)", start=1, end=6,
+                                                      sizing_mode="stretch_width"))
+        self._seed = _plain(s, "seed", pn.widgets.IntInput(name="seed", start=0, end=2**31 - 1, width=120))
+        self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
+        self._sync_alpha_zero()
+        self._derived = pn.pane.Markdown(self._derived_text, margin=(0, 10))
+        self._status = pn.pane.Alert(self._status_text, alert_type=self._status_kind, visible=self._has_status,
+                                     margin=(5, 10))
+
+    # ---- α = 0 -------------------------------------------------------------------------------------
+    def _on_alpha_zero(self, event) -> None:
+        if event.new and self.state.alpha != 0.0:
+            self.state.alpha = 0.0
+        elif not event.new and self.state.alpha == 0.0:
+            self.state.alpha = round_sig(10.0 ** self._alpha.value)
+
+    def _sync_alpha_zero(self, *events) -> None:
+        zero = self.state.alpha == 0.0
+        self._alpha_zero.value = zero
+        self._alpha.disabled = zero
+
+    # ---- reactive text -----------------------------------------------------------------------------
+    @param.depends("state.alpha", "state.beta_from_w", "state.w", "state.beta", "state.nu", "state.run")
+    def _derived_text(self) -> str:
+        s = self.state
+        beta = s.beta_effective
+        if beta <= 0.0:
+            return "β = w√(2α) = 0: untick **β from w** or raise α."
+        run = s.run
+        settle = "" if run is None else f" · r_min = {run.r_min:.3g} (theory)"
+        return (f"β = **{beta:.4g}** · ν/β = **{s.nu / beta:.3g}** "
+                f"(ℓ = log₂ ν/β = {math.log2(s.nu / beta):.2f}){settle}")
+
+    @param.depends("state.message")
+    def _status_text(self) -> str:
+        return self.state.message
+
+    @param.depends("state.message_kind")
+    def _status_kind(self) -> str:
+        return self.state.message_kind
+
+    @param.depends("state.message")
+    def _has_status(self) -> bool:
+        return bool(self.state.message)
+
+    @param.depends("state.beta_from_w")
+    def _beta_widget(self):
+        return self._w if self.state.beta_from_w else self._beta
+
+    def _preset_buttons(self) -> pn.Column:
+        buttons = []
+        for name, preset in PRESETS.items():
+            b = pn.widgets.Button(name=name, description=preset.description, button_type="primary",
+                                  button_style="outline", sizing_mode="stretch_width", margin=(2, 10))
+            b.on_click(lambda event, name=name: self.state.apply_preset(name))
+            buttons.append(b)
+        return pn.Column("### Presets", *buttons, sizing_mode="stretch_width")
+
+    def __panel__(self):
+        s = self.state
+        new_seed = pn.widgets.Button(name="new noise", width=110, margin=(22, 10, 5, 5))
+        new_seed.on_click(lambda event: setattr(s, "seed", (s.seed + 1) % (2**31)))
+        download = pn.widgets.FileDownload(callback=s.csv, filename="isl_run.csv", label="Download run (CSV)",
+                                           button_type="success", button_style="outline",
+                                           sizing_mode="stretch_width", margin=(10, 10))
+        spinner = pn.indicators.LoadingSpinner(value=s.param.busy, size=20, margin=(0, 10))
+        def helped(name: str, widget):
+            return with_help(widget, s.param[name].doc)
+
+        return pn.Column(
+            self._status,
+            self._preset_buttons(),
+            pn.Row(pn.pane.Markdown("### Model", margin=(0, 10)), spinner),
+            self._alpha_zero, helped("alpha", self._alpha),
+            self._from_w,
+            self._beta_widget,
+            helped("sigma", self._sigma), helped("m", self._m),
+            pn.pane.Markdown("### ISL filter and run", margin=(0, 10)),
+            helped("nu", self._nu), self._derived, helped("horizon", self._horizon),
+            pn.Row(self._seed, new_seed),
+            download,
+            sizing_mode="stretch_width",
+        )

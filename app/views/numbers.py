@@ -1,0 +1,90 @@
+"""Numbers view: the run's RMSE figures beside the theory, each labelled *measured* or *theory*.
+
+Per coordinate i: the optimal RMSE s_i = √Δ_ii (theory, A.29), the Kalman–Bucy filter's measured ratio
+ŝ_i/s_i (A.30; ≈ 1 up to sampling error on long runs), the ISL filter's measured ratio š_i/s_i and its
+statistical-linearization prediction (theory, B.48 / SPEC §6). Below: r_min (A.24), T, h, N.
+"""
+from __future__ import annotations
+
+import html
+
+import panel as pn
+import param
+from panel.viewable import Viewer
+
+from ..state import COORDINATES, AppState
+from .style import SUBSCRIPT
+
+__all__ = ["NumbersView", "numbers_html"]
+
+_CSS = """
+table.isl-numbers { border-collapse: collapse; font-size: 15px; margin: 4px 0 8px 0; }
+table.isl-numbers th, table.isl-numbers td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
+table.isl-numbers th { font-weight: 600; vertical-align: bottom; }
+table.isl-numbers td:first-child, table.isl-numbers th:first-child { text-align: left; }
+table.isl-numbers .tag { display: block; font-weight: normal; font-size: 12px; color: #666; }
+table.isl-numbers .theory { color: #555; font-style: italic; }
+table.isl-numbers.run td { text-align: left; }
+"""
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.4g}"
+
+
+def numbers_html(run, prediction, compute_seconds: float) -> str:
+    """The two tables (per-coordinate ratios; run figures) as HTML."""
+    if run is None:
+        return "<p>No run yet.</p>"
+    head = ("<tr><th>coordinate</th><th>s<sub>i</sub><span class='tag'>theory</span></th>"
+            "<th>ŝ<sub>i</sub>/s<sub>i</sub> KBF<span class='tag'>measured</span></th>"
+            "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>measured</span></th>"
+            "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>theory</span></th></tr>")
+    rows = []
+    for i in range(run.model.m):
+        k = str(i + 1).translate(SUBSCRIPT)
+        pred = "n/a" if prediction is None else _fmt(prediction[i])
+        rows.append(
+            f"<tr><td>X{k} {html.escape(COORDINATES[i])}</td><td class='theory'>{_fmt(run.s[i])}</td>"
+            f"<td>{run.ratio_hat[i]:.3f}</td><td>{run.ratio_check[i]:.3f}</td>"
+            f"<td class='theory'>{pred}</td></tr>"
+        )
+    note = ("" if prediction is not None else
+            "<p><i>Theory prediction unavailable: isl_core.theory is not installed.</i></p>")
+    facts = (
+        f"<tr><td>r<sub>min</sub> (settling rate, theory)</td><td>{_fmt(run.r_min)}</td></tr>"
+        f"<tr><td>T (simulated time)</td><td>{_fmt(run.T)} = {run.T * run.r_min:.3g} / r<sub>min</sub></td></tr>"
+        f"<tr><td>h (Euler step)</td><td>{run.h:.3g}</td></tr>"
+        f"<tr><td>N (steps)</td><td>{run.N:,}</td></tr>"
+        f"<tr><td>compute time (server)</td><td>{1000 * compute_seconds:.0f} ms</td></tr>"
+    )
+    return (f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>{note}"
+            f"<table class='isl-numbers run'>{facts}</table>")
+
+
+class NumbersView(Viewer):
+    """The numbers table of the current run."""
+
+    state = param.ClassSelector(class_=AppState)
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._pane = pn.pane.HTML(self._html(), stylesheets=[_CSS], margin=(0, 10))
+        self.state.param.watch(self._update, ["run", "prediction"])
+
+    def _html(self) -> str:
+        s = self.state
+        return numbers_html(s.run, s.prediction, s.compute_seconds)
+
+    def _update(self, *events) -> None:
+        self._pane.object = self._html()
+
+    def __panel__(self):
+        return pn.Column(
+            pn.pane.Markdown("### RMSE: measured on this run vs theory", margin=(0, 10)),
+            self._pane,
+            pn.pane.Markdown(
+                "Ratios are RMSE / s<sub>i</sub>: 1 is optimal. Measured ratios on one short run scatter by "
+                "±10 % or more; a longer horizon narrows them.", margin=(0, 10), styles={"font-size": "13px"}),
+            width=470,
+        )

@@ -1,0 +1,27 @@
+"""Colours and fonts shared by the plots (sized to stay readable on a projector)."""
+from __future__ import annotations
+
+from bokeh.plotting import figure
+
+__all__ = ["ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
+
+TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
+KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
+ISL = "#1f4fc1"  #: ISL X̌_i (blue)
+SIGMA_COLORS = ("#d95f02", "#7570b3", "#1b9e77", "#e7298a", "#66a61e")  #: one per σ of the sweep
+SIGMA_DASHES = ("dotted", "dashed", "solid", "dashdot", "dotdash")  #: paper A, Fig. 2: σ = 2, 20, 200
+SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
+
+
+def styled(fig: figure) -> figure:
+    """Large fonts, light grid, no logo."""
+    fig.title.text_font_size = "14pt"
+    fig.title.text_font_style = "bold"
+    for axis in (*fig.xaxis, *fig.yaxis):
+        axis.axis_label_text_font_size = "13pt"
+        axis.axis_label_text_font_style = "normal"
+        axis.major_label_text_font_size = "11pt"
+    fig.grid.grid_line_alpha = 0.4
+    fig.toolbar.logo = None
+    fig.min_border_left = 70
+    return fig

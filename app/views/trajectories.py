@@ -1,0 +1,106 @@
+"""Trajectories view (paper A, Fig. 3; paper B, Fig. 2): one plot per coordinate X_i, shared time axis.
+
+Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i
+(blue) and the tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are
+built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32) and the
+tube offsets (a ``Dodge`` transform of X̂_i by ±3 s_i, so the tube costs no extra data).
+"""
+from __future__ import annotations
+
+import numpy as np
+import panel as pn
+import param
+from bokeh.core.properties import field, value
+from bokeh.models import ColumnDataSource, DataRange1d, Dodge, Legend, LegendItem
+from bokeh.plotting import figure
+from panel.viewable import Viewer
+
+from isl_core import M_MAX
+
+from ..state import COORDINATES, AppState
+from .style import ISL, KBF, SUBSCRIPT, TRUTH, styled
+
+__all__ = ["TrajectoriesView", "plot_height"]
+
+LEGEND_HEIGHT = 30  #: the first plot carries the legend above its frame
+_EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
+
+
+def plot_height(m: int) -> int:
+    """Height of each of the m stacked plots (about 720 px in all, within 170…330 px each)."""
+    return int(min(max(720 // m, 170), 330))
+
+
+class TrajectoriesView(Viewer):
+    """m stacked trajectory plots; data updated in place when the state's traces change."""
+
+    state = param.ClassSelector(class_=AppState)
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._x_range = DataRange1d(range_padding=0.0)
+        self._sources: list[dict[str, ColumnDataSource]] = []
+        self._dodges: list[tuple[Dodge, Dodge]] = []
+        self._figures = [self._figure(i) for i in range(M_MAX)]
+        self._panes = [pn.pane.Bokeh(f, sizing_mode="stretch_width", margin=(0, 5)) for f in self._figures]
+        self._header = pn.pane.Markdown("", margin=(0, 10), styles={"font-size": "15px"})
+        self.state.param.watch(self._update, ["traces"])
+        self._update()
+
+    def _figure(self, i: int) -> figure:
+        k = str(i + 1).translate(SUBSCRIPT)
+        fig = styled(figure(
+            x_range=self._x_range, height=plot_height(3), sizing_mode="stretch_width",
+            title=f"X{k} — {COORDINATES[i]}", tools="xpan,xwheel_zoom,box_zoom,reset,save",
+            active_scroll=None, output_backend="canvas",
+        ))
+        fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
+        src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
+        up, down = Dodge(value=0.0), Dodge(value=0.0)
+        tube = dict(source=src["kbf"], line_color=KBF, line_dash="dashed", line_width=1.3, line_alpha=0.9)
+        tube_lines = [fig.line("t", field("y", up), **tube), fig.line("t", field("y", down), **tube)]
+        truth = fig.line("t", "y", source=src["truth"], line_color=TRUTH, line_width=1.4)
+        kbf = fig.line("t", "y", source=src["kbf"], line_color=KBF, line_width=1.8)
+        isl = fig.line("t", "y", source=src["isl"], line_color=ISL, line_width=1.8)
+        if i == 0:  # one legend, above the first plot, for all of them
+            items = [(f"X{k} signal", [truth]), (f"X̂{k} Kalman–Bucy (knows σ)", [kbf]),
+                     (f"X̌{k} ISL (σ unknown)", [isl]), (f"X̂{k} ± 3 s{k} (optimal RMSE)", tube_lines)]
+            legend = Legend(items=[LegendItem(label=value(text), renderers=r) for text, r in items],
+                            orientation="horizontal", label_text_font_size="11pt", click_policy="hide",
+                            padding=2, margin=2, spacing=14)
+            fig.add_layout(legend, "above")
+        self._sources.append(src)
+        self._dodges.append((up, down))
+        return fig
+
+    def _update(self, *events) -> None:
+        traces, run = self.state.traces, self.state.run
+        m = 0 if traces is None else len(traces.series)
+        with pn.io.hold():
+            for i, (fig, pane) in enumerate(zip(self._figures, self._panes)):
+                shown = i < m
+                if shown:
+                    for name, src in self._sources[i].items():
+                        t, y = traces.series[i][name]
+                        src.data = {"t": t, "y": y}
+                    up, down = self._dodges[i]
+                    up.value, down.value = 3.0 * float(run.s[i]), -3.0 * float(run.s[i])
+                    fig.height = plot_height(m) + (LEGEND_HEIGHT if i == 0 else 0)
+                    fig.xaxis.axis_label = "time t" if i == m - 1 else None
+                elif pane.visible:
+                    for src in self._sources[i].values():
+                        src.data = dict(_EMPTY)
+                pane.visible = shown
+            self._header.object = self._header_text()
+
+    def _header_text(self) -> str:
+        run = self.state.run
+        if run is None:
+            return "No run yet."
+        mo = run.model
+        return (f"**m = {mo.m}, α = {mo.alpha:.4g}, β = {mo.beta:.4g}, σ = {mo.sigma:.4g}, ν = {run.nu:.4g} "
+                f"(ν/β = {run.nu / mo.beta:.3g})** · seed {run.seed} · T = {run.T:.4g} "
+                f"= {run.T * run.r_min:.3g}/r_min · {run.N:,} steps")
+
+    def __panel__(self):
+        return pn.Column(self._header, *self._panes, sizing_mode="stretch_width")

@@ -1,0 +1,280 @@
+"""The dashboard state (app.state): presets, one new run per change, refused inputs, background jobs.
+
+Headless: no server, no browser. Jobs run inline unless a test gives the state thread pools.
+"""
+import math
+import queue
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from app import state as state_module
+from app import sweeps
+from app.jobs import Jobs
+from app.presets import PRESETS
+from app.state import APP_MAX_STEPS, INPUTS, AppState
+from isl_core import DivergenceError, Model, kalman_bucy
+
+
+@pytest.fixture
+def state():
+    s = AppState()
+    s.start()
+    return s
+
+
+def test_starts_at_paper_a_fig3(state):
+    run = state.run
+    assert run.model == Model(0.5, 3.0, 20.0, 3) and run.nu == 3.0
+    assert math.isclose(run.T * run.r_min, 10.0, rel_tol=1e-12)
+    assert state.message == ""
+
+
+@pytest.mark.parametrize("sigma", [20.0, 200.0])
+def test_fig3_presets(state, sigma):
+    state.apply_preset(f"Fig. 3, σ = {sigma:g}")
+    run = state.run
+    # paper A, Fig. 3: m = 3, α = 0.5, w = 3 → β = w√(2α) = 3, ν = β, T = 10/r_min (SPEC §5)
+    assert run.model == Model.from_w(0.5, 3.0, sigma, 3) and run.model.beta == 3.0
+    assert run.nu == 3.0 and math.isclose(run.T * run.r_min, 10.0, rel_tol=1e-12)
+
+
+@pytest.mark.parametrize("sigma, sqrt_q11", [(5.0, 6.49), (50.0, 44.2)])
+def test_paper_b_presets(state, sigma, sqrt_q11):
+    state.apply_preset(f"Paper B, Fig. 2 (α = 0, σ = {sigma:g})")
+    run = state.run
+    assert run.model == Model(0.0, 3.0, sigma, 3) and run.nu == 3.0  # (B.25–B.26): ν = β
+    # the tube half-width's s_1 = √Q_11 is printed in paper B to 3 digits (SPEC §7)
+    assert round(float(run.s[0]), 2 if sigma == 5.0 else 1) == sqrt_q11
+
+
+def test_white_noise_preset_has_the_b52_theory(state):
+    state.apply_preset("White-noise model m = 1")
+    assert state.run.model.m == 1 and state.run.model.alpha == 0.0 and state.run.nu == state.run.model.beta
+    if state.prediction is not None:  # theory module installed
+        assert state.prediction[0] == pytest.approx((math.pi / 2) ** 0.25, rel=1e-10)  # (B.52)
+
+
+def test_unknown_preset_is_a_message(state):
+    run = state.run
+    state.apply_preset("no such preset")
+    assert "Unknown preset" in state.message and state.run is run
+
+
+CHANGES = {
+    "alpha": 1.0, "beta_from_w": False, "w": 2.0, "beta": 5.0, "sigma": 50.0, "nu": 1.5, "m": 2, "seed": 7,
+    "horizon": 20.0,
+}
+
+
+def _expected(s: AppState):
+    beta = s.w * math.sqrt(2 * s.alpha) if s.beta_from_w else s.beta
+    return Model(s.alpha, beta, s.sigma, s.m), s.nu, s.seed, s.horizon
+
+
+@pytest.mark.parametrize("name", INPUTS)
+def test_every_change_gives_a_new_run(state, name):
+    if name == "beta":
+        state.beta_from_w = False
+    before = state.run
+    setattr(state, name, CHANGES[name])
+    run = state.run
+    assert run is not before
+    model, nu, seed, horizon = _expected(state)
+    assert run.model == model and run.nu == nu and run.seed == seed
+    assert math.isclose(run.T * run.r_min, horizon, rel_tol=1e-12)
+    assert state.traces is not None and len(state.traces.series) == model.m
+
+
+BAD = [float("nan"), float("inf"), -float("inf"), -1.0, 1e308, "x", None, True, [1.0], 1 + 2j]
+
+
+@pytest.mark.parametrize("name", [n for n in INPUTS if n != "beta_from_w"])
+@pytest.mark.parametrize("bad", BAD, ids=repr)
+def test_bad_values_are_refused_with_a_message(state, name, bad):
+    run, value = state.run, getattr(state, name)
+    setattr(state, name, bad)
+    assert state.run is run and getattr(state, name) == value
+    assert state.message_kind == "danger"
+    assert name in state.message and "must be" in state.message  # names the input and its range
+
+
+@pytest.mark.parametrize("bad", ["true", 1, None, float("nan")], ids=repr)
+def test_bad_switch_values_are_refused(state, bad):
+    run = state.run
+    state.param.update(beta_from_w=bad)
+    assert state.run is run and state.beta_from_w is True and "beta_from_w" in state.message
+
+
+def test_scripted_batch_update_keeps_the_good_values(state):
+    state.param.update(sigma=float("nan"), nu=1.5)
+    assert "sigma" in state.message
+    assert state.sigma == 20.0 and state.run.nu == 1.5  # the good value of the batch is applied
+
+
+def test_a_good_change_clears_the_message(state):
+    state.sigma = "x"
+    assert state.message
+    state.sigma = 30.0
+    assert state.message == "" and state.run.model.sigma == 30.0
+
+
+def test_too_many_steps_is_a_message_and_keeps_the_run(state):
+    state.param.update(alpha=25.0, sigma=200.0)  # h is tiny here: 1000/r_min needs millions of steps
+    run = state.run
+    state.horizon = 1000.0
+    assert state.run is run and "steps" in state.message and f"{APP_MAX_STEPS:,}" in state.message
+    assert state.horizon == 1000.0  # the input is valid; the run it asks for is not
+
+
+def test_core_divergence_is_a_message(state, monkeypatch):
+    def diverge(*args, **kwargs):
+        raise DivergenceError("filter ISL diverged at t = 1")
+
+    monkeypatch.setattr(state_module, "simulate", diverge)
+    run = state.run
+    state.seed = 99
+    assert state.run is run and "diverged" in state.message and state.message_kind == "danger"
+
+
+def test_alpha_zero_in_w_mode_switches_to_beta(state):
+    state.alpha = 0.0
+    assert state.beta_from_w is False and state.beta == 3.0  # β of the last run, now set directly
+    assert state.run.model == Model(0.0, 3.0, 20.0, 3)
+
+
+def test_sweep_sigmas_are_validated_and_sorted(state):
+    state.sweep_sigmas = [200, 2.0, 20]
+    assert state.sweep_sigmas == [2.0, 20.0, 200.0]
+    for bad in (["a"], [], [1.0] * 6, "2, 20", [0.0], [float("nan")]):
+        state.sweep_sigmas = bad
+        assert state.sweep_sigmas == [2.0, 20.0, 200.0] and "sweep_sigmas" in state.message
+
+
+def test_csv_holds_the_run(state):
+    text = state.csv().getvalue()
+    lines = text.splitlines()
+    assert lines[0].startswith("# isl run: alpha=0.5 beta=3 sigma=20 m=3 nu=3 seed=1")
+    data = np.loadtxt(lines, delimiter=",", comments="#")
+    run = state.run
+    assert data.shape == (run.N + 1, 1 + 3 * 3)
+    expected = np.column_stack([run.t, run.X, run.X_hat, run.X_check])
+    assert np.allclose(data, expected, rtol=1e-8, atol=1e-12 * np.abs(expected).max())
+
+
+def test_traces_are_small_and_real_samples(state):
+    state.horizon = 1000.0  # Fig. 3 defaults: about 10⁵ steps
+    run, traces = state.run, state.traces
+    assert run.N > 10 * 2400
+    for i, series in enumerate(traces.series):
+        t, y = series["isl"]
+        assert len(t) <= 2400 and t.dtype == np.float32
+        k = np.clip(np.rint(t.astype(float) / run.h).astype(int), 0, run.N)
+        tol = np.finfo(np.float32).eps * run.T  # float32 copies of the run's grid times
+        assert np.max(np.abs(run.t[k] - t)) <= tol and np.all(np.abs(run.t[k] - t) < run.h / 2)
+        assert y.max() == np.float32(run.X_check[:, i].max())  # the envelope survives
+
+
+def test_theory_curves_follow_the_context(state):
+    if state.curves is None:
+        pytest.skip(f"no theory curves: {state.curves_note}")
+    assert state.curves.ratios.shape == (3, 81, 3)
+    state.m = 2
+    assert state.curves.m == 2 and state.curves.ratios.shape == (3, 81, 2)
+    kb = kalman_bucy(Model(0.5, 3.0, 20.0, 2))
+    assert kb.r_min > 0  # the context change did not disturb the run
+
+
+class _Loop:
+    """A stand-in for the session's event loop: worker threads enqueue, the test thread runs."""
+
+    def __init__(self):
+        self.q = queue.Queue()
+
+    def schedule(self, fn):
+        self.q.put(fn)
+
+    def pump(self, until, timeout=60.0):
+        while not until():
+            self.q.get(timeout=timeout)()
+
+
+def test_threaded_runs_coalesce_to_the_latest_request():
+    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=2)
+    gate, computed = threading.Event(), []
+    real = state_module.compute
+
+    def gated(req):
+        gate.wait(30)
+        computed.append(req.sigma)
+        return real(req)
+
+    try:
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule))
+        s.start()
+        state_module.compute = gated
+        for sigma in (21.0, 22.0, 23.0, 24.0):
+            s.sigma = sigma
+        assert s.busy
+        gate.set()
+        loop.pump(lambda: not s.busy)
+        assert computed == [21.0, 24.0]  # the first (in flight) and the latest; 22 and 23 never ran
+        assert s.run.model.sigma == 24.0
+    finally:
+        state_module.compute = real
+        pool.shutdown(wait=True)
+
+
+def test_threaded_sweep_can_be_cancelled():
+    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=2)
+    try:
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool, "sweep": pool}, schedule=loop.schedule))
+        s.start()
+        s.param.update(sweep_horizon=2000.0, alpha=25.0)  # long enough to be caught running
+        s.simulate_sweep()
+        assert s.sweep_busy
+        s.cancel_sweep()
+        loop.pump(lambda: not s.sweep_busy)
+        assert s.sweep_note == "Cancelled." and s.points is None
+    finally:
+        pool.shutdown(wait=True)
+
+
+def test_inline_sweep_gives_points_with_intervals(state):
+    state.param.update(sweep_sigmas=[20.0], sweep_horizon=50.0)
+    state.simulate_sweep()
+    pts = state.points
+    assert pts is not None and pts.ratio.shape == (1, 11, 3) and np.all(pts.half_width > 0)
+    assert pts.sigmas == (20.0,) and "Simulated" in state.sweep_note
+    state.alpha = 1.0  # another context: the points are stale and dropped
+    assert state.points is None
+
+
+def test_close_drops_the_run(state):
+    state.close()
+    assert state.run is None and state.traces is None
+
+
+def test_every_preset_is_valid(state):
+    for name in PRESETS:
+        state.apply_preset(name)
+        assert state.message in ("",) or state.message_kind == "info", (name, state.message)
+
+
+def test_recommendation_sets_nu(state):
+    if sweeps.sweep_module() is None:
+        pytest.skip("isl_core.sweep is not installed")
+    state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
+    state.recommend()
+    assert state.sweep_note.startswith("Recommended ν"), state.sweep_note
+    rec = sweeps.sweep_module().recommend_nu(0.5, sigmas=[2.0, 200.0], m=3, w=3.0, verify=False)
+    assert state.nu == pytest.approx(rec.nu, rel=1e-12)  # the core's answer, not a copy of table (A.31)
+
+
+def test_recommendation_needs_alpha_positive(state):
+    state.alpha = 0.0
+    nu = state.nu
+    state.recommend()
+    assert "alpha > 0" in state.sweep_note and state.nu == nu
