@@ -23,10 +23,23 @@ from .model import M_MAX, Model
 from .sweep import FIG2_SIGMAS, sweep
 from .theory import mismatched_kbf_ratios, predicted_ratios_grid
 
-__all__ = ["Recommendation", "recommend_nu", "worst_case_theory", "best_fixed_kbf"]
+__all__ = ["Recommendation", "WorstCase", "best_fixed_kbf", "recommend_nu", "worst_case_theory"]
 
 LOG2_RANGE = (-12.0, 4.0)  #: search interval of log₂(ν/β)
 GRID_STEP = 1.0 / 16.0  #: spacing of the coarse search grid in log₂(ν/β)
+
+
+@dataclass(frozen=True)
+class WorstCase:
+    """Worst case over σ and i of one ν/β: predicted, and simulated with its interval (nan if not simulated)."""
+
+    nu_over_beta: float
+    theory: float
+    simulated: float
+    low: float
+    high: float
+    sigma: float
+    i: int
 
 
 @dataclass(frozen=True)
@@ -36,7 +49,8 @@ class Recommendation:
     ``theory_worst`` predicted (SPEC §6); ``simulated_worst`` measured with interval
     ``[simulated_low, simulated_high]`` (the max over σ, i of each bound), nan if not verified;
     ``worst_sigma``, ``worst_i`` where the simulated (else predicted) worst case sits;
-    ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case.
+    ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case;
+    ``compared``: the worst cases of the ``compare`` values of ν/β, simulated on the same noise.
     """
 
     alpha: float
@@ -54,6 +68,7 @@ class Recommendation:
     worst_i: int
     kbf_worst: float
     kbf_sigma_design: float
+    compared: tuple[WorstCase, ...] = ()
 
 
 def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0) -> np.ndarray:
@@ -94,6 +109,7 @@ def recommend_nu(
     m: int = 3,
     w: float = 3.0,
     verify: bool = True,
+    compare: Sequence[float] = (),
     horizon: float = 1000.0,
     seeds: Sequence[int] = (0, 1),
     batches: int = 10,
@@ -103,8 +119,10 @@ def recommend_nu(
 ) -> Recommendation:
     """The ν minimising the predicted worst-case ratio over ``sigmas`` and coordinates, verified by simulation.
 
-    β = w√(2α) (A.25). ``verify=False`` skips the simulation (simulated fields nan). ``horizon`` (in 1/r_min),
-    ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to :func:`isl_core.sweep`.
+    β = w√(2α) (A.25). ``verify=False`` skips the simulation (simulated fields nan). ``compare``: other values
+    of ν/β (e.g. a published table) whose worst cases are computed alongside, on the same noise.
+    ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to
+    :func:`isl_core.sweep`.
     """
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     sig = [check_real("sigmas", s, lo=0.0, lo_open=True) for s in np.atleast_1d(np.asarray(sigmas, dtype=object))]
@@ -112,20 +130,34 @@ def recommend_nu(
         raise ValueError("sigmas must be a non-empty sequence of numbers > 0, got ()")
     m = check_int("m", m, lo=1, hi=M_MAX)
     w = check_real("w", w, lo=0.0, lo_open=True)
+    compare = [check_real("compare", x, lo=0.0, lo_open=True) for x in compare]
     beta = w * math.sqrt(2.0 * alpha)
     ell = _search(alpha, sig, m, w)
     nob = 2.0**ell
-    theory = float(worst_case_theory(alpha, nob, sigmas=sig, m=m, w=w))
     kbf_worst, kbf_design = best_fixed_kbf(alpha, sigmas=sig, m=m, w=w)
-    sim = low = high = math.nan
+    cases = _worst_cases([nob, *compare], alpha, sig, m, w, verify, dict(
+        horizon=horizon, seeds=seeds, batches=batches, level=level, executor=executor, progress=progress))
+    c = cases[0]
+    return Recommendation(alpha, beta, m, w, tuple(sig), beta * nob, nob, c.theory, c.simulated, c.low, c.high,
+                          c.sigma, c.i, kbf_worst, kbf_design, tuple(cases[1:]))
+
+
+def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> list[WorstCase]:
+    """Worst case over σ, i of every ν/β in ``nobs`` — simulated in one sweep (same noise) when ``verify``."""
+    cases = []
     if verify:
-        res = sweep([alpha], sig, [nob], m=m, w=w, horizon=horizon, seeds=seeds, batches=batches, level=level,
-                    executor=executor, progress=progress)
-        ratio = res.ratio[0, :, 0]  # (nσ, m)
-        b, i = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
-        sim, low, high = float(ratio[b, i]), float(res.ratio_low[0, :, 0].max()), float(res.ratio_high[0, :, 0].max())
-    else:
-        ratios = np.array([predicted_ratios_grid(Model.from_w(alpha, w, s, m), [beta * nob])[0] for s in sig])
-        b, i = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
-    return Recommendation(alpha, beta, m, w, tuple(sig), beta * nob, nob, theory, sim, low, high,
-                          float(sig[b]), int(i) + 1, kbf_worst, kbf_design)
+        res = sweep([alpha], sigmas, nobs, m=m, w=w, **kw)
+    for n, nob in enumerate(nobs):
+        theory = float(worst_case_theory(alpha, nob, sigmas=sigmas, m=m, w=w))
+        if verify:
+            ratio = res.ratio[0, :, n]  # (nσ, m)
+            b, i = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
+            sim = float(ratio[b, i])
+            low, high = float(res.ratio_low[0, :, n].max()), float(res.ratio_high[0, :, n].max())
+        else:
+            ratio = np.array([predicted_ratios_grid(Model.from_w(alpha, w, s, m), [nob * w * math.sqrt(2 * alpha)])[0]
+                              for s in sigmas])
+            b, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+            sim = low = high = math.nan
+        cases.append(WorstCase(float(nob), theory, sim, low, high, float(sigmas[b]), int(i) + 1))
+    return cases

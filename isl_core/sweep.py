@@ -328,3 +328,13 @@ def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s,
         _freeze(ratio[:, :, 0]), _freeze(low[:, :, 0]), _freeze(high[:, :, 0]),
         _freeze(theory), _freeze(s), _freeze(r_min), _freeze(h), _frozen_int(steps),
     )
+
+
+def __getattr__(name: str):
+    """``isl_core.sweep.recommend_nu`` / ``Recommendation``: the recommendation lives in :mod:`isl_core.recommend`
+    (it is built on :func:`sweep`); resolved lazily to keep the import graph acyclic."""
+    if name in ("recommend_nu", "Recommendation"):
+        from . import recommend
+
+        return getattr(recommend, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

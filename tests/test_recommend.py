@@ -7,31 +7,25 @@ import numpy as np
 import pytest
 
 from isl_core.recommend import recommend_nu, worst_case_theory
-from isl_core.sweep import FIG2_SIGMAS, sweep
+from isl_core.sweep import FIG2_SIGMAS
 
 #: Paper A, table (A.31): ν/β read off Fig. 2 by eye — used here only as the comparison point.
 PAPER_A31 = {0.04: 1.0, 0.2: 0.7, 1.0: 0.2, 5.0: 0.03, 25.0: 0.01}
 
 
-def _worst(res, n):
-    """Simulated worst case over σ and i of column ``n`` and the half-width of its interval there."""
-    ratio = res.ratio[0, :, n]
-    b, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-    return ratio[b, i], (res.ratio_high[0, b, n, i] - res.ratio_low[0, b, n, i]) / 2
-
-
 @pytest.mark.parametrize("alpha", [0.04, 0.2, 1.0, 5.0, pytest.param(25.0, marks=pytest.mark.slow)])
 def test_recommendation_no_worse_than_paper_table(alpha):
-    """Both ν simulated on the same noise (seeds unused by the search), σ ∈ {2, 20, 200}, m = 3, w = 3.
+    """Both ν simulated on the same noise, worst case over σ ∈ {2, 20, 200} and i, m = 3, w = 3.
 
     The recommended ν's worst-case ratio may exceed the table's only by the two 95 % half-widths.
     """
-    rec = recommend_nu(alpha, sigmas=FIG2_SIGMAS, m=3, w=3.0, verify=False)
-    res = sweep([alpha], FIG2_SIGMAS, [rec.nu_over_beta, PAPER_A31[alpha]], m=3, w=3.0, horizon=300.0,
-                seeds=(21, 22), batches=8)
-    ours, half_ours = _worst(res, 0)
-    paper, half_paper = _worst(res, 1)
-    assert ours <= paper + half_ours + half_paper, (alpha, ours, paper)
+    rec = recommend_nu(alpha, sigmas=FIG2_SIGMAS, m=3, w=3.0, compare=[PAPER_A31[alpha]], horizon=300.0,
+                       seeds=(21, 22), batches=8)
+    (paper,) = rec.compared
+    assert paper.nu_over_beta == PAPER_A31[alpha]
+    tol = (rec.simulated_high - rec.simulated_low) / 2 + (paper.high - paper.low) / 2
+    assert rec.simulated_worst <= paper.simulated + tol, (alpha, rec.simulated_worst, paper.simulated)
+    assert rec.theory_worst <= paper.theory
 
 
 @pytest.mark.parametrize("alpha", [0.04, 1.0, 25.0])

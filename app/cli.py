@@ -1,0 +1,353 @@
+"""The ``isl`` command line: one run, paper A's Fig. 2 sweep and Fig. 3 picture, ν recommendations, the server.
+
+    isl run [--alpha A] [--beta B | --w W] [--sigma S] [--m M] [--nu NU] [--seed K] [--horizon H] [--json]
+    isl sweep [--alphas ...] [--sigmas ...] [--ell-min L --ell-max L] [--horizon H] [--seeds ...] [--out DIR]
+    isl figure3 [--sigmas 20 200] [--alpha A] [--w W] [--nu NU] [--seed K] [--out DIR]
+    isl recommend [--alphas ...] [--sigmas ...] [--horizon H] [--seeds ...] [--no-verify] [--json]
+    isl serve [options of app.serve]
+
+Bad arguments end with exit code 2 and one line on stderr; a diverged filter with exit code 1.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["main", "PAPER_A31"]
+
+#: Paper A, table (A.31): recommended ν/β per α, read off its Fig. 2 — shown only as a comparison column.
+PAPER_A31 = {0.04: 1.0, 0.2: 0.7, 1.0: 0.2, 5.0: 0.03, 25.0: 0.01}
+
+
+class UsageError(Exception):
+    """Bad command-line arguments: reported in one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # argparse would print the usage and exit; we want one line and a code
+        raise UsageError(f"{self.prog}: error: {message}")
+
+
+def _positive(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return x
+
+
+def _nonneg(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(x) and x >= 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return x
+
+
+def _seed(text: str) -> int:
+    try:
+        k = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if k < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return k
+
+
+def _progress_bar(label: str, enabled: bool):
+    """A text progress bar on stderr (callback for :func:`isl_core.sweep`); None when disabled."""
+    if not enabled:
+        return None
+    start = time.perf_counter()
+    state = {"shown": -1}
+
+    def update(fraction: float) -> None:
+        pct = int(100 * min(max(fraction, 0.0), 1.0))
+        if pct == state["shown"]:
+            return
+        state["shown"] = pct
+        bar = "#" * (pct // 4) + "." * (25 - pct // 4)
+        end = "\n" if pct == 100 else ""
+        sys.stderr.write(f"\r{label} [{bar}] {pct:3d}% {time.perf_counter() - start:6.1f} s{end}")
+        sys.stderr.flush()
+
+    return update
+
+
+def _client(address: str | None):
+    if address is None:
+        return None
+    try:
+        from distributed import Client
+    except ModuleNotFoundError:
+        raise UsageError("isl sweep: error: --dask needs the optional extra: pip install 'isl[dask]'") from None
+    return Client(address)
+
+
+def _model(args):
+    from isl_core import Model
+
+    if args.beta is not None:
+        return Model(args.alpha, args.beta, args.sigma, args.m)
+    if args.alpha == 0:
+        raise UsageError("isl run: error: alpha = 0 needs --beta (w = β/√(2α) is undefined)")
+    return Model.from_w(args.alpha, args.w, args.sigma, args.m)
+
+
+def cmd_run(args) -> int:
+    """One trajectory: s (theory), ŝ and š (measured), ratios and the predicted ratio, r_min, h, T."""
+    from isl_core import kalman_bucy, predicted_ratios, simulate
+
+    model = _model(args)
+    nu = model.beta if args.nu is None else args.nu
+    kb = kalman_bucy(model)
+    run = simulate(model, nu, T=args.horizon / kb.r_min, seed=args.seed)
+    theory = predicted_ratios(model, nu)
+    out = {
+        "model": {"alpha": model.alpha, "beta": model.beta, "sigma": model.sigma, "m": model.m},
+        "nu": nu, "seed": args.seed, "s": run.s.tolist(), "s_hat": run.s_hat.tolist(),
+        "s_check": run.s_check.tolist(), "ratio_hat": run.ratio_hat.tolist(), "ratio_check": run.ratio_check.tolist(),
+        "theory_ratio_check": theory.tolist(), "r_min": run.r_min, "h": run.h, "T": run.T, "N": run.N,
+    }
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    print(f"alpha = {model.alpha:g}, beta = {model.beta:.4g}, sigma = {model.sigma:g}, m = {model.m}, nu = {nu:.4g}, "
+          f"seed = {args.seed}")
+    print(f"r_min = {run.r_min:.4g}, T = {run.T:.4g} ({args.horizon:g}/r_min), h = {run.h:.3g}, N = {run.N:,}")
+    print(f"{'i':>2} {'s_i (theory)':>13} {'ŝ_i (KBF)':>11} {'š_i (ISL)':>11} {'ŝ/s':>7} {'š/s':>7} {'š/s theory':>11}")
+    for i in range(model.m):
+        print(f"{i + 1:>2} {run.s[i]:13.4g} {run.s_hat[i]:11.4g} {run.s_check[i]:11.4g} {run.ratio_hat[i]:7.3f} "
+              f"{run.ratio_check[i]:7.3f} {theory[i]:11.3f}")
+    print("ŝ, š measured along this one trajectory (A.30); a short run gives noisy ratios — raise --horizon.")
+    return 0
+
+
+def _nan_to_none(obj):
+    """JSON has no nan/inf: map them to null, recursively."""
+    if isinstance(obj, dict):
+        return {k: _nan_to_none(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_nan_to_none(v) for v in obj]
+    return None if isinstance(obj, float) and not math.isfinite(obj) else obj
+
+
+def cmd_sweep(args) -> int:
+    """Paper A's Fig. 2 grid by default; writes fig2.csv, fig2.json, fig2.html, fig2.png into --out."""
+    from isl_core import sweep
+
+    from .static_figures import fig2_html, fig2_png
+
+    if args.ell_min > args.ell_max:
+        raise UsageError("isl sweep: error: --ell-min must be <= --ell-max")
+    nob = [2.0**ell for ell in range(args.ell_min, args.ell_max + 1)]
+    client = _client(args.dask)
+    try:
+        res = sweep(args.alphas, args.sigmas, nob, m=args.m, w=args.w, horizon=args.horizon, seeds=args.seeds,
+                    batches=args.batches, executor=client, workers=args.workers,
+                    progress=_progress_bar("sweep", not args.quiet))
+    finally:
+        if client is not None:
+            client.close()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = _nan_to_none(res.records())
+    with open(out / "fig2.csv", "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "seeds": list(res.seeds),
+            "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(), "sigmas": res.sigmas.tolist(),
+            "nu_over_beta": res.nu_over_beta.tolist()}
+    (out / "fig2.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1, allow_nan=False), "utf-8")
+    written = [out / "fig2.csv", out / "fig2.json", fig2_html(res, out / "fig2.html")]
+    if not args.no_png:
+        written.append(fig2_png(res, out / "fig2.png"))
+    kbf = res.kbf_ratio
+    print(f"{res.ratio.size:,} ratios over {len(res.alphas)}×{len(res.sigmas)}×{len(nob)} configurations; "
+          f"Kalman–Bucy's own ratio spans {kbf.min():.3f}..{kbf.max():.3f} (should be ≈ 1)")
+    for p in written:
+        print(f"wrote {p}")
+    return 0
+
+
+def cmd_figure3(args) -> int:
+    """Paper A's Fig. 3 (one trajectory per σ) as fig3.html and fig3.png in --out."""
+    from isl_core import Model, kalman_bucy, simulate
+
+    from .static_figures import fig3_html, fig3_png
+
+    runs = []
+    for sigma in args.sigmas:
+        model = Model.from_w(args.alpha, args.w, sigma, args.m)
+        nu = model.beta if args.nu is None else args.nu
+        runs.append(simulate(model, nu, T=args.horizon / kalman_bucy(model).r_min, seed=args.seed))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [fig3_html(runs, out / "fig3.html")]
+    if not args.no_png:
+        written.append(fig3_png(runs, out / "fig3.png"))
+    for run in runs:
+        print(f"sigma = {run.model.sigma:g}: ratio_hat = {_fmt(run.ratio_hat)}, ratio_check = {_fmt(run.ratio_check)}")
+    for p in written:
+        print(f"wrote {p}")
+    return 0
+
+
+def _fmt(values) -> str:
+    return "[" + ", ".join(f"{v:.3f}" for v in values) + "]"
+
+
+def cmd_recommend(args) -> int:
+    """Recommended ν per α (min over ν of the worst case over σ and i), beside paper A's table (A.31)."""
+    from isl_core import recommend_nu
+
+    table = args.m == 3 and args.w == 3.0
+    recs = []
+    progress = _progress_bar("verify", not args.quiet and not args.no_verify and not args.json)
+    for k, alpha in enumerate(args.alphas):
+        paper = PAPER_A31.get(alpha) if table else None
+        sub = None if progress is None else (lambda f, k=k: progress((k + f) / len(args.alphas)))
+        recs.append(recommend_nu(alpha, sigmas=args.sigmas, m=args.m, w=args.w, verify=not args.no_verify,
+                                 compare=[] if paper is None else [paper], horizon=args.horizon, seeds=args.seeds,
+                                 batches=args.batches, progress=sub))
+    if args.json:
+        rows = []
+        for r in recs:
+            row = {k: v for k, v in vars(r).items() if k != "compared"}
+            row["sigmas"] = list(r.sigmas)
+            row["paper_a31"] = [vars(c) for c in r.compared]
+            rows.append(row)
+        print(json.dumps(_nan_to_none(rows), indent=2, allow_nan=False))
+        return 0
+    how = "predicted (theory) only" if args.no_verify else "simulated with a 95 % interval"
+    print(f"worst case over sigma in {list(args.sigmas)} and i = 1..{args.m} (m = {args.m}, w = {args.w:g}); {how}")
+    print(f"{'alpha':>6} {'nu/beta':>8} {'nu':>8} {'theory':>7} {'simulated':>22} {'at (σ, i)':>11} "
+          f"{'best fixed KBF':>15} | {'paper (A.31)':>12} {'theory':>7} {'simulated':>9}")
+    for r in recs:
+        sim = "—" if math.isnan(r.simulated_worst) else \
+            f"{r.simulated_worst:.3f} [{r.simulated_low:.3f}, {r.simulated_high:.3f}]"
+        line = (f"{r.alpha:6g} {r.nu_over_beta:8.4f} {r.nu:8.4f} {r.theory_worst:7.3f} {sim:>22} "
+                f"{f'({r.worst_sigma:g}, {r.worst_i})':>11} {r.kbf_worst:15.3f} | ")
+        if r.compared:
+            c = r.compared[0]
+            csim = "—" if math.isnan(c.simulated) else f"{c.simulated:.3f}"
+            line += f"{c.nu_over_beta:12g} {c.theory:7.3f} {csim:>9}"
+        else:
+            line += f"{'—':>12}"
+        print(line)
+    print("best fixed KBF: a Kalman–Bucy filter designed for one sigma, its worst case over the range (theory).")
+    return 0
+
+
+def _build() -> _Parser:
+    from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
+
+    top = _Parser(prog="isl", description="Kalman–Bucy vs the ISL filter: simulations, paper A's figures, "
+                  "recommended nu.")
+    sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    def common(p, *, horizon: float):
+        p.add_argument("--m", type=int, default=3, help="state dimension 1..6 (default 3)")
+        p.add_argument("--w", type=_positive, default=3.0, help="stationary std of X_m: β = w√(2α) (default 3)")
+        p.add_argument("--horizon", type=_positive, default=horizon, help=f"in units of 1/r_min (default {horizon:g})")
+
+    p = sub.add_parser("run", help="one trajectory: s, measured RMSEs and ratios, r_min, h, T")
+    p.add_argument("--alpha", type=_nonneg, default=0.5, help="OU rate α >= 0 (default 0.5)")
+    p.add_argument("--beta", type=_positive, default=None, help="β (default w√(2α); required when α = 0)")
+    p.add_argument("--sigma", type=_positive, default=20.0, help="observation noise σ (default 20)")
+    p.add_argument("--nu", type=_positive, default=None, help="ISL tuning ν (default β)")
+    p.add_argument("--seed", type=_seed, default=0)
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    common(p, horizon=10.0)
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("sweep", help="paper A's Fig. 2 grid: CSV, JSON, HTML and PNG")
+    p.add_argument("--alphas", type=_positive, nargs="+", default=list(FIG2_ALPHAS))
+    p.add_argument("--sigmas", type=_positive, nargs="+", default=list(FIG2_SIGMAS))
+    p.add_argument("--ell-min", type=int, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
+    p.add_argument("--ell-max", type=int, default=2, help="largest ℓ (default 2)")
+    p.add_argument("--seeds", type=_seed, nargs="+", default=[0, 1])
+    p.add_argument("--batches", type=int, default=10, help="batches per seed for the intervals (default 10)")
+    p.add_argument("--workers", type=int, default=None, help="local threads (default: CPU count)")
+    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
+    p.add_argument("--out", default="isl-fig2", help="output directory (default ./isl-fig2)")
+    p.add_argument("--no-png", action="store_true", help="skip the PNG")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    common(p, horizon=1000.0)
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("figure3", help="paper A's Fig. 3 as HTML and PNG")
+    p.add_argument("--sigmas", type=_positive, nargs="+", default=[20.0, 200.0])
+    p.add_argument("--alpha", type=_positive, default=0.5)
+    p.add_argument("--nu", type=_positive, default=None, help="ISL tuning ν (default β)")
+    p.add_argument("--seed", type=_seed, default=0)
+    p.add_argument("--out", default="isl-fig3", help="output directory (default ./isl-fig3)")
+    p.add_argument("--no-png", action="store_true", help="skip the PNG")
+    common(p, horizon=10.0)
+    p.set_defaults(func=cmd_figure3)
+
+    p = sub.add_parser("recommend", help="recommended ν per α beside paper A's table (A.31)")
+    p.add_argument("--alphas", type=_positive, nargs="+", default=list(FIG2_ALPHAS))
+    p.add_argument("--sigmas", type=_positive, nargs="+", default=list(FIG2_SIGMAS))
+    p.add_argument("--seeds", type=_seed, nargs="+", default=[0, 1])
+    p.add_argument("--batches", type=int, default=10)
+    p.add_argument("--no-verify", action="store_true", help="theory only, no simulation")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    common(p, horizon=1000.0)
+    p.set_defaults(func=cmd_recommend)
+
+    sub.add_parser("serve", help="serve the dashboard (options: isl serve --help)", add_help=False)
+    return top
+
+
+def _serve(argv: list[str]) -> int:
+    try:
+        serve = importlib.import_module("app.serve")
+    except ModuleNotFoundError as exc:
+        if exc.name not in ("app.serve", "app"):
+            raise
+        print("isl serve: the dashboard server (app.serve) is not installed in this checkout", file=sys.stderr)
+        return 2
+    return int(serve.main(argv) or 0)
+
+
+def _fail(message: str, code: int) -> int:
+    print(" ".join(message.split()), file=sys.stderr)  # exactly one line
+    return code
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``isl`` console script; returns the exit code."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] == "serve":
+        return _serve(argv[1:])
+    try:
+        args = _build().parse_args(argv)
+        return args.func(args)
+    except SystemExit as exc:  # --help / --version
+        return exc.code if isinstance(exc.code, int) else 0
+    except UsageError as exc:
+        return _fail(str(exc), 2)
+    except ValueError as exc:  # the core's boundary checks name the parameter and its range
+        return _fail(f"isl: error: {exc}", 2)
+    except ArithmeticError as exc:  # isl_core.DivergenceError
+        return _fail(f"isl: {exc}", 1)
+    except KeyboardInterrupt:
+        print("isl: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,112 @@
+"""Smoke tests of the ``isl`` command line (small horizons): outputs exist and parse; bad input → exit 2, one line."""
+from __future__ import annotations
+
+import csv
+import json
+import sys
+import tomllib
+import types
+from pathlib import Path
+
+import pytest
+
+from app.cli import PAPER_A31, main
+
+ROOT = Path(__file__).resolve().parents[1]
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _json(capsys) -> object:
+    return json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+
+
+def test_console_script_is_declared():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))
+    assert meta["project"]["scripts"]["isl"] == "app.cli:main"
+
+
+def test_run_table_and_json(capsys):
+    assert main(["run", "--sigma", "20", "--horizon", "3", "--seed", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "r_min" in out and "š/s theory" in out and len(out.strip().splitlines()) == 3 + 3 + 1
+    assert main(["run", "--alpha", "0", "--beta", "3", "--sigma", "5", "--m", "2", "--horizon", "3", "--json"]) == 0
+    res = _json(capsys)
+    assert res["model"] == {"alpha": 0.0, "beta": 3.0, "sigma": 5.0, "m": 2} and res["nu"] == 3.0
+    assert len(res["s"]) == len(res["ratio_check"]) == len(res["theory_ratio_check"]) == 2
+    assert res["T"] == pytest.approx(3.0 / res["r_min"]) and res["N"] * res["h"] == pytest.approx(res["T"])
+    assert res["ratio_check"][0] == pytest.approx(res["s_check"][0] / res["s"][0])
+
+
+def test_sweep_writes_csv_json_html_png(tmp_path, capsys):
+    out = tmp_path / "fig2"
+    argv = ["sweep", "--alphas", "1", "--sigmas", "2", "20", "--ell-min", "-2", "--ell-max", "0", "--horizon", "20",
+            "--seeds", "1", "--batches", "4", "--out", str(out)]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert "wrote" in captured.out and "100%" in captured.err  # the progress bar went to stderr
+    with open(out / "fig2.csv", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1 * 2 * 3 * 3
+    assert {float(r["nu_over_beta"]) for r in rows} == {0.25, 0.5, 1.0}
+    data = json.loads((out / "fig2.json").read_text("utf-8"))
+    assert data["meta"]["seeds"] == [1] and len(data["rows"]) == len(rows)
+    assert (out / "fig2.png").read_bytes()[:8] == PNG_MAGIC
+    html = (out / "fig2.html").read_text("utf-8")
+    assert "<html" in html.lower() and "Bokeh" in html
+
+
+def test_figure3_writes_html_and_png(tmp_path, capsys):
+    assert main(["figure3", "--horizon", "2", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "sigma = 20" in out and "sigma = 200" in out
+    assert (tmp_path / "fig3.png").read_bytes()[:8] == PNG_MAGIC
+    assert "Bokeh" in (tmp_path / "fig3.html").read_text("utf-8")
+
+
+def test_recommend_table_beside_paper(capsys):
+    assert main(["recommend", "--alphas", "1", "5", "--no-verify"]) == 0
+    out = capsys.readouterr().out
+    assert "paper (A.31)" in out and "predicted (theory) only" in out
+    assert main(["recommend", "--alphas", "1", "--horizon", "20", "--seeds", "4", "--batches", "4", "--json"]) == 0
+    (row,) = _json(capsys)
+    assert row["alpha"] == 1.0 and row["nu"] == pytest.approx(row["beta"] * row["nu_over_beta"])
+    assert row["simulated_low"] <= row["simulated_worst"] <= row["simulated_high"]
+    (paper,) = row["paper_a31"]
+    assert paper["nu_over_beta"] == PAPER_A31[1.0] and paper["simulated"] is not None
+
+
+def test_recommend_other_model_has_no_paper_column(capsys):
+    assert main(["recommend", "--alphas", "1", "--w", "2", "--no-verify", "--json"]) == 0
+    (row,) = _json(capsys)
+    assert row["paper_a31"] == [] and row["w"] == 2.0
+
+
+@pytest.mark.parametrize("argv", [
+    [], ["bogus"], ["run", "--sigma", "-1"], ["run", "--sigma", "nan"], ["run", "--m", "9"], ["run", "--alpha", "0"],
+    ["run", "--seed", "-1"], ["run", "--nu", "abc"], ["run", "--horizon", "1e12"], ["figure3", "--sigmas"],
+    ["sweep", "--ell-min", "3", "--ell-max", "1"], ["sweep", "--batches", "0", "--alphas", "1", "--horizon", "5"],
+    ["recommend", "--alphas", "x"], ["recommend", "--m", "0", "--no-verify"],
+])
+def test_bad_arguments_exit_2_with_one_line(argv, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a rejected command writes nothing
+    assert main(argv) == 2
+    assert list(tmp_path.iterdir()) == []
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("isl") and "Traceback" not in captured.err
+    assert captured.out == ""
+
+
+def test_help_exits_0(capsys):
+    assert main(["--help"]) == 0
+    assert "recommend" in capsys.readouterr().out
+
+
+def test_serve_delegates_or_explains(monkeypatch, capsys):
+    seen = []
+    fake = types.SimpleNamespace(main=lambda argv: seen.append(argv) or 0)
+    monkeypatch.setitem(sys.modules, "app.serve", fake)
+    assert main(["serve", "--port", "0"]) == 0 and seen == [["--port", "0"]]
+    monkeypatch.setitem(sys.modules, "app.serve", None)  # as if the module were absent
+    assert main(["serve"]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
