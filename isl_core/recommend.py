@@ -16,7 +16,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ._validate import check_int, check_real
 from .model import M_MAX, Model
@@ -83,6 +82,8 @@ def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int 
 
 def _search(alpha: float, sigmas, m: int, w: float) -> float:
     """log₂(ν*/β) minimising the predicted worst case: grid, then bounded Brent around the grid's best."""
+    from scipy.optimize import minimize_scalar  # lazy: scipy.optimize is slow to import
+
     grid = np.arange(LOG2_RANGE[0], LOG2_RANGE[1] + GRID_STEP / 2, GRID_STEP)
     worst = worst_case_theory(alpha, 2.0**grid, sigmas=sigmas, m=m, w=w)
     k = int(np.argmin(worst))

@@ -29,7 +29,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import t as student_t
 
 from ._validate import check_int, check_real
 from .filters import FilterSpec, isl_filter, optimal_kbf
@@ -58,6 +57,8 @@ def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: flo
     ``sq`` (n_b, ..., m) squared-error sums per batch, ``counts`` (n_b,) steps per batch, ``s`` (m,).
     Returns ``(ratio, low, high)`` with the shape of ``sq[0]``.
     """
+    from scipy.stats import t as student_t  # lazy: scipy.stats costs ~1 s to import
+
     counts = np.asarray(counts, dtype=float).reshape((-1,) + (1,) * (sq.ndim - 1))
     y = sq / counts
     pooled = sq.sum(axis=0) / counts.sum()

@@ -19,7 +19,7 @@ from isl_core.theory import (
 
 EPS = np.finfo(float).eps
 BATCHES = 20
-LEVEL = 0.999  # two-sided confidence level of the batch-means intervals
+LEVEL = 0.95  # two-sided confidence level of the batch-means intervals
 
 
 def test_b52_white_noise_m1():
