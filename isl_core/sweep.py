@@ -220,13 +220,24 @@ class _Progress:
         self.cancelled = threading.Event()
 
     def update(self, key, fraction: float) -> None:
-        if self.cancelled.is_set():
-            raise RuntimeError("sweep cancelled")
         with self.lock:
+            if self.cancelled.is_set():
+                raise RuntimeError("sweep cancelled")
             self.done[key] = fraction
             overall = sum(self.weights[k] * f for k, f in self.done.items()) / self.total
             if self.callback is not None:
-                self.callback(overall)
+                try:
+                    self.callback(overall)
+                except BaseException:
+                    self.cancelled.set()  # no further report reaches the callback
+                    raise
+
+
+def _stop(prog: _Progress, futures) -> None:
+    """Cancel queued groups; running ones raise at their next progress report (≤ one kernel chunk)."""
+    prog.cancelled.set()
+    for f in futures:
+        f.cancel()
 
 
 def _local(tasks, workers, prog: _Progress):
@@ -236,12 +247,15 @@ def _local(tasks, workers, prog: _Progress):
     with cf.ThreadPoolExecutor(max_workers=workers) as pool:
         futures = [pool.submit(job, t) for t in tasks]
         try:
-            return [f.result() for f in futures]
-        except BaseException:
-            prog.cancelled.set()
-            for f in futures:
-                f.cancel()
+            cf.wait(futures, return_when=cf.FIRST_EXCEPTION)
+        except BaseException:  # e.g. KeyboardInterrupt while waiting
+            _stop(prog, futures)
             raise
+        failed = [f for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
+        if failed:
+            _stop(prog, futures)
+            raise failed[0].exception()
+        return [f.result() for f in futures]
 
 
 def _remote(tasks, executor, chunk, prog: _Progress):
@@ -290,7 +304,8 @@ def sweep(
     ``executor``: None (a local pool of ``workers`` threads, default the CPU count), a
     ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; work goes out in chunks of ``chunk``
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
-    completes; an exception raised from it cancels the sweep and propagates.
+    completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
+    propagates.
     """
     alphas = _check_list("alphas", alphas, lo=0.0)
     sigmas = _check_list("sigmas", sigmas, lo=0.0)

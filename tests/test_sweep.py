@@ -108,11 +108,16 @@ def test_progress_is_monotone_and_cancels():
     class Stop(Exception):
         pass
 
+    calls = []
+
     def stop(fraction):
+        calls.append(fraction)
         raise Stop
 
+    # 4 groups of ~10⁷ steps (~80 kernel chunks each): the first report cancels all of them at once
     with pytest.raises(Stop):
-        sweep([1.0], [20.0], [1.0], **SMALL, progress=stop)
+        sweep([25.0], [200.0], [1.0], horizon=400.0, seeds=(0, 1, 2, 3), workers=2, progress=stop)
+    assert len(calls) == 1
 
 
 def test_diverged_filter_is_nan_and_others_unchanged():
