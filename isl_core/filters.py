@@ -46,7 +46,8 @@ def optimal_kbf(model: Model, kb: KalmanBucy) -> FilterSpec:
 
 def isl_filter(model: Model, nu: float) -> FilterSpec:
     """Paper A's ISL filter (A.16–A.18): power-law φ tuned by ν, propagation with A0."""
-    return FilterSpec("isl", f"ISL (ν = {nu:.4g})", 0.0, isl_gains(model.m, nu), True)
+    coef = isl_gains(model.m, nu)  # validates nu
+    return FilterSpec("isl", f"ISL (ν = {float(nu):.4g})", 0.0, coef, True)
 
 
 def linearized_matrix(model: Model, spec: FilterSpec) -> np.ndarray:

@@ -51,7 +51,12 @@ class Model:
     @classmethod
     def from_w(cls, alpha: float, w: float, sigma: float, m: int = 3) -> "Model":
         """Paper A's parametrization (A.25): stationary std ``w`` of X_m, so ``β = w·√(2α)``; needs α > 0."""
-        a = check_real("alpha", alpha, lo=0.0, lo_open=True)
+        a = check_real("alpha", alpha, lo=0.0)
+        if a == 0.0:
+            raise ValueError(
+                "alpha must be a finite number > 0 in the parametrization β = w·√(2α) (A.25), got 0; "
+                "build the α = 0 model as Model(0, beta, sigma, m)"
+            )
         w = check_real("w", w, lo=0.0, lo_open=True)
         return cls(a, w * math.sqrt(2.0 * a), sigma, m)
 
