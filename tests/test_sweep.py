@@ -26,7 +26,8 @@ def local():
 
 
 def _arrays(res):
-    return {f.name: getattr(res, f.name) for f in dataclasses.fields(res) if isinstance(getattr(res, f.name), np.ndarray)}
+    fields = {f.name: getattr(res, f.name) for f in dataclasses.fields(res)}
+    return {name: v for name, v in fields.items() if isinstance(v, np.ndarray)}
 
 
 def _assert_identical(a, b):
