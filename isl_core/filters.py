@@ -20,7 +20,7 @@ from .model import Model
 from .nonlinearity import isl_exponents, isl_gains, linearization
 from .riccati import KalmanBucy
 
-__all__ = ["FilterSpec", "optimal_kbf", "isl_filter", "linearized_matrix"]
+__all__ = ["FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf"]
 
 
 @dataclass(frozen=True)

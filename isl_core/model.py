@@ -18,7 +18,7 @@ import numpy as np
 
 from ._validate import check_int, check_real
 
-__all__ = ["Model", "M_MAX", "shift_matrix"]
+__all__ = ["M_MAX", "Model", "shift_matrix"]
 
 #: Largest state dimension supported (the UI and the kernels are sized for it).
 M_MAX = 6
@@ -49,7 +49,7 @@ class Model:
         object.__setattr__(self, "m", check_int("m", self.m, lo=1, hi=M_MAX))
 
     @classmethod
-    def from_w(cls, alpha: float, w: float, sigma: float, m: int = 3) -> "Model":
+    def from_w(cls, alpha: float, w: float, sigma: float, m: int = 3) -> Model:
         """Paper A's parametrization (A.25): stationary std ``w`` of X_m, so ``β = w·√(2α)``; needs α > 0."""
         a = check_real("alpha", alpha, lo=0.0)
         if a == 0.0:

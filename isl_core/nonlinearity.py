@@ -20,7 +20,7 @@ from ._validate import check_int, check_real
 from .model import M_MAX
 from .riccati import G_matrix
 
-__all__ = ["gamma_abs", "isl_exponents", "isl_gains", "phi", "linearization"]
+__all__ = ["gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi"]
 
 
 def gamma_abs(p: float) -> float:

@@ -22,15 +22,15 @@ Symbols: ``delta`` = Δ, ``K`` gain (m,), ``eig`` eigenvalues of ``A − K C``, 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from ._validate import check_int, check_real
+from ._validate import check_int
 from .model import M_MAX, Model, shift_matrix
 
-__all__ = ["G_matrix", "KalmanBucy", "kalman_bucy", "kalman_bucy_alpha0", "care_residual"]
+__all__ = ["G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0"]
 
 
 def _normalized_care(m: int, a: float) -> np.ndarray:
@@ -45,7 +45,7 @@ def _normalized_care(m: int, a: float) -> np.ndarray:
     return 0.5 * (d + d.T)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _G(m: int) -> np.ndarray:
     g = _normalized_care(m, 0.0)  # (A.10)
     g.flags.writeable = False

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -24,8 +24,18 @@ from .model import Model
 from .riccati import KalmanBucy, kalman_bucy
 
 __all__ = [
-    "H_RATE", "MAX_STORED_STEPS", "MAX_STEPS", "DivergenceError", "Track", "Run", "RmseResult",
-    "step_size", "simulate", "simulate_rmse", "draw_noise", "initial_state",
+    "H_RATE",
+    "MAX_STEPS",
+    "MAX_STORED_STEPS",
+    "DivergenceError",
+    "RmseResult",
+    "Run",
+    "Track",
+    "draw_noise",
+    "initial_state",
+    "simulate",
+    "simulate_rmse",
+    "step_size",
 ]
 
 H_RATE = 0.02  #: h × (fastest rate): the SPEC's margin
@@ -116,15 +126,20 @@ def initial_state(model: Model, rng: np.random.Generator) -> np.ndarray:
 
 
 def _grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int) -> tuple[float, float, int]:
+    """``(T, h, N)`` with ``N·h = T``: defaults ``T = 10/r_min`` and ``h`` by :func:`step_size` (at most T)."""
     T = 10.0 / kb.r_min if T is None else check_real("T", T, lo=0.0, lo_open=True)
-    h = step_size(model, kb, filters) if h is None else check_real("h", h, lo=0.0, lo_open=True)
-    if h > T:
-        raise ValueError(f"h must be <= T = {T:g}, got {h:g}")
-    n = math.ceil(T / h - 1e-9)
-    if n > cap:
+    if h is None:
+        h = min(step_size(model, kb, filters), T)
+    else:
+        h = check_real("h", h, lo=0.0, lo_open=True)
+        if h > T:
+            raise ValueError(f"h must be a finite number > 0 and <= T = {T:g}, got {h:g}")
+    steps = T / h  # may overflow to inf for extreme T/h: compared before any integer conversion
+    if not steps <= cap:
         raise ValueError(
-            f"T/h = {T:g}/{h:.4g} needs {n:,} steps, over the limit of {cap:,}; shorten T or enlarge h"
+            f"T/h = {T:g}/{h:.4g} needs {steps:,.0f} steps, over the limit of {cap:,}; shorten T or enlarge h"
         )
+    n = max(1, math.ceil(steps - 1e-9))
     return T, T / n, n
 
 
@@ -154,26 +169,46 @@ def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store, pro
         done = advance(x, z, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, power,
                        k, burn, batch_len, sq, X_out, Z_out, store)
         if done < todo:
-            bad = [f.label for f, row in zip(filters, z) if not np.all(np.isfinite(row))]
-            t_bad = (k + done) * h
-            raise DivergenceError(
-                f"filter {', '.join(bad)} diverged at t = {t_bad:.4g} (step {k + done:,} of {n:,}, h = {h:.3g}); "
-                "a smaller step h or a different nu keeps it finite"
-            )
+            raise _divergence(model, filters, x, z, k + done, n, h)
         k += done
         if progress is not None:
             progress(k / n)
     return sq
 
 
+def _divergence(model: Model, filters, x, z, k: int, n: int, h: float) -> DivergenceError:
+    """The error for a run that left the finite numbers at step ``k``: who diverged, when, and why."""
+    bad = [f"filter {f.label}" for f, row in zip(filters, z) if not np.all(np.isfinite(row))]
+    if not np.all(np.isfinite(x)):
+        bad.insert(0, "the simulated truth")
+    hint = "a smaller step h or a different nu keeps it finite"
+    if h * model.alpha >= 2.0:
+        hint = f"h·alpha = {h * model.alpha:.3g} >= 2 makes the Euler scheme unstable (B.47); use a smaller h"
+    return DivergenceError(
+        f"{' and '.join(bad) or 'the run'} diverged at t = {k * h:.4g} (step {k:,} of {n:,}, h = {h:.3g}); {hint}"
+    )
+
+
 def _check_filters(model: Model, nu, extra) -> list[FilterSpec]:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     nu = check_real("nu", nu, lo=0.0, lo_open=True)
-    for spec in extra:
-        if not isinstance(spec, FilterSpec) or len(spec.coef) != model.m:
-            raise ValueError(f"extra filters must be FilterSpec objects of size m = {model.m}, got {spec!r}")
+    extra = _check_specs("extra", model, extra, allow_empty=True)
     return [isl_filter(model, nu), *extra]
+
+
+def _check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[FilterSpec]:
+    """``specs`` as a list of :class:`FilterSpec` of the model's size, or a ``ValueError`` naming ``name``."""
+    what = f"{name} must be a {'' if allow_empty else 'non-empty '}sequence of FilterSpec of size m = {model.m}"
+    if isinstance(specs, (FilterSpec, str, bytes)) or not hasattr(specs, "__iter__"):
+        raise ValueError(f"{what}, got {specs!r}")
+    specs = list(specs)
+    if not (specs or allow_empty):
+        raise ValueError(f"{what}, got an empty sequence")
+    for spec in specs:
+        if not isinstance(spec, FilterSpec) or np.shape(spec.coef) != (model.m,):
+            raise ValueError(f"{what}, got {spec!r}")
+    return specs
 
 
 def simulate(
@@ -206,7 +241,9 @@ def simulate(
     for f, spec in enumerate(filters):
         rmse = np.sqrt(sq[0, f] / n)  # (A.30)
         tracks.append(Track(spec.name, spec.label, _freeze(Z[f]), _freeze(rmse), _freeze(rmse / s)))
-    t = _freeze(np.arange(n + 1) * h)
+    t = np.arange(n + 1, dtype=np.float64)
+    t *= h
+    t = _freeze(t)
     return Run(model, float(nu), seed, t, _freeze(X), tuple(tracks), s, kb.r_min, h, T)
 
 
@@ -253,14 +290,14 @@ def simulate_rmse(
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
-    filters = list(filters)
-    if not filters or not all(isinstance(f, FilterSpec) and len(f.coef) == model.m for f in filters):
-        raise ValueError(f"filters must be a non-empty sequence of FilterSpec of size m = {model.m}")
+    filters = _check_specs("filters", model, filters, allow_empty=False)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be a callable or None, got {progress!r}")
     seed = check_int("seed", seed, lo=0)
     batches = check_int("batches", batches, lo=1, hi=10_000)
     kb = kalman_bucy(model)
     T, h, n = _grid(model, kb, filters, T, h, MAX_STEPS)
-    burn_steps = min(int(check_real("burn", burn, lo=0.0) / h), n - batches)
+    burn_steps = min(int(check_real("burn", burn, lo=0.0, hi=T) / h), n - batches)
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
     dummy_x, dummy_z = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))

@@ -57,7 +57,7 @@ def test_from_w_rejects_alpha_zero_with_a_clear_message():
 @pytest.mark.parametrize("name", ["alpha", "beta", "sigma"])
 @pytest.mark.parametrize("value", BAD_REAL + [-1.0, -1e-300])
 def test_bad_real_parameters_raise_naming_them(name, value):
-    kwargs = dict(alpha=0.5, beta=3.0, sigma=20.0, m=3)
+    kwargs = {"alpha": 0.5, "beta": 3.0, "sigma": 20.0, "m": 3}
     kwargs[name] = value
     with pytest.raises(ValueError, match=rf"^{name} must be a finite number >=? 0"):
         Model(**kwargs)
@@ -65,7 +65,7 @@ def test_bad_real_parameters_raise_naming_them(name, value):
 
 @pytest.mark.parametrize("name", ["beta", "sigma"])
 def test_beta_and_sigma_must_be_positive(name):
-    kwargs = dict(alpha=0.5, beta=3.0, sigma=20.0, m=3)
+    kwargs = {"alpha": 0.5, "beta": 3.0, "sigma": 20.0, "m": 3}
     kwargs[name] = 0.0
     with pytest.raises(ValueError, match=rf"^{name} must be a finite number > 0, got 0.0"):
         Model(**kwargs)
@@ -84,7 +84,7 @@ def test_bad_m_raises_naming_it(m):
 @pytest.mark.parametrize("name, value", [("alpha", math.nan), ("alpha", -1.0), ("w", 0.0), ("w", math.inf),
                                          ("w", "3"), ("sigma", None), ("m", 7)])
 def test_from_w_bad_inputs_name_the_parameter(name, value):
-    kwargs = dict(alpha=0.5, w=3.0, sigma=20.0, m=3)
+    kwargs = {"alpha": 0.5, "w": 3.0, "sigma": 20.0, "m": 3}
     kwargs[name] = value
     with pytest.raises(ValueError, match=rf"^{name} must be"):
         Model.from_w(**kwargs)

@@ -82,10 +82,10 @@ def test_linearization_closed_forms_against_quadrature(m, sigma):
     c, q = isl_gains(m, 1.7), isl_exponents(m)
     L, Phi = linearization(c, q, sigma)
     for i in range(m):
-        li = gauss_expectation(lambda x: phi(x, c, q)[i] * x, sigma)  # (B.40)
+        li = gauss_expectation(lambda x, i=i: phi(x, c, q)[i] * x, sigma)  # (B.40)
         assert L[i] == pytest.approx(li, rel=10 * QUAD_TOL)
         for j in range(i, m):
-            pij = gauss_expectation(lambda x: phi(x, c, q)[i] * phi(x, c, q)[j], sigma)  # (B.43)
+            pij = gauss_expectation(lambda x, i=i, j=j: phi(x, c, q)[i] * phi(x, c, q)[j], sigma)  # (B.43)
             assert Phi[i, j] == pytest.approx(pij, rel=10 * QUAD_TOL)
             assert Phi[j, i] == Phi[i, j]
 

@@ -1,0 +1,139 @@
+"""The compiled kernel against the plain-numpy reference (same noise), its cube root, batching and chunking."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, optimal_kbf, simulate
+from isl_core.kernels import _root, advance, fast_cbrt
+from isl_core.reference import reference_trajectories
+from isl_core.simulate import _pack, initial_state
+import itertools
+
+EPS = np.finfo(float).eps
+AGREE = 1e-10  # kernel vs reference, relative to the size of each trajectory (rounding only: ~1e-15 seen)
+
+
+def ulps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.abs(a - b) / np.spacing(np.abs(b))
+
+
+def exact_root(a: np.ndarray, m: int) -> np.ndarray:
+    """``a^{1/m}`` in extended precision (x87 long double: 64-bit mantissa), rounded to float64."""
+    return (a.astype(np.longdouble) ** (np.longdouble(1) / np.longdouble(m))).astype(np.float64)
+
+
+# the division-free cube root: y ≈ a^{-1/3} to ~3 ulp after two series steps, r = a·y² doubles that and
+# adds two roundings
+ROOT_ULPS = 8
+
+
+def test_fast_cbrt_within_a_few_ulp():
+    rng = np.random.default_rng(0)
+    a = np.concatenate([np.exp(rng.uniform(-690.0, 690.0, 20_000)), rng.uniform(0.0, 10.0, 20_000),
+                        [1.0, 8.0, 27.0, 1e-299, 9.9e299, 2.0**-1022, 0.125]])
+    a = a[a > 0]
+    got = np.array([fast_cbrt(x) for x in a])
+    assert ulps(got, exact_root(a, 3)).max() <= ROOT_ULPS
+    assert ulps(got, np.cbrt(a)).max() <= ROOT_ULPS + 1
+
+
+@pytest.mark.parametrize("a", [1e-310, 5e-324, 1e300, 1.7e308])
+def test_fast_cbrt_edges(a):
+    assert ulps(np.array(fast_cbrt(a)), np.cbrt(a)) <= 2  # left to the compiled libm route
+
+
+@pytest.mark.parametrize("a, expected", [(0.0, 0.0), (math.inf, math.inf), (8.0, 2.0), (0.125, 0.5)])
+def test_fast_cbrt_special_values(a, expected):
+    assert fast_cbrt(a) == pytest.approx(expected, rel=ROOT_ULPS * EPS)
+
+
+def test_fast_cbrt_nan():
+    assert math.isnan(fast_cbrt(math.nan))
+
+
+@pytest.mark.parametrize("m", range(1, 7))
+def test_root_is_the_mth_root(m):
+    a = np.exp(np.random.default_rng(m).uniform(-50.0, 50.0, 2000))
+    got = np.array([_root(x, m) for x in a])
+    assert ulps(got, exact_root(a, m)).max() <= ROOT_ULPS
+
+
+def model_aware_isl(model: Model, nu: float) -> FilterSpec:
+    """An ISL filter propagating with the true A (damp = α), to exercise the damped power-law branch."""
+    return FilterSpec("aware", "ISL with A", model.alpha, isl_gains(model.m, nu), True)
+
+
+@pytest.mark.parametrize(
+    "alpha, beta, sigma, m",
+    [(0.0, 3.0, 5.0, 3), (0.5, 3.0, 20.0, 3), (0.0, 1.0, 1.0, 1), (2.0, 1.0, 0.3, 1), (0.0, 2.0, 0.5, 2),
+     (1.0, 0.5, 3.0, 2), (0.3, 2.0, 7.0, 4), (0.0, 0.1, 20.0, 5), (25.0, 21.2, 2.0, 5), (0.0, 2.0, 0.5, 6),
+     (4.0, 30.0, 300.0, 6)],
+)
+def test_kernel_matches_numpy_reference(alpha, beta, sigma, m):
+    model = Model(alpha, beta, sigma, m)
+    kb = kalman_bucy(model)
+    nu = 0.7 * beta
+    extra = (model_aware_isl(model, nu), FilterSpec("kbf0", "KBF with A0", 0.0, np.array(kb.K), False))
+    run = simulate(model, nu, T=15.0 / kb.r_min, seed=11, extra=extra)
+    n = min(run.N, 1500)
+    specs = [optimal_kbf(model, kb), isl_filter(model, nu), *extra]
+    X, Z = reference_trajectories(model, specs, h=run.h, n=n, seed=11)
+    assert np.max(np.abs(run.X[: n + 1] - X)) <= AGREE * np.max(np.abs(X))
+    for f, track in enumerate(run.tracks):
+        assert track.name == specs[f].name
+        assert np.max(np.abs(track.estimate[: n + 1] - Z[f])) <= AGREE * np.max(np.abs(Z[f]))
+
+
+def _fresh(model, specs, seed):
+    rng = np.random.default_rng(seed)
+    return rng, initial_state(model, rng), np.zeros((len(specs), model.m))
+
+
+def test_chunked_calls_batches_and_burn_match_stored_errors():
+    model = Model(0.5, 3.0, 20.0, 3)
+    kb = kalman_bucy(model)
+    specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
+    damp, coef, power = _pack(model, specs)
+    h, n, burn, nb = 0.01, 1000, 137, 7
+    batch_len = (n - burn) // nb
+    args = (h, model.alpha, model.beta, model.sigma, damp, coef, power)
+    # one call, trajectories stored
+    rng, x, z = _fresh(model, specs, 5)
+    X = np.empty((n + 1, 3))
+    Z = np.empty((2, n + 1, 3))
+    X[0], Z[:, 0] = x, 0.0
+    sq_one = np.zeros((nb, 2, 3))
+    assert advance(x, z, rng, n, *args, 0, burn, batch_len, sq_one, X, Z, True) == n
+    # the same run in uneven chunks, nothing stored
+    rng, x, z = _fresh(model, specs, 5)
+    sq = np.zeros((nb, 2, 3))
+    k = 0
+    for todo in (1, 136, 1, 250, 123, 489):
+        assert advance(x, z, rng, todo, *args, k, burn, batch_len, sq, X[:1], Z[:, :1], False) == todo
+        k += todo
+    assert k == n
+    np.testing.assert_array_equal(x, X[n])
+    np.testing.assert_array_equal(z, Z[:, n])
+    np.testing.assert_array_equal(sq, sq_one)
+    # batch b holds steps burn + b·L + 1 … burn + (b+1)·L, the last batch the remainder (A.30 by parts)
+    err2 = (Z[:, 1:] - X[None, 1:]) ** 2  # (nf, n, m), row k−1 ↔ step k
+    edges = [burn + b * batch_len for b in range(nb)] + [n]
+    expected = np.stack([err2[:, lo:hi].sum(axis=1) for lo, hi in itertools.pairwise(edges)])
+    np.testing.assert_allclose(sq, expected, rtol=n * EPS)
+
+
+def test_kernel_stops_at_the_first_non_finite_step():
+    model = Model(0.5, 3.0, 20.0, 3)
+    kb = kalman_bucy(model)
+    specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
+    damp, coef, power = _pack(model, specs)
+    rng, x, z = _fresh(model, specs, 1)
+    sq = np.zeros((1, 2, 3))
+    dummy_x, dummy_z = np.empty((1, 3)), np.empty((2, 1, 3))
+    done = advance(x, z, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, damp, coef, power,
+                   0, 0, 100_000, sq, dummy_x, dummy_z, False)
+    assert 0 < done < 100_000
+    assert not (np.all(np.isfinite(z)) and np.all(np.isfinite(x)))
