@@ -5,15 +5,16 @@ truth would make ΔY/h the step average of X_1 and bias every Euler filter by �
 
 Step size (B.47): every closed-loop rate must satisfy ``h·|λ| ≪ 1``. We take the fastest rate in play,
 ``max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` with Λ_f the linearized matrix of each filter (B.46), and set
-``h = H_RATE / rate`` (H_RATE = 0.02); then ``N = ⌈T/h⌉`` and h is shrunk to ``T/N`` so that t_N = T.
+``h = H_RATE / rate`` (H_RATE = 0.02, and at most T); then ``N = ⌈T/h⌉`` and h is shrunk to ``T/N`` so that
+t_N = T. N is capped (MAX_STORED_STEPS with trajectories, MAX_STEPS without): beyond, a ``ValueError`` says so.
 
 Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,13 +40,13 @@ __all__ = [
 ]
 
 H_RATE = 0.02  #: h × (fastest rate): the SPEC's margin
-MAX_STORED_STEPS = 4_000_000  #: cap on N when trajectories are kept (memory ≈ 24·m·(filters+1)·N bytes)
+MAX_STORED_STEPS = 4_000_000  #: cap on N when trajectories are kept (memory 8·(m·(filters + 1) + 1)·N bytes)
 MAX_STEPS = 200_000_000  #: cap on N when only squared errors are accumulated
 CHUNK = 1 << 17  #: steps per kernel call (progress reports and cancellation happen between calls)
 
 
 class DivergenceError(ArithmeticError):
-    """A filter left the finite numbers; the message says which and when."""
+    """A filter (or the simulated truth) left the finite numbers; the message says which, when, and a likely fix."""
 
 
 def _freeze(a: np.ndarray) -> np.ndarray:
