@@ -209,6 +209,10 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches):
     return tasks, s, r_min, h, steps, theory
 
 
+class _Cancelled(RuntimeError):
+    """Raised in the other groups once one group failed or the progress callback raised."""
+
+
 class _Progress:
     """Thread-safe aggregation of per-group fractions into one overall fraction; also the cancel switch."""
 
@@ -222,7 +226,7 @@ class _Progress:
     def update(self, key, fraction: float) -> None:
         with self.lock:
             if self.cancelled.is_set():
-                raise RuntimeError("sweep cancelled")
+                raise _Cancelled("sweep cancelled")
             self.done[key] = fraction
             overall = sum(self.weights[k] * f for k, f in self.done.items()) / self.total
             if self.callback is not None:
@@ -251,10 +255,10 @@ def _local(tasks, workers, prog: _Progress):
         except BaseException:  # e.g. KeyboardInterrupt while waiting
             _stop(prog, futures)
             raise
-        failed = [f for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
+        failed = [f.exception() for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
         if failed:
-            _stop(prog, futures)
-            raise failed[0].exception()
+            _stop(prog, futures)  # report the cause, not the cancellations it triggered in other groups
+            raise next((e for e in failed if not isinstance(e, _Cancelled)), failed[0])
         return [f.result() for f in futures]
 
 
