@@ -161,7 +161,7 @@ class AppState(param.Parameterized):
     traces = param.ClassSelector(class_=Traces, default=None, allow_None=True, precedence=-1)
     prediction = param.Array(default=None, allow_None=True, precedence=-1, doc="Predicted š_i/s_i of `run`.")
     compute_seconds = param.Number(0.0, precedence=-1, doc="Wall time of the latest run's computation.")
-    busy = param.Boolean(False, precedence=-1, doc="A run is being computed.")
+    busy = param.Boolean(False, precedence=-1, doc="A large run (not followed live) is being computed.")
     message = param.String("", precedence=-1, doc="What the user should know: a refused input, an error.")
     message_kind = param.Selector(objects=["info", "warning", "danger"], default="info", precedence=-1)
     curves = param.ClassSelector(class_=sweeps.SweepCurves, default=None, allow_None=True, precedence=-1)
@@ -237,6 +237,11 @@ class AppState(param.Parameterized):
         """Whether the current run is small enough to follow a slider while it is dragged."""
         return self.run is None or self.run.N <= LIVE_MAX_STEPS
 
+    @property
+    def computing(self) -> bool:
+        """A run is in flight (whatever its size)."""
+        return self._jobs.busy("run")
+
     def request(self) -> Request:
         return Request(self.alpha, self.beta_effective, self.sigma, self.nu, self.m, self.seed, self.horizon)
 
@@ -261,7 +266,7 @@ class AppState(param.Parameterized):
         if self.alpha == 0.0 and self.beta_from_w:
             self._switch_to_beta()  # its own assignments come back here with a valid model
             return
-        self.busy = True
+        self.busy = not self.live  # a small run is back before a spinner could be seen
         self._jobs.submit("run", partial(compute, self.request()), partial(self._apply_run, self._serial))
 
     def _apply_run(self, serial: int, outcome: Outcome, superseded: bool) -> None:
@@ -375,5 +380,6 @@ class AppState(param.Parameterized):
         """End of the session: stop the sweep, drop pending work and the large arrays."""
         self._cancel.set()
         self._jobs.close()
-        self.param.update(run=None, traces=None, points=None, curves=None)
+        with param.parameterized.discard_events(self):  # the views are going away: no redraw
+            self.param.update(run=None, traces=None, prediction=None, points=None, curves=None)
 

@@ -217,9 +217,9 @@ def test_threaded_runs_coalesce_to_the_latest_request():
         state_module.compute = gated
         for sigma in (21.0, 22.0, 23.0, 24.0):
             s.sigma = sigma
-        assert s.busy
+        assert s.computing
         gate.set()
-        loop.pump(lambda: not s.busy)
+        loop.pump(lambda: not s.computing)
         assert computed == [21.0, 24.0]  # the first (in flight) and the latest; 22 and 23 never ran
         assert s.run.model.sigma == 24.0
     finally:

@@ -39,18 +39,28 @@ class _Binding:
         state.param.watch(self._from_state, [name])
         self._from_state()
 
-    def _from_widget(self, event) -> None:
-        if self._quiet or (event.name == "value" and "value_throttled" in self.widget.param
-                           and not self.state.live):
+    def _from_widget(self, *events) -> None:
+        """Small runs follow ``value`` (while dragging); large ones only ``value_throttled`` (on release).
+
+        Only one of the two is used at a time: the throttled value lags behind the live one, and applying
+        both would step the state back to an older position.
+        """
+        if self._quiet:
             return
-        value = self._to_state(event.new)
-        if value is not None:
-            setattr(self.state, self.name, value)
+        want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
+        for event in events:
+            if event.name == want:
+                value = self._to_state(event.new)
+                if value is not None:
+                    setattr(self.state, self.name, value)
 
     def _from_state(self, *events) -> None:
+        value = self._to_widget(getattr(self.state, self.name))
+        if value is None or value == self.widget.value:
+            return  # the widget already shows it: sending it back would fight a slider being dragged
         self._quiet = True
         try:
-            self.widget.value = self._to_widget(getattr(self.state, self.name))
+            self.widget.value = value
         finally:
             self._quiet = False
 
@@ -62,8 +72,9 @@ def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float 
     widget = pn.widgets.FloatSlider(name=p.label, start=a, end=b, step=step,
                                     format=CustomJSTickFormatter(code=_LOG_FORMAT), sizing_mode="stretch_width")
 
-    def to_widget(x: float) -> float:
-        return min(max(math.log10(x), a), b) if x > 0 else a
+    def to_widget(x: float) -> float | None:
+        v = min(max(math.log10(x), a), b) if x > 0 else a
+        return None if abs(v - widget.value) <= step / 2 else v
 
     def to_state(v: float) -> float | None:
         current = getattr(state, name)
@@ -124,16 +135,13 @@ class ControlsView(Viewer):
         self._alpha.disabled = zero
 
     # ---- reactive text -----------------------------------------------------------------------------
-    @param.depends("state.alpha", "state.beta_from_w", "state.w", "state.beta", "state.nu", "state.run")
+    @param.depends("state.alpha", "state.beta_from_w", "state.w", "state.beta", "state.nu")
     def _derived_text(self) -> str:
         s = self.state
         beta = s.beta_effective
         if beta <= 0.0:
             return "β = w√(2α) = 0: untick **β from w** or raise α."
-        run = s.run
-        settle = "" if run is None else f" · r_min = {run.r_min:.3g} (theory)"
-        return (f"β = **{beta:.4g}** · ν/β = **{s.nu / beta:.3g}** "
-                f"(ℓ = log₂ ν/β = {math.log2(s.nu / beta):.2f}){settle}")
+        return f"β = **{beta:.4g}** · ν/β = **{s.nu / beta:.3g}** (ℓ = log₂ ν/β = {math.log2(s.nu / beta):.2f})"
 
     @param.depends("state.message")
     def _status_text(self) -> str:

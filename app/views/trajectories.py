@@ -11,7 +11,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import field, value
-from bokeh.models import ColumnDataSource, DataRange1d, Dodge, Legend, LegendItem
+from bokeh.models import ColumnDataSource, Dodge, Legend, LegendItem, Range1d, Title
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -22,13 +22,28 @@ from .style import ISL, KBF, SUBSCRIPT, TRUTH, styled
 
 __all__ = ["TrajectoriesView", "plot_height"]
 
-LEGEND_HEIGHT = 30  #: the first plot carries the legend above its frame
+LEGEND_HEIGHT = 60  #: the first plot carries the run's summary and the legend above its frame
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
 
 
 def plot_height(m: int) -> int:
     """Height of each of the m stacked plots (about 720 px in all, within 170…330 px each)."""
     return int(min(max(720 // m, 170), 330))
+
+
+def _y_limits(series: dict, tube: float) -> tuple[float, float]:
+    """y range showing every trace and the tube X̂ ± ``tube``, with 4 % margins."""
+    lo = min(float(series[n][1].min()) for n in series) if len(series["kbf"][1]) else -1.0
+    hi = max(float(series[n][1].max()) for n in series) if len(series["kbf"][1]) else 1.0
+    lo = min(lo, float(series["kbf"][1].min()) - tube)
+    hi = max(hi, float(series["kbf"][1].max()) + tube)
+    pad = 0.04 * (hi - lo) or 1.0
+    return lo - pad, hi + pad
+
+
+def _set_range(r: Range1d, start: float, end: float) -> None:
+    """Fixed ranges computed here: the browser has nothing to compute and nothing to send back."""
+    r.update(start=start, end=end, reset_start=start, reset_end=end)
 
 
 class TrajectoriesView(Viewer):
@@ -38,19 +53,19 @@ class TrajectoriesView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._x_range = DataRange1d(range_padding=0.0)
+        self._x_range = Range1d(0.0, 1.0)
         self._sources: list[dict[str, ColumnDataSource]] = []
         self._dodges: list[tuple[Dodge, Dodge]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, sizing_mode="stretch_width", margin=(0, 5)) for f in self._figures]
-        self._header = pn.pane.Markdown("", margin=(0, 10), styles={"font-size": "15px"})
+        self._column = pn.Column(sizing_mode="stretch_width")
         self.state.param.watch(self._update, ["traces"])
         self._update()
 
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
         fig = styled(figure(
-            x_range=self._x_range, height=plot_height(3), sizing_mode="stretch_width",
+            x_range=self._x_range, y_range=Range1d(-1.0, 1.0), height=plot_height(3), sizing_mode="stretch_width",
             title=f"X{k} — {COORDINATES[i]}", tools="xpan,xwheel_zoom,box_zoom,reset,save",
             active_scroll=None, output_backend="canvas",
         ))
@@ -62,7 +77,9 @@ class TrajectoriesView(Viewer):
         truth = fig.line("t", "y", source=src["truth"], line_color=TRUTH, line_width=1.4)
         kbf = fig.line("t", "y", source=src["kbf"], line_color=KBF, line_width=1.8)
         isl = fig.line("t", "y", source=src["isl"], line_color=ISL, line_width=1.8)
-        if i == 0:  # one legend, above the first plot, for all of them
+        if i == 0:  # the run's parameters and one legend for all plots, drawn on the canvas (no page re-layout)
+            self._summary = Title(text="", text_font_size="11pt", text_font_style="italic")
+            fig.add_layout(self._summary, "above")
             items = [(f"X{k} signal", [truth]), (f"X̂{k} Kalman–Bucy (knows σ)", [kbf]),
                      (f"X̌{k} ISL (σ unknown)", [isl]), (f"X̂{k} ± 3 s{k} (optimal RMSE)", tube_lines)]
             legend = Legend(items=[LegendItem(label=value(text), renderers=r) for text, r in items],
@@ -77,30 +94,33 @@ class TrajectoriesView(Viewer):
         traces, run = self.state.traces, self.state.run
         m = 0 if traces is None else len(traces.series)
         with pn.io.hold():
-            for i, (fig, pane) in enumerate(zip(self._figures, self._panes)):
-                shown = i < m
-                if shown:
+            if run is not None:
+                _set_range(self._x_range, 0.0, run.T)
+            for i, fig in enumerate(self._figures):
+                if i < m:
                     for name, src in self._sources[i].items():
                         t, y = traces.series[i][name]
                         src.data = {"t": t, "y": y}
                     up, down = self._dodges[i]
                     up.value, down.value = 3.0 * float(run.s[i]), -3.0 * float(run.s[i])
+                    _set_range(fig.y_range, *_y_limits(traces.series[i], 3.0 * float(run.s[i])))
                     fig.height = plot_height(m) + (LEGEND_HEIGHT if i == 0 else 0)
                     fig.xaxis.axis_label = "time t" if i == m - 1 else None
-                elif pane.visible:
+                elif len(self._sources[i]["kbf"].data["t"]):
                     for src in self._sources[i].values():
                         src.data = dict(_EMPTY)
-                pane.visible = shown
-            self._header.object = self._header_text()
+            self._summary.text = self._header_text()
+            if len(self._column.objects) != m:  # only the m plots in the page: hidden ones would still be laid out
+                self._column.objects = self._panes[:m]
 
     def _header_text(self) -> str:
         run = self.state.run
         if run is None:
             return "No run yet."
         mo = run.model
-        return (f"**m = {mo.m}, α = {mo.alpha:.4g}, β = {mo.beta:.4g}, σ = {mo.sigma:.4g}, ν = {run.nu:.4g} "
-                f"(ν/β = {run.nu / mo.beta:.3g})** · seed {run.seed} · T = {run.T:.4g} "
-                f"= {run.T * run.r_min:.3g}/r_min · {run.N:,} steps")
+        return (f"m = {mo.m}, α = {mo.alpha:.4g}, β = {mo.beta:.4g}, σ = {mo.sigma:.4g}, ν = {run.nu:.4g} "
+                f"(ν/β = {run.nu / mo.beta:.3g}), seed {run.seed}, T = {run.T:.4g} = {run.T * run.r_min:.3g}/r_min, "
+                f"N = {run.N:,}")
 
     def __panel__(self):
-        return pn.Column(self._header, *self._panes, sizing_mode="stretch_width")
+        return self._column

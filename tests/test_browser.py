@@ -1,0 +1,110 @@
+"""The served dashboard in a real browser: Debian's chromium driven by Playwright.
+
+``panel serve app/app.py`` runs in a subprocess on a free loopback port; the test moves the σ slider with
+the keyboard and waits until the trajectory plot's data and the numbers table have both changed, and until
+the URL carries the new σ. A screenshot goes to a temporary directory (``$ISL_ARTIFACTS`` if set) — an
+artifact for CI, never committed.
+"""
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = Path("/usr/bin/chromium")
+ROOT = Path(__file__).resolve().parent.parent
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="Debian's chromium is not installed at /usr/bin/chromium"),
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_http(url: str, proc: subprocess.Popen, timeout: float = 120.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError(f"panel serve exited with code {proc.returncode}")
+        try:
+            with urllib.request.urlopen(url, timeout=timeout) as r:
+                if r.status == 200:
+                    return
+        except OSError:
+            time.sleep(0.3)
+    raise TimeoutError(f"{url} did not answer within {timeout:g} s")
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """URL of the dashboard served by ``panel serve app/app.py``; the server's log file."""
+    port = free_port()
+    log = tmp_path_factory.mktemp("serve") / "panel.log"
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    cmd = [sys.executable, "-m", "panel", "serve", "app/app.py", "--port", str(port), "--address", "127.0.0.1",
+           "--allow-websocket-origin", f"127.0.0.1:{port}"]
+    with open(log, "w") as out:
+        proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        wait_http(f"http://127.0.0.1:{port}/app", proc)
+        yield f"http://127.0.0.1:{port}/app", log
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+PLOT_DATA = """() => {
+    const doc = window.Bokeh && Bokeh.documents[0];
+    const src = doc && doc.get_model_by_name('traj-1-isl');
+    if (!src || src.data.y.length === 0) return null;
+    return Array.from(src.data.y.slice(0, 50)).join(',');
+}"""
+
+
+def test_sigma_slider_updates_plot_table_and_url(served):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    url, log = served
+    artifacts = Path(os.environ.get("ISL_ARTIFACTS") or log.parent)
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page.goto(url)
+            page.wait_for_function(PLOT_DATA, timeout=30_000)
+            before_plot = page.evaluate(PLOT_DATA)
+            table = page.locator("table.isl-numbers.ratios")
+            before_table = table.inner_text()
+            slider = page.locator(".bk-input-group", has=page.locator(".bk-slider-title", has_text="σ:"))
+            handle = slider.locator(".noUi-handle")
+            for _ in range(5):
+                handle.press("ArrowRight")
+            page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
+                                   arg=before_plot, timeout=20_000)
+            deadline = time.monotonic() + 20
+            while table.inner_text() == before_table and time.monotonic() < deadline:
+                page.wait_for_timeout(100)
+            after_table = table.inner_text()
+            page.wait_for_url(lambda u: "sigma=" in u, timeout=20_000)
+            page.screenshot(path=str(artifacts / "dashboard_after_sigma.png"), full_page=True)
+        finally:
+            browser.close()
+    assert after_table != before_table
+    assert "X₁ position" in after_table
+    text = log.read_text()
+    assert "Traceback" not in text, text[-3000:]
