@@ -21,8 +21,8 @@ class Preset:
     description: str
 
 
-_FIG3 = dict(m=3, alpha=0.5, beta_from_w=True, w=3.0, nu=3.0, horizon=10.0)
-_PAPER_B = dict(m=3, alpha=0.0, beta_from_w=False, beta=3.0, nu=3.0, horizon=10.0)
+_FIG3 = {"m": 3, "alpha": 0.5, "beta_from_w": True, "w": 3.0, "nu": 3.0, "horizon": 10.0}
+_PAPER_B = {"m": 3, "alpha": 0.0, "beta_from_w": False, "beta": 3.0, "nu": 3.0, "horizon": 10.0}
 
 PRESETS = MappingProxyType({
     "Fig. 3, σ = 20": Preset({**_FIG3, "sigma": 20.0}, "Paper A, Fig. 3 (top): m = 3, α = 0.5, β = ν = 3, σ = 20."),
@@ -33,6 +33,6 @@ PRESETS = MappingProxyType({
     "Paper B, Fig. 2 (α = 0, σ = 50)": Preset({**_PAPER_B, "sigma": 50.0},
                                               "Paper B, Fig. 2 (bottom): the same with σ = 50."),
     "White-noise model m = 1": Preset(
-        dict(m=1, alpha=0.0, beta_from_w=False, beta=1.0, nu=1.0, sigma=1.0, horizon=200.0),
+        {"m": 1, "alpha": 0.0, "beta_from_w": False, "beta": 1.0, "nu": 1.0, "sigma": 1.0, "horizon": 200.0},
         "m = 1, α = 0, ν = β: theory š/s = (π/2)^¼ ≈ 1.12 (B.52)."),
 })

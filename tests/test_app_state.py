@@ -278,3 +278,16 @@ def test_recommendation_needs_alpha_positive(state):
     nu = state.nu
     state.recommend()
     assert "alpha > 0" in state.sweep_note and state.nu == nu
+
+
+def test_create_app_builds_a_page_outside_a_server():
+    import panel as pn
+
+    from app.app import create_app
+
+    page = create_app()
+    assert isinstance(page, pn.template.FastListTemplate)
+    assert len(page.main) == 1 and len(page.sidebar) == 2
+    tabs = page.main[0][0]
+    for view in (*page.sidebar, tabs[0], tabs[1]):  # every view renders to bokeh models without a warning
+        assert pn.panel(view).get_root() is not None

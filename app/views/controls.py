@@ -69,7 +69,7 @@ def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float 
     """A slider over log10 of input ``name`` between ``lo`` and ``hi`` (within the input's bounds)."""
     p = state.param[name]
     a, b = math.log10(lo), math.log10(hi)
-    widget = pn.widgets.FloatSlider(name=p.label, start=a, end=b, step=step,
+    widget = pn.widgets.FloatSlider(label=p.label, start=a, end=b, step=step,
                                     format=CustomJSTickFormatter(code=_LOG_FORMAT), sizing_mode="stretch_width")
 
     def to_widget(x: float) -> float | None:
@@ -105,17 +105,17 @@ class ControlsView(Viewer):
         super().__init__(**params)
         s = self.state
         self._alpha = log_slider(s, "alpha", 0.01, 100.0)
-        self._alpha_zero = pn.widgets.Checkbox(name="α = 0 (white-noise derivative, paper B)")
+        self._alpha_zero = pn.widgets.Checkbox(label="α = 0 (white-noise derivative, paper B)")
         self._alpha_zero.param.watch(self._on_alpha_zero, "value")
         s.param.watch(self._sync_alpha_zero, ["alpha"])
-        self._from_w = _plain(s, "beta_from_w", pn.widgets.Checkbox(name="β from w: β = w·√(2α) (paper A)"))
+        self._from_w = _plain(s, "beta_from_w", pn.widgets.Checkbox(label="β from w: β = w·√(2α) (paper A)"))
         self._w = log_slider(s, "w", 0.01, 100.0)
         self._beta = log_slider(s, "beta", 0.01, 1000.0)
         self._sigma = log_slider(s, "sigma", 0.1, 1000.0)
         self._nu = log_slider(s, "nu", 0.001, 10000.0)
-        self._m = _plain(s, "m", pn.widgets.IntSlider(name="m (state dimension)", start=1, end=6,
+        self._m = _plain(s, "m", pn.widgets.IntSlider(label="m (state dimension)", start=1, end=6,
                                                       sizing_mode="stretch_width"))
-        self._seed = _plain(s, "seed", pn.widgets.IntInput(name="seed", start=0, end=2**31 - 1, width=120))
+        self._seed = _plain(s, "seed", pn.widgets.IntInput(label="seed", start=0, end=2**31 - 1, width=120))
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
         self._sync_alpha_zero()
         self._derived = pn.pane.Markdown(self._derived_text, margin=(0, 10))
@@ -162,18 +162,18 @@ class ControlsView(Viewer):
     def _preset_buttons(self) -> pn.Column:
         buttons = []
         for name, preset in PRESETS.items():
-            b = pn.widgets.Button(name=name, description=preset.description, button_type="primary",
-                                  button_style="outline", sizing_mode="stretch_width", margin=(2, 10))
+            b = pn.widgets.Button(label=name, description=preset.description, color="primary",
+                                  variant="outline", sizing_mode="stretch_width", margin=(2, 10))
             b.on_click(lambda event, name=name: self.state.apply_preset(name))
             buttons.append(b)
         return pn.Column("### Presets", *buttons, sizing_mode="stretch_width")
 
     def __panel__(self):
         s = self.state
-        new_seed = pn.widgets.Button(name="new noise", width=110, margin=(22, 10, 5, 5))
+        new_seed = pn.widgets.Button(label="new noise", width=110, margin=(22, 10, 5, 5))
         new_seed.on_click(lambda event: setattr(s, "seed", (s.seed + 1) % (2**31)))
         download = pn.widgets.FileDownload(callback=s.csv, filename="isl_run.csv", label="Download run (CSV)",
-                                           button_type="success", button_style="outline",
+                                           color="success", variant="outline",
                                            sizing_mode="stretch_width", margin=(10, 10))
         spinner = pn.indicators.LoadingSpinner(value=s.param.busy, size=20, margin=(0, 10))
         def helped(name: str, widget):

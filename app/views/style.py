@@ -1,6 +1,7 @@
 """Colours and fonts shared by the plots (sized to stay readable on a projector)."""
 from __future__ import annotations
 
+from bokeh.models import BasicTickFormatter
 from bokeh.plotting import figure
 
 __all__ = ["ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
@@ -21,6 +22,9 @@ def styled(fig: figure) -> figure:
         axis.axis_label_text_font_size = "13pt"
         axis.axis_label_text_font_style = "normal"
         axis.major_label_text_font_size = "11pt"
+    for axis in fig.yaxis:
+        if isinstance(axis.formatter, BasicTickFormatter):  # plain numbers up to 10⁷ (positions drift far)
+            axis.formatter = BasicTickFormatter(power_limit_high=7, power_limit_low=-3)
     fig.grid.grid_line_alpha = 0.4
     fig.toolbar.logo = None
     fig.min_border_left = 70

@@ -134,20 +134,20 @@ class SweepView(Viewer):
     # ---- controls ----------------------------------------------------------------------------------
     def _controls(self) -> pn.Column:
         s = self.state
-        sigmas = pn.widgets.TextInput(name="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep_sigmas),
+        sigmas = pn.widgets.TextInput(label="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep_sigmas),
                                       width=220)
         sigmas.param.watch(lambda e: setattr(s, "sweep_sigmas", parse_sigmas(e.new)), "value")
         s.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sweep_sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
         horizon.width = 260
-        run = pn.widgets.Button(name="Simulate points", button_type="primary", width=150,
+        run = pn.widgets.Button(label="Simulate points", color="primary", width=150,
                                 disabled=s.param.sweep_busy)
         run.on_click(lambda e: s.simulate_sweep())
-        cancel = pn.widgets.Button(name="Cancel", button_type="danger", width=90, visible=s.param.sweep_busy)
+        cancel = pn.widgets.Button(label="Cancel", color="danger", width=90, visible=s.param.sweep_busy)
         cancel.on_click(lambda e: s.cancel_sweep())
         progress = pn.indicators.Progress(value=pn.bind(lambda p: round(100 * p), s.param.sweep_progress),
                                           max=100, width=200, visible=s.param.sweep_busy, margin=(18, 10))
-        recommend = pn.widgets.Button(name="Use recommended ν", button_type="success", width=180,
+        recommend = pn.widgets.Button(label="Use recommended ν", color="success", width=180,
                                       disabled=pn.bind(lambda busy, a: busy or a == 0.0,
                                                        s.param.sweep_busy, s.param.alpha))
         recommend.on_click(lambda e: s.recommend())

@@ -72,7 +72,7 @@ class TrajectoriesView(Viewer):
         fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
         src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
         up, down = Dodge(value=0.0), Dodge(value=0.0)
-        tube = dict(source=src["kbf"], line_color=KBF, line_dash="dashed", line_width=1.3, line_alpha=0.9)
+        tube = {"source": src["kbf"], "line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
         tube_lines = [fig.line("t", field("y", up), **tube), fig.line("t", field("y", down), **tube)]
         truth = fig.line("t", "y", source=src["truth"], line_color=TRUTH, line_width=1.4)
         kbf = fig.line("t", "y", source=src["kbf"], line_color=KBF, line_width=1.8)
