@@ -6,9 +6,12 @@ Every filter here has the form (on the grid t_k = k·h, innovation u_k = ΔY_k/�
 
 with a propagation damping ``a`` (0 → A0 as in paper A's ISL filter; α → the true A) and φ either
 linear, ``φ(u) = K u`` (then the step is the Kalman–Bucy scheme B.30), or the power law of (A.17),
-``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18).
+``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18), or linear with a gain ``K(σ̂_k)`` that follows an
+online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.adaptive`, described by an
+:class:`AdaptiveGain`).
 
-Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law.
+Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law, ``adaptive`` the σ̂-driven gain;
+``kind`` is the kernel's code for the three (:data:`KIND_LINEAR`, :data:`KIND_POWER`, :data:`KIND_ADAPTIVE`).
 """
 from __future__ import annotations
 
@@ -20,18 +23,62 @@ from .model import Model
 from .nonlinearity import isl_exponents, isl_gains, linearization
 from .riccati import KalmanBucy
 
-__all__ = ["FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf"]
+__all__ = [
+    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "AdaptiveGain", "FilterSpec", "isl_filter", "linearized_matrix",
+    "optimal_kbf",
+]
+
+KIND_LINEAR, KIND_POWER, KIND_ADAPTIVE = 0, 1, 2  #: the kernel's codes for φ (see :attr:`FilterSpec.kind`)
+
+
+@dataclass(frozen=True)
+class AdaptiveGain:
+    """The σ̂ → K(σ̂) map and the variance estimator of an adaptive Kalman–Bucy filter (:mod:`isl_core.adaptive`).
+
+    ``log_gain`` (n, m) holds ``log K_i`` of the stationary gain (A.21–A.23) on the equally spaced grid
+    ``log σ_j = log_sigma0 + j·step``, j = 0..n−1; between grid points log K is linear in log σ, outside the
+    grid it is held at the end values. ``window`` W (steps) bounds the forgetting factor ``λ_k = max(1/k, 1/W)``
+    of the innovation variance; ``sigma_init`` is σ̂ before the first innovation.
+    """
+
+    log_sigma0: float
+    step: float
+    log_gain: np.ndarray
+    window: float
+    sigma_init: float
+
+    @property
+    def sigmas(self) -> np.ndarray:
+        """The grid σ_j (n,)."""
+        return np.exp(self.log_sigma0 + self.step * np.arange(len(self.log_gain)))
+
+    def gain(self, sigma: float) -> np.ndarray:
+        """K(σ) (m,) interpolated from the table: log K linear in log σ, held constant beyond the ends."""
+        x = np.log(self.sigmas)
+        return np.exp([np.interp(np.log(sigma), x, col) for col in self.log_gain.T])
 
 
 @dataclass(frozen=True)
 class FilterSpec:
-    """One filter of the fused kernel: ``Z ← (I + h(A0 − damp·EEᵀ))Z + √h φ(u)`` (B.30 / A.18)."""
+    """One filter of the fused kernel: ``Z ← (I + h(A0 − damp·EEᵀ))Z + √h φ(u)`` (B.30 / A.18).
+
+    ``adaptive`` (optional) makes φ linear with the gain K(σ̂_k) of an online σ estimate; ``coef`` is then the
+    gain before the first innovation, K(``adaptive.sigma_init``).
+    """
 
     name: str
     label: str
     damp: float
     coef: np.ndarray
     power: bool
+    adaptive: AdaptiveGain | None = None
+
+    @property
+    def kind(self) -> int:
+        """The kernel's code: :data:`KIND_ADAPTIVE`, :data:`KIND_POWER` or :data:`KIND_LINEAR`."""
+        if self.adaptive is not None:
+            return KIND_ADAPTIVE
+        return KIND_POWER if self.power else KIND_LINEAR
 
     def exponents(self) -> np.ndarray:
         """Exponents q_i of φ: all 1 for a linear gain, ``1 − i/m`` for the power law (A.17)."""

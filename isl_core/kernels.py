@@ -8,6 +8,14 @@ rows of ``rng.standard_normal((n, 2))``):
     Z_f   ← (I + h(A0 − a_f EEᵀ))·Z_f + √h·φ_f(ΔY_k/√h − √h·Z_f,1)   (B.30, A.18)
     X     ← (I + h A)·X + β E √h·v_k                             (B.33)
 
+φ_f has one of three kinds (``kind[f]``, :data:`isl_core.filters.KIND_LINEAR` …): linear ``K u`` (B.30), the
+power law of (A.17), or adaptive — linear with the gain K(σ̂_{k−1}) of an online estimate of σ, after which
+the estimate takes in u_k (:mod:`isl_core.adaptive`):
+
+    v_k = v_{k−1} + λ_k (u_k² − v_{k−1}),  λ_k = max(1/k, 1/W)       (innovation variance, Mehra 1970)
+    σ̂_k² = v_k / (1 + h·K_1(σ̂_{k−1}))                                 (E u² = σ² + h·E e_1², e_1 ≈ Δ_11 = σ²K_1)
+    log K_i(σ̂_k): linear interpolation in log σ̂ on a table, held at its ends
+
 The power law uses its fixed exponents: with r = |u|^{1/m}, ``|u|^{1−i/m} = r^{m−i}``, so one root a step
 and filter replaces m calls to ``pow``. For m = 3 the root is :func:`fast_cbrt` (division-free, a few ulp),
 m = 2, 4, 6 use ``sqrt`` and that cube root, m = 5 ``pow``.
@@ -25,7 +33,14 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["advance", "fast_cbrt"]
+__all__ = [
+    "AD_INV_STEP", "AD_INV_WINDOW", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "advance", "fast_cbrt",
+]
+
+#: columns of the per-filter adaptive state ``ad`` (nf, AD_WIDTH): table origin log σ_0, 1/(grid step),
+#: 1/W, then the state carried from call to call: the innovation variance v and σ̂
+AD_LOG_SIGMA0, AD_INV_STEP, AD_INV_WINDOW, AD_VAR, AD_SIGMA = range(5)
+AD_WIDTH = 5
 
 #: FMA contraction only: no reassociation, nan/inf kept (see the module docstring)
 _FASTMATH = {"contract"}
@@ -68,14 +83,37 @@ def _root(a, m):
     return a ** (1.0 / m)
 
 
+@njit(cache=True, nogil=True, inline="always", fastmath=_FASTMATH)
+def _table_gain(table, ad, f, gain, sqh):
+    """``gain[f] = √h·K(σ̂)`` with log K linear in log σ̂ on the table of filter f, held at its ends."""
+    nt = table.shape[1]
+    t = (math.log(ad[f, AD_SIGMA]) - ad[f, AD_LOG_SIGMA0]) * ad[f, AD_INV_STEP]
+    if not t > 0.0:  # below the grid (or nan: the divergence check sees it in Z)
+        t = 0.0
+    if t >= nt - 1:
+        j = nt - 2
+        w = 1.0
+    else:
+        j = int(t)
+        w = t - j
+    for i in range(table.shape[2]):
+        lo = table[f, j, i]
+        gain[f, i] = sqh * math.exp(lo + w * (table[f, j + 1, i] - lo))
+
+
 @njit(cache=True, nogil=True, fastmath=_FASTMATH)
-def advance(x, z, rng, n, h, alpha, beta, sigma, damp, coef, power, k0, burn, batch_len, sq, X_out, Z_out, store):
+def advance(x, z, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0, burn, batch_len, sq, sig_sum,
+            X_out, Z_out, S_out, store):
     """Advance truth ``x`` (m,) and filters ``z`` (nf, m) in place by ``n`` steps, noise from ``rng``.
 
+    ``kind`` (nf,) selects φ (0 linear gain ``coef``, 1 power law with ``coef``, 2 adaptive). An adaptive
+    filter f reads its gain table ``table[f]`` (nt ≥ 2, m) of log K and carries its state in ``ad[f]``
+    (columns ``AD_*``); the a-th adaptive filter (in filter order) is slot a of ``sig_sum`` and ``S_out``.
     Global step index of the first row is ``k0``. For every new step k+1 > ``burn``, adds the squared
-    errors to ``sq[b, f, i]`` with ``b = min((k+1−burn−1) // batch_len, nb−1)``. If ``store``, writes
-    X(t_{k+1}) to ``X_out[k+1]`` and Z_f(t_{k+1}) to ``Z_out[f, k+1]``. Returns the number of steps done;
-    it stops early at the first step that leaves a non-finite value in the truth or a filter.
+    errors to ``sq[b, f, i]`` (and σ̂ to ``sig_sum[b, a]``) with ``b = min((k+1−burn−1) // batch_len, nb−1)``.
+    If ``store``, writes X(t_{k+1}) to ``X_out[k+1]``, Z_f(t_{k+1}) to ``Z_out[f, k+1]`` and σ̂ to
+    ``S_out[a, k+1]``. Returns the number of steps done; it stops early at the first step that leaves a
+    non-finite value in the truth or a filter.
     """
     m = x.shape[0]
     nf = z.shape[0]
@@ -85,6 +123,14 @@ def advance(x, z, rng, n, h, alpha, beta, sigma, damp, coef, power, k0, burn, ba
     decay = 1.0 - h * alpha  # (I + hA) on X_m
     zdecay = 1.0 - h * damp  # (I + h(A0 − a_f EEᵀ)) on Z_f,m
     gain = sqh * coef  # √h·φ carries √h
+    slot = np.zeros(nf, dtype=np.int64)
+    uu = np.zeros(nf)
+    na = 0
+    for f in range(nf):
+        if kind[f] == 2:
+            slot[f] = na
+            na += 1
+            _table_gain(table, ad, f, gain, sqh)  # K(σ̂) of the state carried in
     # batch of the next step, and the last step of that batch (counters instead of a division per step)
     b = min(max(k0 - burn, 0) // batch_len, nb - 1)
     edge = burn + (b + 1) * batch_len
@@ -98,7 +144,7 @@ def advance(x, z, rng, n, h, alpha, beta, sigma, damp, coef, power, k0, burn, ba
             for i in range(m - 1):  # (I + h A0) Z: ascending order uses the old Z_{i+1}
                 z[f, i] += h * z[f, i + 1]
             z[f, m - 1] *= zdecay[f]
-            if power[f]:
+            if kind[f] == 1:
                 p = np.float64(u > 0.0) - np.float64(u < 0.0)  # sign(u), branch-free
                 r = _root(abs(u), m)
                 for i in range(m - 1, -1, -1):  # c_i sign(u)|u|^{1-(i+1)/m} = c_i sign(u) r^{m-1-i}   (A.17)
@@ -109,6 +155,22 @@ def advance(x, z, rng, n, h, alpha, beta, sigma, damp, coef, power, k0, burn, ba
                 for i in range(m):  # linear gain: K(ΔY − h Z_1)   (B.30)
                     z[f, i] += gain[f, i] * u
                     total += z[f, i]
+                if kind[f] == 2:
+                    uu[f] = u
+        if na > 0:
+            for f in range(nf):
+                if kind[f] == 2:
+                    u = uu[f]
+                    var = ad[f, AD_VAR]
+                    var += max(1.0 / k, ad[f, AD_INV_WINDOW]) * (u * u - var)  # EWMA of u²
+                    ad[f, AD_VAR] = var
+                    s_hat = math.sqrt(var / (1.0 + sqh * gain[f, 0]))  # σ̂² = v/(1 + h K_1)
+                    ad[f, AD_SIGMA] = s_hat
+                    _table_gain(table, ad, f, gain, sqh)
+                    if k > burn:
+                        sig_sum[b, slot[f]] += s_hat
+                    if store:
+                        S_out[slot[f], k] = s_hat
         xm = x[m - 1]
         for i in range(m - 1):  # (B.33)
             x[i] += h * x[i + 1]

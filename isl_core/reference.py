@@ -9,6 +9,11 @@ drawn in bulk right after the initial state (:func:`isl_core.simulate.initial_st
     X_{k+1} = (I + h·A)·X_k + β·E·√h·v_k                                    (B.33)
 
 with ``A_f = A0 − a_f·EEᵀ`` (a_f = ``spec.damp``) and φ of :func:`isl_core.nonlinearity.phi` (A.17).
+Adaptive Kalman–Bucy (:mod:`isl_core.adaptive`): the KBF step with the gain K(σ̂_{k−1}) read off the table by
+``numpy.interp`` in log σ, then, with u_k = ΔY_k/√h − √h·Ẑ_1(t_k),
+
+    v_k = v_{k−1} + max(1/k, 1/W)·(u_k² − v_{k−1}),    σ̂_k = √(v_k / (1 + h·K_1(σ̂_{k−1})))
+
 No shortcuts: full matrix products, ``pow`` for every exponent, one step at a time.
 """
 from __future__ import annotations
@@ -23,7 +28,7 @@ from .model import Model
 from .nonlinearity import phi
 from .simulate import draw_noise, initial_state
 
-__all__ = ["reference_trajectories"]
+__all__ = ["reference_sigma_hat", "reference_trajectories"]
 
 
 def reference_trajectories(
@@ -34,6 +39,14 @@ def reference_trajectories(
     Same seed, h and n as :func:`isl_core.simulate` (``run.h``, ``run.N``) → the same noise, so the two
     implementations must agree up to rounding.
     """
+    X, Z, _ = reference_sigma_hat(model, filters, h=h, n=n, seed=seed)
+    return X, Z
+
+
+def reference_sigma_hat(
+    model: Model, filters: Sequence[FilterSpec], *, h: float, n: int, seed: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`reference_trajectories` plus σ̂ (nf, n+1) of the adaptive filters (nan rows for the others)."""
     m = model.m
     rng = np.random.default_rng(seed)
     x = initial_state(model, rng)
@@ -44,16 +57,27 @@ def reference_trajectories(
     X = np.empty((n + 1, m))
     Z = np.zeros((len(filters), n + 1, m))
     X[0] = x
+    S = np.full((len(filters), n + 1), np.nan)
+    var = {}
+    for f, spec in enumerate(filters):
+        if spec.adaptive is not None:
+            S[f, 0], var[f] = spec.adaptive.sigma_init, spec.adaptive.sigma_init**2
     sqh = math.sqrt(h)
     for k in range(n):
         v, eps = noise[k]
         dY = h * (C @ X[k])[0] + model.sigma * sqh * eps  # (B.34)
         for f, spec in enumerate(filters):
             z = Z[f, k]
-            if spec.power:  # ISL (A.18)
+            if spec.adaptive is not None:  # adaptive Kalman–Bucy: (B.30) with K(σ̂_k), then σ̂ takes in u
+                gain = spec.adaptive.gain(S[f, k])
+                Z[f, k + 1] = z + h * (A_f[f] @ z) + gain * (dY - h * (C @ z)[0])
+                u = dY / sqh - sqh * (C @ z)[0]
+                var[f] += max(1.0 / (k + 1), 1.0 / spec.adaptive.window) * (u**2 - var[f])
+                S[f, k + 1] = math.sqrt(var[f] / (1.0 + h * gain[0]))
+            elif spec.power:  # ISL (A.18)
                 u = dY / sqh - sqh * (C @ z)[0]
                 Z[f, k + 1] = (I + h * A_f[f]) @ z + sqh * phi(u, spec.coef, spec.exponents())
             else:  # Kalman–Bucy (B.30)
                 Z[f, k + 1] = z + h * (A_f[f] @ z) + spec.coef * (dY - h * (C @ z)[0])
         X[k + 1] = truth_step @ X[k] + model.beta * E[:, 0] * sqh * v  # (B.33)
-    return X, Z
+    return X, Z, S

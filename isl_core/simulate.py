@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._validate import check_int, check_real
-from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
-from .kernels import advance
+from .filters import KIND_ADAPTIVE, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .kernels import AD_INV_STEP, AD_INV_WINDOW, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
 from .model import Model
 from .riccati import KalmanBucy, kalman_bucy
 
@@ -56,13 +56,17 @@ def _freeze(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Track:
-    """One filter's estimate along a run and its empirical RMSE (A.30) and ratio ``š_i/s_i``."""
+    """One filter's estimate along a run and its empirical RMSE (A.30) and ratio ``š_i/s_i``.
+
+    ``sigma_hat`` (N+1,): an adaptive filter's online estimate σ̂(t_k) (σ̂(0) its initial value); None otherwise.
+    """
 
     name: str
     label: str
     estimate: np.ndarray
     rmse: np.ndarray
     ratio: np.ndarray
+    sigma_hat: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -145,36 +149,57 @@ def _grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int) -> tuple[float,
 
 
 def _pack(model: Model, filters: Sequence[FilterSpec]):
+    """Kernel arguments of ``filters``: ``(damp, coef, kind, table, ad)`` (see :func:`isl_core.kernels.advance`).
+
+    ``ad`` is the adaptive filters' fresh state (v = σ̂² = σ_init²); ``table`` is padded with its last row to
+    the longest table (the same value held beyond the end) and is a 2-row dummy when no filter is adaptive.
+    """
+    nf = len(filters)
     damp = np.array([f.damp for f in filters], dtype=np.float64)
-    coef = np.array([f.coef for f in filters], dtype=np.float64).reshape(len(filters), model.m)
-    power = np.array([f.power for f in filters], dtype=np.bool_)
-    return damp, coef, power
+    coef = np.array([f.coef for f in filters], dtype=np.float64).reshape(nf, model.m)
+    kind = np.array([f.kind for f in filters], dtype=np.int8)
+    nt = max([2] + [len(f.adaptive.log_gain) for f in filters if f.adaptive is not None])
+    table = np.zeros((nf, nt, model.m))
+    ad = np.zeros((nf, AD_WIDTH))
+    for f, spec in enumerate(filters):
+        gt = spec.adaptive
+        if gt is None:
+            continue
+        table[f, :len(gt.log_gain)] = gt.log_gain
+        table[f, len(gt.log_gain):] = gt.log_gain[-1]
+        ad[f, AD_LOG_SIGMA0], ad[f, AD_INV_STEP], ad[f, AD_INV_WINDOW] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.window
+        ad[f, AD_VAR], ad[f, AD_SIGMA] = gt.sigma_init**2, gt.sigma_init
+    return damp, coef, kind, table, ad
 
 
-def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, store, progress=None):
-    """Run the kernel over ``n`` steps chunk by chunk; returns squared-error sums (batches, nf, m).
+def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, S_out, store, progress=None):
+    """Run the kernel over ``n`` steps chunk by chunk.
 
-    ``progress(fraction)`` is called after every chunk; an exception it raises (e.g. to cancel) propagates.
+    Returns squared-error sums (batches, nf, m), the adaptive filters' σ̂ sums (batches, na) and their final σ̂
+    (na,). ``progress(fraction)`` is called after every chunk; an exception it raises (e.g. to cancel) propagates.
     """
     rng = np.random.default_rng(seed)
     x = initial_state(model, rng)
     z = np.zeros((len(filters), model.m))
-    damp, coef, power = _pack(model, filters)
+    damp, coef, kind, table, ad = _pack(model, filters)
+    adaptive = kind == KIND_ADAPTIVE
     if store:
         X_out[0] = x
+        S_out[:, 0] = ad[adaptive, AD_SIGMA]
     sq = np.zeros((batches, len(filters), model.m))
+    sig_sum = np.zeros((batches, int(adaptive.sum())))
     batch_len = (n - burn) // batches  # the remainder goes to the last batch
     k = 0
     while k < n:
         todo = min(CHUNK, n - k)
-        done = advance(x, z, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, power,
-                       k, burn, batch_len, sq, X_out, Z_out, store)
+        done = advance(x, z, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, kind, table, ad,
+                       k, burn, batch_len, sq, sig_sum, X_out, Z_out, S_out, store)
         if done < todo:
             raise _divergence(model, filters, x, z, k + done, n, h)
         k += done
         if progress is not None:
             progress(k / n)
-    return sq
+    return sq, sig_sum, ad[adaptive, AD_SIGMA]
 
 
 def _divergence(model: Model, filters, x, z, k: int, n: int, h: float) -> DivergenceError:
@@ -209,6 +234,9 @@ def _check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[F
     for spec in specs:
         if not isinstance(spec, FilterSpec) or np.shape(spec.coef) != (model.m,):
             raise ValueError(f"{what}, got {spec!r}")
+        table = None if spec.adaptive is None else np.shape(getattr(spec.adaptive, "log_gain", None))
+        if table is not None and not (len(table) == 2 and table[0] >= 2 and table[1] == model.m):
+            raise ValueError(f"{what} (an adaptive gain table of shape (n >= 2, m)), got {spec!r}")
     return specs
 
 
@@ -236,12 +264,15 @@ def simulate(
     Z = np.empty((len(filters), n + 1, model.m))
     for f in range(len(filters)):
         Z[f, 0] = 0.0
-    sq = _loop(model, filters, h, n, seed, burn=0, batches=1, X_out=X, Z_out=Z, store=True)
+    S = np.empty((sum(spec.kind == KIND_ADAPTIVE for spec in filters), n + 1))
+    sq, _, _ = _loop(model, filters, h, n, seed, burn=0, batches=1, X_out=X, Z_out=Z, S_out=S, store=True)
     s = _freeze(kb.s.copy())
     tracks = []
+    sigma_hat = iter(S)
     for f, spec in enumerate(filters):
         rmse = np.sqrt(sq[0, f] / n)  # (A.30)
-        tracks.append(Track(spec.name, spec.label, _freeze(Z[f]), _freeze(rmse), _freeze(rmse / s)))
+        sig = _freeze(next(sigma_hat)) if spec.kind == KIND_ADAPTIVE else None
+        tracks.append(Track(spec.name, spec.label, _freeze(Z[f]), _freeze(rmse), _freeze(rmse / s), sig))
     t = np.arange(n + 1, dtype=np.float64)
     t *= h
     t = _freeze(t)
@@ -254,6 +285,8 @@ class RmseResult:
 
     ``sq`` (batches, nf, m) holds per-batch sums of ``(Z_f,i − X_i)²`` over ``batch_len`` steps each
     (the last batch takes the remainder: ``counts``); ``s`` is the optimal RMSE √diag Δ (theory).
+    ``sigma_hat`` (batches, nf): per-batch mean of an adaptive filter's σ̂, ``sigma_hat_final`` (nf,) its
+    value at the end; nan for the other filters.
     """
 
     names: tuple[str, ...]
@@ -263,6 +296,8 @@ class RmseResult:
     r_min: float
     h: float
     T: float
+    sigma_hat: np.ndarray | None = None
+    sigma_hat_final: np.ndarray | None = None
 
     def ratios(self) -> np.ndarray:
         """Whole-run ratios ``š_i/s_i`` (nf, m), (A.30)."""
@@ -302,8 +337,14 @@ def simulate_rmse(
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
     dummy_x, dummy_z = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
-    sq = _loop(model, filters, h, n, seed, burn=burn_steps, batches=batches,
-               X_out=dummy_x, Z_out=dummy_z, store=False, progress=progress)
+    adaptive = np.array([f.kind == KIND_ADAPTIVE for f in filters])
+    dummy_s = np.empty((int(adaptive.sum()), 1))
+    sq, sig_sum, sig_final = _loop(model, filters, h, n, seed, burn=burn_steps, batches=batches, X_out=dummy_x,
+                                   Z_out=dummy_z, S_out=dummy_s, store=False, progress=progress)
     counts = np.full(batches, float((n - burn_steps) // batches))
     counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
-    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T)
+    sigma_hat = np.full((batches, len(filters)), np.nan)
+    sigma_hat[:, adaptive] = sig_sum / counts[:, None]
+    final = np.full(len(filters), np.nan)
+    final[adaptive] = sig_final
+    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T, sigma_hat, final)

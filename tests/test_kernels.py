@@ -1,16 +1,17 @@
 """The compiled kernel against the plain-numpy reference (same noise), its cube root, batching and chunking."""
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 
 from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, optimal_kbf, simulate
+from isl_core.adaptive import adaptive_kbf
 from isl_core.kernels import _root, advance, fast_cbrt
-from isl_core.reference import reference_trajectories
+from isl_core.reference import reference_sigma_hat
 from isl_core.simulate import _pack, initial_state
-import itertools
 
 EPS = np.finfo(float).eps
 AGREE = 1e-10  # kernel vs reference, relative to the size of each trajectory (rounding only: ~1e-15 seen)
@@ -76,15 +77,19 @@ def test_kernel_matches_numpy_reference(alpha, beta, sigma, m):
     model = Model(alpha, beta, sigma, m)
     kb = kalman_bucy(model)
     nu = 0.7 * beta
-    extra = (model_aware_isl(model, nu), FilterSpec("kbf0", "KBF with A0", 0.0, np.array(kb.K), False))
+    extra = (model_aware_isl(model, nu), FilterSpec("kbf0", "KBF with A0", 0.0, np.array(kb.K), False),
+             adaptive_kbf(model, sigma_range=(sigma / 5, sigma / 2), window=200))  # W < n: both phases of λ_k
     run = simulate(model, nu, T=15.0 / kb.r_min, seed=11, extra=extra)
     n = min(run.N, 1500)
     specs = [optimal_kbf(model, kb), isl_filter(model, nu), *extra]
-    X, Z = reference_trajectories(model, specs, h=run.h, n=n, seed=11)
+    X, Z, S = reference_sigma_hat(model, specs, h=run.h, n=n, seed=11)
     assert np.max(np.abs(run.X[: n + 1] - X)) <= AGREE * np.max(np.abs(X))
     for f, track in enumerate(run.tracks):
         assert track.name == specs[f].name
         assert np.max(np.abs(track.estimate[: n + 1] - Z[f])) <= AGREE * np.max(np.abs(Z[f]))
+    sigma_hat = run.track("kbf_adaptive").sigma_hat
+    assert [tr.sigma_hat is None for tr in run.tracks] == [True] * 4 + [False]
+    np.testing.assert_allclose(sigma_hat[: n + 1], S[-1], rtol=AGREE)
 
 
 def _fresh(model, specs, seed):
@@ -96,23 +101,25 @@ def test_chunked_calls_batches_and_burn_match_stored_errors():
     model = Model(0.5, 3.0, 20.0, 3)
     kb = kalman_bucy(model)
     specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
-    damp, coef, power = _pack(model, specs)
     h, n, burn, nb = 0.01, 1000, 137, 7
     batch_len = (n - burn) // nb
-    args = (h, model.alpha, model.beta, model.sigma, damp, coef, power)
+    no_sigma = np.empty((nb, 0)), np.empty((0, n + 1))  # σ̂ sums and trajectories: no adaptive filter here
     # one call, trajectories stored
     rng, x, z = _fresh(model, specs, 5)
     X = np.empty((n + 1, 3))
     Z = np.empty((2, n + 1, 3))
     X[0], Z[:, 0] = x, 0.0
     sq_one = np.zeros((nb, 2, 3))
-    assert advance(x, z, rng, n, *args, 0, burn, batch_len, sq_one, X, Z, True) == n
+    args = (h, model.alpha, model.beta, model.sigma, *_pack(model, specs))
+    assert advance(x, z, rng, n, *args, 0, burn, batch_len, sq_one, no_sigma[0], X, Z, no_sigma[1], True) == n
     # the same run in uneven chunks, nothing stored
     rng, x, z = _fresh(model, specs, 5)
     sq = np.zeros((nb, 2, 3))
+    args = (h, model.alpha, model.beta, model.sigma, *_pack(model, specs))
     k = 0
     for todo in (1, 136, 1, 250, 123, 489):
-        assert advance(x, z, rng, todo, *args, k, burn, batch_len, sq, X[:1], Z[:, :1], False) == todo
+        assert advance(x, z, rng, todo, *args, k, burn, batch_len, sq, no_sigma[0], X[:1], Z[:, :1], no_sigma[1],
+                       False) == todo
         k += todo
     assert k == n
     np.testing.assert_array_equal(x, X[n])
@@ -129,11 +136,10 @@ def test_kernel_stops_at_the_first_non_finite_step():
     model = Model(0.5, 3.0, 20.0, 3)
     kb = kalman_bucy(model)
     specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
-    damp, coef, power = _pack(model, specs)
     rng, x, z = _fresh(model, specs, 1)
     sq = np.zeros((1, 2, 3))
-    dummy_x, dummy_z = np.empty((1, 3)), np.empty((2, 1, 3))
-    done = advance(x, z, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, damp, coef, power,
-                   0, 0, 100_000, sq, dummy_x, dummy_z, False)
+    dummy_x, dummy_z, dummy_s = np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1))
+    done = advance(x, z, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, *_pack(model, specs),
+                   0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_z, dummy_s, False)
     assert 0 < done < 100_000
     assert not (np.all(np.isfinite(z)) and np.all(np.isfinite(x)))
