@@ -52,15 +52,19 @@ __all__ = [
 ]
 
 
-def lyapunov(M: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """Solve ``M P + P Mᵀ + Q = 0`` for stacks of small matrices (..., n, n) by the Kronecker form.
+def lyapunov(M: np.ndarray, Q: np.ndarray, h: float = 0.0) -> np.ndarray:
+    """Solve ``M P + P Mᵀ + h·M P Mᵀ + Q = 0`` for stacks of small matrices (..., n, n) by the Kronecker form.
 
-    ``(I ⊗ M + M ⊗ I) vec P = −vec Q`` (row-major vec); n ≤ 7 here, so the n²×n² solve is cheap and batches.
+    ``(I ⊗ M + M ⊗ I + h·M ⊗ M) vec P = −vec Q`` (row-major vec); n ≤ 7 here, so the n²×n² solve is cheap
+    and batches. ``h = 0`` is the continuous Lyapunov equation; ``h > 0`` is the stationary covariance
+    ``P = F P Fᵀ + h Q`` of the Euler recursion ``ξ_{k+1} = (I + hM) ξ_k + √h η_k``, Cov η = Q, divided by h.
     """
     M = np.asarray(M, dtype=float)
     n = M.shape[-1]
     eye = np.eye(n)
     K = np.einsum("...ik,jl->...ijkl", M, eye) + np.einsum("ik,...jl->...ijkl", eye, M)
+    if h:
+        K = K + h * np.einsum("...ik,...jl->...ijkl", M, M)
     K = K.reshape(M.shape[:-2] + (n * n, n * n))
     q = np.broadcast_to(Q, M.shape).reshape(M.shape[:-2] + (n * n, 1))
     P = np.linalg.solve(K, -q).reshape(M.shape)
@@ -98,7 +102,7 @@ def _moments(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray,
     return L, Phi
 
 
-def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray, h: float = 0.0) -> np.ndarray:
     """Stationary error covariances (..., m, m) of filters with gains ``coef`` (..., m); inf if none exists."""
     m, alpha, beta, sigma = model.m, model.alpha, model.beta, model.sigma
     L, Phi = _moments(coef, q, sigma)
@@ -121,7 +125,7 @@ def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray) -> n
         Q[..., m - 1, m] = Q[..., m, m - 1] = -beta**2  # Cov(−βE dv, β dv)
         Q[..., m, m] = beta**2
     M = np.where(stable[..., None, None], M, -np.eye(n))  # keep the solve regular; unstable ones → inf below
-    P = lyapunov(M, Q)[..., :m, :m]
+    P = lyapunov(M, Q, h)[..., :m, :m]
     ok = stable & np.all(np.isfinite(P), axis=(-2, -1)) & np.all(np.diagonal(P, axis1=-2, axis2=-1) > 0, axis=-1)
     return np.where(ok[..., None, None], P, np.inf)
 
@@ -133,15 +137,25 @@ def _check_spec(model: Model, spec: FilterSpec) -> None:
         raise ValueError(f"spec must be a FilterSpec of size m = {model.m}, got {spec!r}")
 
 
-def predicted_covariance(model: Model, spec: FilterSpec) -> np.ndarray:
+def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = None) -> np.ndarray:
     """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48, SPEC §6).
 
     Solves the (m+1)-dimensional Lyapunov equation of the (e, X_m) system in the module docstring
     (m-dimensional (B.48) when ``spec.damp == model.alpha``). All entries are ``inf`` when the linearized
-    filter is not stable (Λ not Hurwitz) or the error has no stationary law (α = 0 with damp ≠ 0).
+    filter is not stable (Λ not Hurwitz) or the error has no stationary law (α = 0 with damp ≠ 0). All
+    entries are ``nan`` for an adaptive filter (``spec.adaptive``): this theory has no prediction for it.
+
+    ``h``: the same on the Euler grid of step h (B.30–B.34) — the stationary covariance of the recursion
+    ``ξ_{k+1} = (I + hM)ξ_k + √h η_k``; for a linear φ this is *exact* for the simulated scheme (its error
+    obeys that recursion), and differs from the continuous answer by O(h·rate).
     """
     _check_spec(model, spec)
-    P = _stationary(model, float(spec.damp), np.asarray(spec.coef, dtype=float), spec.exponents())
+    if spec.adaptive is not None:
+        P = np.full((model.m, model.m), np.nan)
+        P.flags.writeable = False
+        return P
+    h = 0.0 if h is None else check_real("h", h, lo=0.0, lo_open=True)
+    P = _stationary(model, float(spec.damp), np.asarray(spec.coef, dtype=float), spec.exponents(), h)
     P.flags.writeable = False
     return P
 

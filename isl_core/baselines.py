@@ -1,0 +1,129 @@
+"""The filters a user who does not know σ could run instead of the ISL filter — interchangeable parts of one run.
+
+Each is a :class:`isl_core.FilterSpec` for the fused kernel, so any set of them rides on one trajectory
+(common random numbers, :func:`isl_core.simulate` ``extra=`` or :func:`isl_core.simulate_rmse`). Stable names:
+
+============== ================================================================== ==================================
+name           filter                                                             theory (``theory_ratios``)
+============== ================================================================== ==================================
+kbf            Kalman–Bucy with the true σ (A.21–A.24): the oracle                 1 (Δ itself)
+isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    statistical linearization (SPEC §6)
+kbf_mismatched Kalman–Bucy with the gain K̄ of the CARE for a guessed σ̄           Lyapunov, exact (SPEC §7)
+kbf_minimax    Kalman–Bucy designed for the top of the σ range, σ̄ = σ_max         Lyapunov, exact (SPEC §7)
+kbf_adaptive   Kalman–Bucy with σ̂ estimated online (:mod:`isl_core.adaptive`)     none (nan)
+isl_model      model-aware ISL: the same φ, propagation with A = A0 − αEEᵀ         SPEC §6 with A: no X_m coupling
+============== ================================================================== ==================================
+
+The mismatched filter's default guess is the geometric middle ``σ̄ = √(σ_min σ_max)`` of the σ range: the
+design that sits the same factor away from both ends, and — for the Fig. 2 models (m = 3, w = 3) — the
+σ̄ that minimises the predicted worst-case ratio over the range to within the grid of
+:func:`isl_core.recommend.best_fixed_kbf`. The "minimax" filter is the conservative engineering design
+"assume the largest noise"; it is far from the minimax over fixed gains (its gain is too small at σ_min).
+
+Fixed-gain Kalman–Bucy filters are linear, so their Lyapunov equation
+``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` is exact (in continuous time; the Euler grid adds O(h·rate)).
+With α = 0 the model-aware ISL filter is paper A's filter, bit for bit (damp = α = 0).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from .adaptive import WINDOW, adaptive_kbf, check_sigma_range
+from .filters import FilterSpec, isl_filter, optimal_kbf
+from .model import Model
+from .riccati import kalman_bucy
+from .theory import _optimal_s, mismatched_kbf, predicted_covariance
+
+__all__ = [
+    "BASELINES", "LABELS", "baseline_filters", "design_sigma", "minimax_kbf", "model_aware_isl", "theory_ratios",
+]
+
+#: stable names of the filters, in the order tables list them
+BASELINES = ("kbf", "isl", "kbf_mismatched", "kbf_minimax", "kbf_adaptive", "isl_model")
+
+#: short human labels (table columns, legends); a spec's own ``label`` adds its parameters
+LABELS = {
+    "kbf": "KBF oracle (knows σ)",
+    "isl": "ISL (paper A)",
+    "kbf_mismatched": "KBF for mid σ",
+    "kbf_minimax": "KBF for max σ",
+    "kbf_adaptive": "KBF adaptive",
+    "isl_model": "ISL model-aware",
+}
+
+
+def design_sigma(sigma_range: tuple[float, float]) -> float:
+    """The mismatched filter's default guess: the geometric middle ``√(σ_min σ_max)`` of the range."""
+    lo, hi = check_sigma_range(sigma_range)
+    return math.sqrt(lo * hi)
+
+
+def model_aware_isl(model: Model, nu: float) -> FilterSpec:
+    """ISL filter with paper A's φ (A.17) that propagates with the true A = A0 − αEEᵀ (damp = α)."""
+    spec = isl_filter(model, nu)  # validates nu
+    return dataclasses.replace(spec, name="isl_model", label=f"ISL model-aware (ν = {float(nu):.4g})",
+                               damp=model.alpha)
+
+
+def minimax_kbf(model: Model, sigma_range: tuple[float, float]) -> FilterSpec:
+    """Kalman–Bucy filter designed for the top of the σ range, σ̄ = σ_max (module docstring)."""
+    _, hi = check_sigma_range(sigma_range)
+    return dataclasses.replace(mismatched_kbf(model, hi), name="kbf_minimax",
+                               label=f"Kalman–Bucy for the largest σ (σ̄ = {hi:.4g})")
+
+
+def baseline_filters(
+    model: Model,
+    *,
+    nu: float,
+    nu_model: float | None = None,
+    sigma_design: float | None = None,
+    sigma_range: tuple[float, float] = (2.0, 200.0),
+    window: float = WINDOW,
+    names: Sequence[str] = BASELINES,
+) -> list[FilterSpec]:
+    """The filters ``names`` (default all of :data:`BASELINES`, in that order) for ``model``.
+
+    ``nu``: the ISL filter's tuning; ``nu_model``: the model-aware ISL filter's (default ``nu``);
+    ``sigma_design``: σ̄ of the mismatched filter (default :func:`design_sigma` of ``sigma_range``);
+    ``sigma_range``: also the top for ``kbf_minimax`` and the adaptive filter's table and start;
+    ``window``: the adaptive filter's forgetting window W in steps.
+    """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    names = check_names(names)
+    check_sigma_range(sigma_range)
+    makers = {
+        "kbf": lambda: optimal_kbf(model, kalman_bucy(model)),
+        "isl": lambda: isl_filter(model, nu),
+        "kbf_mismatched": lambda: mismatched_kbf(
+            model, design_sigma(sigma_range) if sigma_design is None else sigma_design),
+        "kbf_minimax": lambda: minimax_kbf(model, sigma_range),
+        "kbf_adaptive": lambda: adaptive_kbf(model, sigma_range=sigma_range, window=window),
+        "isl_model": lambda: model_aware_isl(model, nu if nu_model is None else nu_model),
+    }
+    return [makers[name]() for name in names]
+
+
+def check_names(names, param: str = "names") -> tuple[str, ...]:
+    """``names`` as a non-empty tuple of distinct names of :data:`BASELINES`, or a ``ValueError`` naming ``param``."""
+    what = f"{param} must be a non-empty sequence of distinct names from {list(BASELINES)}"
+    if isinstance(names, str) or not hasattr(names, "__iter__"):
+        raise ValueError(f"{what}, got {names!r}")
+    names = tuple(names)
+    if not names or len(set(names)) != len(names) or not all(isinstance(n, str) and n in BASELINES for n in names):
+        raise ValueError(f"{what}, got {names!r}")
+    return names
+
+
+def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
+    """Predicted RMSE ratios ``√P_ii / s_i`` (m,) of ``spec`` on ``model`` (table in the module docstring).
+
+    Exact (Lyapunov) for a fixed linear gain, statistical linearization (SPEC §6) for the power law; ``nan``
+    for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
+    """
+    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
