@@ -4,7 +4,9 @@ Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kal
 the ISL filter (A.16–A.18) and a compiled simulator of both on one Euler grid (B.30–B.34).
 Imports numpy, scipy and numba only — never a UI library.
 """
-from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .adaptive import adaptive_kbf
+from .baselines import BASELINES, baseline_filters, theory_ratios
+from .filters import AdaptiveGain, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
@@ -14,6 +16,7 @@ from .sweep import SweepResult, sweep
 from .theory import (
     mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios, predicted_ratios_grid,
 )
+from .worstcase import WorstCaseTable, worst_case
 
 __all__ = [
     "M_MAX", "Model", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0",
@@ -22,4 +25,5 @@ __all__ = [
     "DivergenceError", "RmseResult", "Run", "Track", "simulate", "simulate_rmse", "step_size",
     "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
     "SweepResult", "sweep", "Recommendation", "recommend_nu",
+    "AdaptiveGain", "BASELINES", "adaptive_kbf", "baseline_filters", "theory_ratios", "WorstCaseTable", "worst_case",
 ]

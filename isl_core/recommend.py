@@ -49,7 +49,8 @@ class Recommendation:
     ``[simulated_low, simulated_high]`` (the max over σ, i of each bound), nan if not verified;
     ``worst_sigma``, ``worst_i`` where the simulated (else predicted) worst case sits;
     ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case;
-    ``compared``: the worst cases of the ``compare`` values of ν/β, simulated on the same noise.
+    ``compared``: the worst cases of the ``compare`` values of ν/β, simulated on the same noise;
+    ``model_aware``: the recommendation is for the ISL filter that propagates with A.
     """
 
     alpha: float
@@ -68,27 +69,34 @@ class Recommendation:
     kbf_worst: float
     kbf_sigma_design: float
     compared: tuple[WorstCase, ...] = ()
+    model_aware: bool = False
 
 
-def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0) -> np.ndarray:
-    """Predicted ``max_{σ, i} š_i/s_i`` for each ν/β (same shape as ``nu_over_beta``), β = w√(2α) (A.25)."""
+def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0,
+                      model_aware: bool = False) -> np.ndarray:
+    """Predicted ``max_{σ, i} š_i/s_i`` for each ν/β (same shape as ``nu_over_beta``), β = w√(2α) (A.25).
+
+    ``model_aware``: of the ISL filter that propagates with A (damp = α) instead of A0.
+    """
     x = np.asarray(nu_over_beta, dtype=float)
     worst = np.full(x.size, -np.inf)
     for sigma in sigmas:
         model = Model.from_w(alpha, w, sigma, m)
-        worst = np.maximum(worst, predicted_ratios_grid(model, model.beta * x.ravel()).max(axis=1))
+        damp = model.alpha if model_aware else None
+        worst = np.maximum(worst, predicted_ratios_grid(model, model.beta * x.ravel(), damp=damp).max(axis=1))
     return worst.reshape(x.shape)
 
 
-def _search(alpha: float, sigmas, m: int, w: float) -> float:
+def _search(alpha: float, sigmas, m: int, w: float, model_aware: bool = False) -> float:
     """log₂(ν*/β) minimising the predicted worst case: grid, then bounded Brent around the grid's best."""
     from scipy.optimize import minimize_scalar  # lazy: scipy.optimize is slow to import
 
+    kw = {"sigmas": sigmas, "m": m, "w": w, "model_aware": model_aware}
     grid = np.arange(LOG2_RANGE[0], LOG2_RANGE[1] + GRID_STEP / 2, GRID_STEP)
-    worst = worst_case_theory(alpha, 2.0**grid, sigmas=sigmas, m=m, w=w)
+    worst = worst_case_theory(alpha, 2.0**grid, **kw)
     k = int(np.argmin(worst))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-    res = minimize_scalar(lambda ell: float(worst_case_theory(alpha, 2.0**ell, sigmas=sigmas, m=m, w=w)),
+    res = minimize_scalar(lambda ell: float(worst_case_theory(alpha, 2.0**ell, **kw)),
                           bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
     return float(res.x) if res.fun <= worst[k] else float(grid[k])
 
@@ -117,13 +125,15 @@ def recommend_nu(
     level: float = 0.95,
     executor=None,
     progress: Callable[[float], None] | None = None,
+    model_aware: bool = False,
 ) -> Recommendation:
     """The ν minimising the predicted worst-case ratio over ``sigmas`` and coordinates, verified by simulation.
 
     β = w√(2α) (A.25). ``verify=False`` skips the simulation (simulated fields nan). ``compare``: other values
     of ν/β (e.g. a published table) whose worst cases are computed alongside, on the same noise.
     ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to
-    :func:`isl_core.sweep`.
+    :func:`isl_core.sweep`. ``model_aware``: recommend ν for the ISL filter that propagates with A
+    (:func:`isl_core.baselines.model_aware_isl`) instead of paper A's (A0).
     """
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     sig = [check_real("sigmas", s, lo=0.0, lo_open=True) for s in np.atleast_1d(np.asarray(sigmas, dtype=object))]
@@ -132,15 +142,18 @@ def recommend_nu(
     m = check_int("m", m, lo=1, hi=M_MAX)
     w = check_real("w", w, lo=0.0, lo_open=True)
     compare = [check_real("compare", x, lo=0.0, lo_open=True) for x in compare]
+    if not isinstance(model_aware, bool):
+        raise ValueError(f"model_aware must be True or False, got {model_aware!r}")
     beta = w * math.sqrt(2.0 * alpha)
-    ell = _search(alpha, sig, m, w)
+    ell = _search(alpha, sig, m, w, model_aware)
     nob = 2.0**ell
     kbf_worst, kbf_design = best_fixed_kbf(alpha, sigmas=sig, m=m, w=w)
     cases = _worst_cases([nob, *compare], alpha, sig, m, w, verify, dict(
-        horizon=horizon, seeds=seeds, batches=batches, level=level, executor=executor, progress=progress))
+        horizon=horizon, seeds=seeds, batches=batches, level=level, executor=executor, progress=progress,
+        model_aware=model_aware))
     c = cases[0]
     return Recommendation(alpha, beta, m, w, tuple(sig), beta * nob, nob, c.theory, c.simulated, c.low, c.high,
-                          c.sigma, c.i, kbf_worst, kbf_design, tuple(cases[1:]))
+                          c.sigma, c.i, kbf_worst, kbf_design, tuple(cases[1:]), model_aware)
 
 
 def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> list[WorstCase]:
@@ -148,16 +161,17 @@ def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> list[WorstCase]:
     cases = []
     if verify:
         res = sweep([alpha], sigmas, nobs, m=m, w=w, **kw)
+    damp = alpha if kw["model_aware"] else None
     for n, nob in enumerate(nobs):
-        theory = float(worst_case_theory(alpha, nob, sigmas=sigmas, m=m, w=w))
+        theory = float(worst_case_theory(alpha, nob, sigmas=sigmas, m=m, w=w, model_aware=kw["model_aware"]))
         if verify:
             ratio = res.ratio[0, :, n]  # (nσ, m)
             b, i = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
             sim = float(ratio[b, i])
             low, high = float(res.ratio_low[0, :, n].max()), float(res.ratio_high[0, :, n].max())
         else:
-            ratio = np.array([predicted_ratios_grid(Model.from_w(alpha, w, s, m), [nob * w * math.sqrt(2 * alpha)])[0]
-                              for s in sigmas])
+            ratio = np.array([predicted_ratios_grid(Model.from_w(alpha, w, s, m), [nob * w * math.sqrt(2 * alpha)],
+                                                    damp=damp)[0] for s in sigmas])
             b, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
             sim = low = high = math.nan
         cases.append(WorstCase(float(nob), theory, sim, low, high, float(sigmas[b]), int(i) + 1))

@@ -22,6 +22,7 @@ Conventions, all documented choices:
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import math
 import os
 import threading
@@ -31,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._validate import check_int, check_real
+from .baselines import model_aware_isl
 from .filters import FilterSpec, isl_filter, optimal_kbf
 from .model import M_MAX, Model
 from .riccati import kalman_bucy
@@ -87,7 +89,7 @@ class SweepResult:
     ``[ratio_low, ratio_high]`` at ``level``; nan where a filter diverged. ``kbf_ratio`` (nα, nσ, m) the optimal
     filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
     statistical-linearization prediction (B.48, SPEC §6). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
-    ``steps`` (nα, nσ) per group and seed.
+    ``steps`` (nα, nσ) per group and seed. ``model_aware``: the ISL filter propagated with A instead of A0.
     """
 
     alphas: np.ndarray
@@ -110,6 +112,7 @@ class SweepResult:
     r_min: np.ndarray
     h: np.ndarray
     steps: np.ndarray = field(repr=False)
+    model_aware: bool = False
 
     @property
     def betas(self) -> np.ndarray:
@@ -184,7 +187,7 @@ def _check_list(name: str, values, *, lo: float) -> np.ndarray:
     return np.array([check_real(name, v, lo=lo, lo_open=True) for v in vals])
 
 
-def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches):
+def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False):
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
     s, r_min, h, steps = np.empty(shape + (m,)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
@@ -194,14 +197,15 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches):
         for b, sigma in enumerate(sigmas):
             model = Model.from_w(alpha, w, sigma, m)
             kb = kalman_bucy(model)
-            filters = (optimal_kbf(model, kb), *(isl_filter(model, model.beta * x) for x in nob))
+            isl = model_aware_isl if model_aware else isl_filter
+            filters = (optimal_kbf(model, kb), *(isl(model, model.beta * x) for x in nob))
             T = (BURN + horizon) / kb.r_min
             n = math.ceil(T / step_size(model, kb, filters) - 1e-9)
             if n > MAX_STEPS:
                 raise ValueError(f"horizon needs {n:,} steps at alpha = {alpha:g}, sigma = {sigma:g}, "
                                  f"over the limit of {MAX_STEPS:,}; shorten horizon")
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
-            theory[a, b] = predicted_ratios_grid(model, model.beta * nob)
+            theory[a, b] = predicted_ratios_grid(model, model.beta * nob, damp=model.alpha if model_aware else None)
             for k, seed in enumerate(seeds):
                 tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN / kb.r_min, batches,
                                    group_seed(seed, alpha, sigma, w, m), n))
@@ -301,6 +305,7 @@ def sweep(
     chunk: int = 1,
     workers: int | None = None,
     progress: Callable[[float], None] | None = None,
+    model_aware: bool = False,
 ) -> SweepResult:
     """Simulate š_i/s_i on the grid ``alphas × sigmas × nu_over_beta`` (paper A's Fig. 2 by default).
 
@@ -309,7 +314,8 @@ def sweep(
     ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; work goes out in chunks of ``chunk``
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
-    propagates.
+    propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
+    instead of paper A's (A0); its theory is SPEC §6 with A.
     """
     alphas = _check_list("alphas", alphas, lo=0.0)
     sigmas = _check_list("sigmas", sigmas, lo=0.0)
@@ -325,10 +331,13 @@ def sweep(
     chunk = check_int("chunk", chunk, lo=1)
     workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
 
-    tasks, s, r_min, h, steps, theory = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches)
+    if not isinstance(model_aware, bool):
+        raise ValueError(f"model_aware must be True or False, got {model_aware!r}")
+    tasks, s, r_min, h, steps, theory = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
     out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
-    return _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
+    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
+    return dataclasses.replace(res, model_aware=True) if model_aware else res
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
