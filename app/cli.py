@@ -4,6 +4,7 @@
     isl sweep [--alphas ...] [--sigmas ...] [--ell-min L --ell-max L] [--horizon H] [--seeds ...] [--out DIR]
     isl figure3 [--sigmas 20 200] [--alpha A] [--w W] [--nu NU] [--seed K] [--out DIR]
     isl recommend [--alphas ...] [--sigmas ...] [--horizon H] [--seeds ...] [--no-verify] [--json]
+    isl worstcase [--alphas 0.04,0.2,1,5,25] [--sigma-min 2 --sigma-max 200] [--horizon H] [--seeds ...] [--json]
     isl serve [options of app.serve]
 
 Bad arguments end with exit code 2 and one line on stderr; a diverged filter with exit code 1.
@@ -250,6 +251,79 @@ def cmd_recommend(args) -> int:
     return 0
 
 
+def _flat(values) -> list:
+    """``nargs="+"`` of comma-separated lists → one flat list."""
+    return [x for group in values for x in group]
+
+
+def _comma(kind):
+    """argparse type: a comma-separated list of ``kind`` (``"0.04,0.2,1"``)."""
+    def parse(text: str) -> list:
+        return [kind(part) for part in text.split(",") if part.strip()] or [kind(text)]
+    return parse
+
+
+def cmd_worstcase(args) -> int:
+    """Worst-case RMSE ratio over a σ range per α (rows) and filter (columns): simulated, with theory beside it."""
+    from isl_core.worstcase import worst_case
+
+    client = _client(args.dask)
+    try:
+        res = worst_case(_flat(args.alphas), sigma_range=(args.sigma_min, args.sigma_max), n_sigma=args.n_sigma,
+                         m=args.m, w=args.w, filters=_flat(args.filters), sigma_design=args.sigma_design,
+                         window=args.window, horizon=args.horizon, seeds=_flat(args.seeds), batches=args.batches,
+                         executor=client, workers=args.workers,
+                         progress=_progress_bar("worstcase", not (args.quiet or args.json)))
+    finally:
+        if client is not None:
+            client.close()
+    if args.json:
+        meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "seeds": list(res.seeds),
+                "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(),
+                "sigmas": res.sigmas.tolist(), "filters": list(res.names), "labels": list(res.labels),
+                "best_fixed_kbf_worst": res.best_fixed_worst.tolist(),
+                "best_fixed_kbf_sigma": res.best_fixed_sigma.tolist()}
+        print(json.dumps(_nan_to_none({"meta": meta, "rows": res.records()}), indent=1, allow_nan=False))
+        return 0
+    _print_worstcase(res)
+    return 0
+
+
+def _print_worstcase(res) -> None:
+    worst, low, high, theory = res.worst, res.worst_low, res.worst_high, res.theory_worst
+    width = [max(len(label), 19) for label in res.labels]
+    head = f"{'alpha':>6} | " + " | ".join(f"{label:>{w}}" for label, w in zip(res.labels, width))
+    lo, hi = res.sigma_range
+    print(f"worst case of the RMSE ratio š_i/s_i over sigma in [{lo:g}, {hi:g}] ({len(res.sigmas)} log-spaced values) "
+          f"and i = 1..{res.m}; m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min x seeds {list(res.seeds)}")
+    print(f"simulated, max over (sigma, i) with its {100 * res.level:g} % interval:")
+    print(head)
+    for a, alpha in enumerate(res.alphas):
+        cells = []
+        for f, w in enumerate(width):
+            cell = "diverged" if math.isnan(worst[a, f]) else \
+                f"{worst[a, f]:.3f} [{low[a, f]:.3g}, {high[a, f]:.3g}]"
+            cells.append(f"{cell:>{w}}")
+        print(f"{alpha:6g} | " + " | ".join(cells))
+    print("theory (exact Lyapunov for the fixed-gain Kalman–Bucy filters, statistical linearization for ISL; "
+          "— none):")
+    print(head)
+    for a, alpha in enumerate(res.alphas):
+        cells = [f"{'—' if math.isnan(theory[a, f]) else f'{theory[a, f]:.3f}':>{w}}" for f, w in enumerate(width)]
+        print(f"{alpha:6g} | " + " | ".join(cells))
+    tunings = []
+    for f, name in enumerate(res.names):
+        if name in ("isl", "isl_model"):
+            tunings.append(f"{name} nu/beta = " + ", ".join(
+                f"{nu / (res.w * math.sqrt(2.0 * alpha)):.3g}" for nu, alpha in zip(res.nu[:, f], res.alphas)))
+        elif name in ("kbf_mismatched", "kbf_minimax"):
+            tunings.append(f"{name} sigma_design = {res.sigma_design[0, f]:g}")
+    if tunings:
+        print("tunings (per alpha): " + "; ".join(tunings))
+    print("best fixed-gain KBF over the range (theory): worst " + ", ".join(f"{v:.3f}" for v in res.best_fixed_worst)
+          + " at sigma_design " + ", ".join(f"{v:.3g}" for v in res.best_fixed_sigma))
+
+
 def _build() -> _Parser:
     from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
 
@@ -307,6 +381,28 @@ def _build() -> _Parser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     common(p, horizon=1000.0)
     p.set_defaults(func=cmd_recommend)
+
+    from isl_core.baselines import BASELINES
+
+    p = sub.add_parser("worstcase", help="each filter's worst-case ratio over a sigma range, per alpha")
+    p.add_argument("--alphas", type=_comma(_positive), nargs="+", default=[list(FIG2_ALPHAS)],
+                   help="alpha values, comma- or space-separated (default 0.04,0.2,1,5,25)")
+    p.add_argument("--sigma-min", type=_positive, default=2.0, help="smallest sigma (default 2)")
+    p.add_argument("--sigma-max", type=_positive, default=200.0, help="largest sigma (default 200)")
+    p.add_argument("--n-sigma", type=int, default=5, help="log-spaced sigma values in the range (default 5)")
+    p.add_argument("--filters", type=_comma(str), nargs="+", default=[list(BASELINES)],
+                   help=f"filters to compare (default {','.join(BASELINES)})")
+    p.add_argument("--sigma-design", type=_positive, default=None,
+                   help="sigma of the mismatched KBF (default the geometric middle of the range)")
+    p.add_argument("--window", type=_positive, default=1000.0, help="adaptive KBF window W in steps (default 1000)")
+    p.add_argument("--seeds", type=_comma(_seed), nargs="+", default=[[0, 1]])
+    p.add_argument("--batches", type=int, default=10, help="batches per seed for the intervals (default 10)")
+    p.add_argument("--workers", type=int, default=None, help="local threads (default: CPU count)")
+    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
+    p.add_argument("--json", action="store_true", help="print JSON instead of the table")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    common(p, horizon=1000.0)
+    p.set_defaults(func=cmd_worstcase)
 
     sub.add_parser("serve", help="serve the dashboard (options: isl serve --help)", add_help=False)
     return top

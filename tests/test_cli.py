@@ -81,11 +81,38 @@ def test_recommend_other_model_has_no_paper_column(capsys):
     assert row["paper_a31"] == [] and row["w"] == 2.0
 
 
+def test_worstcase_table_and_json(capsys):
+    """The Fig. 2 worst-case table (all five α, σ ∈ [2, 200]) printed, then a JSON run checked for consistency."""
+    argv = ["worstcase", "--alphas", "0.04,0.2,1,5,25", "--n-sigma", "3", "--horizon", "30", "--seeds", "0",
+            "--batches", "4", "--quiet"]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    heads = [k for k, line in enumerate(lines) if line.lstrip().startswith("alpha |")]
+    assert len(heads) == 2 and "KBF oracle" in lines[heads[0]] and "ISL model-aware" in lines[heads[0]]
+    for head in heads:  # one row per α, one column per filter (simulated table, then theory)
+        rows = lines[head + 1:head + 6]
+        assert [float(r.split("|")[0]) for r in rows] == [0.04, 0.2, 1.0, 5.0, 25.0]
+        assert all(len(r.split("|")) == 1 + 6 for r in rows)
+    assert main(["worstcase", "--alphas", "1", "5", "--filters", "kbf,kbf_adaptive,isl", "--n-sigma", "2",
+                 "--horizon", "20", "--seeds", "0,1", "--batches", "2", "--json"]) == 0
+    res = _json(capsys)
+    assert res["meta"]["filters"] == ["kbf", "kbf_adaptive", "isl"] and res["meta"]["seeds"] == [0, 1]
+    assert len(res["rows"]) == 2 * 3
+    for row in res["rows"]:
+        assert row["worst_low"] <= row["worst"] <= row["worst_high"] and row["worst_sigma"] in res["meta"]["sigmas"]
+        assert (row["theory_worst"] is None) == (row["filter"] == "kbf_adaptive")
+        assert (row["nu"] is None) == (row["filter"] != "isl")
+        if row["filter"] == "kbf":
+            assert row["theory_worst"] == pytest.approx(1.0)
+
+
 @pytest.mark.parametrize("argv", [
     [], ["bogus"], ["run", "--sigma", "-1"], ["run", "--sigma", "nan"], ["run", "--m", "9"], ["run", "--alpha", "0"],
     ["run", "--seed", "-1"], ["run", "--nu", "abc"], ["run", "--horizon", "1e12"], ["figure3", "--sigmas"],
     ["sweep", "--ell-min", "3", "--ell-max", "1"], ["sweep", "--batches", "0", "--alphas", "1", "--horizon", "5"],
     ["recommend", "--alphas", "x"], ["recommend", "--m", "0", "--no-verify"],
+    ["worstcase", "--sigma-min", "5", "--sigma-max", "2"], ["worstcase", "--filters", "kbf,nope"],
+    ["worstcase", "--alphas", "1,x"], ["worstcase", "--n-sigma", "1"], ["worstcase", "--alphas", "0"],
 ])
 def test_bad_arguments_exit_2_with_one_line(argv, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a rejected command writes nothing
