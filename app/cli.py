@@ -289,9 +289,14 @@ def cmd_worstcase(args) -> int:
     return 0
 
 
+def _ratio(x: float) -> str:
+    """A ratio with 4 significant digits below 100 (``1.014``, ``18.99``), so a row's numbers compare digit by digit."""
+    return f"{x:.3f}" if x < 10 else f"{x:.2f}" if x < 100 else f"{x:.4g}"
+
+
 def _print_worstcase(res) -> None:
     worst, low, high, theory = res.worst, res.worst_low, res.worst_high, res.theory_worst
-    width = [max(len(label), 19) for label in res.labels]
+    width = [max(len(label), 20) for label in res.labels]
     head = f"{'alpha':>6} | " + " | ".join(f"{label:>{w}}" for label, w in zip(res.labels, width))
     lo, hi = res.sigma_range
     print(f"worst case of the RMSE ratio š_i/s_i over sigma in [{lo:g}, {hi:g}] ({len(res.sigmas)} log-spaced values) "
@@ -302,14 +307,14 @@ def _print_worstcase(res) -> None:
         cells = []
         for f, w in enumerate(width):
             cell = "diverged" if math.isnan(worst[a, f]) else \
-                f"{worst[a, f]:.3f} [{low[a, f]:.3g}, {high[a, f]:.3g}]"
+                f"{_ratio(worst[a, f])} [{_ratio(low[a, f])}, {_ratio(high[a, f])}]"
             cells.append(f"{cell:>{w}}")
         print(f"{alpha:6g} | " + " | ".join(cells))
     print("theory (exact Lyapunov for the fixed-gain Kalman–Bucy filters, statistical linearization for ISL; "
           "— none):")
     print(head)
     for a, alpha in enumerate(res.alphas):
-        cells = [f"{'—' if math.isnan(theory[a, f]) else f'{theory[a, f]:.3f}':>{w}}" for f, w in enumerate(width)]
+        cells = [f"{'—' if math.isnan(theory[a, f]) else _ratio(theory[a, f]):>{w}}" for f, w in enumerate(width)]
         print(f"{alpha:6g} | " + " | ".join(cells))
     tunings = []
     for f, name in enumerate(res.names):

@@ -156,8 +156,8 @@ def advance(x, z, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
                     z[f, i] += gain[f, i] * u
                     total += z[f, i]
                 if kind[f] == 2:
-                    uu[f] = u
-        if na > 0:
+                    uu[f] = u  # its σ̂ update runs below, outside this loop: the KBF/ISL path stays lean
+        if na > 0:  # adaptive filters: take u_k into σ̂, then the gain of the next step
             for f in range(nf):
                 if kind[f] == 2:
                     u = uu[f]
