@@ -12,6 +12,7 @@ Without an executor (tests, scripts) a job runs inline and its outcome is applie
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor, ThreadPoolExecutor
@@ -65,6 +66,7 @@ class Jobs:
         self._schedule = schedule or _inline
         self._busy: set[str] = set()
         self._waiting: dict[str, tuple[Callable[[], Any], Callable[[Outcome, bool], None]]] = {}
+        self._lock = threading.Lock()  # `panel serve --num-threads` runs widget callbacks on several threads
         self.closed = False
 
     def busy(self, kind: str) -> bool:
@@ -81,13 +83,14 @@ class Jobs:
         if executor is None:
             done(call(fn), False)
             return
-        if kind in self._busy:
-            self._waiting[kind] = (fn, done)
-            return
+        with self._lock:
+            if kind in self._busy:
+                self._waiting[kind] = (fn, done)
+                return
+            self._busy.add(kind)
         self._start(kind, executor, fn, done)
 
     def _start(self, kind: str, executor: Executor, fn, done) -> None:
-        self._busy.add(kind)
         future = executor.submit(call, fn)
         future.add_done_callback(lambda f: self._deliver(partial(self._finish, kind, executor, done, f.result())))
 
@@ -103,14 +106,19 @@ class Jobs:
             log.debug("dropped a job outcome: its session has closed", exc_info=True)
 
     def _finish(self, kind: str, executor: Executor, done, outcome: Outcome) -> None:
-        self._busy.discard(kind)
-        waiting = self._waiting.pop(kind, None)
-        if not self.closed:
-            done(outcome, waiting is not None)
-        if waiting is not None and not self.closed:
-            self._start(kind, executor, *waiting)
+        with self._lock:
+            waiting = self._waiting.pop(kind, None)
+            if waiting is None or self.closed:
+                self._busy.discard(kind)
+        try:
+            if not self.closed:
+                done(outcome, waiting is not None)
+        finally:  # even if applying the outcome failed, the newest request must still run
+            if waiting is not None and not self.closed:
+                self._start(kind, executor, *waiting)
 
     def close(self) -> None:
         """Forget waiting requests and drop outcomes still to come (the session has ended)."""
-        self.closed = True
-        self._waiting.clear()
+        with self._lock:
+            self.closed = True
+            self._waiting.clear()
