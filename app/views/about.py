@@ -16,8 +16,9 @@ derivative X_m is an Ornstein–Uhlenbeck process, dX_m = −α X_m dt + β dv; 
 * the **ISL filter** X̌ (blue, *inverse statistical linearization*) does **not** know σ: it replaces the
   Kalman–Bucy gain by odd power laws of the innovation that match it for every σ. Its one knob is ν.
 
-**The tube** X̂ᵢ ± 3 sᵢ (dashed green): sᵢ is the optimal filter's RMSE from theory (the Riccati equation).
-A good estimate stays inside it almost all the time.
+**The tube** X̂ᵢ ± 3 sᵢ (dashed green): sᵢ is the optimal filter's RMSE from theory (the Riccati equation),
+so the true signal Xᵢ stays inside it about 99.7 % of the time. The ISL estimate X̌ᵢ should stay close to
+X̂ᵢ, well within the tube, if it is nearly as good as the optimum.
 
 **The numbers.** *Measured* figures come from this one simulated run (they scatter: raise the horizon to
 tighten them); *theory* is computed, not simulated. A ratio š/s = 1.2 means the ISL filter's RMSE is 20 %
