@@ -21,6 +21,8 @@ from app import hardening
 from app.jobs import RUN_POOL, SWEEP_POOL, Jobs
 from app.state import INPUTS, SWEEP_INPUTS, AppState
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
+from app.views.filters_panel import FiltersPanel
+from app.views.worstcase import WorstCaseView
 
 __all__ = ["TITLE", "create_app", "session_jobs"]
 
@@ -53,7 +55,8 @@ def session_jobs() -> Jobs:
     doc = pn.state.curdoc
     if doc is None or doc.session_context is None:
         return Jobs()
-    pools = {"run": RUN_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL}
+    pools = {"run": RUN_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL,
+             "worstcase": SWEEP_POOL}
     return Jobs(pools, schedule=_loop_scheduler(doc))
 
 
@@ -67,9 +70,10 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     hardening.release_on_destroy(state.close)
     trajectories = pn.Row(TrajectoriesView(state=state), NumbersView(state=state), sizing_mode="stretch_width")
     tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories), ("ν sweep (paper A, Fig. 2)", SweepView(state=state)),
+                   ("Worst case over σ", WorstCaseView(state=state)),
                    sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not laid out
     return pn.template.FastListTemplate(
-        title=TITLE, sidebar=[ControlsView(state=state), about_card()], main=[tabs],
+        title=TITLE, sidebar=[ControlsView(state=state), FiltersPanel(state=state), about_card()], main=[tabs],
         sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
         main_layout=None, busy_indicator=None,
     )

@@ -26,7 +26,7 @@ import param
 from isl_core import DivergenceError, Model, Run, isl_filter, kalman_bucy, optimal_kbf, simulate, step_size
 from isl_core._validate import check_int, check_real
 
-from . import sweeps
+from . import extras, sweeps
 from .decimate import DISPLAY_POINTS, minmax
 from .export import run_csv
 from .jobs import Jobs, Outcome, call
@@ -70,13 +70,16 @@ class Request:
     m: int
     seed: int
     horizon: float
+    extras: tuple[str, ...] = ()
+    sigma_design: float = 20.0
+    sigma_range: tuple[float, float] = (2.0, 200.0)
 
 
 @dataclass(frozen=True)
 class Traces:
     """Display copies of a run, decimated (:mod:`app.decimate`): ``series[i][name] = (t, y)`` in float32.
 
-    ``name`` is ``"truth"`` (X_i), ``"kbf"`` (X̂_i) or ``"isl"`` (X̌_i).
+    ``name`` is ``"truth"`` (X_i), ``"kbf"`` (X̂_i), ``"isl"`` (X̌_i) or an extra filter's name (:mod:`app.extras`).
     """
 
     series: tuple[dict[str, tuple[np.ndarray, np.ndarray]], ...]
@@ -89,14 +92,15 @@ class Result:
     run: Run
     traces: Traces
     prediction: np.ndarray | None
+    extra_prediction: dict | None = None
 
 
 def decimated(run: Run, max_points: int = DISPLAY_POINTS) -> Traces:
-    """Min/max-decimated float32 copies of X_i, X̂_i, X̌_i for the plots."""
+    """Min/max-decimated float32 copies of X_i and of every filter's estimate (X̂_i, X̌_i, extras) for the plots."""
     series = []
     for i in range(run.model.m):
         pairs = {}
-        for name, arr in (("truth", run.X), ("kbf", run.X_hat), ("isl", run.X_check)):
+        for name, arr in (("truth", run.X), *((tr.name, tr.estimate) for tr in run.tracks)):
             t, y = minmax(run.t, arr[:, i], max_points)
             pairs[name] = (t.astype(np.float32), y.astype(np.float32))
         series.append(pairs)
@@ -112,7 +116,8 @@ def compute(req: Request) -> Result:
     model = Model(req.alpha, req.beta, req.sigma, req.m)
     kb = kalman_bucy(model)
     T = req.horizon / kb.r_min
-    h = step_size(model, kb, [optimal_kbf(model, kb), isl_filter(model, req.nu)])
+    extra = extras.extra_specs(model, req.nu, req.extras, req.sigma_design, req.sigma_range)
+    h = step_size(model, kb, [optimal_kbf(model, kb), isl_filter(model, req.nu), *extra])
     n = math.ceil(T / h)
     if n > APP_MAX_STEPS:
         longest = req.horizon * APP_MAX_STEPS / n
@@ -120,10 +125,10 @@ def compute(req: Request) -> Result:
             f"horizon = {req.horizon:g} needs {n:,} steps here, over the dashboard's limit of {APP_MAX_STEPS:,}; "
             f"choose a horizon <= {longest:.3g}"
         )
-    run = simulate(model, req.nu, T=T, h=h, seed=req.seed)
+    run = simulate(model, req.nu, T=T, h=h, seed=req.seed, extra=extra)  # extras on the same noise
     theory = sweeps.theory_module()
     prediction = None if theory is None else np.asarray(theory.predicted_ratios(model, req.nu))
-    return Result(run, decimated(run), prediction)
+    return Result(run, decimated(run), prediction, extras.extra_theory(model, extra))
 
 
 def _describe(exc: BaseException) -> str:
@@ -133,8 +138,11 @@ def _describe(exc: BaseException) -> str:
     return f"internal error ({type(exc).__name__}); details are in the server log"
 
 
-class AppState(param.Parameterized):
-    """Inputs of the dashboard, validated on assignment, and the latest results (see the module docstring)."""
+class AppState(extras.Baselines):
+    """Inputs of the dashboard, validated on assignment, and the latest results (see the module docstring).
+
+    The extra filters' and the worst-case table's inputs come from :class:`app.extras.Baselines`.
+    """
 
     alpha = param.Number(0.5, bounds=(0.0, 100.0), label="α", doc=(
         "Damping of the top derivative X_m, dX_m = −α X_m dt + β dv (A.5); α = 0 is paper B's white-noise model."))
@@ -179,11 +187,13 @@ class AppState(param.Parameterized):
         self._serial = 0
         self._cancel = threading.Event()
         self.param.watch(self._on_inputs, list(INPUTS))
-        self.param.watch(self._on_context, ["alpha", "beta_from_w", "w", "beta", "m", "sweep_sigmas"])
+        self.param.watch(self._on_extra_inputs, list(extras.RUN_INPUTS))
+        self.param.watch(self._on_context, ["alpha", "beta_from_w", "w", "beta", "m", "sweep_sigmas",
+                                            *extras.RUN_INPUTS])
 
     # ---- validation at the boundary -------------------------------------------------------------------
     def __setattr__(self, name: str, value) -> None:
-        if name in INPUTS or name in SWEEP_INPUTS:
+        if name in INPUTS or name in SWEEP_INPUTS or name in extras.INPUTS:
             try:
                 value = self._clean(name, value)
             except ValueError as exc:
@@ -194,6 +204,8 @@ class AppState(param.Parameterized):
         super().__setattr__(name, value)
 
     def _clean(self, name: str, value):
+        if name in extras.INPUTS:
+            return extras.clean(self, name, value)
         p = self.param[name]
         if isinstance(p, param.Boolean):
             if not isinstance(value, (bool, np.bool_)):
@@ -243,7 +255,8 @@ class AppState(param.Parameterized):
         return self._jobs.busy("run")
 
     def request(self) -> Request:
-        return Request(self.alpha, self.beta_effective, self.sigma, self.nu, self.m, self.seed, self.horizon)
+        return Request(self.alpha, self.beta_effective, self.sigma, self.nu, self.m, self.seed, self.horizon,
+                       tuple(self.extra_filters), self.sigma_design, self.sigma_range)
 
     # ---- runs ----------------------------------------------------------------------------------------
     def start(self) -> None:
@@ -269,6 +282,11 @@ class AppState(param.Parameterized):
         self.busy = not self.live  # a small run is back before a spinner could be seen
         self._jobs.submit("run", partial(compute, self.request()), partial(self._apply_run, self._serial))
 
+    def _on_extra_inputs(self, *events) -> None:
+        """σ̄ and the σ range change the run only when an extra filter is drawn (or the selection changed)."""
+        if self.extra_filters or any(e.name == "extra_filters" for e in events):
+            self._on_inputs(*events)
+
     def _apply_run(self, serial: int, outcome: Outcome, superseded: bool) -> None:
         if outcome.error is not None:
             if not superseded:
@@ -277,7 +295,7 @@ class AppState(param.Parameterized):
             return
         res: Result = outcome.value
         self.param.update(run=res.run, traces=res.traces, prediction=res.prediction,
-                          compute_seconds=outcome.seconds, busy=superseded)
+                          extra_prediction=res.extra_prediction or {}, compute_seconds=outcome.seconds, busy=superseded)
         if serial == self._serial and self._refused is None:
             self._clear()
 
@@ -307,7 +325,9 @@ class AppState(param.Parameterized):
         pts = self.points
         if pts is not None and (pts.alpha, pts.beta, pts.m, pts.sigmas) != key:
             self.points = None
-        self._jobs.submit("theory", partial(sweeps.theory_curves, *key), self._apply_curves)
+        self._jobs.submit("theory", partial(sweeps.theory_curves, *key, extras=tuple(self.extra_filters),
+                                            sigma_design=self.sigma_design, sigma_range=self.sigma_range),
+                          self._apply_curves)
 
     def _apply_curves(self, outcome: Outcome, superseded: bool) -> None:
         if outcome.error is None:
@@ -379,7 +399,9 @@ class AppState(param.Parameterized):
     def close(self) -> None:
         """End of the session: stop the sweep, drop pending work and the large arrays."""
         self._cancel.set()
+        self.cancel_worst_case()
         self._jobs.close()
         with param.parameterized.discard_events(self):  # the views are going away: no redraw
-            self.param.update(run=None, traces=None, prediction=None, points=None, curves=None)
+            self.param.update(run=None, traces=None, prediction=None, points=None, curves=None, worst=None,
+                              extra_prediction={})
 

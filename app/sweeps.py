@@ -3,7 +3,9 @@
 For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_i`` against ``ν/β = 2^ℓ``.
 
 * Theory curves: statistical linearization (B.48 and its α > 0 extension, :mod:`isl_core.theory`), a
-  batched Lyapunov solve per σ — instant.
+  batched Lyapunov solve per σ — instant. Extra filters (:mod:`app.extras`) add theirs: the model-aware ISL
+  filter's curve over the same ν, the fixed-gain Kalman–Bucy filters' exact Lyapunov ratio (flat in ν); the
+  adaptive filter has no theory and no curve.
 * Recommended ν: :func:`isl_core.sweep.recommend_nu` (minimax over σ on the theory, verified by simulation);
   it uses paper A's parametrization, so it needs α > 0 (w = β/√(2α)).
 * Simulated points: for each σ, **one** long run carries the optimal Kalman–Bucy filter and the ISL filter
@@ -16,13 +18,14 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
 from scipy.stats import t as student_t
 
-from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse
+from isl_core import Model, baseline_filters, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, theory_ratios
+from isl_core.theory import predicted_ratios_grid
 
 __all__ = [
     "BATCHES",
@@ -69,7 +72,10 @@ def sweep_module() -> ModuleType | None:
 
 @dataclass(frozen=True)
 class SweepCurves:
-    """Predicted ratios ``ratios[s, k, i]`` at σ = ``sigmas[s]``, ν/β = ``nu_over_beta[k]``, coordinate i."""
+    """Predicted ratios ``ratios[s, k, i]`` at σ = ``sigmas[s]``, ν/β = ``nu_over_beta[k]``, coordinate i.
+
+    ``extra[name]``: the same (S, K, m) for an extra filter with a theory (module docstring).
+    """
 
     alpha: float
     beta: float
@@ -77,6 +83,7 @@ class SweepCurves:
     sigmas: tuple[float, ...]
     nu_over_beta: np.ndarray
     ratios: np.ndarray
+    extra: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -96,8 +103,13 @@ class SweepPoints:
     seed: int
 
 
-def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float]) -> SweepCurves:
-    """Predicted ``š_i/s_i`` over ``ν/β = 2^THEORY_LEVELS`` for each σ (B.48, SPEC §6); inf where unstable."""
+def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, extras: Sequence[str] = (),
+                  sigma_design: float = 20.0, sigma_range: tuple[float, float] = (2.0, 200.0)) -> SweepCurves:
+    """Predicted ``š_i/s_i`` over ``ν/β = 2^THEORY_LEVELS`` for each σ (B.48, SPEC §6); inf where unstable.
+
+    ``extras``: names of extra filters whose curves to add (``sigma_design``, ``sigma_range`` as in
+    :func:`isl_core.baseline_filters`).
+    """
     theory = theory_module()
     if theory is None:
         raise TheoryMissing("the statistical-linearization theory (isl_core.theory) is not installed")
@@ -105,7 +117,17 @@ def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float]) ->
     ratios = np.stack([
         theory.predicted_ratios_grid(Model(alpha, beta, s, m), beta * nob) for s in sigmas
     ])
-    return SweepCurves(alpha, beta, m, tuple(sigmas), nob, ratios)
+    extra = {name: np.stack([_extra_curve(Model(alpha, beta, s, m), name, nob, sigma_design, sigma_range)
+                             for s in sigmas]) for name in extras if name != "kbf_adaptive"}
+    return SweepCurves(alpha, beta, m, tuple(sigmas), nob, ratios, extra)
+
+
+def _extra_curve(model: Model, name: str, nob: np.ndarray, sigma_design: float, sigma_range) -> np.ndarray:
+    """(K, m) predicted ratios of extra filter ``name``: over ν for the model-aware ISL filter, flat otherwise."""
+    if name == "isl_model":
+        return predicted_ratios_grid(model, model.beta * nob, damp=model.alpha)
+    spec, = baseline_filters(model, nu=model.beta, sigma_design=sigma_design, sigma_range=sigma_range, names=(name,))
+    return np.broadcast_to(theory_ratios(model, spec), (len(nob), model.m))
 
 
 def _interval(batch: np.ndarray) -> np.ndarray:

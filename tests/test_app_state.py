@@ -287,7 +287,7 @@ def test_create_app_builds_a_page_outside_a_server():
 
     page = create_app()
     assert isinstance(page, pn.template.FastListTemplate)
-    assert len(page.main) == 1 and len(page.sidebar) == 2
+    assert len(page.main) == 1 and len(page.sidebar) == 3
     tabs = page.main[0][0]
-    for view in (*page.sidebar, tabs[0], tabs[1]):  # every view renders to bokeh models without a warning
+    for view in (*page.sidebar, *tabs):  # every view renders to bokeh models without a warning
         assert pn.panel(view).get_root() is not None

@@ -2,18 +2,22 @@
 
 Per coordinate i: the optimal RMSE s_i = √Δ_ii (theory, A.29), the Kalman–Bucy filter's measured ratio
 ŝ_i/s_i (A.30; ≈ 1 up to sampling error on long runs), the ISL filter's measured ratio š_i/s_i and its
-statistical-linearization prediction (theory, B.48 / SPEC §6). Below: r_min (A.24), T, h, N.
+statistical-linearization prediction (theory, B.48 / SPEC §6). Extra filters (:mod:`app.extras`), when drawn,
+get a table of their own: one row per filter, its measured ratio per coordinate with the theory beside it
+(Lyapunov for the fixed-gain Kalman–Bucy filters, SPEC §6 for the model-aware ISL filter, none for the adaptive
+one, whose time-averaged σ̂ is shown instead). Below: r_min (A.24), T, h, N.
 """
 from __future__ import annotations
 
 import html
 
+import numpy as np
 import panel as pn
 import param
 from panel.viewable import Viewer
 
 from ..state import COORDINATES, AppState
-from .style import SUBSCRIPT
+from .style import EXTRA_COLORS, SUBSCRIPT
 
 __all__ = ["NumbersView", "numbers_html"]
 
@@ -32,8 +36,29 @@ def _fmt(x: float) -> str:
     return f"{x:.4g}"
 
 
-def numbers_html(run, prediction, compute_seconds: float) -> str:
-    """The two tables (per-coordinate ratios; run figures) as HTML."""
+def extras_html(run, extra_prediction: dict | None) -> str:
+    """Table of the run's extra filters (tracks after KBF and ISL): measured ratio (theory) per coordinate."""
+    tracks = run.tracks[2:]
+    if not tracks:
+        return ""
+    pred = extra_prediction or {}
+    head = "".join(f"<th>š{str(i + 1).translate(SUBSCRIPT)}/s{str(i + 1).translate(SUBSCRIPT)}"
+                   "<span class='tag'>measured (theory)</span></th>" for i in range(run.model.m))
+    rows = []
+    for tr in tracks:
+        th = pred.get(tr.name)
+        cells = "".join(
+            f"<td>{tr.ratio[i]:.3f}" + ("" if th is None or not np.isfinite(th[i]) else
+                                         f" <span class='theory'>({_fmt(th[i])})</span>") + "</td>"
+            for i in range(run.model.m))
+        note = "" if tr.sigma_hat is None else f"<span class='tag'>mean σ̂ = {float(np.mean(tr.sigma_hat)):.4g}</span>"
+        color = EXTRA_COLORS.get(tr.name, "#000")
+        rows.append(f"<tr><td><span style='color:{color}'>&#9632;</span> {html.escape(tr.label)}{note}</td>{cells}</tr>")
+    return f"<table class='isl-numbers extras'><tr><th>other filters</th>{head}</tr>{''.join(rows)}</table>"
+
+
+def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict | None = None) -> str:
+    """The tables (per-coordinate ratios; the extra filters' ratios, if any; run figures) as HTML."""
     if run is None:
         return "<p>No run yet.</p>"
     head = ("<tr><th>coordinate</th><th>s<sub>i</sub><span class='tag'>theory</span></th>"
@@ -59,7 +84,7 @@ def numbers_html(run, prediction, compute_seconds: float) -> str:
         f"<tr><td>compute time (server)</td><td>{1000 * compute_seconds:.0f} ms</td></tr>"
     )
     return (f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>{note}"
-            f"<table class='isl-numbers run'>{facts}</table>")
+            f"{extras_html(run, extra_prediction)}<table class='isl-numbers run'>{facts}</table>")
 
 
 class NumbersView(Viewer):
@@ -70,11 +95,11 @@ class NumbersView(Viewer):
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._pane = pn.pane.HTML(self._html(), stylesheets=[_CSS], margin=(0, 10))
-        self.state.param.watch(self._update, ["run", "prediction"])
+        self.state.param.watch(self._update, ["run", "prediction", "extra_prediction"])
 
     def _html(self) -> str:
         s = self.state
-        return numbers_html(s.run, s.prediction, s.compute_seconds)
+        return numbers_html(s.run, s.prediction, s.compute_seconds, s.extra_prediction)
 
     def _update(self, *events) -> None:
         self._pane.object = self._html()

@@ -4,11 +4,15 @@ from __future__ import annotations
 from bokeh.models import BasicTickFormatter
 from bokeh.plotting import figure
 
-__all__ = ["ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
+__all__ = ["EXTRA_COLORS", "FILTER_COLORS", "ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
 
 TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
 KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
 ISL = "#1f4fc1"  #: ISL X̌_i (blue)
+EXTRA_COLORS = {  #: the baselines of app.extras, distinct from truth, KBF and ISL (colour-blind-safe hues)
+    "kbf_mismatched": "#e66101", "kbf_minimax": "#7b3294", "kbf_adaptive": "#d01c8b", "isl_model": "#0fa3b1",
+}
+FILTER_COLORS = {"kbf": KBF, "isl": ISL, **EXTRA_COLORS}  #: every filter of isl_core.baselines.BASELINES
 SIGMA_COLORS = ("#d95f02", "#7570b3", "#1b9e77", "#e7298a", "#66a61e")  #: one per σ of the sweep
 SIGMA_DASHES = ("dotted", "dashed", "solid", "dashdot", "dotdash")  #: paper A, Fig. 2: σ = 2, 20, 200
 SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")

@@ -1,0 +1,154 @@
+"""Worst-case view: each filter's largest RMSE ratio over an unknown σ in [σ min, σ max], per α.
+
+The headline comparison of the baselines (:func:`isl_core.worst_case`): for each α (rows) and filter (columns),
+``W = max_{σ, i} š_i/s_i`` over a log-spaced σ grid, simulated with its 95 % batch-means interval, the theory's
+worst case beside it (Lyapunov / statistical linearization, SPEC §6–§7; none for the adaptive filter) and ν of
+the ISL filters from ``recommend_nu`` over the same σ grid. The dot chart shows the same numbers against α.
+The computation runs off the event loop with a progress bar and a cancel button.
+"""
+from __future__ import annotations
+
+import html
+import math
+
+import numpy as np
+import panel as pn
+import param
+from bokeh.core.properties import value
+from bokeh.models import ColumnDataSource, Legend, LegendItem, Span, Whisker
+from bokeh.plotting import figure
+from panel.viewable import Viewer
+
+from isl_core import BASELINES, WorstCaseTable
+from isl_core.baselines import LABELS
+
+from ..state import AppState
+from .filters_panel import bind
+from .style import FILTER_COLORS, styled
+from .sweep import parse_sigmas
+
+__all__ = ["WorstCaseView", "worst_case_html"]
+
+_CSS = """
+table.isl-worst { border-collapse: collapse; font-size: 14px; margin: 4px 0 8px 0; }
+table.isl-worst th, table.isl-worst td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
+table.isl-worst th { font-weight: 600; vertical-align: bottom; }
+table.isl-worst td:first-child, table.isl-worst th:first-child { text-align: left; }
+table.isl-worst .ci, table.isl-worst .theory { display: block; font-size: 12px; color: #555; }
+table.isl-worst .theory { font-style: italic; }
+table.isl-worst .best { font-weight: 700; }
+"""
+
+
+def _cell(rec: dict, best: bool) -> str:
+    if not math.isfinite(rec["worst"]):
+        sim = "<span>diverged</span>"
+    else:
+        cls = " class='best'" if best else ""
+        sim = (f"<span{cls}>{rec['worst']:.3g}</span>"
+               f"<span class='ci'>[{rec['worst_low']:.3g}, {rec['worst_high']:.3g}] at σ = {rec['worst_sigma']:.3g}"
+               f", X{rec['worst_i']}</span>")
+    th = "no theory" if math.isnan(rec["theory_worst"]) else f"theory {rec['theory_worst']:.3g}"
+    extra = f", ν = {rec['nu']:.3g}" if math.isfinite(rec["nu"]) else ""
+    extra += f", σ̄ = {rec['sigma_design']:.3g}" if math.isfinite(rec["sigma_design"]) else ""
+    return f"<td>{sim}<span class='theory'>{th}{extra}</span></td>"
+
+
+def worst_case_html(table: WorstCaseTable | None) -> str:
+    """Rows α, columns filters: simulated worst case [95 % interval], where it sits, theory, ν / σ̄."""
+    if table is None:
+        return "<p>No table yet: press <b>Compute</b>.</p>"
+    recs = table.records()
+    nf = len(table.names)
+    head = "".join(f"<th>{html.escape(LABELS[n])}<span class='ci'>measured</span></th>" for n in table.names)
+    rows = []
+    for a, alpha in enumerate(table.alphas):
+        part = recs[a * nf:(a + 1) * nf]
+        worst = [r["worst"] if math.isfinite(r["worst"]) else math.inf for r in part]
+        best = int(np.argmin(worst[1:])) + 1 if nf > 1 else 0  # the oracle (column 0) does not compete
+        cells = "".join(_cell(r, f == best) for f, r in enumerate(part))
+        rows.append(f"<tr><td>α = {alpha:.3g}<span class='ci'>β = {part[0]['beta']:.3g}</span></td>{cells}</tr>")
+    return f"<table class='isl-worst'><tr><th>α</th>{head}</tr>{''.join(rows)}</table>"
+
+
+class WorstCaseView(Viewer):
+    """Inputs, compute/cancel/progress, the table and the dot chart of the worst-case comparison."""
+
+    state = param.ClassSelector(class_=AppState)
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._sources = {n: ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"worst-{n}")
+                         for n in BASELINES}
+        self._figure = self._chart()
+        self._table = pn.pane.HTML(worst_case_html(self.state.worst), stylesheets=[_CSS], margin=(0, 10))
+        self.state.param.watch(self._update, ["worst"])
+        self._update()
+
+    def _chart(self) -> figure:
+        fig = styled(figure(x_axis_type="log", y_axis_type="log", height=420, sizing_mode="stretch_width",
+                            title="Worst-case RMSE ratio over the σ range (simulated, 95 % intervals)",
+                            tools="pan,wheel_zoom,box_zoom,reset,save"))
+        fig.xaxis.axis_label = "α"
+        fig.yaxis.axis_label = "max over σ and i of RMSE_i / s_i"
+        fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
+        items = []
+        for name, src in self._sources.items():
+            color = FILTER_COLORS[name]
+            dots = fig.scatter("x", "y", source=src, size=10, color=color, marker="circle")
+            fig.add_layout(Whisker(source=src, base="x", lower="lower", upper="upper", dimension="height",
+                                   line_color=color, line_width=1.5))
+            items.append(LegendItem(label=value(LABELS[name]), renderers=[dots]))
+        fig.add_layout(Legend(items=items, location="top_left", label_text_font_size="11pt", click_policy="hide"),
+                       "right")
+        return fig
+
+    def _update(self, *events) -> None:
+        t = self.state.worst
+        self._table.object = worst_case_html(t)
+        with pn.io.hold():
+            for name, src in self._sources.items():
+                if t is None or name not in t.names:
+                    src.data = {"x": [], "y": [], "lower": [], "upper": []}
+                    continue
+                f = t.names.index(name)
+                shift = 1.06 ** (f - (len(t.names) - 1) / 2)  # side by side on the log axis
+                y, lo, hi = t.worst[:, f], t.worst_low[:, f], t.worst_high[:, f]
+                ok = np.isfinite(y) & (y > 0)
+                src.data = {"x": t.alphas[ok] * shift, "y": y[ok], "lower": np.maximum(lo[ok], 1e-3),
+                            "upper": hi[ok]}
+
+    def _controls(self) -> pn.Column:
+        s = self.state
+        p = s.param
+        lo = bind(s, "sigma_min", pn.widgets.FloatInput(label=p.sigma_min.label, start=0.1, end=1000.0, width=110))
+        hi = bind(s, "sigma_max", pn.widgets.FloatInput(label=p.sigma_max.label, start=0.1, end=1000.0, width=110))
+        alphas = pn.widgets.TextInput(label="α values (comma separated)", width=220,
+                                      value=", ".join(f"{v:g}" for v in s.wc_alphas))
+        alphas.param.watch(lambda e: setattr(s, "wc_alphas", parse_sigmas(e.new)), "value")
+        s.param.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "wc_alphas")
+        n = bind(s, "wc_n_sigma", pn.widgets.IntInput(label=p.wc_n_sigma.label, start=2, end=11, width=110))
+        horizon = bind(s, "wc_horizon", pn.widgets.FloatInput(label=p.wc_horizon.label, start=20.0, end=2000.0,
+                                                              step=50.0, width=190))
+        run = pn.widgets.Button(label="Compute", color="primary", width=120, disabled=p.worst_busy,
+                                margin=(24, 10, 0, 10))
+        run.on_click(lambda e: s.compute_worst_case())
+        cancel = pn.widgets.Button(label="Cancel", color="danger", width=90, visible=p.worst_busy,
+                                   margin=(24, 10, 0, 10))
+        cancel.on_click(lambda e: s.cancel_worst_case())
+        progress = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), p.worst_progress), max=100,
+                                          width=200, visible=p.worst_busy, margin=(34, 10))
+        note = pn.pane.Markdown(p.worst_note, margin=(0, 10))
+        return pn.Column(pn.Row(lo, hi, n, alphas, horizon, run, cancel, progress), note,
+                         sizing_mode="stretch_width")
+
+    def __panel__(self):
+        intro = pn.pane.Markdown(
+            "If σ is only known to lie in [σ min, σ max], what matters is each filter's **worst** RMSE ratio over "
+            "that range: max over σ (log-spaced grid) and coordinates i of RMSE<sub>i</sub>/s<sub>i</sub>. All "
+            "filters run on the same noise; the ISL filters use the ν that `recommend_nu` picks for the same σ "
+            "grid (theory minimax). The Kalman–Bucy oracle knows σ (≈ 1, a check of the horizon). **Bold**: the "
+            "best filter that does not know σ.", margin=(0, 10), styles={"font-size": "14px"})
+        return pn.Column(intro, self._controls(), self._table, pn.pane.Bokeh(self._figure, margin=5,
+                                                                              sizing_mode="stretch_width"),
+                         sizing_mode="stretch_width")

@@ -1,0 +1,150 @@
+"""The dashboard's baselines (app.extras): extra filters on the run, their inputs, the worst-case table.
+
+Headless: no server, no browser. Jobs run inline unless a test gives the state a thread pool.
+"""
+import queue
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from app import extras
+from app.jobs import Jobs
+from app.state import AppState
+from app.views.numbers import numbers_html
+from app.views.worstcase import worst_case_html
+from isl_core import Model, baseline_filters, simulate, theory_ratios
+
+
+@pytest.fixture
+def state():
+    s = AppState()
+    s.start()
+    return s
+
+
+def test_default_run_has_only_the_two_filters(state):
+    assert [tr.name for tr in state.run.tracks] == ["kbf", "isl"] and state.extra_prediction == {}
+    assert "other filters" not in numbers_html(state.run, state.prediction, 0.0, state.extra_prediction)
+
+
+def test_extra_filters_ride_on_the_same_run(state):
+    state.extra_filters = list(extras.EXTRA_NAMES)
+    run = state.run
+    assert [tr.name for tr in run.tracks] == ["kbf", "isl", *extras.EXTRA_NAMES] and state.message == ""
+    # the same noise: an independent simulate with the same filters, grid and seed reproduces every track
+    specs = baseline_filters(run.model, nu=run.nu, sigma_design=state.sigma_design,
+                             sigma_range=(state.sigma_min, state.sigma_max), names=extras.EXTRA_NAMES)
+    again = simulate(run.model, run.nu, T=run.T, h=run.h, seed=run.seed, extra=specs)
+    for a, b in zip(run.tracks, again.tracks, strict=True):
+        np.testing.assert_array_equal(a.estimate, b.estimate)
+    assert run.track("kbf_adaptive").sigma_hat is not None
+    # traces for every filter, theory per filter (the mismatched KBF designed for σ̄ = σ = 20 is the oracle)
+    assert set(state.traces.series[0]) == {"truth", "kbf", "isl", *extras.EXTRA_NAMES}
+    np.testing.assert_allclose(state.extra_prediction["kbf_mismatched"], 1.0, rtol=1e-9)
+    assert np.all(np.isnan(state.extra_prediction["kbf_adaptive"]))
+    np.testing.assert_array_equal(state.extra_prediction["isl_model"],
+                                  theory_ratios(run.model, specs[-1]))
+    html = numbers_html(run, state.prediction, 0.0, state.extra_prediction)
+    assert "other filters" in html and all(tr.label in html for tr in run.tracks[2:])
+
+
+def test_design_sigma_and_range_reach_the_filters(state):
+    state.extra_filters = ["kbf_mismatched", "kbf_minimax"]
+    state.param.update(sigma_design=5.0, sigma_max=100.0)
+    assert "5" in state.run.track("kbf_mismatched").label and "100" in state.run.track("kbf_minimax").label
+    model = state.run.model
+    spec, = baseline_filters(model, nu=3.0, sigma_design=5.0, names=("kbf_mismatched",))
+    np.testing.assert_array_equal(state.extra_prediction["kbf_mismatched"], theory_ratios(model, spec))
+
+
+@pytest.mark.parametrize("name, bad", [
+    ("sigma_design", float("nan")), ("sigma_design", 0.0), ("sigma_design", "20"), ("sigma_design", 1e308),
+    ("sigma_min", 500.0), ("sigma_min", -1.0), ("sigma_max", 1.0), ("sigma_max", None),
+    ("extra_filters", ["kbf"]), ("extra_filters", "isl_model"), ("extra_filters", ["isl_model", "isl_model"]),
+    ("wc_alphas", []), ("wc_alphas", [0.0]), ("wc_n_sigma", 1), ("wc_horizon", float("inf")),
+])
+def test_bad_values_are_refused_with_a_message(state, name, bad):
+    state.extra_filters = ["isl_model"]
+    run, before = state.run, getattr(state, name)
+    setattr(state, name, bad)
+    assert getattr(state, name) == before and state.run is run
+    assert state.message.startswith(f"Refused {state.param[name].label}:") and name in state.message
+
+
+def test_sigma_range_needs_min_below_max(state):
+    state.sigma_min = 200.0
+    assert state.sigma_min == 2.0 and "sigma_max = 200" in state.message
+    state.sigma_max = 300.0
+    state.sigma_min = 250.0
+    assert (state.sigma_min, state.sigma_max) == (250.0, 300.0)
+
+
+def test_sweep_curves_of_the_extra_filters(state):
+    if state.curves is None:
+        pytest.skip(f"no theory curves: {state.curves_note}")
+    assert state.curves.extra == {}
+    state.extra_filters = list(extras.EXTRA_NAMES)
+    extra = state.curves.extra
+    assert set(extra) == {"kbf_mismatched", "kbf_minimax", "isl_model"}  # no theory for the adaptive filter
+    assert extra["isl_model"].shape == state.curves.ratios.shape
+    assert np.ptp(extra["kbf_minimax"], axis=1).max() == 0.0  # a fixed gain does not depend on ν
+
+
+class _Loop:
+    def __init__(self):
+        self.q = queue.Queue()
+
+    def schedule(self, fn):
+        self.q.put(fn)
+
+    def pump(self, until, timeout=120.0):
+        while not until():
+            self.q.get(timeout=timeout)()
+
+
+def test_worst_case_table_is_computed_off_thread_and_shown():
+    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=1)
+    try:
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
+        s.start()
+        s.param.update(wc_alphas=[1.0], wc_n_sigma=2, wc_horizon=20.0)
+        caller = threading.get_ident()
+        s.compute_worst_case()
+        assert s.worst_busy  # returned before the table exists: the work is on the pool
+        loop.pump(lambda: not s.worst_busy)
+        assert threading.get_ident() == caller
+        t = s.worst
+        assert t is not None and "Simulated" in s.worst_note, s.worst_note
+        assert t.alphas.tolist() == [1.0] and t.sigma_range == (2.0, 200.0) and t.names == extras.BASELINES
+        # internal consistency: each worst case is the largest per-σ value, the oracle's theory is 1
+        assert np.all(t.worst[0] >= t.ratio[0].max(axis=-1).max(axis=0) - 1e-12)
+        assert t.theory_worst[0, 0] == pytest.approx(1.0, rel=1e-9)
+        html = worst_case_html(t)
+        assert "α = 1" in html and all(label in html for label in t.labels)
+    finally:
+        pool.shutdown(wait=True)
+
+
+def test_worst_case_can_be_cancelled():
+    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=1)
+    try:
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
+        s.start()
+        s.param.update(wc_alphas=[0.04, 25.0], wc_horizon=2000.0)  # long enough to be caught running
+        s.compute_worst_case()
+        s.cancel_worst_case()
+        loop.pump(lambda: not s.worst_busy)
+        assert s.worst_note == "Cancelled." and s.worst is None
+    finally:
+        pool.shutdown(wait=True)
+
+
+def test_worst_case_model_is_the_papers_parametrization():
+    # the table's β per α is w√(2α) (A.25), with the state's w
+    t = extras.worst_case_table([0.5], sigma_range=(2.0, 20.0), n_sigma=2, m=2, w=2.0, sigma_design=6.0,
+                                horizon=20.0, seed=3)
+    rec = t.records()
+    assert rec[0]["beta"] == pytest.approx(Model.from_w(0.5, 2.0, 2.0, 2).beta)
+    assert t.sigma_design[0, t.names.index("kbf_mismatched")] == 6.0 and t.seeds == (3,)
