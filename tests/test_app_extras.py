@@ -148,3 +148,18 @@ def test_worst_case_model_is_the_papers_parametrization():
     rec = t.records()
     assert rec[0]["beta"] == pytest.approx(Model.from_w(0.5, 2.0, 2.0, 2).beta)
     assert t.sigma_design[0, t.names.index("kbf_mismatched")] == 6.0 and t.seeds == (3,)
+
+
+def test_sweep_view_draws_the_extra_curves(state):
+    from app.views.sweep import SweepView
+
+    if state.curves is None:
+        pytest.skip(f"no theory curves: {state.curves_note}")
+    view = SweepView(state=state)
+    srcs = view._extra_lines[0]
+    assert all(len(src.data["x"]) == 0 for name in srcs for src in srcs[name])
+    state.extra_filters = ["isl_model", "kbf_adaptive"]
+    n = len(state.sweep_sigmas)
+    assert [len(src.data["x"]) > 0 for src in srcs["isl_model"]] == [True] * n + [False] * (len(srcs["isl_model"]) - n)
+    assert view._extra_items[0]["isl_model"].visible and not view._extra_items[0]["kbf_minimax"].visible
+    np.testing.assert_array_equal(srcs["isl_model"][0].data["y"], state.curves.extra["isl_model"][0, :, 0])

@@ -3,7 +3,9 @@
 One log–log plot per coordinate i (columns of Fig. 2) for the current α, β and m: theory curves (statistical
 linearization, B.48 / SPEC §6) drawn at once, one line style per σ (Fig. 2: σ = 2 dotted, 20 dashed, 200
 solid); simulated points with 95 % intervals on demand; the current ν as a vertical line; ratio 1 (the
-optimum) as a horizontal one. Plots are built once and updated in place.
+optimum) as a horizontal one. Extra filters (:mod:`app.extras`) with a theory add their curves in their own
+colour, with the σ line styles: the model-aware ISL filter over ν, the fixed-gain Kalman–Bucy filters flat.
+Plots are built once and updated in place.
 """
 from __future__ import annotations
 
@@ -16,14 +18,16 @@ from bokeh.plotting import figure
 from panel.viewable import Viewer
 
 from isl_core import M_MAX
+from isl_core.baselines import LABELS
 
 from ..state import COORDINATES, AppState
 from .controls import log_slider
-from .style import SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, styled
+from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, styled
 
 __all__ = ["SweepView", "parse_sigmas"]
 
 _SLOTS = len(SIGMA_COLORS)
+_EXTRA_CURVES = ("kbf_mismatched", "kbf_minimax", "isl_model")  #: extra filters with a theory (app.sweeps)
 
 
 def parse_sigmas(text: str) -> list[float] | str:
@@ -48,6 +52,8 @@ class SweepView(Viewer):
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._lines, self._points, self._nu_marks = [], [], []
+        self._extra_lines: list[dict] = []
+        self._extra_items: list[dict] = []
         self._renderers: list[list[tuple]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
@@ -84,7 +90,19 @@ class SweepView(Viewer):
             lines.append(line_src)
             points.append(pt_src)
         legend = Legend(items=items, orientation="horizontal", label_text_font_size="11pt", padding=2, margin=2)
+        extra_lines, extra_items = {}, {}
+        for name in _EXTRA_CURVES:
+            srcs = [ColumnDataSource({"x": [], "y": []}, name=f"sweep-{name}-{i + 1}-{j}") for j in range(_SLOTS)]
+            glyphs = [fig.line("x", "y", source=src, line_color=EXTRA_COLORS[name], line_dash=SIGMA_DASHES[j],
+                               line_width=1.8) for j, src in enumerate(srcs)]
+            extra_lines[name] = srcs
+            extra_items[name] = LegendItem(label=value(""), renderers=glyphs, visible=False)
+        extra_legend = Legend(items=list(extra_items.values()), orientation="horizontal", label_text_font_size="10pt",
+                              padding=2, margin=2)
+        fig.add_layout(extra_legend, "above")
         fig.add_layout(legend, "above")
+        self._extra_lines.append(extra_lines)
+        self._extra_items.append(extra_items)
         self._lines.append(lines)
         self._points.append(points)
         self._nu_marks.append(mark)
@@ -111,6 +129,22 @@ class SweepView(Viewer):
                     item.visible = have
                     if have:
                         item.label = value(f"σ = {curves.sigmas[j]:g}")
+                self._update_extra(i, curves)
+
+    def _update_extra(self, i: int, curves) -> None:
+        """Curves of the extra filters in plot i (empty when not selected)."""
+        extra = {} if curves is None or i >= curves.m else curves.extra
+        for name in _EXTRA_CURVES:
+            have = name in extra
+            for j, src in enumerate(self._extra_lines[i][name]):
+                if have and j < len(curves.sigmas):
+                    src.data = {"x": curves.nu_over_beta, "y": _positive(extra[name][j, :, i])}
+                elif len(src.data["x"]):
+                    src.data = {"x": [], "y": []}
+            item = self._extra_items[i][name]
+            item.visible = have
+            if have:
+                item.label = value(f"{LABELS[name]} (theory)")
 
     def _update_points(self, *events) -> None:
         pts = self.state.points
