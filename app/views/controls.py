@@ -17,9 +17,25 @@ from panel.viewable import Viewer
 from ..presets import PRESETS
 from ..state import AppState
 
-__all__ = ["ControlsView", "log_slider", "round_sig", "with_help"]
+__all__ = ["ControlsView", "IntSlider", "Slider", "log_slider", "round_sig", "with_help"]
 
 _LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toString();"
+
+
+class Slider(pn.widgets.FloatSlider):
+    """A FloatSlider whose changes reach the server at once.
+
+    Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
+    already keeps only the newest request, so the delay would only add latency to every update.
+    """
+
+    _debounce = 0
+
+
+class IntSlider(pn.widgets.IntSlider):
+    """An IntSlider without Panel's 50 ms debounce (see :class:`Slider`)."""
+
+    _debounce = 0
 
 
 def round_sig(x: float, digits: int = 3) -> float:
@@ -69,7 +85,7 @@ def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float 
     """A slider over log10 of input ``name`` between ``lo`` and ``hi`` (within the input's bounds)."""
     p = state.param[name]
     a, b = math.log10(lo), math.log10(hi)
-    widget = pn.widgets.FloatSlider(label=p.label, start=a, end=b, step=step,
+    widget = Slider(label=p.label, start=a, end=b, step=step,
                                     format=CustomJSTickFormatter(code=_LOG_FORMAT), sizing_mode="stretch_width")
 
     def to_widget(x: float) -> float | None:
@@ -113,7 +129,7 @@ class ControlsView(Viewer):
         self._beta = log_slider(s, "beta", 0.01, 1000.0)
         self._sigma = log_slider(s, "sigma", 0.1, 1000.0)
         self._nu = log_slider(s, "nu", 0.001, 10000.0)
-        self._m = _plain(s, "m", pn.widgets.IntSlider(label="m (state dimension)", start=1, end=6,
+        self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6,
                                                       sizing_mode="stretch_width"))
         self._seed = _plain(s, "seed", pn.widgets.IntInput(label="seed", start=0, end=2**31 - 1, width=120))
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)

@@ -53,7 +53,7 @@ class TrajectoriesView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._x_range = Range1d(0.0, 1.0)
+        self._x_range = Range1d(0.0, 1.0)  # shared: pan or zoom one plot's time axis and all follow
         self._sources: list[dict[str, ColumnDataSource]] = []
         self._dodges: list[tuple[Dodge, Dodge]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
