@@ -15,6 +15,7 @@ from app.state import AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import worst_case_html
 from isl_core import Model, baseline_filters, simulate, theory_ratios
+from isl_core.baselines import LABELS
 
 
 @pytest.fixture
@@ -161,5 +162,5 @@ def test_sweep_view_draws_the_extra_curves(state):
     state.extra_filters = ["isl_model", "kbf_adaptive"]
     n = len(state.sweep_sigmas)
     assert [len(src.data["x"]) > 0 for src in srcs["isl_model"]] == [True] * n + [False] * (len(srcs["isl_model"]) - n)
-    assert view._extra_items[0]["isl_model"].visible and not view._extra_items[0]["kbf_minimax"].visible
+    assert LABELS["isl_model"] in view._extra_legend.object and LABELS["kbf_minimax"] not in view._extra_legend.object
     np.testing.assert_array_equal(srcs["isl_model"][0].data["y"], state.curves.extra["isl_model"][0, :, 0])

@@ -67,7 +67,7 @@ class FiltersPanel(Viewer):
         s.param.watch(self._from_state, ["extra_filters"])
         p = s.param
         self._design = bind(s, "sigma_design", pn.widgets.FloatInput(
-            label=p.sigma_design.label, start=0.1, end=1000.0, step=1.0, width=110))
+            label=p.sigma_design.label, start=0.1, end=1000.0, step=1.0, width=170))
         self._lo = bind(s, "sigma_min", pn.widgets.FloatInput(label=p.sigma_min.label, start=0.1, end=1000.0,
                                                                step=1.0, width=110))
         self._hi = bind(s, "sigma_max", pn.widgets.FloatInput(label=p.sigma_max.label, start=0.1, end=1000.0,
@@ -91,5 +91,5 @@ class FiltersPanel(Viewer):
             "Drawn on the same run (same noise). The model-aware ISL filter uses the ν above; the Kalman–Bucy "
             "filter 'for max σ' and the adaptive one assume σ ∈ [σ min, σ max].",
             styles={"font-size": "12px"}, margin=(0, 10))
-        return pn.Card(*rows, pn.Row(self._design, self._lo, self._hi), help_text,
+        return pn.Card(*rows, pn.Row(self._design), pn.Row(self._lo, self._hi), help_text,
                        title="Other filters (σ unknown)", collapsed=False, sizing_mode="stretch_width")

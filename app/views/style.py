@@ -9,8 +9,8 @@ __all__ = ["EXTRA_COLORS", "FILTER_COLORS", "ISL", "KBF", "SIGMA_COLORS", "SIGMA
 TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
 KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
 ISL = "#1f4fc1"  #: ISL X̌_i (blue)
-EXTRA_COLORS = {  #: the baselines of app.extras, distinct from truth, KBF and ISL (colour-blind-safe hues)
-    "kbf_mismatched": "#e66101", "kbf_minimax": "#7b3294", "kbf_adaptive": "#d01c8b", "isl_model": "#0fa3b1",
+EXTRA_COLORS = {  #: the baselines of app.extras: hues apart from truth, KBF, ISL and the σ colours below
+    "kbf_mismatched": "#8c510a", "kbf_minimax": "#a50026", "kbf_adaptive": "#e6ab02", "isl_model": "#17becf",
 }
 FILTER_COLORS = {"kbf": KBF, "isl": ISL, **EXTRA_COLORS}  #: every filter of isl_core.baselines.BASELINES
 SIGMA_COLORS = ("#d95f02", "#7570b3", "#1b9e77", "#e7298a", "#66a61e")  #: one per σ of the sweep

@@ -53,7 +53,7 @@ class SweepView(Viewer):
         super().__init__(**params)
         self._lines, self._points, self._nu_marks = [], [], []
         self._extra_lines: list[dict] = []
-        self._extra_items: list[dict] = []
+        self._extra_legend = pn.pane.HTML("", margin=(0, 10), styles={"font-size": "13px"})
         self._renderers: list[list[tuple]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
@@ -90,19 +90,14 @@ class SweepView(Viewer):
             lines.append(line_src)
             points.append(pt_src)
         legend = Legend(items=items, orientation="horizontal", label_text_font_size="11pt", padding=2, margin=2)
-        extra_lines, extra_items = {}, {}
+        fig.add_layout(legend, "above")
+        extra_lines = {}  # their legend is one HTML line above the plots (three legends per plot do not fit)
         for name in _EXTRA_CURVES:
             srcs = [ColumnDataSource({"x": [], "y": []}, name=f"sweep-{name}-{i + 1}-{j}") for j in range(_SLOTS)]
-            glyphs = [fig.line("x", "y", source=src, line_color=EXTRA_COLORS[name], line_dash=SIGMA_DASHES[j],
-                               line_width=1.8) for j, src in enumerate(srcs)]
+            for j, src in enumerate(srcs):
+                fig.line("x", "y", source=src, line_color=EXTRA_COLORS[name], line_dash=SIGMA_DASHES[j], line_width=1.8)
             extra_lines[name] = srcs
-            extra_items[name] = LegendItem(label=value(""), renderers=glyphs, visible=False)
-        extra_legend = Legend(items=list(extra_items.values()), orientation="horizontal", label_text_font_size="10pt",
-                              padding=2, margin=2)
-        fig.add_layout(extra_legend, "above")
-        fig.add_layout(legend, "above")
         self._extra_lines.append(extra_lines)
-        self._extra_items.append(extra_items)
         self._lines.append(lines)
         self._points.append(points)
         self._nu_marks.append(mark)
@@ -130,6 +125,11 @@ class SweepView(Viewer):
                     if have:
                         item.label = value(f"σ = {curves.sigmas[j]:g}")
                 self._update_extra(i, curves)
+            names = [n for n in _EXTRA_CURVES if curves is not None and n in curves.extra]
+            self._extra_legend.object = "" if not names else (
+                "Other filters, theory (line style = σ as in each legend): " + " &nbsp; ".join(
+                    f"<span style='color:{EXTRA_COLORS[n]};font-weight:bold'>&#9472;&#9472;</span> {LABELS[n]}"
+                    + (" (flat: fixed gain)" if n != "isl_model" else "") for n in names))
 
     def _update_extra(self, i: int, curves) -> None:
         """Curves of the extra filters in plot i (empty when not selected)."""
@@ -141,10 +141,6 @@ class SweepView(Viewer):
                     src.data = {"x": curves.nu_over_beta, "y": _positive(extra[name][j, :, i])}
                 elif len(src.data["x"]):
                     src.data = {"x": [], "y": []}
-            item = self._extra_items[i][name]
-            item.visible = have
-            if have:
-                item.label = value(f"{LABELS[name]} (theory)")
 
     def _update_points(self, *events) -> None:
         pts = self.state.points
@@ -204,4 +200,4 @@ class SweepView(Viewer):
             "**Lines: theory** (statistical linearization; it under-predicts where the filter loses lock at "
             "small ν). **Dots: simulation** with 95 % intervals (on demand). Red line: the current ν.",
             margin=(0, 10), styles={"font-size": "14px"})
-        return pn.Column(intro, self._controls(), *self._rows, sizing_mode="stretch_width")
+        return pn.Column(intro, self._controls(), self._extra_legend, *self._rows, sizing_mode="stretch_width")
