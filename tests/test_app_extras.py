@@ -164,3 +164,21 @@ def test_sweep_view_draws_the_extra_curves(state):
     assert [len(src.data["x"]) > 0 for src in srcs["isl_model"]] == [True] * n + [False] * (len(srcs["isl_model"]) - n)
     assert LABELS["isl_model"] in view._extra_legend.object and LABELS["kbf_minimax"] not in view._extra_legend.object
     np.testing.assert_array_equal(srcs["isl_model"][0].data["y"], state.curves.extra["isl_model"][0, :, 0])
+
+
+def test_trajectories_overlay_the_extra_filters(state):
+    from app.views.trajectories import TrajectoriesView
+
+    view = TrajectoriesView(state=state)
+    srcs = view._overlay._sources
+    assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())  # default: nothing sent
+    assert not view._overlay._legend.visible
+    state.extra_filters = ["kbf_adaptive", "isl_model"]
+    for i in range(state.m):
+        t, y = state.traces.series[i]["isl_model"]
+        np.testing.assert_array_equal(srcs[i]["isl_model"].data["y"], y)
+        assert len(srcs[i]["kbf_adaptive"].data["t"]) > 0 and len(srcs[i]["kbf_minimax"].data["t"]) == 0
+    items = view._overlay._items
+    assert view._overlay._legend.visible and items["isl_model"].visible and not items["kbf_minimax"].visible
+    state.extra_filters = []
+    assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())

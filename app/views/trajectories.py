@@ -3,7 +3,8 @@
 Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i
 (blue) and the tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are
 built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32) and the
-tube offsets (a ``Dodge`` transform of X̂_i by ±3 s_i, so the tube costs no extra data).
+tube offsets (a ``Dodge`` transform of X̂_i by ±3 s_i, so the tube costs no extra data). Extra filters of the
+run (:mod:`app.extras`) are drawn by :class:`app.views.overlay.Overlay`, one colour each.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from panel.viewable import Viewer
 from isl_core import M_MAX
 
 from ..state import COORDINATES, AppState
+from .overlay import LEGEND_ROW, Overlay
 from .style import ISL, KBF, SUBSCRIPT, TRUTH, styled
 
 __all__ = ["TrajectoriesView", "plot_height"]
@@ -56,6 +58,7 @@ class TrajectoriesView(Viewer):
         self._x_range = Range1d(0.0, 1.0)  # shared: pan or zoom one plot's time axis and all follow
         self._sources: list[dict[str, ColumnDataSource]] = []
         self._dodges: list[tuple[Dodge, Dodge]] = []
+        self._overlay = Overlay()
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, sizing_mode="stretch_width", margin=(0, 5)) for f in self._figures]
         self._column = pn.Column(sizing_mode="stretch_width")
@@ -86,6 +89,7 @@ class TrajectoriesView(Viewer):
                             orientation="horizontal", label_text_font_size="11pt", click_policy="hide",
                             padding=2, margin=2, spacing=14)
             fig.add_layout(legend, "above")
+        self._overlay.add(fig, i, k)
         self._sources.append(src)
         self._dodges.append((up, down))
         return fig
@@ -96,19 +100,22 @@ class TrajectoriesView(Viewer):
         with pn.io.hold():
             if run is not None:
                 _set_range(self._x_range, 0.0, run.T)
+            extra_row = self._overlay.show([] if run is None else [tr.name for tr in run.tracks[2:]])
             for i, fig in enumerate(self._figures):
                 if i < m:
                     for name, src in self._sources[i].items():
                         t, y = traces.series[i][name]
                         src.data = {"t": t, "y": y}
+                    self._overlay.update(i, traces.series[i])
                     up, down = self._dodges[i]
                     up.value, down.value = 3.0 * float(run.s[i]), -3.0 * float(run.s[i])
                     _set_range(fig.y_range, *_y_limits(traces.series[i], 3.0 * float(run.s[i])))
-                    fig.height = plot_height(m) + (LEGEND_HEIGHT if i == 0 else 0)
+                    fig.height = plot_height(m) + (LEGEND_HEIGHT + LEGEND_ROW * extra_row if i == 0 else 0)
                     fig.xaxis.axis_label = "time t" if i == m - 1 else None
                 elif len(self._sources[i]["kbf"].data["t"]):
                     for src in self._sources[i].values():
                         src.data = dict(_EMPTY)
+                    self._overlay.update(i, None)
             self._summary.text = self._header_text()
             if len(self._column.objects) != m:  # only the m plots in the page: hidden ones would still be laid out
                 self._column.objects = self._panes[:m]
