@@ -111,5 +111,5 @@ class NumbersView(Viewer):
             pn.pane.Markdown(
                 "Ratios are RMSE / s<sub>i</sub>: 1 is optimal. Measured ratios on one short run scatter by "
                 "±10 % or more; a longer horizon narrows them.", margin=(0, 10), styles={"font-size": "13px"}),
-            width=470,
+            width=430,
         )

@@ -24,7 +24,7 @@ from .style import ISL, KBF, SUBSCRIPT, TRUTH, styled
 
 __all__ = ["TrajectoriesView", "plot_height"]
 
-LEGEND_HEIGHT = 60  #: the first plot carries the run's summary and the legend above its frame
+LEGEND_HEIGHT = 80  #: the first plot carries the run's summary and the legend (two rows) above its frame
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
 
 
@@ -81,13 +81,13 @@ class TrajectoriesView(Viewer):
         kbf = fig.line("t", "y", source=src["kbf"], line_color=KBF, line_width=1.8)
         isl = fig.line("t", "y", source=src["isl"], line_color=ISL, line_width=1.8)
         if i == 0:  # the run's parameters and one legend for all plots, drawn on the canvas (no page re-layout)
-            self._summary = Title(text="", text_font_size="11pt", text_font_style="italic")
+            self._summary = Title(text="", text_font_size="10.5pt", text_font_style="italic")
             fig.add_layout(self._summary, "above")
             items = [(f"X{k} signal", [truth]), (f"X̂{k} Kalman–Bucy (knows σ)", [kbf]),
                      (f"X̌{k} ISL (σ unknown)", [isl]), (f"X̂{k} ± 3 s{k} (optimal RMSE)", tube_lines)]
             legend = Legend(items=[LegendItem(label=value(text), renderers=r) for text, r in items],
-                            orientation="horizontal", label_text_font_size="11pt", click_policy="hide",
-                            padding=2, margin=2, spacing=14)
+                            orientation="horizontal", ncols=2, label_text_font_size="11pt", click_policy="hide",
+                            padding=2, margin=2, spacing=14)  # two rows: fits a plot ≥ 450 px wide
             fig.add_layout(legend, "above")
         self._overlay.add(fig, i, k)
         self._sources.append(src)
@@ -126,8 +126,7 @@ class TrajectoriesView(Viewer):
             return "No run yet."
         mo = run.model
         return (f"m = {mo.m}, α = {mo.alpha:.4g}, β = {mo.beta:.4g}, σ = {mo.sigma:.4g}, ν = {run.nu:.4g} "
-                f"(ν/β = {run.nu / mo.beta:.3g}), seed {run.seed}, T = {run.T:.4g} = {run.T * run.r_min:.3g}/r_min, "
-                f"N = {run.N:,}")
+                f"(ν/β = {run.nu / mo.beta:.3g}) · T = {run.T:.4g} = {run.T * run.r_min:.3g}/r_min · N = {run.N:,}")
 
     def __panel__(self):
         return self._column
