@@ -8,22 +8,26 @@ session exists, so it applies to every session; ``app/app.py`` may call it too, 
   callback is logged with its full traceback to the server log (logger ``isl.app``) under a short incident id,
   and the user sees a notification with that id and no traceback, no exception text, no file paths.
 * ``pn.config.notifications = True``, so that every session has a place to show that message.
-* one global ``pn.state.on_session_destroyed`` callback, :func:`release_session`: when the server destroys a
-  session (its browser tab closed and ``--unused-session-lifetime`` elapsed), it runs the release hooks that the
-  session registered with :func:`release_on_destroy`. A hook drops the session's large data (the latest
-  ``Run``: a few (N+1)×m arrays, several MB on long runs) at once instead of leaving it to the cyclic garbage
-  collector, which runs on object counts, not bytes.
+* websocket ``ERROR`` replies without server internals: bokeh answers a message it cannot apply (e.g. a scripted
+  client setting a slider to a string) with an ``ERROR`` reply that carries the server's full traceback. The
+  traceback is dropped (bokeh's protocol handler already logs it), and a reply text that is not bokeh's own
+  property-validation message is replaced by a short text with an incident id (:func:`quiet_error_replies`).
+
+Per session, :func:`release_on_destroy` registers a release hook on the session's document
+(``on_session_destroyed``): when the server destroys the session (its tab closed and
+``--unused-session-lifetime`` elapsed) — or Panel discards its warm-up session — the hook drops the session's
+large data (the latest ``Run``: a few (N+1)×m arrays, several MB on long runs) at once, even if something still
+holds the session's objects (bokeh's ``Document.destroy`` then runs a full garbage collection).
 
 Usage inside a session (e.g. in ``create_app()``)::
 
     state = AppState()
-    hardening.release_on_destroy(state)      # calls state.release() if it has one, else drops known payloads
+    hardening.release_on_destroy(state.close)   # or an object: its release(), else its payload attributes
 """
 from __future__ import annotations
 
-import gc
 import logging
-import time
+import re
 import uuid
 from collections.abc import Callable
 from typing import Any
@@ -39,24 +43,23 @@ NOTIFICATION_MS = 8000
 # Outputs of app.state.AppState that hold a session's large data (the run's arrays, their display copies, the
 # sweep's curves and points); on a param.Parameterized they are reset to their defaults.
 PAYLOAD_ATTRS = ("run", "traces", "prediction", "curves", "points")
-# At most one full garbage collection per this many seconds, however many sessions end at once.
-GC_INTERVAL_S = 5.0
+# Bokeh's property-validation errors ("ValueError(\"failed to validate Slider(...).value: expected ...")") are
+# safe and useful to a client; any other ERROR reply text is withheld.
+SAFE_ERROR_TEXT = re.compile(r"^\w+\((['\"])failed to validate ")
+ERROR_REPLY = "The server could not apply this change (incident {incident})."
 
 _installed = False
 _releases: dict[str, list[Callable[[], None]]] = {}
-_last_gc = 0.0
 
 
 def install() -> None:
-    """Install the exception handler, notifications and the session-release hook (idempotent)."""
+    """Install the exception handler, notifications and quiet websocket error replies (idempotent)."""
     global _installed
     pn.config.exception_handler = handle_exception
     pn.config.notifications = True
-    if _installed:
-        return
-    doc = pn.state.curdoc
-    pn.state.on_session_destroyed(release_session)   # inside a session: that session only; else: every session
-    _installed = doc is None
+    if not _installed:
+        quiet_error_replies()
+        _installed = True
 
 
 def handle_exception(exc: BaseException) -> None:
@@ -72,6 +75,27 @@ def handle_exception(exc: BaseException) -> None:
         log.exception("could not notify the user of incident %s", incident)
 
 
+def quiet_error_replies() -> None:
+    """Make bokeh's websocket ``ERROR`` replies carry no traceback and no internal exception text (idempotent)."""
+    from bokeh.protocol.messages.error import error
+
+    if getattr(error.create, "_isl_quiet", False):
+        return
+    create = error.create.__func__
+
+    def quiet_create(cls, request_id, text, **metadata):
+        if not SAFE_ERROR_TEXT.match(text or ""):
+            incident = uuid.uuid4().hex[:8]
+            log.error("websocket ERROR reply withheld [incident %s]: %s", incident, text)
+            text = ERROR_REPLY.format(incident=incident)
+        message = create(cls, request_id, text, **metadata)
+        message.content["traceback"] = None
+        return message
+
+    quiet_create._isl_quiet = True
+    error.create = classmethod(quiet_create)
+
+
 def release_on_destroy(target: Any) -> None:
     """Release ``target`` when the current session is destroyed.
 
@@ -82,7 +106,18 @@ def release_on_destroy(target: Any) -> None:
     context = getattr(doc, "session_context", None)
     if context is None:
         return
-    _releases.setdefault(context.id, []).append(_releaser(target))
+    key = context.id
+    if key not in _releases:
+        # bound to its key: Panel calls a discarded warm-up document's callbacks with None for the context
+        doc.on_session_destroyed(_on_destroyed(key))
+        _releases[key] = []
+    _releases[key].append(_releaser(target))
+
+
+def _on_destroyed(key: str) -> Callable[[Any], None]:
+    def on_session_destroyed(session_context: Any) -> None:    # bokeh checks this exact signature
+        release_session(session_context, key=key)
+    return on_session_destroyed
 
 
 def _releaser(target: Any) -> Callable[[], None]:
@@ -109,24 +144,17 @@ def drop_payloads(obj: Any) -> None:
             setattr(obj, name, None)
 
 
-def release_session(session_context: Any) -> None:
-    """Run the release hooks of a destroyed session, then (rate-limited) a full garbage collection."""
-    for release in _releases.pop(getattr(session_context, "id", None), []):
+def release_session(session_context: Any = None, *, key: str | None = None) -> None:
+    """Run the release hooks of a destroyed session (``key``, else its context's id)."""
+    key = key if key is not None else getattr(session_context, "id", None)
+    for release in _releases.pop(key, []):
         try:
             release()
         except Exception:
             log.exception("releasing a session's data failed")
-    _collect_garbage()
 
 
 def live_release_hooks() -> int:
     """Number of sessions with release hooks still pending (0 once every session is destroyed)."""
     return len(_releases)
 
-
-def _collect_garbage() -> None:
-    global _last_gc
-    now = time.monotonic()
-    if now - _last_gc >= GC_INTERVAL_S:
-        _last_gc = now
-        gc.collect()

@@ -3,17 +3,18 @@
 Run as ``isl serve``, ``python -m app.serve`` or ``./scripts/serve``; ``--help`` lists the options. Every option
 also has an environment variable, so a container is configured at ``docker run`` time:
 
-================================  =====================  ======================================================
-option                            environment            default
-================================  =====================  ======================================================
-``--address``                     ``ISL_ADDRESS``        ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
-``--port``                        ``ISL_PORT``           5006
-``--allow-websocket-origin``      ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
-``--num-procs``                   ``ISL_NUM_PROCS``      1 (a classroom of 100: one per core, see README)
-``--num-threads``                 ``ISL_NUM_THREADS``    4 worker threads for callbacks (the kernel is nogil)
-``--unused-session-lifetime``     —                      10000 ms after the last connection closes
-``--check-unused-sessions``       —                      2000 ms between sweeps for unused sessions
-================================  =====================  ======================================================
+==============================  =======================  ====================================================
+option                          environment              default
+==============================  =======================  ====================================================
+``--address``                   ``ISL_ADDRESS``          ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
+``--port``                      ``ISL_PORT``             5006
+``--allow-websocket-origin``    ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
+``--num-procs``                 ``ISL_NUM_PROCS``        1 (a classroom of 100: one per core, see README)
+``--num-threads``               ``ISL_NUM_THREADS``      4 threads run the callbacks (the kernel is nogil)
+``--unused-session-lifetime``   —                        10000 ms after the last connection closes
+``--check-unused-sessions``     —                        2000 ms between sweeps for unused sessions
+``--stats-interval``            —                        60000 ms between ``isl stats`` log lines
+==============================  =======================  ====================================================
 
 Always on: ``--liveness`` (``GET /liveness`` → 200 while the server's event loop answers), ``--warm`` (the app runs
 once before the port opens), a global exception handler and per-session release hooks (:mod:`app.hardening`).
@@ -24,10 +25,10 @@ sub-command in this process (the code path of the ``panel`` executable, so every
 documents), rather than spawning ``panel serve`` as a child. That lets it
 
 * install :mod:`app.hardening` in the serving process before any session exists, so the exception handler and
-  the session-release hook cover every session without the app having to import anything;
+  the traceback-free websocket error replies cover every session whatever the app imports;
 * make ``--warm`` strict: Panel logs a failing app script and serves an empty page anyway; here the failure of
   the warm-up run ends the process with exit code 1, so a broken image never reports healthy;
-* print the URL once the port is bound (also for ``--port 0``) and return an exit code to ``isl serve``;
+* print the URL once the port is bound and return an exit code to ``isl serve``;
 * stay one process for a container (PID 1 receives ``docker stop``'s SIGTERM directly).
 
 ``--check`` runs the warm-up only (a small simulation to fill the numba cache, then the app once) and exits:
@@ -103,6 +104,17 @@ def _env_int(name: str, default: int) -> int:
         raise SystemExit(f"{name} must be an integer, got {value!r}") from None
 
 
+def check_counts(opts: argparse.Namespace) -> None:
+    """``ValueError`` naming the option if a port, process, thread or interval count is out of range."""
+    limits = {"port": (1, 65535), "num_procs": (0, 256), "num_threads": (1, 256),
+              "unused_session_lifetime": (100, 10**8), "check_unused_sessions": (100, 10**8),
+              "stats_interval": (0, 10**8)}
+    for name, (lo, hi) in limits.items():
+        value = getattr(opts, name)
+        if not lo <= value <= hi:
+            raise ValueError(f"--{name.replace('_', '-')} must be an integer in [{lo}, {hi}], got {value}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``isl serve`` / ``python -m app.serve`` command line."""
     p = argparse.ArgumentParser(prog="isl serve", description="Serve the isl dashboard with safe defaults.")
@@ -110,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"interface to listen on; 0.0.0.0 for every interface (env {ENV['address']}, "
                         f"default {DEFAULT_ADDRESS})")
     p.add_argument("--port", type=int, default=_env_int(ENV["port"], DEFAULT_PORT),
-                   help=f"port to listen on, 0 for any free one (env {ENV['port']}, default {DEFAULT_PORT})")
+                   help=f"port to listen on, 1..65535 (env {ENV['port']}, default {DEFAULT_PORT})")
     p.add_argument("--allow-websocket-origin", action="append", default=[], metavar="HOST[:PORT]",
                    help=f"a host a browser may open the dashboard from (repeatable; added to env "
                         f"{ENV['origins']}, comma-separated; default localhost and 127.0.0.1 on PORT)")
@@ -161,10 +173,14 @@ def rss_mb() -> float:
 
 
 def log_stats(server) -> None:
-    """One ``isl stats`` line: live sessions, open connections, resident memory of this process."""
+    """One ``isl stats`` line: live sessions, open connections, sessions whose release hooks have not run yet
+    (:func:`app.hardening.release_on_destroy`), resident memory of this process."""
+    from app import hardening
+
     sessions = server.get_sessions()
     connections = sum(s.connection_count for s in sessions)
-    log.info("isl stats: sessions=%d connections=%d rss_mb=%.1f", len(sessions), connections, rss_mb())
+    log.info("isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f", len(sessions), connections,
+             hardening.live_release_hooks(), rss_mb())
 
 
 def _serve_command(origins: Sequence[str], stats_interval_ms: int):
@@ -255,6 +271,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(format="%(asctime)s %(name)s %(levelname)s %(message)s")
     logging.getLogger("isl").setLevel(opts.log_level.upper())
     try:
+        check_counts(opts)
         origins = allowed_origins(opts.port, os.environ.get(ENV["origins"]), opts.allow_websocket_origin)
     except ValueError as exc:
         log.error("%s", exc)

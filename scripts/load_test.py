@@ -13,6 +13,10 @@ Usage (the long classroom run: 100 sessions for 5 minutes, against a server this
 
     PYTHONPATH=. python scripts/load_test.py --sessions 100 --duration 300
 
+the memory run (open and close 50 sessions three times; the server's RSS after each round):
+
+    PYTHONPATH=. python scripts/load_test.py --memory 3 --sessions 50
+
 or against a running server (``./scripts/serve`` or the container)::
 
     python scripts/load_test.py --url http://127.0.0.1:5006 --server-pid <pid> --sessions 100 --duration 300
@@ -43,7 +47,7 @@ import panel  # noqa: F401  (registers Panel's bokeh models, so pulled documents
 from bokeh.document import Document
 from bokeh.document.events import MessageSentEvent, ModelChangedEvent
 from bokeh.events import DocumentReady, Event
-from bokeh.models import ColumnDataSource, Model
+from bokeh.models import ColumnDataSource, Markup, Model, Slider
 from bokeh.protocol import Protocol
 from bokeh.protocol.receiver import Receiver
 from bokeh.util.token import generate_jwt_token, generate_session_id
@@ -216,18 +220,28 @@ class BokehClient:
 
 # --------------------------------------------------------------------------------------------- finding widgets
 def sliders(doc: Document) -> list[Model]:
-    """Every slider-like model (has ``start``, ``end`` and ``value``) in the document."""
-    return [m for m in doc.models if all(hasattr(m, a) for a in ("start", "end", "value", "value_throttled"))]
+    """Every single-value slider in the document."""
+    return [m for m in doc.models if isinstance(m, Slider)]
 
 
 def find_slider(doc: Document, pattern: str = "") -> Model:
     """The first slider whose title or name matches the regular expression ``pattern``."""
     regex = re.compile(pattern, re.IGNORECASE)
     for model in sorted(sliders(doc), key=lambda m: str(m.id)):
-        if regex.search(f"{getattr(model, 'title', '') or ''} {model.name or ''}"):
+        if regex.search(model.title or "") or (model.name and regex.search(model.name)):
             return model
     titles = [getattr(m, "title", "") for m in sliders(doc)]
     raise LookupError(f"no slider matches {pattern!r}; sliders: {titles}")
+
+
+def notifications(doc: Document) -> list[str]:
+    """Messages of Panel's notifications (toasts) in a client's copy of the document."""
+    return [m.message for m in doc.models if type(m).__name__ == "Notification"]
+
+
+def markup_texts(doc: Document) -> list[str]:
+    """Texts of the HTML/Markdown panes (status lines, tables) in a client's copy of the document."""
+    return [m.text for m in doc.models if isinstance(m, Markup)]
 
 
 def new_value(slider: Model, rng: random.Random) -> float:
@@ -251,12 +265,24 @@ def check_loopback(url: str) -> None:
 
 
 def rss_mb(pid: int) -> float:
-    """Resident memory of process ``pid`` in MB (Linux ``/proc``)."""
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    raise RuntimeError(f"no VmRSS for pid {pid}")
+    """Resident memory of process ``pid`` and its descendants in MB (Linux ``/proc``; ``--num-procs`` forks)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    total, todo = 0.0, [pid]
+    while todo:
+        p = todo.pop()
+        todo += children.get(p, [])
+        try:
+            with open(f"/proc/{p}/status") as f:
+                total += next(int(line.split()[1]) for line in f if line.startswith("VmRSS:")) / 1024
+        except (OSError, StopIteration):
+            continue
+    return total
 
 
 def free_port() -> int:
@@ -361,13 +387,17 @@ async def _student(base_url: str, index: int, slider_pattern: str, duration: flo
     deadline = time.perf_counter() + duration
     await asyncio.sleep(rng.uniform(0, interval))
     while time.perf_counter() < deadline and not client.closed:
-        slider = find_slider(client.doc, slider_pattern)
-        value = new_value(slider, rng)
-        _, t0 = await client.change(slider, value=value, value_throttled=value)
-        if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, update_timeout):
-            latencies.append(client.data_update_after(t0) - t0)
-        else:
-            errors.append(f"no plot update within {update_timeout} s (closed={client.closed})")
+        try:
+            slider = find_slider(client.doc, slider_pattern)
+            value = new_value(slider, rng)
+            _, t0 = await client.change(slider, value=value, value_throttled=value)
+            if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, update_timeout):
+                latencies.append(client.data_update_after(t0) - t0)
+            else:
+                errors.append(f"no plot update within {update_timeout} s (closed={client.closed})")
+        except Exception as exc:  # noqa: BLE001  (one student's failure is counted, the others go on)
+            errors.append(f"session {index}: {exc!r}")
+            break
         await asyncio.sleep(interval * rng.uniform(0.75, 1.25))
     if client.closed:
         errors.append("connection lost")
@@ -401,6 +431,88 @@ async def run_load(base_url: str, *, sessions: int, duration: float, interval: f
     return LoadResult(len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded)
 
 
+# ------------------------------------------------------------------------------------------------------ memory
+STATS = re.compile(r"isl stats: sessions=(\d+) connections=(\d+) pending_releases=(\d+) rss_mb=([\d.]+)")
+
+
+def server_stats(log_path: Path) -> list[tuple[int, int, int, float]]:
+    """Every ``isl stats`` line the server has logged so far (``--stats-interval``)."""
+    return [(int(a), int(b), int(c), float(d)) for a, b, c, d in STATS.findall(log_path.read_text())]
+
+
+@dataclass
+class MemoryRound:
+    rss_before_mb: float
+    live_open: int                     # sessions the server reported with all of the round's sessions open
+    rss_open_mb: float                 # all sessions of the round open and idle
+    rss_after_mb: float                # all closed, destroyed by the server, garbage collected
+    live_after: int                    # sessions the server still holds after the round
+    pending_after: int                 # of which release hooks have not run
+
+
+async def _wait_idle(client: BokehClient, quiet_s: float = 1.0, limit: float = 60.0) -> None:
+    deadline = time.perf_counter() + limit
+    while time.perf_counter() < deadline:
+        count = len(client.patches)
+        await asyncio.sleep(quiet_s)
+        if len(client.patches) == count:
+            return
+
+
+async def memory_round(base_url: str, server_pid: int, log_path: Path, sessions: int, *, batch: int = 5,
+                       release_timeout: float = 120.0) -> MemoryRound:
+    """Open ``sessions`` sessions, let them settle, close them, wait until the server has destroyed them."""
+    check_loopback(base_url)
+    rss_before = rss_mb(server_pid)
+    clients: list[BokehClient] = []
+    for first in range(0, sessions, batch):
+        clients += await asyncio.gather(*(BokehClient.connect(base_url) for _ in range(min(batch, sessions - first))))
+    await asyncio.gather(*(_wait_idle(c) for c in clients))
+    rss_open = rss_mb(server_pid)
+    live_open = await _next_stats(log_path)
+    await asyncio.gather(*(c.close() for c in clients))
+    del clients
+    seen = len(server_stats(log_path))
+    deadline = time.perf_counter() + release_timeout
+    live = pending = -1
+    while time.perf_counter() < deadline:
+        stats = server_stats(log_path)
+        if len(stats) > seen:
+            live, _, pending, _ = stats[-1]
+            if live == 0 and pending == 0:
+                break
+            seen = len(stats)
+        await asyncio.sleep(0.2)
+    await asyncio.sleep(2.0)                      # one more sweep and the rate-limited garbage collection
+    return MemoryRound(rss_before, live_open, rss_open, rss_mb(server_pid), live, pending)
+
+
+async def _next_stats(log_path: Path, timeout: float = 30.0) -> int:
+    """Live sessions in the next ``isl stats`` line the server logs."""
+    seen = len(server_stats(log_path))
+    deadline = time.perf_counter() + timeout
+    while time.perf_counter() < deadline:
+        stats = server_stats(log_path)
+        if len(stats) > seen:
+            return stats[-1][0]
+        await asyncio.sleep(0.1)
+    return -1
+
+
+def memory_report(rounds: list[MemoryRound], sessions: int) -> str:
+    first = rounds[0].rss_after_mb
+    lines = [f"round {i + 1}: RSS {r.rss_before_mb:.0f} MB → {r.rss_open_mb:.0f} MB with {r.live_open} open → "
+             f"{r.rss_after_mb:.0f} MB after closing ({r.live_after} sessions left, {r.pending_after} unreleased); "
+             f"per idle session {(r.rss_open_mb - r.rss_before_mb) / sessions:.1f} MB"
+             for i, r in enumerate(rounds)]
+    drift = max(r.rss_after_mb for r in rounds[1:]) / first - 1 if len(rounds) > 1 else 0.0
+    lines.append(f"RSS drift after round 1: {100 * drift:+.1f} % (limit +10 %)")
+    return "\n".join(lines)
+
+
+MEMORY_SERVER_ARGS = ["--unused-session-lifetime", "1000", "--check-unused-sessions", "500", "--stats-interval", "500"]
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--url", help="a running server (loopback); default: start one on a free port")
@@ -410,14 +522,21 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--interval", type=float, default=3.0, help="seconds between one session's changes")
     p.add_argument("--slider", default="", help="regular expression for the slider's title (default: first)")
     p.add_argument("--num-threads", type=int, default=4, help="worker threads of the server started here")
+    p.add_argument("--num-procs", type=int, default=1, help="worker processes of the server started here")
     p.add_argument("--json", action="store_true", help="print the figures as JSON too")
+    p.add_argument("--memory", type=int, metavar="ROUNDS",
+                   help="instead: open and close --sessions sessions ROUNDS times and report the server's RSS "
+                        "(starts its own server)")
     opts = p.parse_args(argv)
+    if opts.memory:
+        return memory_main(opts.sessions, opts.memory)
     proc = None
     url, pid = opts.url, opts.server_pid
     if url is None:
         port = free_port()
         log_path = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-load-{port}.log"
-        proc = start_server(port, log_path, ["--num-threads", str(opts.num_threads)])
+        proc = start_server(port, log_path, ["--num-threads", str(opts.num_threads),
+                                             "--num-procs", str(opts.num_procs)])
         startup = wait_healthy(port, 180, proc)
         print(f"server started in {startup:.1f} s (log: {log_path})", flush=True)
         url, pid = f"http://127.0.0.1:{port}", proc.pid
@@ -433,6 +552,26 @@ def main(argv: list[str] | None = None) -> int:
                           "errors": len(result.errors), "p50_ms": 1000 * result.p(0.5),
                           "p95_ms": 1000 * result.p(0.95), "rss_per_session_mb": result.rss_per_session_mb}))
     return 0 if not result.errors and result.held == opts.sessions else 1
+
+
+def memory_main(sessions: int, rounds: int) -> int:
+    port = free_port()
+    log_path = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-memory-{port}.log"
+    proc = start_server(port, log_path, MEMORY_SERVER_ARGS)
+    try:
+        wait_healthy(port, 180, proc)
+        results = []
+        for i in range(rounds):
+            t0 = time.perf_counter()
+            results.append(asyncio.run(memory_round(f"http://127.0.0.1:{port}", proc.pid, log_path, sessions)))
+            print(f"round {i + 1} done in {time.perf_counter() - t0:.0f} s", flush=True)
+    finally:
+        stop_server(proc)
+    print(memory_report(results, sessions))
+    first = results[0].rss_after_mb
+    ok = all(r.live_after == 0 and r.pending_after == 0 for r in results) and \
+        all(r.rss_after_mb <= 1.10 * first for r in results[1:])
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

@@ -12,8 +12,10 @@ import panel as pn
 import param
 import pytest
 from _serving import REPO, fixture_app, load_test, run, served, wait_for_log
+from bokeh.document import Document
 from bokeh.events import ButtonClick
 from bokeh.models import Button
+from bokeh.protocol import Protocol
 from panel.command.serve import Serve
 
 from app import hardening, serve
@@ -87,6 +89,14 @@ def test_environment_configures_a_container(clean_env):
     assert options("--port", "7100").port == 7100      # a flag beats the environment
 
 
+@pytest.mark.parametrize("argv", [["--port", "0"], ["--port", "70000"], ["--num-threads", "0"], ["--num-procs", "-1"],
+                                  ["--unused-session-lifetime", "0"], ["--stats-interval", "-5"]])
+def test_out_of_range_counts_are_usage_errors(clean_env, argv, caplog):
+    with caplog.at_level(logging.ERROR, logger="isl.serve"):
+        assert serve.main([*argv, "--health"]) == 2
+    assert argv[0] in caplog.text
+
+
 def test_non_integer_environment_is_a_clear_error(clean_env):
     clean_env.setenv("ISL_PORT", "50o6")
     with pytest.raises(SystemExit, match="ISL_PORT must be an integer"):
@@ -121,14 +131,31 @@ def test_exception_handler_logs_traceback_and_never_raises(caplog):
     assert record.exc_info[1] is error           # the traceback goes to the server log
 
 
-def test_install_is_idempotent_and_global():
-    before = list(pn.state._on_session_destroyed)
+def test_install_is_idempotent():
     hardening.install()
     hardening.install()
     assert pn.config.exception_handler is hardening.handle_exception
     assert pn.config.notifications is True
-    registered = [cb for cb in pn.state._on_session_destroyed if cb is hardening.release_session]
-    assert len(registered) == 1 and len(pn.state._on_session_destroyed) - len(before) <= 1
+    assert getattr(Protocol().create("ERROR", "m", "x").__class__.create, "_isl_quiet", False)
+
+
+def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog):
+    hardening.install()
+    protocol = Protocol()
+    try:
+        raise ValueError("failed to validate Slider(id='p1', ...).value: expected a value of type Real, got abc")
+    except ValueError as exc:
+        validation = protocol.create("ERROR", "m1", repr(exc))
+    try:
+        raise RuntimeError("SECRET-DETAIL in /srv/private/config.py")
+    except RuntimeError as exc:
+        with caplog.at_level(logging.ERROR, logger="isl.app"):
+            internal = protocol.create("ERROR", "m2", repr(exc))
+    assert validation.content == {"text": repr(ValueError("failed to validate Slider(id='p1', ...).value: expected "
+                                                          "a value of type Real, got abc")), "traceback": None}
+    assert internal.content["traceback"] is None and "SECRET" not in internal.content["text"]
+    incident = re.search(r"incident ([0-9a-f]{8})", internal.content["text"]).group(1)
+    assert f"incident {incident}" in caplog.text and "SECRET-DETAIL" in caplog.text
 
 
 class _Payload(param.Parameterized):
@@ -149,19 +176,19 @@ def test_release_hooks_run_once_when_the_session_is_destroyed(monkeypatch):
     class Ctx:
         id = "session-1"
 
-    class Doc:
-        session_context = Ctx()
-
-    monkeypatch.setattr(type(pn.state), "curdoc", property(lambda self: Doc()))
+    doc = Document()                      # bokeh checks the callback's signature on registration
+    doc._session_context = lambda: Ctx()
+    monkeypatch.setattr(type(pn.state), "curdoc", property(lambda self: doc))
     calls = []
     hardening.release_on_destroy(lambda: calls.append("callable"))
     hardening.release_on_destroy(type("R", (), {"release": lambda self: calls.append("release")})())
     hardening.release_on_destroy(lambda: 1 / 0)                         # a failing hook does not stop the others
     obj = _Payload(run=[1, 2, 3])
     hardening.release_on_destroy(obj)
-    assert hardening.live_release_hooks() >= 1
-    hardening.release_session(Ctx())
-    hardening.release_session(Ctx())
+    callbacks = list(doc.session_destroyed_callbacks)
+    assert len(callbacks) == 1 and "session-1" in hardening._releases
+    callbacks[0](None)                  # Panel discards a warm-up document with None for the session context
+    callbacks[0](Ctx())
     assert calls == ["callable", "release"] and obj.run is None
     assert "session-1" not in hardening._releases
 
@@ -210,8 +237,8 @@ def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(
             async with await load_test.BokehClient.connect(url) as client:
                 button = next(m for m in client.doc.models if isinstance(m, Button))
                 await client.send_event(ButtonClick(button))
-                await client.wait_until(lambda: bool(_notifications(client.doc)), 30)
-                return _notifications(client.doc)
+                await client.wait_until(lambda: bool(load_test.notifications(client.doc)), 30)
+                return load_test.notifications(client.doc)
 
         messages = run(click(), 120)
         text = wait_for_log(log, "SECRET-DETAIL")
@@ -222,7 +249,3 @@ def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(
     assert "SECRET-DETAIL" not in messages[0] and "Traceback" not in messages[0] and ".py" not in messages[0]
     assert f"incident {incident}" in text and "Traceback (most recent call last)" in text
 
-
-def _notifications(doc) -> list[str]:
-    """Messages of the Panel notifications in a client's copy of the document."""
-    return [m.message for m in doc.models if hasattr(m, "notification_type") and hasattr(m, "message")]

@@ -1,0 +1,30 @@
+"""Load: concurrent sessions of the served dashboard, each moving the σ slider every few seconds.
+
+CI runs 20 sessions for 30 s; ``PYTHONPATH=. python scripts/load_test.py --sessions 100 --duration 300`` is the
+classroom-sized run (README, "Serving a classroom"). Every session must stay connected and get every update
+(a plot-data change within 30 s of its slider change) with no ERROR reply. The p95 update latency and the RSS per
+session are printed: on a shared 2-core machine they are figures to read, not to assert.
+"""
+from __future__ import annotations
+
+import pytest
+from _serving import load_test, run, served
+
+SESSIONS = 20
+DURATION_S = 30.0
+INTERVAL_S = 3.0
+
+
+@pytest.mark.slow
+def test_sessions_moving_sliders_get_every_update_without_errors(tmp_path):
+    with served(tmp_path, "--stats-interval", "5000") as (url, proc, _):
+        result = run(load_test.run_load(url, sessions=SESSIONS, duration=DURATION_S, interval=INTERVAL_S,
+                                        slider="^σ$", server_pid=proc.pid), 900)
+        alive = proc.poll() is None
+    print(result.report())
+    assert alive
+    assert result.errors == []
+    assert result.sessions == SESSIONS and result.held == SESSIONS
+    # each session changes the slider about every INTERVAL_S seconds: at least half of that must have happened
+    assert result.updates >= SESSIONS * (DURATION_S / INTERVAL_S) / 2
+    assert result.rss_loaded_mb > result.rss_before_mb

@@ -1,0 +1,31 @@
+"""Memory: open and close sessions of the served dashboard three times; nothing may accumulate.
+
+Each round opens the sessions (as browsers do, :class:`load_test.BokehClient`), lets them settle, closes them and
+waits until the server has destroyed every one (its ``isl stats`` log line: 0 sessions, 0 pending release hooks).
+The server's resident memory after rounds 2 and 3 must stay within 10 % of its value after round 1 (round 1 pays
+for one-time allocations: imports, compiled kernels, caches; freed memory stays with the allocator and is reused
+by later rounds, so RSS need not fall when sessions close — it must not climb). The test runs 3 × 10 sessions to stay within the CI
+budget; ``PYTHONPATH=. python scripts/load_test.py --memory 3 --sessions 50`` runs the full 3 × 50.
+"""
+from __future__ import annotations
+
+import pytest
+from _serving import load_test, run, served
+
+SESSIONS = 10
+ROUNDS = 3
+DRIFT = 0.10
+
+
+@pytest.mark.slow
+def test_sessions_return_to_zero_and_memory_does_not_grow(tmp_path):
+    with served(tmp_path, *load_test.MEMORY_SERVER_ARGS) as (url, proc, log):
+        rounds = [run(load_test.memory_round(url, proc.pid, log, SESSIONS), 600) for _ in range(ROUNDS)]
+    print(load_test.memory_report(rounds, SESSIONS))
+    for r in rounds:
+        assert r.live_open == SESSIONS, r                       # the server really held them all
+        assert (r.live_after, r.pending_after) == (0, 0), r
+    assert rounds[0].rss_open_mb > rounds[0].rss_before_mb
+    first = rounds[0].rss_after_mb
+    for r in rounds[1:]:
+        assert r.rss_after_mb <= (1 + DRIFT) * first, load_test.memory_report(rounds, SESSIONS)
