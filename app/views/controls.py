@@ -65,7 +65,9 @@ class _Binding:
             return
         want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
         for event in events:
-            if event.name == want:
+            if event.name == want and event.new is None:
+                setattr(self.state, self.name, None)  # an emptied box: the state refuses it with a message
+            elif event.name == want:
                 value = self._to_state(event.new)
                 if value is not None:
                     setattr(self.state, self.name, value)
