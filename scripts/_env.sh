@@ -6,4 +6,6 @@ if [ ! -x .venv/bin/python ]; then
     "$PYTHON" -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check --upgrade pip
-.venv/bin/python -m pip install --quiet --disable-pip-version-check -e ".[${ISL_EXTRAS:-}]"
+target="."
+if [ -n "${ISL_EXTRAS:-}" ]; then target=".[${ISL_EXTRAS}]"; fi
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -e "$target"
