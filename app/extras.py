@@ -67,7 +67,7 @@ def worst_case_table(alphas: Sequence[float], *, sigma_range: tuple[float, float
 def _names(name: str, value) -> list[str]:
     if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
         raise ValueError(f"{name} must be a list of names from {list(EXTRA_NAMES)}, got {value!r}")
-    if len(set(value)) != len(value) or not all(isinstance(v, str) and v in EXTRA_NAMES for v in value):
+    if not all(isinstance(v, str) and v in EXTRA_NAMES for v in value) or len(set(value)) != len(value):
         raise ValueError(f"{name} must be a list of distinct names from {list(EXTRA_NAMES)}, got {value!r}")
     return [n for n in EXTRA_NAMES if n in value]
 

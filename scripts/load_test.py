@@ -57,6 +57,8 @@ from tornado.websocket import websocket_connect
 REPO = Path(__file__).resolve().parents[1]
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 DATA_EVENTS = {"ColumnDataChanged", "ColumnsStreamed", "ColumnsPatched"}
+# A session opens in a few seconds of server CPU, one after another: a generous bound that only catches hangs.
+CONNECT_TIMEOUT_S = 300.0
 TRACEBACK_MARKERS = ("Traceback (most recent call last)", 'File "/', ".py\", line ")
 
 
@@ -83,13 +85,19 @@ class BokehClient:
     errors: list[str] = field(default_factory=list)
     patches: list[tuple[float, set[str], set[str]]] = field(default_factory=list)  # (time, event kinds, models)
     closed: bool = False
+    light: bool = False                # record what each patch touches, do not apply it (a cheap load generator)
     _changed: asyncio.Event = field(default_factory=asyncio.Event)
     _reader: asyncio.Task | None = None
+    _cds: set[str] | None = None
 
     @classmethod
     async def connect(cls, base_url: str, app_path: str = "/app", *, origin: str | None = None,
-                      timeout: float = 60.0) -> BokehClient:
-        """Open a session like a browser on ``base_url`` would, pull the document and announce it ready."""
+                      timeout: float = 60.0, light: bool = False) -> BokehClient:
+        """Open a session like a browser on ``base_url`` would, pull the document and announce it ready.
+
+        ``light``: keep the pulled document but do not apply the server's later patches to it (the plots' data
+        in ``doc`` go stale; ``patches`` still records every change) — one process can then drive a classroom.
+        """
         parsed = urlparse(base_url)
         session_id = generate_session_id()
         token = generate_jwt_token(session_id)
@@ -98,7 +106,7 @@ class BokehClient:
                               connect_timeout=timeout, request_timeout=timeout)
         socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
         protocol = Protocol()
-        client = cls(ws_url, Document(), socket, Receiver(protocol), protocol)
+        client = cls(ws_url, Document(), socket, Receiver(protocol), protocol, light=light)
         try:
             await client._handshake(timeout)
         except BaseException:
@@ -165,7 +173,8 @@ class BokehClient:
             events = message.content.get("events", [])
             kinds = {e.get("kind", "") for e in events}
             models = {str(e.get("model", {}).get("id", "")) for e in events if isinstance(e.get("model"), dict)}
-            message.apply_to_document(self.doc, self)
+            if not self.light:
+                message.apply_to_document(self.doc, self)
             self.patches.append((time.perf_counter(), kinds, models))
         elif kind in ("OK", "ERROR"):
             reply = Reply(kind, message.content.get("text", ""), message.content.get("traceback"))
@@ -197,11 +206,17 @@ class BokehClient:
 
     def data_update_after(self, t0: float) -> float | None:
         """Time of the first plot-data change received after ``t0``."""
-        cds = {m.id for m in self.doc.models if isinstance(m, ColumnDataSource)}
+        cds = self._cds_ids()
         for t, kinds, models in self.patches:
             if t >= t0 and (kinds & DATA_EVENTS or models & cds):
                 return t
         return None
+
+    def _cds_ids(self) -> set[str]:
+        if self.light and self._cds is not None:
+            return self._cds
+        self._cds = {m.id for m in self.doc.models if isinstance(m, ColumnDataSource)}
+        return self._cds
 
     async def __aenter__(self) -> Self:
         return self
@@ -244,17 +259,18 @@ def markup_texts(doc: Document) -> list[str]:
     return [m.text for m in doc.models if isinstance(m, Markup)]
 
 
-def new_value(slider: Model, rng: random.Random) -> float:
-    """A value inside the slider's range, on its step grid, different from the current one."""
+def new_value(slider: Model, rng: random.Random, last: float | None = None) -> float:
+    """A value inside the slider's range, on its step grid, at least two steps from ``last`` (default: the
+    slider's value) — so that it is a real change even after the app rounds it."""
     start, end, step = float(slider.start), float(slider.end), float(getattr(slider, "step", 0) or 0)
-    for _ in range(20):
+    last = float(slider.value) if last is None else last
+    for _ in range(100):
         value = rng.uniform(start, end)
         if step > 0:
             value = start + round((value - start) / step) * step
-        value = type(slider.value)(value) if isinstance(slider.value, int) else value
-        if value != slider.value:
-            return value
-    return end if slider.value != end else start
+        if abs(value - last) >= 2 * max(step, 1e-9 * (end - start)):
+            return type(slider.value)(value) if isinstance(slider.value, int) else value
+    return end if abs(end - last) > abs(start - last) else start
 
 
 # ------------------------------------------------------------------------------------------------ server helpers
@@ -341,7 +357,9 @@ class LoadResult:
     errors: list[str]
     latencies: list[float]             # seconds, one per slider change that got its update
     rss_before_mb: float
-    rss_loaded_mb: float
+    rss_loaded_mb: float               # all sessions open, before the slider changes
+    rss_peak_mb: float = float("nan")  # sampled every 5 s while the sliders move
+    rss_end_mb: float = float("nan")   # when the last change was answered
 
     def p(self, q: float) -> float:
         if not self.latencies:
@@ -365,6 +383,7 @@ class LoadResult:
             f"server RSS before         {self.rss_before_mb:.0f} MB",
             f"server RSS, all open      {self.rss_loaded_mb:.0f} MB",
             f"RSS per session           {self.rss_per_session_mb:.1f} MB",
+            f"server RSS, peak / end    {self.rss_peak_mb:.0f} MB / {self.rss_end_mb:.0f} MB (sliders moving)",
         ])
 
 
@@ -376,7 +395,7 @@ async def _student(base_url: str, index: int, slider_pattern: str, duration: flo
     errors: list[str] = []
     out[index] = (None, latencies, errors)
     try:
-        client = await BokehClient.connect(base_url)
+        client = await BokehClient.connect(base_url, light=True, timeout=CONNECT_TIMEOUT_S)
     except Exception as exc:  # noqa: BLE001  (a refused or failed session is counted, not raised)
         errors.append(f"connect: {exc!r}")
         opened.set()
@@ -386,10 +405,11 @@ async def _student(base_url: str, index: int, slider_pattern: str, duration: flo
     await all_open.wait()
     deadline = time.perf_counter() + duration
     await asyncio.sleep(rng.uniform(0, interval))
+    last = None
     while time.perf_counter() < deadline and not client.closed:
         try:
             slider = find_slider(client.doc, slider_pattern)
-            value = new_value(slider, rng)
+            value = last = new_value(slider, rng, last)
             _, t0 = await client.change(slider, value=value, value_throttled=value)
             if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, update_timeout):
                 latencies.append(client.data_update_after(t0) - t0)
@@ -422,13 +442,24 @@ async def run_load(base_url: str, *, sessions: int, duration: float, interval: f
         await asyncio.gather(*(e.wait() for e in events))
     rss_loaded = rss()
     all_open.set()
+    peak = [rss_loaded]
+
+    async def sample() -> None:
+        while True:
+            await asyncio.sleep(5.0)
+            peak.append(rss())
+
+    sampler = asyncio.ensure_future(sample())
     await asyncio.gather(*tasks)
+    sampler.cancel()
+    rss_end = rss()
     clients = [c for c, _, _ in out.values() if c is not None]
     errors = [e for _, _, errs in out.values() for e in errs] + [e for c in clients for e in c.errors]
     held = sum(1 for c, _, errs in out.values() if c is not None and not c.closed and not errs and not c.errors)
     latencies = [x for _, lat, _ in out.values() for x in lat]
     await asyncio.gather(*(c.close() for c in clients))
-    return LoadResult(len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded)
+    return LoadResult(len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded,
+                      max(peak + [rss_end]), rss_end)
 
 
 # ------------------------------------------------------------------------------------------------------ memory
@@ -483,7 +514,7 @@ async def memory_round(base_url: str, server_pid: int, log_path: Path, sessions:
                 break
             seen = len(stats)
         await asyncio.sleep(0.2)
-    await asyncio.sleep(2.0)                      # one more sweep and the rate-limited garbage collection
+    await asyncio.sleep(TRIM_INTERVAL_S + 1.0)    # the server hands freed memory back (app.serve.MemoryTrimmer)
     return MemoryRound(rss_before, live_open, rss_open, rss_mb(server_pid), live, pending)
 
 
@@ -510,6 +541,7 @@ def memory_report(rounds: list[MemoryRound], sessions: int) -> str:
     return "\n".join(lines)
 
 
+TRIM_INTERVAL_S = 5.0                             # app.serve.TRIM_INTERVAL_MS
 MEMORY_SERVER_ARGS = ["--unused-session-lifetime", "1000", "--check-unused-sessions", "500", "--stats-interval", "500"]
 
 

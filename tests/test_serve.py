@@ -193,6 +193,23 @@ def test_release_hooks_run_once_when_the_session_is_destroyed(monkeypatch):
     assert "session-1" not in hardening._releases
 
 
+def test_memory_is_trimmed_only_after_sessions_end():
+    class Server:
+        def __init__(self):
+            self.sessions = []
+
+        def get_sessions(self):
+            return self.sessions
+
+    server, calls = Server(), []
+    trimmer = serve.MemoryTrimmer(server)
+    trimmer._trim = calls.append
+    for count in (0, 3, 5, 5, 2, 2, 0, 4):
+        server.sessions = [object()] * count
+        trimmer()
+    assert calls == [0, 0]                      # after 5 → 2 and 2 → 0, never while sessions are added
+
+
 # ------------------------------------------------------------------------------------------- real servers
 def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path):
     broken = tmp_path / "broken.py"
