@@ -19,7 +19,8 @@ from threadpoolctl import threadpool_limits
 
 from app import hardening
 from app.jobs import RUN_POOL, SWEEP_POOL, Jobs
-from app.state import INPUTS, SWEEP_INPUTS, AppState
+from app.state import AppState
+from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
 from app.views.filters_panel import FiltersPanel
 from app.views.worstcase import WorstCaseView
@@ -65,7 +66,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     if state is None:
         state = AppState(jobs=session_jobs())
     if pn.state.location is not None:
-        pn.state.location.sync(state, {p: p for p in (*INPUTS, *SWEEP_INPUTS)})
+        UrlSync(state, pn.state.location)  # kept alive by the watchers it registers
     state.start()
     hardening.release_on_destroy(state.close)
     trajectories = pn.Row(TrajectoriesView(state=state), NumbersView(state=state), sizing_mode="stretch_width")

@@ -2,12 +2,15 @@
 
 Serves ``app/app.py`` on a free loopback port, opens it in Debian's chromium (Playwright), and changes σ
 ``--changes`` times (default 25, after 3 warm-up changes) by setting the σ slider's model value in the page,
-exactly as a drag does. Each change is timed in the page, from the assignment to the first animation frame
-after the trajectory plot's data has changed (so the browser's redraw is included). Printed per scenario:
+exactly as a drag released there does (``value`` and ``value_throttled``). Each change is timed in the page, from
+the assignment to the first animation frame after the trajectory plot's data has changed (so the browser's
+redraw is included). Printed per scenario:
 
-* p50 / p95 / max of that latency (ms);
+* p50 / p95 / max of that latency (ms), and its two parts: until the plot's data has arrived (the server's work
+  and the transfer) and from there to the redraw (the browser's work);
 * the server's compute time per run (simulate + decimation + theory), read from the numbers table;
-* bytes and frames received on the websocket per update (Playwright ``page.on("websocket")``).
+* bytes and websocket messages received per update (counted in the page, by a wrapper around ``WebSocket``;
+  listening from Playwright instead adds a DevTools event per frame to the browser's work).
 
 Scenarios: paper A's Fig. 3 defaults (``?``; the target is p95 ≤ 150 ms) and the same with a 100× longer
 horizon (``?horizon=1000``: ≈ 10⁵ steps, min/max-decimated to ≤ 2400 points a trace before sending).
@@ -35,23 +38,43 @@ ROOT = Path(__file__).resolve().parent.parent
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 
+#: counts what the page receives on its websockets: (time, bytes) per message
+COUNT_MESSAGES = """
+window.__isl_received = [];
+const NativeWebSocket = window.WebSocket;
+window.WebSocket = function (...args) {
+    const ws = new NativeWebSocket(...args);
+    ws.addEventListener('message', (e) => window.__isl_received.push(
+        [performance.now(), typeof e.data === 'string' ? e.data.length : e.data.byteLength]));
+    return ws;
+};
+window.WebSocket.prototype = NativeWebSocket.prototype;
+Object.assign(window.WebSocket, NativeWebSocket);
+"""
+
+#: one change: [latency, data-arrived time, messages, bytes] — all counted until the page has been quiet 150 ms
 CHANGE = """async (v) => {
     const doc = Bokeh.documents[0];
     const src = doc.get_model_by_name('traj-1-isl');
-    let slider = null;
-    for (const m of doc.all_models) {
-        if (m.title === 'σ' && 'value_throttled' in m) { slider = m; }
-    }
-    return await new Promise((resolve) => {
-        const t0 = performance.now();
+    const slider = Array.from(doc.all_models).find(m => m.title === 'σ' && 'value_throttled' in m);
+    window.__isl_received = [];
+    const t0 = performance.now();
+    const redrawn = await new Promise((resolve) => {
         const done = () => {
             src.properties.data.change.disconnect(done);
-            requestAnimationFrame(() => resolve(performance.now() - t0));
+            const arrived = performance.now();
+            requestAnimationFrame(() => resolve([performance.now() - t0, arrived - t0]));
         };
         src.properties.data.change.connect(done);
         slider.value = v;
         slider.value_throttled = v;
     });
+    const last = () => { const r = window.__isl_received; return r.length ? r[r.length - 1][0] : t0; };
+    while (performance.now() - Math.max(last(), t0 + redrawn[0]) < 150) {
+        await new Promise((r) => setTimeout(r, 25));
+    }
+    const got = window.__isl_received;
+    return [...redrawn, got.length, got.reduce((n, m) => n + m[1], 0)];
 }"""
 
 READY = """() => { const d = window.Bokeh && Bokeh.documents[0];
@@ -88,34 +111,32 @@ def compute_ms(page) -> float:
 
 def scenario(browser, port: int, query: str, changes: int, warmup: int = 3) -> dict:
     page = browser.new_page(viewport={"width": 1600, "height": 1000})
-    frames: list[int] = []
-    page.on("websocket", lambda ws: ws.on("framereceived", lambda payload: frames.append(len(payload))))
+    page.add_init_script(COUNT_MESSAGES)
     page.goto(f"http://127.0.0.1:{port}/app?{query}")
     page.wait_for_function(READY, timeout=60_000)
     page.wait_for_timeout(1000)  # let the initial document settle
-    lat, comp, sizes, counts = [], [], [], []
+    rows, comp = [], []
     logs = np.log10(20.0) + 0.01 * np.arange(1, warmup + changes + 1)  # σ steps of one slider notch
     for k, v in enumerate(logs):
-        frames.clear()
-        ms = page.evaluate(CHANGE, float(v))
-        page.wait_for_timeout(150)  # trailing frames of this update (busy flag, table, URL)
+        row = page.evaluate(CHANGE, float(v))
         if k >= warmup:
-            lat.append(ms)
+            rows.append(row)
             comp.append(compute_ms(page))
-            sizes.append(sum(frames))
-            counts.append(len(frames))
     page.close()
-    return {"latency": np.array(lat), "compute": np.array(comp), "bytes": np.array(sizes), "frames": np.array(counts)}
+    a = np.array(rows)
+    return {"latency": a[:, 0], "arrived": a[:, 1], "messages": a[:, 2], "bytes": a[:, 3], "compute": np.array(comp)}
 
 
 def report(name: str, r: dict) -> None:
-    lat, comp, b = r["latency"], r["compute"], r["bytes"]
+    lat, arrived, comp, b = r["latency"], r["arrived"], r["compute"], r["bytes"]
+    pct = lambda x: f"p50 {np.percentile(x, 50):6.1f} ms   p95 {np.percentile(x, 95):6.1f} ms"
     print(f"{name}: {len(lat)} changes")
-    print(f"  slider → plot redrawn (browser): p50 {np.percentile(lat, 50):6.1f} ms   p95 {np.percentile(lat, 95):6.1f} ms"
-          f"   max {lat.max():6.1f} ms")
-    print(f"  server compute per run:          p50 {np.percentile(comp, 50):6.1f} ms   p95 {np.percentile(comp, 95):6.1f} ms")
+    print(f"  slider → plot redrawn (browser): {pct(lat)}   max {lat.max():6.1f} ms")
+    print(f"    until the plot's data arrived: {pct(arrived)}   (server work + transfer)")
+    print(f"    from there to the redraw:      {pct(lat - arrived)}   (browser work)")
+    print(f"  server compute per run:          {pct(comp)}")
     print(f"  websocket received per update:   median {np.median(b) / 1024:7.1f} kB   max {b.max() / 1024:7.1f} kB"
-          f"   ({np.median(r['frames']):.0f} frames)")
+          f"   ({np.median(r['messages']):.0f} messages)")
 
 
 def main() -> None:

@@ -11,6 +11,7 @@ import pytest
 
 from app import extras
 from app.jobs import Jobs
+from app.extras import EXTRA_NAMES
 from app.state import AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import worst_case_html
@@ -171,14 +172,16 @@ def test_trajectories_overlay_the_extra_filters(state):
 
     view = TrajectoriesView(state=state)
     srcs = view._overlay._sources
+    items = dict(zip(EXTRA_NAMES, view._overlay.items))
+    lines = {n: view._overlay._followers[n] for n in EXTRA_NAMES}  # the filter's line in each plot
     assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())  # default: nothing sent
-    assert not view._overlay._legend.visible
+    assert not any(item.visible for item in items.values()) and not any(ln.visible for v in lines.values() for ln in v)
     state.extra_filters = ["kbf_adaptive", "isl_model"]
     for i in range(state.m):
         t, y = state.traces.series[i]["isl_model"]
         np.testing.assert_array_equal(srcs[i]["isl_model"].data["y"], y)
         assert len(srcs[i]["kbf_adaptive"].data["t"]) > 0 and len(srcs[i]["kbf_minimax"].data["t"]) == 0
-    items = view._overlay._items
-    assert view._overlay._legend.visible and items["isl_model"].visible and not items["kbf_minimax"].visible
+    assert items["isl_model"].visible and items["kbf_adaptive"].visible and not items["kbf_minimax"].visible
+    assert all(ln.visible for ln in lines["isl_model"]) and not any(ln.visible for ln in lines["kbf_minimax"])
     state.extra_filters = []
     assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())

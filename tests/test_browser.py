@@ -108,3 +108,32 @@ def test_sigma_slider_updates_plot_table_and_url(served):
     assert "X₁ position" in after_table
     text = log.read_text()
     assert "Traceback" not in text, text[-3000:]
+
+
+HIDE_ISL_KEY = """() => {
+    const doc = Bokeh.documents[0];
+    const item = Array.from(doc.all_models).find(m => m.label && m.label.value && m.label.value.startsWith('X̌ᵢ ISL'));
+    item.renderers[0].visible = false;   // what a click on the entry does (click_policy "hide")
+}"""
+
+ISL_LINES_VISIBLE = """() => {
+    const doc = Bokeh.documents[0];
+    return Array.from(doc.all_models).filter(m => m.data_source && /^traj-\\d-isl$/.test(m.data_source.name)).map(m => m.visible);
+}"""
+
+
+def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(served):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    url, _ = served
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page.goto(url)
+            page.wait_for_function(PLOT_DATA, timeout=30_000)
+            before = page.evaluate(ISL_LINES_VISIBLE)
+            page.evaluate(HIDE_ISL_KEY)
+            page.wait_for_function(f"() => ({ISL_LINES_VISIBLE})().every(v => !v)", timeout=20_000)
+        finally:
+            browser.close()
+    assert len(before) == 3 and all(before)  # one ISL line per plot (m = 3), all shown before the click

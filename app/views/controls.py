@@ -23,19 +23,24 @@ _LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toS
 
 
 class Slider(pn.widgets.FloatSlider):
-    """A FloatSlider whose changes reach the server at once.
+    """A FloatSlider whose changes reach the server at once, at the least server cost.
 
     Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
-    already keeps only the newest request, so the delay would only add latency to every update.
+    already keeps only the newest request, so the delay would only add latency to every update. Panel also
+    counts each change as a "busy" event for a global busy indicator that this page does not show (the state's
+    own ``busy`` drives the spinner); that bookkeeping cost about 14 ms of the server's loop per slider move
+    (py-spy, ``benchmarks/bench_app_latency.py``), so slider values are left out of it.
     """
 
     _debounce = 0
+    _busy__ignore = ["value", "value_throttled"]
 
 
 class IntSlider(pn.widgets.IntSlider):
-    """An IntSlider without Panel's 50 ms debounce (see :class:`Slider`)."""
+    """An IntSlider without Panel's debounce and busy bookkeeping (see :class:`Slider`)."""
 
     _debounce = 0
+    _busy__ignore = ["value", "value_throttled"]
 
 
 def round_sig(x: float, digits: int = 3) -> float:

@@ -1,14 +1,16 @@
 """The extra filters' estimates on the trajectory plots: one line per filter and coordinate, one colour each.
 
 :class:`Overlay` adds, to each of the m stacked plots, a line per extra filter of :mod:`app.extras` (empty
-until that filter is in the run), and a second legend row above the first plot listing only the filters
-drawn. With no extra filter selected nothing is sent: the sources stay empty and the legend row hidden.
+until that filter is in the run), and to the trajectories' legend an entry per filter, shown only while that
+filter is drawn. With no extra filter selected nothing is sent: the sources stay empty, their lines and legend
+entries hidden (a hidden line costs the browser nothing on a redraw; an empty visible one still goes through
+painting).
 """
 from __future__ import annotations
 
 import numpy as np
 from bokeh.core.properties import value
-from bokeh.models import ColumnDataSource, Legend, LegendItem
+from bokeh.models import ColumnDataSource, GlyphRenderer, LegendItem
 from bokeh.plotting import figure
 
 from isl_core.baselines import LABELS
@@ -16,34 +18,59 @@ from isl_core.baselines import LABELS
 from ..extras import EXTRA_NAMES
 from .style import EXTRA_COLORS
 
-__all__ = ["LEGEND_ROW", "Overlay"]
+__all__ = ["KEY_DATA", "Overlay", "follow"]
 
-LEGEND_ROW = 26  #: extra height of the first plot when the legend of the extra filters shows
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
+#: data of a legend key: a legend entry draws its glyph only if it has data; these two points lie outside the
+#: legend figure's ranges, so the figure itself shows nothing
+KEY_DATA = {"t": np.array([-2.0, -1.0], np.float32), "y": np.array([-2.0, -1.0], np.float32)}
+
+
+def follow(key: GlyphRenderer) -> list:
+    """The list of models whose ``visible`` follows the legend key ``key`` (append the models to it).
+
+    A legend redraws whenever any model it references, however indirectly, changes; a browser-side link from
+    the key to the plotted lines would make it reference every line, source and view of the plots, and redraw on
+    every run (26 ms of each update, measured). So the link runs on the server: a click on the entry changes the
+    key's ``visible``, and this callback hides or shows the followers (one round trip, on a click only).
+    """
+    followers: list = []
+
+    def changed(attr, old, new) -> None:
+        for model in followers:
+            model.visible = new
+
+    key.on_change("visible", changed)
+    return followers
+
+
+def _style(n: str) -> dict:
+    return {"line_color": EXTRA_COLORS[n], "line_width": 1.5, "line_alpha": 0.9}
 
 
 class Overlay:
-    """Lines of the extra filters on the trajectory figures (added with :meth:`add`, filled by :meth:`update`)."""
+    """Lines of the extra filters on the trajectory figures (added with :meth:`add`, filled by :meth:`update`).
 
-    def __init__(self) -> None:
+    ``key_figure`` is the legend's figure: each filter gets an unseen line there, the glyph of its legend entry;
+    hiding it (a click on the entry) hides that filter's line in every plot.
+    """
+
+    def __init__(self, key_figure: figure) -> None:
+        self._keys: dict[str, GlyphRenderer] = {
+            n: key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), visible=False, **_style(n))
+            for n in EXTRA_NAMES}
+        self.items = [LegendItem(label=value(LABELS[n]), renderers=[self._keys[n]], visible=False)
+                      for n in EXTRA_NAMES]
+        self._followers = {n: follow(key) for n, key in self._keys.items()}
         self._sources: list[dict[str, ColumnDataSource]] = []
-        self._items: dict[str, LegendItem] = {}
-        self._legend: Legend | None = None
+        self._shown: set[str] = set()
 
-    def add(self, fig: figure, i: int, k: str) -> None:
-        """Lines for coordinate ``i`` (subscript ``k``) in ``fig``; the first figure also gets the legend row."""
+    def add(self, fig: figure, i: int) -> None:
+        """Lines for coordinate ``i`` in ``fig``, linked to their legend entries."""
         src = {n: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{n}") for n in EXTRA_NAMES}
-        lines = {n: fig.line("t", "y", source=src[n], line_color=EXTRA_COLORS[n], line_width=1.5, line_alpha=0.9)
-                 for n in EXTRA_NAMES}
-        if i == 0:
-            self._items = {n: LegendItem(label=value(f"{LABELS[n]}"), renderers=[lines[n]], visible=False)
-                           for n in EXTRA_NAMES}
-            self._legend = Legend(items=list(self._items.values()), orientation="horizontal", visible=False,
-                                  label_text_font_size="11pt", click_policy="hide", padding=2, margin=2, spacing=14)
-            fig.add_layout(self._legend, "above")
-        else:  # the first figure's legend hides the lines of every plot together
-            for n in EXTRA_NAMES:
-                self._items[n].renderers[0].js_link("visible", lines[n], "visible")
+        lines = {n: fig.line("t", "y", source=src[n], visible=False, **_style(n)) for n in EXTRA_NAMES}
+        for n in EXTRA_NAMES:
+            self._followers[n].append(lines[n])
         self._sources.append(src)
 
     def update(self, i: int, series: dict | None) -> None:
@@ -55,11 +82,11 @@ class Overlay:
             elif len(src.data["t"]):
                 src.data = dict(_EMPTY)
 
-    def show(self, names) -> bool:
-        """Legend entries for ``names`` (the run's extra filters); True when the legend row is visible."""
-        for n, item in self._items.items():
+    def show(self, names) -> int:
+        """Legend entries and lines for ``names`` (the run's extra filters); returns how many are shown."""
+        for n, item in zip(EXTRA_NAMES, self.items):
             item.visible = n in names
-        shown = bool(names)
-        if self._legend is not None:
-            self._legend.visible = shown
-        return shown
+            if (n in names) != (n in self._shown):  # a newly drawn filter shows; a legend click may hide it again
+                self._keys[n].visible = n in names  # and its lines follow
+        self._shown = set(names)
+        return len(self._shown)

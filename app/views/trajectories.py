@@ -3,8 +3,11 @@
 Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i
 (blue) and the tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are
 built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32) and the
-tube offsets (a ``Dodge`` transform of X̂_i by ±3 s_i, so the tube costs no extra data). Extra filters of the
-run (:mod:`app.extras`) are drawn by :class:`app.views.overlay.Overlay`, one colour each.
+tube offsets. The tube is a ``Band`` whose edges are ``Dodge`` transforms of X̂_i by ±3 s_i: it costs no extra
+data, and as an annotation the browser redraws it without the per-glyph work (spatial index, selection view)
+that two extra line glyphs cost on every update — about 18 ms of a redraw, measured with
+``benchmarks/bench_app_latency.py``. Extra filters of the run (:mod:`app.extras`) are drawn by
+:class:`app.views.overlay.Overlay`, one colour each.
 """
 from __future__ import annotations
 
@@ -12,20 +15,40 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import field, value
-from bokeh.models import ColumnDataSource, Dodge, Legend, LegendItem, Range1d, Title
+from bokeh.models import Band, ColumnDataSource, Dodge, Legend, LegendItem, Range1d, Title
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
 from isl_core import M_MAX
 
 from ..state import COORDINATES, AppState
-from .overlay import LEGEND_ROW, Overlay
+from .overlay import KEY_DATA, Overlay, follow
 from .style import ISL, KBF, SUBSCRIPT, TRUTH, styled
 
 __all__ = ["TrajectoriesView", "plot_height"]
 
-LEGEND_HEIGHT = 80  #: the first plot carries the run's summary and the legend (two rows) above its frame
+_TRUTH = {"line_color": TRUTH, "line_width": 1.4}
+_KBF = {"line_color": KBF, "line_width": 1.8}
+_ISL = {"line_color": ISL, "line_width": 1.8}
+_TUBE = {"line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
+
+SUMMARY_HEIGHT = 30  #: the first plot carries the run's summary above its frame
+LEGEND_ROW = 30  #: height of one row of the legend (two entries a row)
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
+
+
+def _legend_figure() -> figure:
+    """A figure holding only the legend: its glyphs are empty lines, nothing in it changes with a run.
+
+    The legend sits in its own figure above the plots, not in the first plot: a run redraws every plot, and a
+    legend inside one is redrawn with it. Its entries' glyphs are unseen lines of this figure, not the plotted
+    lines (see :func:`app.views.overlay.follow`), so nothing a run changes is reachable from the legend.
+    """
+    fig = figure(height=2 * LEGEND_ROW + 8, sizing_mode="stretch_width", toolbar_location=None, x_axis_type=None,
+                 y_axis_type=None, x_range=Range1d(0, 1), y_range=Range1d(0, 1), outline_line_color=None,
+                 min_border=0, min_border_left=70)
+    fig.grid.visible = False
+    return fig
 
 
 def plot_height(m: int) -> int:
@@ -44,8 +67,12 @@ def _y_limits(series: dict, tube: float) -> tuple[float, float]:
 
 
 def _set_range(r: Range1d, start: float, end: float) -> None:
-    """Fixed ranges computed here: the browser has nothing to compute and nothing to send back."""
-    r.update(start=start, end=end, reset_start=start, reset_end=end)
+    """Fixed ranges computed here: the browser has nothing to compute and nothing to send back.
+
+    Untouched when it already shows exactly these limits (the time axis after a σ or ν move): no change to send.
+    """
+    if (r.reset_start, r.reset_end) != (start, end) or (r.start, r.end) != (r.reset_start, r.reset_end):
+        r.update(start=start, end=end, reset_start=start, reset_end=end)
 
 
 class TrajectoriesView(Viewer):
@@ -58,12 +85,27 @@ class TrajectoriesView(Viewer):
         self._x_range = Range1d(0.0, 1.0)  # shared: pan or zoom one plot's time axis and all follow
         self._sources: list[dict[str, ColumnDataSource]] = []
         self._dodges: list[tuple[Dodge, Dodge]] = []
-        self._overlay = Overlay()
+        self._key_figure = _legend_figure()
+        self._keys = self._legend_keys()
+        self._followers = {name: follow(item.renderers[0]) for name, item in self._keys.items()}
+        self._overlay = Overlay(self._key_figure)
         self._figures = [self._figure(i) for i in range(M_MAX)]
+        self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
+                              label_text_font_size="11pt", click_policy="hide", padding=2, margin=2, spacing=14,
+                              location="top_left", border_line_alpha=0, background_fill_alpha=0)
+        self._key_figure.add_layout(self._legend, "center")
         self._panes = [pn.pane.Bokeh(f, sizing_mode="stretch_width", margin=(0, 5)) for f in self._figures]
+        self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
         self._column = pn.Column(sizing_mode="stretch_width")
         self.state.param.watch(self._update, ["traces"])
         self._update()
+
+    def _legend_keys(self) -> dict[str, LegendItem]:
+        """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
+        empty = lambda **style: self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
+        keys = {"truth": ("Xᵢ signal", empty(**_TRUTH)), "kbf": ("X̂ᵢ Kalman–Bucy (knows σ)", empty(**_KBF)),
+                "isl": ("X̌ᵢ ISL (σ unknown)", empty(**_ISL)), "tube": ("X̂ᵢ ± 3 sᵢ (optimal RMSE)", empty(**_TUBE))}
+        return {name: LegendItem(label=value(text), renderers=[key]) for name, (text, key) in keys.items()}
 
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
@@ -73,23 +115,19 @@ class TrajectoriesView(Viewer):
             active_scroll=None, output_backend="canvas",
         ))
         fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
+        fig.xaxis.axis_label = "time t"
         src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
         up, down = Dodge(value=0.0), Dodge(value=0.0)
-        tube = {"source": src["kbf"], "line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
-        tube_lines = [fig.line("t", field("y", up), **tube), fig.line("t", field("y", down), **tube)]
-        truth = fig.line("t", "y", source=src["truth"], line_color=TRUTH, line_width=1.4)
-        kbf = fig.line("t", "y", source=src["kbf"], line_color=KBF, line_width=1.8)
-        isl = fig.line("t", "y", source=src["isl"], line_color=ISL, line_width=1.8)
-        if i == 0:  # the run's parameters and one legend for all plots, drawn on the canvas (no page re-layout)
+        band = Band(base="t", lower=field("y", down), upper=field("y", up), source=src["kbf"], fill_alpha=0.0, **_TUBE)
+        fig.add_layout(band)
+        drawn = {"tube": band, "truth": fig.line("t", "y", source=src["truth"], **_TRUTH),
+                 "kbf": fig.line("t", "y", source=src["kbf"], **_KBF), "isl": fig.line("t", "y", source=src["isl"], **_ISL)}
+        for name, model in drawn.items():  # a click on a legend entry hides that trace in every plot
+            self._followers[name].append(model)
+        if i == 0:  # the run's parameters, drawn on the canvas (no page re-layout)
             self._summary = Title(text="", text_font_size="10.5pt", text_font_style="italic")
             fig.add_layout(self._summary, "above")
-            items = [(f"X{k} signal", [truth]), (f"X̂{k} Kalman–Bucy (knows σ)", [kbf]),
-                     (f"X̌{k} ISL (σ unknown)", [isl]), (f"X̂{k} ± 3 s{k} (optimal RMSE)", tube_lines)]
-            legend = Legend(items=[LegendItem(label=value(text), renderers=r) for text, r in items],
-                            orientation="horizontal", ncols=2, label_text_font_size="11pt", click_policy="hide",
-                            padding=2, margin=2, spacing=14)  # two rows: fits a plot ≥ 450 px wide
-            fig.add_layout(legend, "above")
-        self._overlay.add(fig, i, k)
+        self._overlay.add(fig, i)
         self._sources.append(src)
         self._dodges.append((up, down))
         return fig
@@ -100,7 +138,8 @@ class TrajectoriesView(Viewer):
         with pn.io.hold():
             if run is not None:
                 _set_range(self._x_range, 0.0, run.T)
-            extra_row = self._overlay.show([] if run is None else [tr.name for tr in run.tracks[2:]])
+            extras = self._overlay.show([] if run is None else [tr.name for tr in run.tracks[2:]])
+            self._key_figure.height = (2 + -(-extras // 2)) * LEGEND_ROW + 8
             for i, fig in enumerate(self._figures):
                 if i < m:
                     for name, src in self._sources[i].items():
@@ -110,15 +149,15 @@ class TrajectoriesView(Viewer):
                     up, down = self._dodges[i]
                     up.value, down.value = 3.0 * float(run.s[i]), -3.0 * float(run.s[i])
                     _set_range(fig.y_range, *_y_limits(traces.series[i], 3.0 * float(run.s[i])))
-                    fig.height = plot_height(m) + (LEGEND_HEIGHT + LEGEND_ROW * extra_row if i == 0 else 0)
-                    fig.xaxis.axis_label = "time t" if i == m - 1 else None
+                    fig.height = plot_height(m) + (SUMMARY_HEIGHT if i == 0 else 0)
+                    fig.xaxis.visible = i == m - 1  # one shared time axis, under the last plot
                 elif len(self._sources[i]["kbf"].data["t"]):
                     for src in self._sources[i].values():
                         src.data = dict(_EMPTY)
                     self._overlay.update(i, None)
             self._summary.text = self._header_text()
-            if len(self._column.objects) != m:  # only the m plots in the page: hidden ones would still be laid out
-                self._column.objects = self._panes[:m]
+            if len(self._column.objects) != m + 1:  # only the m plots in the page: hidden ones would be laid out
+                self._column.objects = [self._key_pane, *self._panes[:m]]
 
     def _header_text(self) -> str:
         run = self.state.run

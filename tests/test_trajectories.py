@@ -1,0 +1,52 @@
+"""The trajectories view (app.views.trajectories): what a run changes, what it leaves alone, the legend.
+
+Headless: the bokeh models the view builds, without a server or a browser.
+"""
+import numpy as np
+import pytest
+from bokeh.models import Band, ColumnDataSource, GlyphRenderer
+
+from app.state import AppState
+from app.views.trajectories import TrajectoriesView
+
+
+@pytest.fixture
+def view():
+    state = AppState()
+    state.start()
+    return TrajectoriesView(state=state)
+
+
+def test_plots_show_the_run_and_the_tube_is_three_s_around_the_kalman_bucy_estimate(view):
+    run, traces = view.state.run, view.state.traces
+    for i in range(run.model.m):
+        for name, src in view._sources[i].items():
+            np.testing.assert_array_equal(src.data["y"], traces.series[i][name][1])
+        band = next(r for r in view._figures[i].center if isinstance(r, Band))
+        assert band.source is view._sources[i]["kbf"]
+        assert band.upper.transform.value == pytest.approx(3 * run.s[i])
+        assert band.lower.transform.value == pytest.approx(-3 * run.s[i])
+    assert [p.object for p in view._column.objects[1:]] == view._figures[:run.model.m]
+    assert [f.xaxis[0].visible for f in view._figures[:3]] == [False, False, True]  # one time axis, at the bottom
+
+
+def test_the_legend_reaches_nothing_a_run_changes(view):
+    """A legend redraws when anything it references changes: it must not reach the plots' data or lines."""
+    reachable = view._legend.references()
+    plotted = {m for f in view._figures for m in f.references() if isinstance(m, (ColumnDataSource, GlyphRenderer))}
+    assert reachable.isdisjoint(plotted)
+    view.state.sigma = 200.0  # a run changes the plots, not the legend's figure
+    assert all(len(s.data["t"]) == 2 for s in view._key_figure.select(type=ColumnDataSource))
+
+
+def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(view):
+    key = view._keys["isl"].renderers[0]
+    isl_lines = view._followers["isl"]
+    assert len(isl_lines) == len(view._figures) and all(r.visible for r in isl_lines)
+    key.visible = False  # what the browser sends when the entry is clicked (click_policy "hide")
+    assert not any(r.visible for r in isl_lines) and all(r.visible for r in view._followers["kbf"])
+    tube = view._followers["tube"]
+    view._keys["tube"].renderers[0].visible = False
+    assert all(isinstance(b, Band) and not b.visible for b in tube)
+    key.visible = True
+    assert all(r.visible for r in isl_lines)

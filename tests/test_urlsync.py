@@ -1,0 +1,106 @@
+"""The inputs in the URL (app.urlsync): links open the same view, bad links are refused by name, writes wait
+for the run they started.
+
+Headless: a stand-in for ``pn.state.location`` (only its ``search`` matters) and the state's own job runner.
+"""
+import queue
+from concurrent.futures import ThreadPoolExecutor
+
+import param
+import pytest
+
+from app.jobs import Jobs
+from app.state import AppState
+from app.urlsync import URL_INPUTS, UrlSync, parse_query, query_string
+
+
+class Location(param.Parameterized):
+    search = param.String("")
+
+
+class _Loop:
+    """The session's event loop: worker threads enqueue outcomes, the test applies them."""
+
+    def __init__(self):
+        self.q = queue.Queue()
+
+    def schedule(self, fn):
+        self.q.put(fn)
+
+    def pump(self, until, timeout=60.0):
+        while not until():
+            self.q.get(timeout=timeout)()
+
+
+def linked(search: str = "", jobs: Jobs | None = None) -> tuple[AppState, Location]:
+    state, location = AppState(jobs=jobs), Location(search=search)
+    UrlSync(state, location)
+    state.start()
+    return state, location
+
+
+def test_a_link_sets_the_inputs_it_names_and_leaves_the_rest_at_their_defaults():
+    state, _ = linked("?sigma=200&m=2&nu=0.5&extra_filters=[\"kbf_adaptive\"]&sweep_sigmas=[5,50]")
+    assert (state.sigma, state.m, state.nu) == (200.0, 2, 0.5)
+    assert state.extra_filters == ["kbf_adaptive"] and state.sweep_sigmas == [5.0, 50.0]
+    assert state.alpha == AppState.param.alpha.default and state.horizon == AppState.param.horizon.default
+    assert state.run.model.sigma == 200.0 and state.run.model.m == 2 and state.run.nu == 0.5
+    assert [tr.name for tr in state.run.tracks[2:]] == ["kbf_adaptive"]
+    assert state.message == ""
+
+
+@pytest.mark.parametrize("bad, label", [("sigma=-3", "σ"), ("m=abc", "m"), ("m=2.5", "m"), ("nu=nan", "ν"),
+                                        ("horizon=1e9", "horizon"), ("beta_from_w=7", "β from w")])
+def test_a_bad_value_in_a_link_is_refused_by_name_and_the_rest_applies(bad, label):
+    state, _ = linked(f"?{bad}&seed=7")
+    assert state.seed == 7 and state.run.seed == 7
+    assert state.message.startswith("Refused") and label in state.message
+    assert state.run is not None and state.message_kind == "danger"
+
+
+def test_the_url_holds_the_non_default_inputs_and_keeps_foreign_keys():
+    state, location = linked("?utm=class&sigma=200")
+    state.nu = 0.5
+    assert location.search == "?utm=class&sigma=200.0&nu=0.5"
+    state.sigma = AppState.param.sigma.default  # back to its default: dropped from the link
+    assert location.search == "?utm=class&nu=0.5"
+    assert parse_query(location.search) == {"nu": 0.5}
+
+
+def test_a_refused_value_never_reaches_the_url():
+    state, location = linked()
+    state.sigma = -1.0
+    assert "Refused" in state.message and location.search == ""
+
+
+def test_every_input_round_trips_through_the_query():
+    state, _ = linked()
+    state.param.update(alpha=2.0, beta_from_w=False, beta=7.5, sigma=3.0, nu=0.2, m=4, seed=11, horizon=20.0,
+                       sweep_sigmas=[1.0, 10.0], sweep_horizon=50.0, extra_filters=["kbf_mismatched", "isl_model"],
+                       sigma_design=50.0, sigma_min=1.0, sigma_max=100.0, wc_alphas=[0.1, 1.0], wc_n_sigma=4,
+                       wc_horizon=500.0)
+    assert state.message == "" and state.extra_filters == ["kbf_mismatched", "isl_model"]
+    other, _ = linked(query_string(state))
+    assert other.message == ""
+    assert {n: getattr(other, n) for n in URL_INPUTS} == {n: getattr(state, n) for n in URL_INPUTS}
+
+
+def test_browser_navigation_applies_the_new_query():
+    state, location = linked("?sigma=200")
+    location.search = "?nu=0.5"  # back/forward: σ returns to its default, ν changes, in one run
+    assert state.sigma == AppState.param.sigma.default and state.nu == 0.5
+    assert state.run.model.sigma == state.sigma and state.run.nu == 0.5
+
+
+def test_the_url_is_written_with_the_run_it_started_not_before():
+    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=1)
+    try:
+        state, location = linked(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule))
+        state.sigma = 50.0
+        assert state.computing and location.search == ""  # the run is still being computed
+        loop.pump(lambda: not state.computing)
+        assert state.run.model.sigma == 50.0 and location.search == "?sigma=50.0"
+        state.sweep_sigmas = [3.0, 30.0]  # starts no run: written at once
+        assert location.search == "?sigma=50.0&sweep_sigmas=[3.0,30.0]"
+    finally:
+        pool.shutdown(wait=True)
