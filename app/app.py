@@ -15,6 +15,7 @@ if not __package__:  # run as a script (`panel serve app/app.py`): make `app` th
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import panel as pn
+from panel.io.resources import CDN_DIST
 from threadpoolctl import threadpool_limits
 
 from app import hardening
@@ -25,7 +26,7 @@ from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, ab
 from app.views.filters_panel import FiltersPanel
 from app.views.worstcase import WorstCaseView
 
-__all__ = ["TITLE", "create_app", "session_jobs"]
+__all__ = ["TITLE", "LocalFast", "create_app", "session_jobs"]
 
 TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
 
@@ -64,6 +65,20 @@ def session_jobs() -> Jobs:
     return Jobs(pools, schedule=_loop_scheduler(doc))
 
 
+class LocalFast(pn.theme.Fast):
+    """Panel's Fast design without its web font (Open Sans from fonts.googleapis.com).
+
+    Every other file of the page is served by the dashboard's own server; the font alone came from the internet.
+    On a classroom network without internet access that request fails, and behind a firewall that drops it the
+    stylesheet (in the page's head) can hold the first paint until the browser gives up. Text uses the system
+    sans-serif instead (the font never loaded where the request failed, so the page looks the same there).
+    """
+
+    _resources = {kind: res for kind, res in pn.theme.Fast._resources.items() if kind != "font"}
+    # Panel names a design's own files after the class ("localfast/..."): point at the Fast design's file
+    _resources["js_modules"] = {**_resources["js_modules"], "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"}
+
+
 def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     """A new dashboard page over ``state`` (a fresh :class:`AppState` by default), URL-synced when served."""
     if state is None:
@@ -79,7 +94,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     return pn.template.FastListTemplate(
         title=TITLE, sidebar=[ControlsView(state=state), FiltersPanel(state=state), about_card()], main=[tabs],
         sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
-        main_layout=None, busy_indicator=None,
+        main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif", font_url="",
     )
 
 

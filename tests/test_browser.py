@@ -137,3 +137,26 @@ def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(served):
         finally:
             browser.close()
     assert len(before) == 3 and all(before)  # one ISL line per plot (m = 3), all shown before the click
+
+
+def test_the_page_loads_nothing_from_other_hosts(served):
+    """A classroom server may have no internet: every file the page asks for comes from the dashboard itself."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    url, _ = served
+    origin = url.rsplit("/", 1)[0]
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page()
+            requested: list[str] = []
+            page.on("request", lambda request: requested.append(request.url))
+            page.goto(url)
+            page.wait_for_function(PLOT_DATA, timeout=30_000)
+            page.wait_for_load_state("networkidle")
+        finally:
+            browser.close()
+    local = origin.replace("http", "ws", 1)
+    assert len(requested) > 5  # the page, its scripts and stylesheets, the websocket were all seen
+    own = (origin, local, "blob:" + origin, "data:")  # blobs and data URLs are made in the page itself
+    foreign = [u for u in requested if not u.startswith(own)]
+    assert foreign == []
