@@ -290,6 +290,26 @@ def _remote(tasks, executor, chunk, prog: _Progress):
     return out
 
 
+def _check_sampling(horizon, seeds, batches, level) -> tuple[float, tuple[int, ...], int, float]:
+    """``horizon``, ``seeds``, ``batches`` and ``level`` of a simulated grid, checked (sweep, worst case)."""
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    seeds = tuple(check_int("seeds", x, lo=0) for x in np.atleast_1d(np.asarray(seeds, dtype=object)))
+    if not seeds:
+        raise ValueError("seeds must be a non-empty sequence of integers >= 0, got ()")
+    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
+    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    return horizon, seeds, batches, level
+
+
+def _check_execution(chunk, workers, progress) -> tuple[int, int]:
+    """``chunk`` and ``workers`` (None: the CPU count) checked, and ``progress`` a callable or None."""
+    chunk = check_int("chunk", chunk, lo=1)
+    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be a callable or None, got {progress!r}")
+    return chunk, workers
+
+
 def sweep(
     alphas: Sequence[float] = FIG2_ALPHAS,
     sigmas: Sequence[float] = FIG2_SIGMAS,
@@ -322,14 +342,8 @@ def sweep(
     nob = _check_list("nu_over_beta", nu_over_beta, lo=0.0)
     m = check_int("m", m, lo=1, hi=M_MAX)
     w = check_real("w", w, lo=0.0, lo_open=True)
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    seeds = tuple(check_int("seeds", x, lo=0) for x in np.atleast_1d(np.asarray(seeds, dtype=object)))
-    if not seeds:
-        raise ValueError("seeds must be a non-empty sequence of integers >= 0, got ()")
-    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
-    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
-    chunk = check_int("chunk", chunk, lo=1)
-    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
+    horizon, seeds, batches, level = _check_sampling(horizon, seeds, batches, level)
+    chunk, workers = _check_execution(chunk, workers, progress)
 
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {model_aware!r}")

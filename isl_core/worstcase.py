@@ -21,7 +21,6 @@ numbers). Choices, all documented:
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -34,7 +33,18 @@ from .model import M_MAX, Model
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
 from .simulate import MAX_STEPS, step_size
-from .sweep import BURN, FIG2_ALPHAS, _local, _Progress, _remote, _Task, group_seed, ratio_interval
+from .sweep import (
+    BURN,
+    FIG2_ALPHAS,
+    _check_execution,
+    _check_sampling,
+    _local,
+    _Progress,
+    _remote,
+    _Task,
+    group_seed,
+    ratio_interval,
+)
 
 __all__ = ["WorstCaseTable", "worst_case"]
 
@@ -192,12 +202,7 @@ def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, se
     if sigma_design is not None:
         sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
     window = check_real("window", window, lo=1.0)
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    seeds = tuple(check_int("seeds", x, lo=0) for x in np.atleast_1d(np.asarray(seeds, dtype=object)))
-    if not seeds:
-        raise ValueError("seeds must be a non-empty sequence of integers >= 0, got ()")
-    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
-    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    horizon, seeds, batches, level = _check_sampling(horizon, seeds, batches, level)
     sigmas = np.geomspace(lo, hi, n_sigma)
     sigmas[0], sigmas[-1] = lo, hi  # exact ends
     return alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level
@@ -232,10 +237,7 @@ def worst_case(
     alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level = _check(
         alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level)
     names = check_names(filters, "filters")
-    chunk = check_int("chunk", chunk, lo=1)
-    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None, got {progress!r}")
+    chunk, workers = _check_execution(chunk, workers, progress)
     nu, design, best, theory, tasks, s, r_min, h, steps = _plan(
         alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)

@@ -139,7 +139,7 @@ def test_diverged_filter_is_nan_and_others_unchanged():
     (dict(nu_over_beta=[-1.0]), "nu_over_beta"), (dict(m=7), "m"), (dict(w=0.0), "w"),
     (dict(horizon=math.inf), "horizon"), (dict(seeds=[-1]), "seeds"), (dict(seeds=[]), "seeds"),
     (dict(batches=0), "batches"), (dict(level=1.0), "level"), (dict(chunk=0), "chunk"),
-    (dict(horizon=1e9), "horizon"),
+    (dict(horizon=1e9), "horizon"), (dict(workers=0), "workers"), (dict(progress=3), "progress"),
 ])
 def test_bad_arguments_name_the_parameter(kw, name):
     args = dict(alphas=[1.0], sigmas=[20.0], nu_over_beta=[1.0], horizon=10.0) | kw
