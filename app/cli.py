@@ -35,24 +35,23 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: error: {message}")
 
 
-def _positive(text: str) -> float:
+def _number(text: str, *, zero: bool) -> float:
+    """``text`` as a finite number > 0 (``zero``: >= 0), or argparse's error naming the range."""
     try:
         x = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    if not (math.isfinite(x) and (x >= 0 if zero else x > 0)):
+        raise argparse.ArgumentTypeError(f"expected a finite number {'>=' if zero else '>'} 0, got {text!r}")
     return x
+
+
+def _positive(text: str) -> float:
+    return _number(text, zero=False)
 
 
 def _nonneg(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(x) and x >= 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
-    return x
+    return _number(text, zero=True)
 
 
 def _seed(text: str) -> int:

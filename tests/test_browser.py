@@ -7,6 +7,7 @@ artifact for CI, never committed.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import subprocess
@@ -69,6 +70,24 @@ def served(tmp_path_factory):
             proc.wait()
 
 
+@contextlib.contextmanager
+def dashboard(url: str, on_request=None):
+    """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
+    every request from the start)."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            if on_request is not None:
+                page.on("request", lambda request: on_request(request.url))
+            page.goto(url)
+            page.wait_for_function(PLOT_DATA, timeout=30_000)
+            yield page
+        finally:
+            browser.close()
+
+
 PLOT_DATA = """() => {
     const doc = window.Bokeh && Bokeh.documents[0];
     const src = doc && doc.get_model_by_name('traj-1-isl');
@@ -78,32 +97,24 @@ PLOT_DATA = """() => {
 
 
 def test_sigma_slider_updates_plot_table_and_url(served):
-    sync_api = pytest.importorskip("playwright.sync_api")
     url, log = served
     artifacts = Path(os.environ.get("ISL_ARTIFACTS") or log.parent)
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1600, "height": 1000})
-            page.goto(url)
-            page.wait_for_function(PLOT_DATA, timeout=30_000)
-            before_plot = page.evaluate(PLOT_DATA)
-            table = page.locator("table.isl-numbers.ratios")
-            before_table = table.inner_text()
-            slider = page.locator(".bk-input-group", has=page.locator(".bk-slider-title", has_text="σ:"))
-            handle = slider.locator(".noUi-handle")
-            for _ in range(5):
-                handle.press("ArrowRight")
-            page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
-                                   arg=before_plot, timeout=20_000)
-            deadline = time.monotonic() + 20
-            while table.inner_text() == before_table and time.monotonic() < deadline:
-                page.wait_for_timeout(100)
-            after_table = table.inner_text()
-            page.wait_for_url(lambda u: "sigma=" in u, timeout=20_000)
-            page.screenshot(path=str(artifacts / "dashboard_after_sigma.png"), full_page=True)
-        finally:
-            browser.close()
+    with dashboard(url) as page:
+        before_plot = page.evaluate(PLOT_DATA)
+        table = page.locator("table.isl-numbers.ratios")
+        before_table = table.inner_text()
+        slider = page.locator(".bk-input-group", has=page.locator(".bk-slider-title", has_text="σ:"))
+        handle = slider.locator(".noUi-handle")
+        for _ in range(5):
+            handle.press("ArrowRight")
+        page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
+                               arg=before_plot, timeout=20_000)
+        deadline = time.monotonic() + 20
+        while table.inner_text() == before_table and time.monotonic() < deadline:
+            page.wait_for_timeout(100)
+        after_table = table.inner_text()
+        page.wait_for_url(lambda u: "sigma=" in u, timeout=20_000)
+        page.screenshot(path=str(artifacts / "dashboard_after_sigma.png"), full_page=True)
     assert after_table != before_table
     assert "X₁ position" in after_table
     text = log.read_text()
@@ -123,38 +134,21 @@ ISL_LINES_VISIBLE = """() => {
 
 
 def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(served):
-    sync_api = pytest.importorskip("playwright.sync_api")
     url, _ = served
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1600, "height": 1000})
-            page.goto(url)
-            page.wait_for_function(PLOT_DATA, timeout=30_000)
-            before = page.evaluate(ISL_LINES_VISIBLE)
-            page.evaluate(HIDE_ISL_KEY)
-            page.wait_for_function(f"() => ({ISL_LINES_VISIBLE})().every(v => !v)", timeout=20_000)
-        finally:
-            browser.close()
+    with dashboard(url) as page:
+        before = page.evaluate(ISL_LINES_VISIBLE)
+        page.evaluate(HIDE_ISL_KEY)
+        page.wait_for_function(f"() => ({ISL_LINES_VISIBLE})().every(v => !v)", timeout=20_000)
     assert len(before) == 3 and all(before)  # one ISL line per plot (m = 3), all shown before the click
 
 
 def test_the_page_loads_nothing_from_other_hosts(served):
     """A classroom server may have no internet: every file the page asks for comes from the dashboard itself."""
-    sync_api = pytest.importorskip("playwright.sync_api")
     url, _ = served
     origin = url.rsplit("/", 1)[0]
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
-        try:
-            page = browser.new_page()
-            requested: list[str] = []
-            page.on("request", lambda request: requested.append(request.url))
-            page.goto(url)
-            page.wait_for_function(PLOT_DATA, timeout=30_000)
-            page.wait_for_load_state("networkidle")
-        finally:
-            browser.close()
+    requested: list[str] = []
+    with dashboard(url, on_request=requested.append) as page:
+        page.wait_for_load_state("networkidle")
     local = origin.replace("http", "ws", 1)
     assert len(requested) > 5  # the page, its scripts and stylesheets, the websocket were all seen
     own = (origin, local, "blob:" + origin, "data:")  # blobs and data URLs are made in the page itself
