@@ -2,16 +2,16 @@
 
 Headless: no server, no browser. Jobs run inline unless a test gives the state a thread pool.
 """
-import queue
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
+from _loop import ManualLoop
 
 from app import extras
-from app.jobs import Jobs
 from app.extras import EXTRA_NAMES
+from app.jobs import Jobs
 from app.state import AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import worst_case_html
@@ -94,20 +94,9 @@ def test_sweep_curves_of_the_extra_filters(state):
     assert np.ptp(extra["kbf_minimax"], axis=1).max() == 0.0  # a fixed gain does not depend on ν
 
 
-class _Loop:
-    def __init__(self):
-        self.q = queue.Queue()
-
-    def schedule(self, fn):
-        self.q.put(fn)
-
-    def pump(self, until, timeout=120.0):
-        while not until():
-            self.q.get(timeout=timeout)()
-
 
 def test_worst_case_table_is_computed_off_thread_and_shown():
-    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=1)
+    loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
     try:
         s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
         s.start()
@@ -130,7 +119,7 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
 
 
 def test_worst_case_can_be_cancelled():
-    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=1)
+    loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
     try:
         s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
         s.start()

@@ -3,12 +3,12 @@
 Headless: no server, no browser. Jobs run inline unless a test gives the state thread pools.
 """
 import math
-import queue
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
+from _loop import ManualLoop
 
 from app import state as state_module
 from app import sweeps
@@ -187,22 +187,9 @@ def test_theory_curves_follow_the_context(state):
     assert kb.r_min > 0  # the context change did not disturb the run
 
 
-class _Loop:
-    """A stand-in for the session's event loop: worker threads enqueue, the test thread runs."""
-
-    def __init__(self):
-        self.q = queue.Queue()
-
-    def schedule(self, fn):
-        self.q.put(fn)
-
-    def pump(self, until, timeout=60.0):
-        while not until():
-            self.q.get(timeout=timeout)()
-
 
 def test_threaded_runs_coalesce_to_the_latest_request():
-    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=2)
+    loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=2)
     gate, computed = threading.Event(), []
     real = state_module.compute
 
@@ -228,7 +215,7 @@ def test_threaded_runs_coalesce_to_the_latest_request():
 
 
 def test_threaded_sweep_can_be_cancelled():
-    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=2)
+    loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=2)
     try:
         s = AppState(jobs=Jobs({"run": pool, "theory": pool, "sweep": pool}, schedule=loop.schedule))
         s.start()

@@ -3,11 +3,11 @@ for the run they started.
 
 Headless: a stand-in for ``pn.state.location`` (only its ``search`` matters) and the state's own job runner.
 """
-import queue
 from concurrent.futures import ThreadPoolExecutor
 
 import param
 import pytest
+from _loop import ManualLoop
 
 from app.jobs import Jobs
 from app.state import AppState
@@ -17,19 +17,6 @@ from app.urlsync import URL_INPUTS, UrlSync, parse_query, query_string
 class Location(param.Parameterized):
     search = param.String("")
 
-
-class _Loop:
-    """The session's event loop: worker threads enqueue outcomes, the test applies them."""
-
-    def __init__(self):
-        self.q = queue.Queue()
-
-    def schedule(self, fn):
-        self.q.put(fn)
-
-    def pump(self, until, timeout=60.0):
-        while not until():
-            self.q.get(timeout=timeout)()
 
 
 def linked(search: str = "", jobs: Jobs | None = None) -> tuple[AppState, Location]:
@@ -93,7 +80,7 @@ def test_browser_navigation_applies_the_new_query():
 
 
 def test_the_url_is_written_with_the_run_it_started_not_before():
-    loop, pool = _Loop(), ThreadPoolExecutor(max_workers=1)
+    loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
     try:
         state, location = linked(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule))
         state.sigma = 50.0
