@@ -14,7 +14,7 @@ from app.extras import EXTRA_NAMES
 from app.jobs import Jobs
 from app.state import AppState
 from app.views.numbers import numbers_html
-from app.views.worstcase import worst_case_html
+from app.views.worstcase import WorstCaseView, worst_case_html
 from isl_core import Model, baseline_filters, simulate, theory_ratios
 from isl_core.baselines import LABELS
 
@@ -101,6 +101,8 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
         s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
         s.start()
         s.param.update(wc_alphas=[1.0], wc_n_sigma=2, wc_horizon=20.0)
+        view = WorstCaseView(state=s)
+        assert not view._figure.visible and "No table yet" in view._table.object  # nothing to plot yet
         caller = threading.get_ident()
         s.compute_worst_case()
         assert s.worst_busy  # returned before the table exists: the work is on the pool
@@ -114,6 +116,9 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
         assert t.theory_worst[0, 0] == pytest.approx(1.0, rel=1e-9)
         html = worst_case_html(t)
         assert "α = 1" in html and all(label in html for label in t.labels)
+        assert view._figure.visible and view._table.object == html
+        dots = {name: list(src.data["y"]) for name, src in view._sources.items()}
+        assert dots == {name: [t.worst[0, f]] for f, name in enumerate(t.names)}  # one dot per filter at α = 1
     finally:
         pool.shutdown(wait=True)
 

@@ -82,6 +82,7 @@ class WorstCaseView(Viewer):
                          for n in BASELINES}
         self._figure = self._chart()
         self._table = pn.pane.HTML(worst_case_html(self.state.worst), stylesheets=[_CSS], margin=(0, 10))
+        self._chart_pane = pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width")
         self.state.param.watch(self._update, ["worst"])
         self._update()
 
@@ -90,7 +91,7 @@ class WorstCaseView(Viewer):
                             title="Worst-case RMSE ratio over the σ range (simulated, 95 % intervals)",
                             tools="pan,wheel_zoom,box_zoom,reset,save"))
         fig.xaxis.axis_label = "α"
-        fig.yaxis.axis_label = "max over σ and i of RMSE_i / s_i"
+        fig.yaxis.axis_label = "max over σ and i of RMSEᵢ / sᵢ"
         fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         items = []
         for name, src in self._sources.items():
@@ -117,6 +118,9 @@ class WorstCaseView(Viewer):
                 ok = np.isfinite(y) & (y > 0)
                 src.data = {"x": t.alphas[ok] * shift, "y": y[ok], "lower": np.maximum(lo[ok], 1e-3),
                             "upper": hi[ok]}
+            # the chart shows once there is a table: an empty log-log chart has no range to show. (The figure's
+            # own flag: toggling the Panel pane's makes it copy the figure's stylesheets back and fail a type check.)
+            self._figure.visible = t is not None
 
     def _controls(self) -> pn.Column:
         s = self.state
@@ -149,6 +153,4 @@ class WorstCaseView(Viewer):
             "filters run on the same noise; the ISL filters use the ν that `recommend_nu` picks for the same σ "
             "grid (theory minimax). The Kalman–Bucy oracle knows σ (≈ 1, a check of the horizon). **Bold**: the "
             "best filter that does not know σ.", margin=(0, 10), styles={"font-size": "14px"})
-        return pn.Column(intro, self._controls(), self._table, pn.pane.Bokeh(self._figure, margin=5,
-                                                                              sizing_mode="stretch_width"),
-                         sizing_mode="stretch_width")
+        return pn.Column(intro, self._controls(), self._table, self._chart_pane, sizing_mode="stretch_width")
