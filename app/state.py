@@ -186,6 +186,7 @@ class AppState(extras.Baselines):
         self._started = False
         self._serial = 0
         self._cancel = threading.Event()
+        self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``sweep_note`` reports on
         self.param.watch(self._on_inputs, list(INPUTS))
         self.param.watch(self._on_extra_inputs, list(extras.RUN_INPUTS))
         self.param.watch(self._on_context, ["alpha", "beta_from_w", "w", "beta", "m", "sweep_sigmas",
@@ -325,6 +326,8 @@ class AppState(extras.Baselines):
         pts = self.points
         if pts is not None and (pts.alpha, pts.beta, pts.m, pts.sigmas) != key:
             self.points = None
+        if not self.sweep_busy and self._note_context not in (None, key):  # the note spoke of another context
+            self.sweep_note, self._note_context = "", None
         self._jobs.submit("theory", partial(sweeps.theory_curves, *key, extras=tuple(self.extra_filters),
                                             sigma_design=self.sigma_design, sigma_range=self.sigma_range),
                           self._apply_curves)
@@ -381,7 +384,8 @@ class AppState(extras.Baselines):
         if (pts.alpha, pts.beta, pts.m, pts.sigmas) != self._sweep_model():
             self.sweep_note = "The parameters changed while the sweep ran; run it again."
         else:
-            self.param.update(points=pts, sweep_note=f"Simulated in {outcome.seconds:.1f} s "
+            self._note_context = self._sweep_model()
+            self.param.update(points=pts, sweep_note=f"Simulated in {outcome.seconds:.2g} s "
                                                      "(95 % batch-means intervals).")
 
     def recommend(self) -> None:
@@ -394,6 +398,7 @@ class AppState(extras.Baselines):
     def _apply_recommendation(self, outcome: Outcome) -> None:
         nu, text = outcome.value
         self.nu = min(max(nu, self.param.nu.bounds[0]), self.param.nu.bounds[1])
+        self._note_context = self._sweep_model()
         self.sweep_note = text
 
     def close(self) -> None:

@@ -161,6 +161,22 @@ def test_sweep_view_draws_the_extra_curves(state):
     np.testing.assert_array_equal(srcs["isl_model"][0].data["y"], state.curves.extra["isl_model"][0, :, 0])
 
 
+def test_sweep_note_at_alpha_zero_says_the_curves_coincide_and_why_no_recommendation(state):
+    from app.views.sweep import SweepView
+
+    view = SweepView(state=state)
+
+    def note() -> str:
+        return view._note(state.sweep_note, state.curves_note, state.points, state.curves)
+
+    assert state.alpha > 0 and "coincide" not in note() and "needs α > 0" not in note()
+    state.alpha = 0.0  # paper B: the ratio depends on ν/β only
+    assert state.curves.alpha == 0.0 and len(state.curves.sigmas) == 3
+    assert "coincide" in note() and "needs α > 0" in note()
+    state.sweep_sigmas = [20.0]
+    assert "coincide" not in note()  # one σ: nothing to coincide with
+
+
 def test_trajectories_overlay_the_extra_filters(state):
     from app.views.trajectories import TrajectoriesView
 

@@ -235,8 +235,20 @@ def test_inline_sweep_gives_points_with_intervals(state):
     pts = state.points
     assert pts is not None and pts.ratio.shape == (1, 11, 3) and np.all(pts.half_width > 0)
     assert pts.sigmas == (20.0,) and "Simulated" in state.sweep_note
-    state.alpha = 1.0  # another context: the points are stale and dropped
-    assert state.points is None
+    state.alpha = 1.0  # another context: the points are stale and dropped, and the note that reported them
+    assert state.points is None and state.sweep_note == ""
+
+
+def test_a_recommendation_note_goes_with_its_context(state):
+    if sweeps.sweep_module() is None:
+        pytest.skip("isl_core.sweep is not installed")
+    state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
+    state.recommend()
+    assert state.sweep_note.startswith("Recommended ν")
+    state.seed = 5  # not part of the sweep's context: the note stays
+    assert state.sweep_note.startswith("Recommended ν")
+    state.m = 2
+    assert state.sweep_note == ""
 
 
 def test_close_drops_the_run(state):

@@ -181,12 +181,17 @@ class SweepView(Viewer):
                                       disabled=pn.bind(lambda busy, a: busy or a == 0.0,
                                                        s.param.sweep_busy, s.param.alpha))
         recommend.on_click(lambda e: s.recommend())
-        note = pn.pane.Markdown(pn.bind(self._note, s.param.sweep_note, s.param.curves_note, s.param.points),
-                                margin=(0, 10))
+        note = pn.pane.Markdown(pn.bind(self._note, s.param.sweep_note, s.param.curves_note, s.param.points,
+                                        s.param.curves), margin=(0, 10))
         return pn.Column(pn.Row(sigmas, horizon, run, cancel, progress, recommend), note, sizing_mode="stretch_width")
 
-    def _note(self, sweep_note: str, curves_note: str, points) -> str:
+    def _note(self, sweep_note: str, curves_note: str, points, curves) -> str:
         parts = [p for p in (curves_note, sweep_note) if p]
+        if curves is not None and curves.alpha == 0.0:
+            if len(curves.sigmas) > 1 and np.allclose(curves.ratios, curves.ratios[:1], rtol=1e-9, equal_nan=True):
+                parts.append("The theory curves of every σ coincide (drawn on top of each other): at α = 0 the "
+                             "ratio depends on ν/β only, not on σ.")
+            parts.append("*Use recommended ν* needs α > 0: its search is over paper A's β = w·√(2α).")
         if points is not None:
             kbf = ", ".join(f"σ = {s:g}: " + " / ".join(f"{r:.2f}±{w:.2f}" for r, w in zip(points.kbf[j],
                                                                                         points.kbf_half_width[j]))
