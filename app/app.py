@@ -94,7 +94,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     return pn.template.FastListTemplate(
         title=TITLE, sidebar=[ControlsView(state=state), FiltersPanel(state=state), about_card()], main=[tabs],
         sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
-        main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif", font_url="",
+        main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
     )
 
 

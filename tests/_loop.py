@@ -13,7 +13,7 @@ class ManualLoop:
     def schedule(self, fn):
         self.q.put(fn)
 
-    def pump(self, until, timeout=120.0):
+    def pump(self, until, timeout=60.0):
         """Apply scheduled outcomes until ``until()`` is true; ``queue.Empty`` after ``timeout`` s of none."""
         while not until():
             self.q.get(timeout=timeout)()

@@ -94,7 +94,6 @@ def test_sweep_curves_of_the_extra_filters(state):
     assert np.ptp(extra["kbf_minimax"], axis=1).max() == 0.0  # a fixed gain does not depend on ν
 
 
-
 def test_worst_case_table_is_computed_off_thread_and_shown():
     loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
     try:
@@ -106,7 +105,7 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
         caller = threading.get_ident()
         s.compute_worst_case()
         assert s.worst_busy  # returned before the table exists: the work is on the pool
-        loop.pump(lambda: not s.worst_busy)
+        loop.pump(lambda: not s.worst_busy, timeout=120.0)
         assert threading.get_ident() == caller
         t = s.worst
         assert t is not None and "Simulated" in s.worst_note, s.worst_note
@@ -131,7 +130,7 @@ def test_worst_case_can_be_cancelled():
         s.param.update(wc_alphas=[0.04, 25.0], wc_horizon=2000.0)  # long enough to be caught running
         s.compute_worst_case()
         s.cancel_worst_case()
-        loop.pump(lambda: not s.worst_busy)
+        loop.pump(lambda: not s.worst_busy, timeout=120.0)
         assert s.worst_note == "Cancelled." and s.worst is None
     finally:
         pool.shutdown(wait=True)

@@ -187,7 +187,6 @@ def test_theory_curves_follow_the_context(state):
     assert kb.r_min > 0  # the context change did not disturb the run
 
 
-
 def test_threaded_runs_coalesce_to_the_latest_request():
     loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=2)
     gate, computed = threading.Event(), []

@@ -18,7 +18,6 @@ class Location(param.Parameterized):
     search = param.String("")
 
 
-
 def linked(search: str = "", jobs: Jobs | None = None) -> tuple[AppState, Location]:
     state, location = AppState(jobs=jobs), Location(search=search)
     UrlSync(state, location)

@@ -82,7 +82,6 @@ class WorstCaseView(Viewer):
                          for n in BASELINES}
         self._figure = self._chart()
         self._table = pn.pane.HTML(worst_case_html(self.state.worst), stylesheets=[_CSS], margin=(0, 10))
-        self._chart_pane = pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width")
         self.state.param.watch(self._update, ["worst"])
         self._update()
 
@@ -153,4 +152,6 @@ class WorstCaseView(Viewer):
             "filters run on the same noise; the ISL filters use the ν that `recommend_nu` picks for the same σ "
             "grid (theory minimax). The Kalman–Bucy oracle knows σ (≈ 1, a check of the horizon). **Bold**: the "
             "best filter that does not know σ.", margin=(0, 10), styles={"font-size": "14px"})
-        return pn.Column(intro, self._controls(), self._table, self._chart_pane, sizing_mode="stretch_width")
+        return pn.Column(intro, self._controls(), self._table, pn.pane.Bokeh(self._figure, margin=5,
+                                                                              sizing_mode="stretch_width"),
+                         sizing_mode="stretch_width")
