@@ -106,25 +106,31 @@ def _model(args):
 
 def cmd_run(args) -> int:
     """One trajectory: s (theory), ŝ and š (measured), ratios and the predicted ratio, r_min, h, T."""
-    from isl_core import kalman_bucy, predicted_ratios, simulate
+    from isl_core import predicted_ratios, simulate
 
     model = _model(args)
     nu = model.beta if args.nu is None else args.nu
-    kb = kalman_bucy(model)
-    run = simulate(model, nu, T=args.horizon / kb.r_min, seed=args.seed)
+    run = simulate(model, nu, horizon=args.horizon, seed=args.seed)
     theory = predicted_ratios(model, nu)
     out = {
         "model": {"alpha": model.alpha, "beta": model.beta, "sigma": model.sigma, "m": model.m},
         "nu": nu, "seed": args.seed, "s": run.s.tolist(), "s_hat": run.s_hat.tolist(),
         "s_check": run.s_check.tolist(), "ratio_hat": run.ratio_hat.tolist(), "ratio_check": run.ratio_check.tolist(),
         "theory_ratio_check": theory.tolist(), "r_min": run.r_min, "h": run.h, "T": run.T, "N": run.N,
+        "window": {"from_t": 0.0, "to_t": run.T, "burn_in": 0.0, "horizon_over_r_min": run.horizon,
+                   "requested_horizon_over_r_min": args.horizon, "lengthened_by": run.stretch, "start": run.start},
     }
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
     print(f"alpha = {model.alpha:g}, beta = {model.beta:.4g}, sigma = {model.sigma:g}, m = {model.m}, nu = {nu:.4g}, "
           f"seed = {args.seed}")
-    print(f"r_min = {run.r_min:.4g}, T = {run.T:.4g} ({args.horizon:g}/r_min), h = {run.h:.3g}, N = {run.N:,}")
+    longer = "" if run.stretch == 1.0 else (f", lengthened ×{run.stretch:.3g} from {args.horizon:g}/r_min: the ISL "
+                                            "filter settles slower (B.46)")
+    print(f"r_min = {run.r_min:.4g}, T = {run.T:.4g} ({run.horizon:.4g}/r_min{longer}), h = {run.h:.3g}, "
+          f"N = {run.N:,}")
+    print(f"averaging window: t in [0, T], no burn-in; every filter starts at X(0) - e0, e0 ~ N(0, Delta) "
+          f"(start = {run.start})")
     print(f"{'i':>2} {'s_i (theory)':>13} {'ŝ_i (KBF)':>11} {'š_i (ISL)':>11} {'ŝ/s':>7} {'š/s':>7} {'š/s theory':>11}")
     for i in range(model.m):
         print(f"{i + 1:>2} {run.s[i]:13.4g} {run.s_hat[i]:11.4g} {run.s_check[i]:11.4g} {run.ratio_hat[i]:7.3f} "
@@ -183,7 +189,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_figure3(args) -> int:
     """Paper A's Fig. 3 (one trajectory per σ) as fig3.html and fig3.png in --out."""
-    from isl_core import Model, kalman_bucy, simulate
+    from isl_core import Model, simulate
 
     from .static_figures import fig3_html, fig3_png
 
@@ -191,7 +197,7 @@ def cmd_figure3(args) -> int:
     for sigma in args.sigmas:
         model = Model.from_w(args.alpha, args.w, sigma, args.m)
         nu = model.beta if args.nu is None else args.nu
-        runs.append(simulate(model, nu, T=args.horizon / kalman_bucy(model).r_min, seed=args.seed))
+        runs.append(simulate(model, nu, horizon=args.horizon, seed=args.seed))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     written = [fig3_html(runs, out / "fig3.html")]

@@ -23,7 +23,7 @@ from functools import partial
 import numpy as np
 import param
 
-from isl_core import DivergenceError, Model, Run, isl_filter, kalman_bucy, optimal_kbf, simulate, step_size
+from isl_core import DivergenceError, Model, Run, run_plan, simulate
 from isl_core._validate import check_int, check_real
 
 from . import extras, sweeps
@@ -99,33 +99,33 @@ def decimated(run: Run, max_points: int = DISPLAY_POINTS) -> Traces:
     """Min/max-decimated float32 copies of X_i and of every filter's estimate (X̂_i, X̌_i, extras) for the plots."""
     series = []
     for i in range(run.model.m):
-        pairs = {}
-        for name, arr in (("truth", run.X), *((tr.name, tr.estimate) for tr in run.tracks)):
-            t, y = minmax(run.t, arr[:, i], max_points)
-            pairs[name] = (t.astype(np.float32), y.astype(np.float32))
-        series.append(pairs)
+        x = run.X[:, i]
+        pairs = {"truth": minmax(run.t, x, max_points)}
+        for tr in run.tracks:  # the estimate X + e, one coordinate at a time (no (N+1, m) copy)
+            pairs[tr.name] = minmax(run.t, x + tr.error[:, i], max_points)
+        series.append({name: (t.astype(np.float32), y.astype(np.float32)) for name, (t, y) in pairs.items()})
     return Traces(tuple(series))
 
 
 def compute(req: Request) -> Result:
-    """Simulate ``req`` (T = horizon/r_min, h by the SPEC §4 rule), decimate it and predict its ratios.
+    """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the SPEC §4 rule over every
+    filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
+    its ratios.
 
     Raises ``ValueError`` when the run would exceed :data:`APP_MAX_STEPS`, :class:`DivergenceError` when a
     filter blows up.
     """
     model = Model(req.alpha, req.beta, req.sigma, req.m)
-    kb = kalman_bucy(model)
-    T = req.horizon / kb.r_min
     extra = extras.extra_specs(model, req.nu, req.extras, req.sigma_design, req.sigma_range)
-    h = step_size(model, kb, [optimal_kbf(model, kb), isl_filter(model, req.nu), *extra])
-    n = math.ceil(T / h)
-    if n > APP_MAX_STEPS:
-        longest = req.horizon * APP_MAX_STEPS / n
+    every = extras.extra_specs(model, req.nu, extras.EXTRA_NAMES, req.sigma_design, req.sigma_range)
+    plan = run_plan(model, req.nu, horizon=req.horizon, step_filters=every, cap=2**62)
+    if plan.N > APP_MAX_STEPS:
+        longest = req.horizon * APP_MAX_STEPS / plan.N
         raise ValueError(
-            f"horizon = {req.horizon:g} needs {n:,} steps here, over the dashboard's limit of {APP_MAX_STEPS:,}; "
-            f"choose a horizon <= {longest:.3g}"
+            f"horizon = {req.horizon:g} needs {plan.N:,} steps here, over the dashboard's limit of "
+            f"{APP_MAX_STEPS:,}; choose a horizon <= {longest:.3g}"
         )
-    run = simulate(model, req.nu, T=T, h=h, seed=req.seed, extra=extra)  # extras on the same noise
+    run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every)
     theory = sweeps.theory_module()
     prediction = None if theory is None else np.asarray(theory.predicted_ratios(model, req.nu))
     return Result(run, decimated(run), prediction, extras.extra_theory(model, extra))

@@ -11,8 +11,10 @@ For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_
 * Simulated points: for each σ, **one** long run carries the optimal Kalman–Bucy filter and the ISL filter
   at every ν of the grid on the same noise (common random numbers, :func:`isl_core.simulate_rmse`); the
   run is cut into ``BATCHES`` batches after a burn-in, and the 95 % interval of each ratio is the
-  batch-means interval ``t_{0.975, B−1} · sd(batch ratios) / √B``. The Kalman–Bucy column must sit at 1
-  within its interval: it is the check that the horizon is long enough.
+  batch-means interval ``t_{0.975, B−1} · sd(batch ratios) / √B``. Burn-in and horizon are those of the core's
+  sweep (:func:`isl_core.sweep.group_length`): counted in the settling time of the slowest filter of the run,
+  ``stretch/r_min``. The Kalman–Bucy column must sit at 1 within its interval: it is the check that the horizon
+  is long enough.
 """
 from __future__ import annotations
 
@@ -25,11 +27,11 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from isl_core import Model, baseline_filters, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, theory_ratios
+from isl_core.sweep import BURN, group_length
 from isl_core.theory import predicted_ratios_grid
 
 __all__ = [
     "BATCHES",
-    "BURN",
     "SIM_LEVELS",
     "THEORY_LEVELS",
     "SweepCurves",
@@ -44,7 +46,6 @@ __all__ = [
 THEORY_LEVELS = np.linspace(-8.0, 2.0, 81)  #: ℓ of the theory curves, ν/β = 2^ℓ (paper A: ℓ = −8..2)
 SIM_LEVELS = np.arange(-8, 3).astype(float)  #: ℓ of the simulated points
 BATCHES = 10  #: batch means for the confidence intervals
-BURN = 5.0  #: burn-in, in units of 1/r_min, left out of the averages (the filters start at 0)
 
 
 class TheoryMissing(RuntimeError):
@@ -101,6 +102,7 @@ class SweepPoints:
     kbf_half_width: np.ndarray
     horizon: float
     seed: int
+    stretch: tuple[float, ...] = ()
 
 
 def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, extras: Sequence[str] = (),
@@ -148,18 +150,22 @@ def simulate_points(
     S, K = len(sigmas), len(nob)
     ratio, half = np.empty((S, K, m)), np.empty((S, K, m))
     kbf, kbf_half = np.empty((S, m)), np.empty((S, m))
+    stretch = []
     for j, sigma in enumerate(sigmas):
         model = Model(alpha, beta, sigma, m)
         kb = kalman_bucy(model)
         filters = [optimal_kbf(model, kb), *(isl_filter(model, beta * x) for x in nob)]
         report = None if progress is None else (lambda f, j=j: progress((j + f) / S))
-        res = simulate_rmse(model, filters, T=horizon / kb.r_min, seed=seed, burn=BURN / kb.r_min,
+        T, n, k = group_length(model, kb, filters, horizon)
+        stretch.append(k)
+        res = simulate_rmse(model, filters, T=T, h=T / n, seed=seed, burn=BURN * k / kb.r_min,
                             batches=BATCHES, progress=report)
         whole, batch = res.ratios(), res.batch_ratios()
         width = _interval(batch)
         kbf[j], kbf_half[j] = whole[0], width[0]
         ratio[j], half[j] = whole[1:], width[1:]
-    return SweepPoints(alpha, beta, m, tuple(sigmas), nob, ratio, half, kbf, kbf_half, float(horizon), int(seed))
+    return SweepPoints(alpha, beta, m, tuple(sigmas), nob, ratio, half, kbf, kbf_half, float(horizon), int(seed),
+                       tuple(stretch))
 
 
 def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,

@@ -11,7 +11,9 @@ from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
-from .simulate import DivergenceError, RmseResult, Run, Track, simulate, simulate_rmse, step_size
+from .simulate import (
+    DivergenceError, RmseResult, Run, RunPlan, Track, run_plan, settling_rate, simulate, simulate_rmse, step_size,
+)
 from .sweep import SweepResult, sweep
 from .theory import (
     mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios, predicted_ratios_grid,
@@ -22,7 +24,8 @@ __all__ = [
     "M_MAX", "Model", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0",
     "gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi",
     "FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf",
-    "DivergenceError", "RmseResult", "Run", "Track", "simulate", "simulate_rmse", "step_size",
+    "DivergenceError", "RmseResult", "Run", "RunPlan", "Track", "run_plan", "settling_rate", "simulate", "simulate_rmse",
+    "step_size",
     "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
     "SweepResult", "sweep", "Recommendation", "recommend_nu",
     "AdaptiveGain", "BASELINES", "adaptive_kbf", "baseline_filters", "theory_ratios", "WorstCaseTable", "worst_case",

@@ -1,7 +1,9 @@
 """A slow, plain-numpy twin of the compiled kernel, written straight from the equations (tests and benchmarks).
 
-Matrix form of SPEC §4 on the grid t_k = k·h, noise rows ``(v_k, ε_k)`` of ``rng.standard_normal((n, 2))``
-drawn in bulk right after the initial state (:func:`isl_core.simulate.initial_state`, ``draw_noise``):
+Matrix form of SPEC §4 on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors, SPEC §8:
+the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of ``rng.standard_normal((n, 2))``
+drawn in bulk right after the initial state and the filters' common start error
+(:func:`isl_core.simulate.initial_state`, :func:`isl_core.simulate.initial_error`, ``draw_noise``):
 
     Y_{k+1} − Y_k = h·C·X_k + σ·√h·ε_k                                      (B.34)
     KBF (linear φ = K):  Ẑ_{k+1} = Ẑ_k + h·A_f·Ẑ_k + K·[Y_{k+1} − Y_k − h·C·Ẑ_k]        (B.30)
@@ -26,30 +28,32 @@ import numpy as np
 from .filters import FilterSpec
 from .model import Model
 from .nonlinearity import phi
-from .simulate import draw_noise, initial_state
+from .riccati import kalman_bucy
+from .simulate import draw_noise, initial_error, initial_state
 
 __all__ = ["reference_sigma_hat", "reference_trajectories"]
 
 
 def reference_trajectories(
-    model: Model, filters: Sequence[FilterSpec], *, h: float, n: int, seed: int
+    model: Model, filters: Sequence[FilterSpec], *, h: float, n: int, seed: int, start: str = "stationary"
 ) -> tuple[np.ndarray, np.ndarray]:
     """Truth ``X`` (n+1, m) and estimates ``Z`` (nf, n+1, m) of ``filters`` over ``n`` steps of size ``h``.
 
     Same seed, h and n as :func:`isl_core.simulate` (``run.h``, ``run.N``) → the same noise, so the two
     implementations must agree up to rounding.
     """
-    X, Z, _ = reference_sigma_hat(model, filters, h=h, n=n, seed=seed)
+    X, Z, _ = reference_sigma_hat(model, filters, h=h, n=n, seed=seed, start=start)
     return X, Z
 
 
 def reference_sigma_hat(
-    model: Model, filters: Sequence[FilterSpec], *, h: float, n: int, seed: int
+    model: Model, filters: Sequence[FilterSpec], *, h: float, n: int, seed: int, start: str = "stationary"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`reference_trajectories` plus σ̂ (nf, n+1) of the adaptive filters (nan rows for the others)."""
     m = model.m
     rng = np.random.default_rng(seed)
     x = initial_state(model, rng)
+    e0 = initial_error(kalman_bucy(model), rng) if start == "stationary" else np.zeros(m)
     noise = draw_noise(rng, n)
     I, A0, E, C = np.eye(m), model.A0, model.E, model.C
     truth_step = I + h * model.A  # (B.33)
@@ -57,6 +61,7 @@ def reference_sigma_hat(
     X = np.empty((n + 1, m))
     Z = np.zeros((len(filters), n + 1, m))
     X[0] = x
+    Z[:, 0] = x + e0  # every filter starts at X(0) − e₀ (SPEC §4)
     S = np.full((len(filters), n + 1), np.nan)
     var = {}
     for f, spec in enumerate(filters):

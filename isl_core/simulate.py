@@ -1,12 +1,28 @@
-"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30).
+"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30, SPEC §4, §8).
 
 The truth is simulated by Euler–Maruyama **on the filters' grid** (B.33–B.34): an exact-in-continuous-time
-truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (SPEC §4).
+truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (SPEC §4). The filters
+are integrated in error coordinates e = Z − X (SPEC §8, :mod:`isl_core.kernels`): their errors keep every digit
+whatever the size of the signal; the estimates are rebuilt as ``Z = X + e`` for display only.
 
 Step size (B.47): every closed-loop rate must satisfy ``h·|λ| ≪ 1``. We take the fastest rate in play,
 ``max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` with Λ_f the linearized matrix of each filter (B.46), and set
-``h = H_RATE / rate`` (H_RATE = 0.02, and at most T); then ``N = ⌈T/h⌉`` and h is shrunk to ``T/N`` so that
-t_N = T. N is capped (MAX_STORED_STEPS with trajectories, MAX_STEPS without): beyond, a ``ValueError`` says so.
+``h = H_RATE / rate`` (H_RATE = 0.02). The grid itself biases every RMSE by O(h·rate); for the optimal filter the
+bias is exact — the stationary covariance of its Euler error recursion, a discrete Lyapunov equation — and grows
+with m (3 % at m = 6 with H_RATE alone), so h is shrunk further until that bias is at most EULER_BIAS = 1 %.
+Then ``N = ⌈T/h⌉`` and h is shrunk to ``T/N`` so that t_N = T. N is capped (MAX_STORED_STEPS with trajectories,
+MAX_STEPS without): beyond, a ``ValueError`` says so.
+
+Length: the horizon is counted in units of 1/r_min (A.24), the settling time of the optimal filter. A filter
+whose slowest closed-loop mode (B.46) is slower needs longer to forget its start and to average out:
+:func:`settling_rate` is the slowest rate among the filters in play, and ``T = horizon / settling_rate``
+("lengthened" by ``r_min / settling_rate``) when another filter is more than SETTLE_TOL = 10 % slower than the
+optimal one (a mode 10 % slower has still decayed by e⁻⁹ where the optimal one has by e⁻¹⁰).
+
+Start (SPEC §4): the truth at X(0) = 0 except X_m(0) ~ N(0, β²/(2α)) when α > 0; every filter at
+``Z(0) = X(0) − e₀`` with ONE common draw ``e₀ ~ N(0, Δ)`` (``start="stationary"``): the optimal filter's error is
+then stationary from t = 0, so its measured ratio is ≈ 1 at any horizon. ``start="truth"`` starts every filter at
+the truth, as the papers do (its measured ratio is then below 1 on short runs).
 
 Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
 """
@@ -14,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -23,26 +39,38 @@ from .filters import KIND_ADAPTIVE, FilterSpec, isl_filter, linearized_matrix, o
 from .kernels import AD_INV_STEP, AD_INV_WINDOW, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
 from .model import Model
 from .riccati import KalmanBucy, kalman_bucy
+from .theory import lyapunov
 
 __all__ = [
+    "EULER_BIAS",
     "H_RATE",
     "MAX_STEPS",
     "MAX_STORED_STEPS",
+    "SETTLE_TOL",
+    "STARTS",
     "DivergenceError",
     "RmseResult",
     "Run",
+    "RunPlan",
     "Track",
     "draw_noise",
+    "euler_bias",
+    "initial_error",
     "initial_state",
+    "run_plan",
+    "settling_rate",
     "simulate",
     "simulate_rmse",
     "step_size",
 ]
 
 H_RATE = 0.02  #: h × (fastest rate): the SPEC's margin
+EULER_BIAS = 0.01  #: largest relative bias the Euler grid may add to the optimal filter's RMSE (exact, see below)
 MAX_STORED_STEPS = 4_000_000  #: cap on N when trajectories are kept (memory 8·(m·(filters + 1) + 1)·N bytes)
 MAX_STEPS = 200_000_000  #: cap on N when only squared errors are accumulated
 CHUNK = 1 << 17  #: steps per kernel call (progress reports and cancellation happen between calls)
+STARTS = ("stationary", "truth")  #: how the filters start (module docstring)
+SETTLE_TOL = 1.1  #: a filter slower than the optimal one by more than this factor lengthens the run
 
 
 class DivergenceError(ArithmeticError):
@@ -56,17 +84,24 @@ def _freeze(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Track:
-    """One filter's estimate along a run and its empirical RMSE (A.30) and ratio ``š_i/s_i``.
+    """One filter along a run: its error ``e = Z − X`` (N+1, m), its empirical RMSE (A.30) and ratio ``š_i/s_i``.
 
-    ``sigma_hat`` (N+1,): an adaptive filter's online estimate σ̂(t_k) (σ̂(0) its initial value); None otherwise.
+    ``estimate`` is ``X + e`` (rebuilt on access, for display). ``sigma_hat`` (N+1,): an adaptive filter's online
+    estimate σ̂(t_k) (σ̂(0) its initial value); None otherwise.
     """
 
     name: str
     label: str
-    estimate: np.ndarray
+    error: np.ndarray
     rmse: np.ndarray
     ratio: np.ndarray
     sigma_hat: np.ndarray | None = None
+    truth: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def estimate(self) -> np.ndarray:
+        """The estimate ``Z = X + e`` (N+1, m), read-only."""
+        return _freeze(self.truth + self.error)
 
 
 @dataclass(frozen=True)
@@ -74,7 +109,9 @@ class Run:
     """One simulated trajectory with the optimal and the ISL filter (and any extra filters).
 
     ``t`` (N+1,), ``X`` truth (N+1, m), ``tracks`` in order: Kalman–Bucy, ISL, extras.
-    ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = t_N``.
+    ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = t_N``. ``stretch = r_min / r``
+    with r the settling rate of the optimal and the ISL filter (≥ 1; T = horizon/r when the horizon was given in
+    units of 1/r_min), ``start`` how the filters started (:data:`STARTS`).
     """
 
     model: Model
@@ -87,10 +124,17 @@ class Run:
     r_min: float
     h: float
     T: float
+    stretch: float = 1.0
+    start: str = "stationary"
 
     @property
     def N(self) -> int:
         return len(self.t) - 1
+
+    @property
+    def horizon(self) -> float:
+        """T in units of 1/r_min (A.24)."""
+        return self.T * self.r_min
 
     def track(self, name: str) -> Track:
         for tr in self.tracks:
@@ -106,12 +150,50 @@ class Run:
     ratio_check = property(lambda self: self.tracks[1].ratio, doc="š_i/s_i")
 
 
+def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
+    """Relative bias ``max_i √(P_ii/Δ_ii) − 1`` of the optimal filter's RMSE on the Euler grid of step ``h``.
+
+    Its error obeys ``e_{k+1} = (I + h(A − KC))e_k − βE√h v_k + Kσ√h ε_k`` (B.30, B.33–B.34), whose stationary
+    covariance P solves ``P = F P Fᵀ + h(β²EEᵀ + σ²KKᵀ)``, F = I + h(A − KC) — exact, not an estimate.
+    """
+    K = np.asarray(kb.K)
+    M = model.A - np.outer(K, model.C[0])
+    Q = model.beta**2 * (model.E @ model.E.T) + model.sigma**2 * np.outer(K, K)
+    P = lyapunov(M, Q, h)
+    return float(np.max(np.abs(np.sqrt(np.diagonal(P) / np.diagonal(kb.delta)) - 1.0)))
+
+
 def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
-    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, SPEC §4)."""
+    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, SPEC §4), shrunk until the grid
+    biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
     rate = max(float(np.max(np.abs(kb.eig))), model.alpha, kb.r_min)
     for spec in filters:
         rate = max(rate, float(np.max(np.abs(np.linalg.eigvals(linearized_matrix(model, spec))))))
-    return H_RATE / rate
+    h = H_RATE / rate
+    for _ in range(8):  # the bias is ∝ h for small h: one rescaling nearly always suffices
+        bias = euler_bias(model, kb, h)
+        if bias <= EULER_BIAS:
+            break
+        h *= 0.98 * EULER_BIAS / bias
+    return h
+
+
+def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
+    """Slowest closed-loop rate among the optimal filter and ``filters``: ``min(r_min, min_f −Re λ(Λ_f))`` (B.46).
+
+    Λ_f is the statistically linearized matrix of filter f (:func:`isl_core.linearized_matrix`). An adaptive filter
+    settles like the optimal one (its gain follows K(σ̂) → K(σ)); a filter whose Λ_f is not stable has no stationary
+    regime to wait for and is left out (its ratio is what the run shows). A filter at most :data:`SETTLE_TOL` times
+    slower than the optimal one counts as settling with it (the result is then exactly r_min).
+    """
+    rate = kb.r_min
+    for spec in filters:
+        if spec.adaptive is not None:
+            continue
+        slow = float(np.min(-np.linalg.eigvals(linearized_matrix(model, spec)).real))
+        if slow > 0.0 and slow * SETTLE_TOL < kb.r_min:
+            rate = min(rate, slow)
+    return rate
 
 
 def draw_noise(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -130,9 +212,41 @@ def initial_state(model: Model, rng: np.random.Generator) -> np.ndarray:
     return x
 
 
-def _grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int) -> tuple[float, float, int]:
-    """``(T, h, N)`` with ``N·h = T``: defaults ``T = 10/r_min`` and ``h`` by :func:`step_size` (at most T)."""
-    T = 10.0 / kb.r_min if T is None else check_real("T", T, lo=0.0, lo_open=True)
+def _cholesky(delta: np.ndarray) -> np.ndarray:
+    """Lower factor L with ``L Lᵀ = Δ``, computed on the correlation matrix (Δ's diagonal spans decades at m = 6)."""
+    s = np.sqrt(np.diagonal(delta))
+    corr = delta / np.outer(s, s)
+    try:
+        return s[:, None] * np.linalg.cholesky(corr)
+    except np.linalg.LinAlgError:  # numerically semidefinite: clip the spectrum at 0
+        w, v = np.linalg.eigh(corr)
+        return s[:, None] * (v * np.sqrt(np.clip(w, 0.0, None)))
+
+
+def initial_error(kb: KalmanBucy, rng: np.random.Generator) -> np.ndarray:
+    """The filters' common start error ``e(0) = Z(0) − X(0) = −e₀``, ``e₀ = L ξ ~ N(0, Δ)``, ξ ~ N(0, I_m) (SPEC §4)."""
+    return -(_cholesky(np.asarray(kb.delta)) @ rng.standard_normal(len(kb.s)))
+
+
+def _start(model: Model, kb: KalmanBucy, rng: np.random.Generator, start: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(X(0), e(0))`` drawn in this order from ``rng`` (the noise of the steps follows)."""
+    x = initial_state(model, rng)
+    e = initial_error(kb, rng) if start == "stationary" else np.zeros(model.m)
+    return x, e
+
+
+def _check_start(start) -> str:
+    if not isinstance(start, str) or start not in STARTS:
+        raise ValueError(f"start must be one of {list(STARTS)}, got {start!r}")
+    return start
+
+
+def _grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: float | None = None):
+    """``(T, h, N)`` with ``N·h = T``: ``T`` (default ``default_T``, else 10/r_min), ``h`` by :func:`step_size`."""
+    if T is None:
+        T = 10.0 / kb.r_min if default_T is None else default_T
+    else:
+        T = check_real("T", T, lo=0.0, lo_open=True)
     if h is None:
         h = min(step_size(model, kb, filters), T)
     else:
@@ -172,19 +286,20 @@ def _pack(model: Model, filters: Sequence[FilterSpec]):
     return damp, coef, kind, table, ad
 
 
-def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, S_out, store, progress=None):
+def _loop(model, kb, filters, h, n, seed, *, start, burn, batches, X_out, E_out, S_out, store, progress=None):
     """Run the kernel over ``n`` steps chunk by chunk.
 
     Returns squared-error sums (batches, nf, m), the adaptive filters' σ̂ sums (batches, na) and their final σ̂
     (na,). ``progress(fraction)`` is called after every chunk; an exception it raises (e.g. to cancel) propagates.
     """
     rng = np.random.default_rng(seed)
-    x = initial_state(model, rng)
-    z = np.zeros((len(filters), model.m))
+    x, e0 = _start(model, kb, rng, start)
+    e = np.tile(e0, (len(filters), 1))
     damp, coef, kind, table, ad = _pack(model, filters)
     adaptive = kind == KIND_ADAPTIVE
     if store:
         X_out[0] = x
+        E_out[:, 0] = e
         S_out[:, 0] = ad[adaptive, AD_SIGMA]
     sq = np.zeros((batches, len(filters), model.m))
     sig_sum = np.zeros((batches, int(adaptive.sum())))
@@ -192,19 +307,19 @@ def _loop(model, filters, h, n, seed, *, burn, batches, X_out, Z_out, S_out, sto
     k = 0
     while k < n:
         todo = min(CHUNK, n - k)
-        done = advance(x, z, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, kind, table, ad,
-                       k, burn, batch_len, sq, sig_sum, X_out, Z_out, S_out, store)
+        done = advance(x, e, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, kind, table, ad,
+                       k, burn, batch_len, sq, sig_sum, X_out, E_out, S_out, store, 0)
         if done < todo:
-            raise _divergence(model, filters, x, z, k + done, n, h)
+            raise _divergence(model, filters, x if store else x[-1:], e, k + done, n, h)
         k += done
         if progress is not None:
             progress(k / n)
     return sq, sig_sum, ad[adaptive, AD_SIGMA]
 
 
-def _divergence(model: Model, filters, x, z, k: int, n: int, h: float) -> DivergenceError:
+def _divergence(model: Model, filters, x, e, k: int, n: int, h: float) -> DivergenceError:
     """The error for a run that left the finite numbers at step ``k``: who diverged, when, and why."""
-    bad = [f"filter {f.label}" for f, row in zip(filters, z) if not np.all(np.isfinite(row))]
+    bad = [f"filter {f.label}" for f, row in zip(filters, e) if not np.all(np.isfinite(row))]
     if not np.all(np.isfinite(x)):
         bad.insert(0, "the simulated truth")
     hint = "a smaller step h or a different nu keeps it finite"
@@ -240,43 +355,99 @@ def _check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[F
     return specs
 
 
+def _check_progress(progress) -> None:
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be a callable or None, got {progress!r}")
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """The grid of a :func:`simulate` call, known before anything is allocated: ``T = N·h``, ``stretch`` (≥ 1)."""
+
+    T: float
+    h: float
+    N: int
+    stretch: float
+    r_min: float
+
+    @property
+    def horizon(self) -> float:
+        """T in units of 1/r_min (A.24)."""
+        return self.T * self.r_min
+
+
+def run_plan(
+    model: Model,
+    nu: float,
+    *,
+    horizon: float = 10.0,
+    T: float | None = None,
+    h: float | None = None,
+    extra: Sequence[FilterSpec] = (),
+    step_filters: Sequence[FilterSpec] = (),
+    cap: int = MAX_STORED_STEPS,
+) -> RunPlan:
+    """The grid :func:`simulate` would use for these arguments (same rules, same checks, nothing simulated).
+
+    ``cap``: the largest N allowed (a ``ValueError`` past it names T and h).
+    """
+    filters = _check_filters(model, nu, extra)
+    grid_only = _check_specs("step_filters", model, step_filters, allow_empty=True)
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    kb = kalman_bucy(model)
+    filters.insert(0, optimal_kbf(model, kb))
+    stretch = 1.0 if T is not None else kb.r_min / settling_rate(model, kb, filters[1:2])
+    T, h, n = _grid(model, kb, [*filters, *grid_only], T, h, cap, default_T=horizon * stretch / kb.r_min)
+    return RunPlan(T, h, n, stretch, kb.r_min)
+
+
 def simulate(
     model: Model,
     nu: float,
     *,
+    horizon: float = 10.0,
     T: float | None = None,
     h: float | None = None,
     seed: int = 0,
     extra: Sequence[FilterSpec] = (),
+    step_filters: Sequence[FilterSpec] = (),
+    start: str = "stationary",
+    progress: Callable[[float], None] | None = None,
 ) -> Run:
     """Simulate truth, the optimal Kalman–Bucy filter and the ISL filter with tuning ``nu`` on one grid.
 
-    Defaults: ``T = 10/r_min`` (A, Fig. 3) and ``h`` by :func:`step_size`. ``seed`` (int ≥ 0) fixes the
-    noise: the same seed gives the same run, bit for bit. ``extra`` filters ride on the same noise.
+    Length: ``T`` (absolute) if given, else ``horizon`` in units of 1/r_min (A, Fig. 3: 10), lengthened by
+    ``stretch = r_min / settling_rate`` when the ISL filter settles slower than the optimal one (module
+    docstring). ``h`` by :func:`step_size` over every filter simulated and ``step_filters`` — filters that are not
+    simulated but must not change the grid when they are (e.g. those a view can show on demand). ``seed`` (int ≥ 0)
+    fixes the noise: the same seed gives the same run, bit for bit. ``extra`` filters ride on the same noise.
+    ``start``: :data:`STARTS`. ``progress(fraction)`` is called between kernel chunks; raising from it cancels.
     Raises ``ValueError`` for bad input or too many steps, :class:`DivergenceError` for a blown-up filter.
     """
-    filters = _check_filters(model, nu, extra)
+    plan = run_plan(model, nu, horizon=horizon, T=T, h=h, extra=extra, step_filters=step_filters)
     seed = check_int("seed", seed, lo=0)
+    start = _check_start(start)
+    _check_progress(progress)
     kb = kalman_bucy(model)
-    filters.insert(0, optimal_kbf(model, kb))
-    T, h, n = _grid(model, kb, filters, T, h, MAX_STORED_STEPS)
+    filters = [optimal_kbf(model, kb), *_check_filters(model, nu, extra)]
+    T, h, n, stretch = plan.T, plan.h, plan.N, plan.stretch
     X = np.empty((n + 1, model.m))
-    Z = np.empty((len(filters), n + 1, model.m))
-    for f in range(len(filters)):
-        Z[f, 0] = 0.0
+    E = np.empty((len(filters), n + 1, model.m))
     S = np.empty((sum(spec.kind == KIND_ADAPTIVE for spec in filters), n + 1))
-    sq, _, _ = _loop(model, filters, h, n, seed, burn=0, batches=1, X_out=X, Z_out=Z, S_out=S, store=True)
+    sq, _, _ = _loop(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, X_out=X, E_out=E, S_out=S,
+                     store=True, progress=progress)
     s = _freeze(kb.s.copy())
+    X = _freeze(X)
     tracks = []
     sigma_hat = iter(S)
     for f, spec in enumerate(filters):
         rmse = np.sqrt(sq[0, f] / n)  # (A.30)
         sig = _freeze(next(sigma_hat)) if spec.kind == KIND_ADAPTIVE else None
-        tracks.append(Track(spec.name, spec.label, _freeze(Z[f]), _freeze(rmse), _freeze(rmse / s), sig))
+        tracks.append(Track(spec.name, spec.label, _freeze(E[f]), _freeze(rmse), _freeze(rmse / s), sig, X))
     t = np.arange(n + 1, dtype=np.float64)
     t *= h
     t = _freeze(t)
-    return Run(model, float(nu), seed, t, _freeze(X), tuple(tracks), s, kb.r_min, h, T)
+    return Run(model, float(nu), seed, t, X, tuple(tracks), s, kb.r_min, h, T, stretch, start)
 
 
 @dataclass(frozen=True)
@@ -285,8 +456,8 @@ class RmseResult:
 
     ``sq`` (batches, nf, m) holds per-batch sums of ``(Z_f,i − X_i)²`` over ``batch_len`` steps each
     (the last batch takes the remainder: ``counts``); ``s`` is the optimal RMSE √diag Δ (theory).
-    ``sigma_hat`` (batches, nf): per-batch mean of an adaptive filter's σ̂, ``sigma_hat_final`` (nf,) its
-    value at the end; nan for the other filters.
+    ``burn`` (time) was left out before the first batch. ``sigma_hat`` (batches, nf): per-batch mean of an
+    adaptive filter's σ̂, ``sigma_hat_final`` (nf,) its value at the end; nan for the other filters.
     """
 
     names: tuple[str, ...]
@@ -298,6 +469,7 @@ class RmseResult:
     T: float
     sigma_hat: np.ndarray | None = None
     sigma_hat_final: np.ndarray | None = None
+    burn: float = 0.0
 
     def ratios(self) -> np.ndarray:
         """Whole-run ratios ``š_i/s_i`` (nf, m), (A.30)."""
@@ -317,34 +489,39 @@ def simulate_rmse(
     seed: int = 0,
     burn: float = 0.0,
     batches: int = 1,
+    start: str = "stationary",
+    step_filters: Sequence[FilterSpec] = (),
     progress: Callable[[float], None] | None = None,
 ) -> RmseResult:
     """Long run of ``filters`` on one truth (common random numbers), accumulating squared errors only.
 
     The first ``burn`` time units are left out of the averages; the rest is cut into ``batches``.
+    ``step_filters``: more filters that count for the step size only (as in :func:`simulate`).
     ``progress(fraction)`` is called between kernel chunks; raising from it cancels the run.
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     filters = _check_specs("filters", model, filters, allow_empty=False)
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None, got {progress!r}")
+    grid_only = _check_specs("step_filters", model, step_filters, allow_empty=True)
+    _check_progress(progress)
     seed = check_int("seed", seed, lo=0)
     batches = check_int("batches", batches, lo=1, hi=10_000)
+    start = _check_start(start)
     kb = kalman_bucy(model)
-    T, h, n = _grid(model, kb, filters, T, h, MAX_STEPS)
+    T, h, n = _grid(model, kb, [*filters, *grid_only], T, h, MAX_STEPS)
     burn_steps = min(int(check_real("burn", burn, lo=0.0, hi=T) / h), n - batches)
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
-    dummy_x, dummy_z = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
+    dummy_x, dummy_e = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
     adaptive = np.array([f.kind == KIND_ADAPTIVE for f in filters])
     dummy_s = np.empty((int(adaptive.sum()), 1))
-    sq, sig_sum, sig_final = _loop(model, filters, h, n, seed, burn=burn_steps, batches=batches, X_out=dummy_x,
-                                   Z_out=dummy_z, S_out=dummy_s, store=False, progress=progress)
+    sq, sig_sum, sig_final = _loop(model, kb, filters, h, n, seed, start=start, burn=burn_steps, batches=batches,
+                                   X_out=dummy_x, E_out=dummy_e, S_out=dummy_s, store=False, progress=progress)
     counts = np.full(batches, float((n - burn_steps) // batches))
     counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
     sigma_hat = np.full((batches, len(filters)), np.nan)
     sigma_hat[:, adaptive] = sig_sum / counts[:, None]
     final = np.full(len(filters), np.nan)
     final[adaptive] = sig_final
-    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T, sigma_hat, final)
+    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T, sigma_hat, final,
+                      burn_steps * h)

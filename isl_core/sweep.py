@@ -9,8 +9,11 @@ pool (the kernel releases the GIL), or on any ``concurrent.futures.Executor``, o
 Conventions, all documented choices:
 
 * step h of a group: the SPEC §4 rule over all filters of the group (:func:`isl_core.step_size`), so one
-  grid serves every ν; the horizon is ``horizon/r_min`` after a burn-in of ``BURN/r_min`` (BURN = 10: the
-  optimal filter's start-up transient has decayed by e^{-10}; near its best ν the ISL filter settles as fast).
+  grid serves every ν. Length: ``horizon`` and a burn-in of BURN = 10 are counted in units of the settling time
+  of the group's slowest filter (:func:`isl_core.simulate.settling_rate`, B.46) — 1/r_min unless a filter settles
+  more than 10 % slower (an ISL filter at small ν: up to ≈ 6× at m = 3); then the group's run is lengthened by
+  ``stretch = r_min / rate`` so that every filter has forgotten its start (by e^{-10}) and averages over the same
+  number of its own settling times. ``stretch`` is reported per group.
 * seed of a group: derived from ``(seed, α, σ, w, m)`` by ``numpy.random.SeedSequence`` — it does not depend
   on the other α, σ of the sweep, on chunking or on the executor, so results are identical across them.
 * confidence interval: batch means. Each run is cut into ``batches`` equal batches (each ≥ 100/r_min long by
@@ -36,10 +39,10 @@ from .baselines import model_aware_isl
 from .filters import FilterSpec, isl_filter, optimal_kbf
 from .model import M_MAX, Model
 from .riccati import kalman_bucy
-from .simulate import MAX_STEPS, DivergenceError, simulate_rmse, step_size
+from .simulate import MAX_STEPS, DivergenceError, settling_rate, simulate_rmse, step_size
 from .theory import predicted_ratios_grid
 
-__all__ = ["BURN", "SweepResult", "group_seed", "ratio_interval", "sweep"]
+__all__ = ["BURN", "SweepResult", "group_length", "group_seed", "ratio_interval", "sweep"]
 
 BURN = 10.0  #: burn-in left out of every average, in units of 1/r_min
 FIG2_ALPHAS = (0.04, 0.2, 1.0, 5.0, 25.0)  #: paper A, Fig. 2 rows
@@ -89,7 +92,9 @@ class SweepResult:
     ``[ratio_low, ratio_high]`` at ``level``; nan where a filter diverged. ``kbf_ratio`` (nα, nσ, m) the optimal
     filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
     statistical-linearization prediction (B.48, SPEC §6). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
-    ``steps`` (nα, nσ) per group and seed. ``model_aware``: the ISL filter propagated with A instead of A0.
+    ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
+    ``BURN·stretch/r_min`` then an average over ``horizon·stretch/r_min``. ``model_aware``: the ISL filter
+    propagated with A instead of A0.
     """
 
     alphas: np.ndarray
@@ -112,6 +117,7 @@ class SweepResult:
     r_min: np.ndarray
     h: np.ndarray
     steps: np.ndarray = field(repr=False)
+    stretch: np.ndarray = field(repr=False, default=None)
     model_aware: bool = False
 
     @property
@@ -139,6 +145,8 @@ class SweepResult:
                             "kbf_ratio": float(self.kbf_ratio[a, b, i]), "kbf_low": float(self.kbf_low[a, b, i]),
                             "kbf_high": float(self.kbf_high[a, b, i]), "s": float(self.s[a, b, i]),
                             "r_min": float(self.r_min[a, b]), "h": float(self.h[a, b]),
+                            "burn_in_over_r_min": BURN * float(self.stretch[a, b]),
+                            "window_over_r_min": self.horizon * float(self.stretch[a, b]),
                         })
         return rows
 
@@ -191,6 +199,7 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
     s, r_min, h, steps = np.empty(shape + (m,)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
+    stretch = np.empty(shape)
     theory = np.empty(shape + (len(nob), m))
     tasks = []
     for a, alpha in enumerate(alphas):
@@ -199,18 +208,28 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
             kb = kalman_bucy(model)
             isl = model_aware_isl if model_aware else isl_filter
             filters = (optimal_kbf(model, kb), *(isl(model, model.beta * x) for x in nob))
-            T = (BURN + horizon) / kb.r_min
-            n = math.ceil(T / step_size(model, kb, filters) - 1e-9)
-            if n > MAX_STEPS:
-                raise ValueError(f"horizon needs {n:,} steps at alpha = {alpha:g}, sigma = {sigma:g}, "
-                                 f"over the limit of {MAX_STEPS:,}; shorten horizon")
+            T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             theory[a, b] = predicted_ratios_grid(model, model.beta * nob, damp=model.alpha if model_aware else None)
             for k, seed in enumerate(seeds):
-                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN / kb.r_min, batches,
+                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
                                    group_seed(seed, alpha, sigma, w, m), n))
     tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
-    return tasks, s, r_min, h, steps, theory
+    return tasks, s, r_min, h, steps, theory, stretch
+
+
+def group_length(model: Model, kb, filters, horizon: float) -> tuple[float, int, float]:
+    """``(T, N, stretch)`` of one group: burn-in plus ``horizon``, both in units of the slowest filter's settling
+    time ``stretch/r_min`` (module docstring), on the step of :func:`isl_core.step_size`; ``ValueError`` past the
+    step cap naming the group and the setting to lower."""
+    stretch = kb.r_min / settling_rate(model, kb, filters)
+    T = (BURN + horizon) * stretch / kb.r_min
+    steps = T / step_size(model, kb, filters)
+    if not steps <= MAX_STEPS:
+        raise ValueError(f"horizon = {horizon:g} needs {steps:,.0f} steps at alpha = {model.alpha:g}, "
+                         f"sigma = {model.sigma:g} (lengthened ×{stretch:.3g} for the slowest filter), over the limit "
+                         f"of {MAX_STEPS:,}; shorten horizon")
+    return T, math.ceil(steps - 1e-9), stretch
 
 
 class _Cancelled(RuntimeError):
@@ -347,11 +366,12 @@ def sweep(
 
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {model_aware!r}")
-    tasks, s, r_min, h, steps, theory = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware)
+    tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
+                                                         model_aware)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
     out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
     res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
-    return dataclasses.replace(res, model_aware=True) if model_aware else res
+    return dataclasses.replace(res, stretch=_freeze(stretch), model_aware=model_aware)
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):

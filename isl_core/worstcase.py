@@ -13,8 +13,10 @@ numbers). Choices, all documented:
 * mismatched KBF: σ̄ = √(σ_min σ_max) unless ``sigma_design`` is given; minimax KBF: σ̄ = σ_max;
   adaptive KBF: its table and start from the same range, window ``window``.
 * simulation: the sweep machinery of :mod:`isl_core.sweep` — one group per (α, σ, seed) with the step h of
-  the SPEC §4 rule over all its filters, horizon ``horizon/r_min`` after a burn-in of BURN/r_min, the group's
-  seed from :func:`isl_core.sweep.group_seed` (independent of chunking and executor), batch-means intervals.
+  the SPEC §4 rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
+  group's slowest filter (:func:`isl_core.sweep.group_length`: 1/r_min, or ``stretch``/r_min where a fixed gain
+  far from its design σ or an ISL filter settles slower), the group's seed from
+  :func:`isl_core.sweep.group_seed` (independent of chunking and executor), batch-means intervals.
 * the interval of a worst case is ``[max over (σ, i) of the lower bounds, max of the upper bounds]`` (as in
   :mod:`isl_core.recommend`); theory is the same max over the predictions (nan for the adaptive filter).
 """
@@ -32,7 +34,6 @@ from .baselines import BASELINES, LABELS, baseline_filters, check_names, design_
 from .model import M_MAX, Model
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
-from .simulate import MAX_STEPS, step_size
 from .sweep import (
     BURN,
     FIG2_ALPHAS,
@@ -42,6 +43,7 @@ from .sweep import (
     _Progress,
     _remote,
     _Task,
+    group_length,
     group_seed,
     ratio_interval,
 )
@@ -65,7 +67,8 @@ class WorstCaseTable:
     Parameters per α and filter (nα, nf): ``nu`` of the ISL filters and ``sigma_design`` of the fixed-gain
     Kalman–Bucy filters (nan elsewhere). ``best_fixed_worst``/``best_fixed_sigma`` (nα,): the best fixed-gain
     Kalman–Bucy design over the range and its predicted worst case (:func:`isl_core.recommend.best_fixed_kbf`).
-    ``r_min``, ``h``, ``steps`` (nα, nσ) per group and seed.
+    ``r_min``, ``h``, ``steps``, ``stretch`` (nα, nσ) per group and seed: burn-in ``BURN·stretch/r_min``, then an
+    average over ``horizon·stretch/r_min``.
     """
 
     alphas: np.ndarray
@@ -88,6 +91,7 @@ class WorstCaseTable:
     r_min: np.ndarray
     h: np.ndarray
     steps: np.ndarray
+    stretch: np.ndarray
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -134,6 +138,7 @@ class WorstCaseTable:
         rows = []
         worst, lo, hi, th = self.worst, self.worst_low, self.worst_high, self.theory_worst
         ws, wi = self.worst_sigma, self.worst_i
+        at = self._argworst()[0]  # σ index of each worst case: its group's averaging window
         for a, alpha in enumerate(self.alphas):
             for f, name in enumerate(self.names):
                 rows.append({
@@ -142,6 +147,8 @@ class WorstCaseTable:
                     "worst_high": float(hi[a, f]), "worst_sigma": float(ws[a, f]), "worst_i": int(wi[a, f]),
                     "theory_worst": float(th[a, f]), "nu": float(self.nu[a, f]),
                     "sigma_design": float(self.sigma_design[a, f]),
+                    "burn_in_over_r_min": BURN * float(self.stretch[a, at[a, f]]),
+                    "window_over_r_min": self.horizon * float(self.stretch[a, at[a, f]]),
                 })
         return rows
 
@@ -159,6 +166,7 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, bat
     best = np.empty((2, na))
     theory = np.empty((na, ns, nf, m))
     s, r_min, h, steps = np.empty((na, ns, m)), np.empty((na, ns)), np.empty((na, ns)), np.empty((na, ns), np.int64)
+    stretch = np.empty((na, ns))
     tasks = []
     for a, alpha in enumerate(alphas):
         rec = recommend_nu(alpha, sigmas=sigmas, m=m, w=w, verify=False)
@@ -175,17 +183,13 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, bat
             kb = kalman_bucy(model)
             filters = tuple(baseline_filters(model, **kw))
             theory[a, b] = [theory_ratios(model, spec) for spec in filters]
-            T = (BURN + horizon) / kb.r_min
-            n = math.ceil(T / step_size(model, kb, filters) - 1e-9)
-            if n > MAX_STEPS:
-                raise ValueError(f"horizon needs {n:,} steps at alpha = {alpha:g}, sigma = {sigma:g}, "
-                                 f"over the limit of {MAX_STEPS:,}; shorten horizon")
+            T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             for k, seed in enumerate(seeds):
-                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN / kb.r_min, batches,
+                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
                                    group_seed(seed, alpha, sigma, w, m), n))
     tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
-    return nu, design, best, theory, tasks, s, r_min, h, steps
+    return nu, design, best, theory, tasks, s, r_min, h, steps, stretch
 
 
 def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level):
@@ -238,7 +242,7 @@ def worst_case(
         alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level)
     names = check_names(filters, "filters")
     chunk, workers = _check_execution(chunk, workers, progress)
-    nu, design, best, theory, tasks, s, r_min, h, steps = _plan(
+    nu, design, best, theory, tasks, s, r_min, h, steps, stretch = _plan(
         alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
     out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
@@ -255,4 +259,4 @@ def worst_case(
     return WorstCaseTable(
         _frozen(alphas), _frozen(sigmas), names, m, w, horizon, seeds, batches, level, _frozen(ratio),
         _frozen(low), _frozen(high), _frozen(theory), _frozen(nu), _frozen(design), _frozen(best[0]),
-        _frozen(best[1]), _frozen(r_min), _frozen(h), _frozen(steps, np.int64))
+        _frozen(best[1]), _frozen(r_min), _frozen(h), _frozen(steps, np.int64), _frozen(stretch))

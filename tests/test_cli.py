@@ -28,12 +28,15 @@ def test_console_script_is_declared():
 def test_run_table_and_json(capsys):
     assert main(["run", "--sigma", "20", "--horizon", "3", "--seed", "2"]) == 0
     out = capsys.readouterr().out
-    assert "r_min" in out and "š/s theory" in out and len(out.strip().splitlines()) == 3 + 3 + 1
+    assert "r_min" in out and "š/s theory" in out and len(out.strip().splitlines()) == 3 + 3 + 2
+    assert "averaging window: t in [0, T], no burn-in" in out
     assert main(["run", "--alpha", "0", "--beta", "3", "--sigma", "5", "--m", "2", "--horizon", "3", "--json"]) == 0
     res = _json(capsys)
     assert res["model"] == {"alpha": 0.0, "beta": 3.0, "sigma": 5.0, "m": 2} and res["nu"] == 3.0
     assert len(res["s"]) == len(res["ratio_check"]) == len(res["theory_ratio_check"]) == 2
-    assert res["T"] == pytest.approx(3.0 / res["r_min"]) and res["N"] * res["h"] == pytest.approx(res["T"])
+    stretch = res["window"]["lengthened_by"]
+    assert stretch >= 1.0 and res["window"]["requested_horizon_over_r_min"] == 3.0
+    assert res["T"] == pytest.approx(3.0 * stretch / res["r_min"]) and res["N"] * res["h"] == pytest.approx(res["T"])
     assert res["ratio_check"][0] == pytest.approx(res["s_check"][0] / res["s"][0])
 
 

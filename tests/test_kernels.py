@@ -9,9 +9,9 @@ import pytest
 
 from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, optimal_kbf, simulate
 from isl_core.adaptive import adaptive_kbf
-from isl_core.kernels import _root, advance, fast_cbrt
+from isl_core.kernels import FLUSH, _root, advance, fast_cbrt
 from isl_core.reference import reference_sigma_hat
-from isl_core.simulate import _pack, initial_state
+from isl_core.simulate import _pack, _start
 
 EPS = np.finfo(float).eps
 AGREE = 1e-10  # kernel vs reference, relative to the size of each trajectory (rounding only: ~1e-15 seen)
@@ -94,52 +94,71 @@ def test_kernel_matches_numpy_reference(alpha, beta, sigma, m):
 
 def _fresh(model, specs, seed):
     rng = np.random.default_rng(seed)
-    return rng, initial_state(model, rng), np.zeros((len(specs), model.m))
+    x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
+    return rng, x, np.tile(e0, (len(specs), 1))
 
 
 def test_chunked_calls_batches_and_burn_match_stored_errors():
     model = Model(0.5, 3.0, 20.0, 3)
     kb = kalman_bucy(model)
     specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
-    h, n, burn, nb = 0.01, 1000, 137, 7
+    h, n, burn, nb = 0.01, 5000, 137, 7
     batch_len = (n - burn) // nb
     no_sigma = np.empty((nb, 0)), np.empty((0, n + 1))  # σ̂ sums and trajectories: no adaptive filter here
     # one call, trajectories stored
-    rng, x, z = _fresh(model, specs, 5)
+    rng, x, e = _fresh(model, specs, 5)
     X = np.empty((n + 1, 3))
-    Z = np.empty((2, n + 1, 3))
-    X[0], Z[:, 0] = x, 0.0
+    E = np.empty((2, n + 1, 3))
+    X[0], E[:, 0] = x, e
     sq_one = np.zeros((nb, 2, 3))
     args = (h, model.alpha, model.beta, model.sigma, *_pack(model, specs))
-    assert advance(x, z, rng, n, *args, 0, burn, batch_len, sq_one, no_sigma[0], X, Z, no_sigma[1], True) == n
-    # the same run in uneven chunks, nothing stored
-    rng, x, z = _fresh(model, specs, 5)
+    assert advance(x, e, rng, n, *args, 0, burn, batch_len, sq_one, no_sigma[0], X, E, no_sigma[1], True, 0) == n
+    # the same run in uneven chunks, nothing stored: only X_m of the truth is advanced
+    rng, x, e = _fresh(model, specs, 5)
     sq = np.zeros((nb, 2, 3))
-    args = (h, model.alpha, model.beta, model.sigma, *_pack(model, specs))
     k = 0
-    for todo in (1, 136, 1, 250, 123, 489):
-        assert advance(x, z, rng, todo, *args, k, burn, batch_len, sq, no_sigma[0], X[:1], Z[:, :1], no_sigma[1],
-                       False) == todo
+    for todo in (1, 136, 1, 250, 123, 489, 4000):
+        assert advance(x, e, rng, todo, *args, k, burn, batch_len, sq, no_sigma[0], X[:1], E[:, :1], no_sigma[1],
+                       False, 0) == todo
         k += todo
     assert k == n
-    np.testing.assert_array_equal(x, X[n])
-    np.testing.assert_array_equal(z, Z[:, n])
-    np.testing.assert_array_equal(sq, sq_one)
-    # batch b holds steps burn + b·L + 1 … burn + (b+1)·L, the last batch the remainder (A.30 by parts)
-    err2 = (Z[:, 1:] - X[None, 1:]) ** 2  # (nf, n, m), row k−1 ↔ step k
+    assert x[-1] == X[n, -1]
+    np.testing.assert_array_equal(e, E[:, n])
+    # batch b holds steps burn + b·L + 1 … burn + (b+1)·L, the last batch the remainder (A.30 by parts); the
+    # kernel's sums are flushed every FLUSH steps, so they differ from numpy's only in rounding
+    err2 = E[:, 1:] ** 2  # (nf, n, m), row k−1 ↔ step k
     edges = [burn + b * batch_len for b in range(nb)] + [n]
     expected = np.stack([err2[:, lo:hi].sum(axis=1) for lo, hi in itertools.pairwise(edges)])
-    np.testing.assert_allclose(sq, expected, rtol=n * EPS)
+    np.testing.assert_allclose(sq, expected, rtol=(FLUSH + n / FLUSH) * EPS)
+    np.testing.assert_allclose(sq_one, expected, rtol=(FLUSH + n / FLUSH) * EPS)
+
+
+def test_stored_chunks_can_start_at_an_offset():
+    """``out0``: a chunk's rows go to ``X_out[k − out0]`` (a buffer reused chunk after chunk)."""
+    model = Model(0.0, 2.0, 3.0, 4)
+    specs = [isl_filter(model, 2.0)]
+    args = (0.01, model.alpha, model.beta, model.sigma, *_pack(model, specs))
+    rng, x, e = _fresh(model, specs, 3)
+    X, E, S = np.empty((301, 4)), np.empty((1, 301, 4)), np.empty((0, 301))
+    X[0], E[:, 0] = x, e
+    sq, sig = np.zeros((1, 1, 4)), np.empty((1, 0))
+    advance(x, e, rng, 300, *args, 0, 0, 300, sq, sig, X, E, S, True, 0)
+    rng, x, e = _fresh(model, specs, 3)
+    buf_x, buf_e = np.empty((101, 4)), np.empty((1, 101, 4))
+    for k0 in (0, 100, 200):
+        advance(x, e, rng, 100, *args, k0, 0, 300, sq, sig, buf_x, buf_e, S, True, k0)
+        np.testing.assert_array_equal(buf_x[1:], X[k0 + 1:k0 + 101])
+        np.testing.assert_array_equal(buf_e[:, 1:], E[:, k0 + 1:k0 + 101])
 
 
 def test_kernel_stops_at_the_first_non_finite_step():
     model = Model(0.5, 3.0, 20.0, 3)
     kb = kalman_bucy(model)
     specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
-    rng, x, z = _fresh(model, specs, 1)
+    rng, x, e = _fresh(model, specs, 1)
     sq = np.zeros((1, 2, 3))
-    dummy_x, dummy_z, dummy_s = np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1))
-    done = advance(x, z, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, *_pack(model, specs),
-                   0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_z, dummy_s, False)
+    dummy_x, dummy_e, dummy_s = np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1))
+    done = advance(x, e, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, *_pack(model, specs),
+                   0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_e, dummy_s, False, 0)
     assert 0 < done < 100_000
-    assert not (np.all(np.isfinite(z)) and np.all(np.isfinite(x)))
+    assert not (np.all(np.isfinite(e)) and np.all(np.isfinite(x[-1])))

@@ -60,8 +60,11 @@ def test_run_layout_and_empirical_rmse():
     assert run.X.shape == run.X_hat.shape == run.X_check.shape == (run.N + 1, 3)
     np.testing.assert_array_equal(run.X[0, :2], 0.0)  # the truth starts at 0 except X_m ~ N(0, β²/2α)
     assert run.X[0, 2] != 0.0
-    np.testing.assert_array_equal(run.X_hat[0], 0.0)
-    np.testing.assert_array_equal(run.X_check[0], 0.0)
+    e0 = run.X_hat[0] - run.X[0]  # every filter starts at X(0) − e₀, one common e₀ ~ N(0, Δ)
+    assert np.all(e0 != 0.0) and run.start == "stationary"
+    np.testing.assert_array_equal(run.X_check[0] - run.X[0], e0)
+    for tr in run.tracks:
+        np.testing.assert_array_equal(tr.estimate, run.X + tr.error)
     np.testing.assert_array_equal(run.s, kb.s)
     for est, rmse, ratio in [(run.X_hat, run.s_hat, run.ratio_hat), (run.X_check, run.s_check, run.ratio_check)]:
         expected = np.sqrt(np.mean((est[1:] - run.X[1:]) ** 2, axis=0))  # (A.30), k = 1..N
@@ -78,6 +81,37 @@ def test_alpha_zero_starts_at_zero():
     run = simulate(Model(0.0, 3.0, 5.0, 3), 3.0, seed=1)
     np.testing.assert_array_equal(run.X[0], 0.0)
 
+
+def test_start_at_the_truth_as_the_papers_do():
+    run = simulate(FIG3, 3.0, seed=1, start="truth")
+    assert run.start == "truth"
+    for tr in run.tracks:
+        np.testing.assert_array_equal(tr.estimate[0], run.X[0])
+    with pytest.raises(ValueError, match=r"^start must be one of \['stationary', 'truth'\], got 'zero'"):
+        simulate(FIG3, 3.0, start="zero")
+
+
+@pytest.mark.parametrize("model", [FIG3, Model(0.0, 1.0, 20.0, 6), Model(25.0, 21.2, 2.0, 5)])
+def test_start_error_has_the_optimal_covariance(model):
+    """e₀ ~ N(0, Δ): each entry of the sample covariance of n draws lies within 5 standard errors of Δ."""
+    kb = kalman_bucy(model)
+    rng = np.random.default_rng(0)
+    n = 20_000
+    draws = np.array([sim.initial_error(kb, rng) for _ in range(n)])
+    cov = draws.T @ draws / n
+    d = np.asarray(kb.delta)
+    se = np.sqrt((d**2 + np.outer(np.diag(d), np.diag(d))) / n)  # Var of a Wishart entry / n²
+    assert np.all(np.abs(cov - d) <= 5.0 * se)
+
+
+def test_short_runs_of_the_optimal_filter_are_honest():
+    """Started from e₀ ~ N(0, Δ), the optimal filter's error is stationary from t = 0: its mean square over even a
+    horizon of 1/r_min is Δ (up to the Euler grid's bias), not the 0.04–0.26 of a start at the truth."""
+    ms = np.array([simulate(FIG3, 3.0, horizon=1.0, seed=k).ratio_hat ** 2 for k in range(300)])
+    mean, se = ms.mean(axis=0), ms.std(axis=0, ddof=1) / math.sqrt(len(ms))
+    assert np.all(np.abs(mean - 1.0) <= 4.0 * se + 2.0 * sim.EULER_BIAS), (mean, se)
+    papers = np.array([simulate(FIG3, 3.0, horizon=1.0, seed=k, start="truth").ratio_hat ** 2 for k in range(50)])
+    assert np.all(papers.mean(axis=0) < 0.75)
 
 def test_extra_filters_ride_on_the_same_noise():
     kb = kalman_bucy(FIG3)
@@ -102,6 +136,81 @@ def test_step_size_is_h_rate_over_the_fastest_rate():
     h = step_size(FIG3, kb, specs)
     assert h * max(np.abs(kb.eig).max(), FIG3.alpha) <= H_RATE * (1 + EPS)  # (B.47) with the SPEC's margin
     assert step_size(FIG3, kb, specs[:1]) >= h
+
+
+@pytest.mark.parametrize("m", range(1, 7))
+@pytest.mark.parametrize("alpha", [0.0, 1.0])
+def test_the_grid_biases_the_optimal_rmse_by_at_most_one_percent(m, alpha):
+    """The Euler recursion's own stationary covariance (exact) is within EULER_BIAS of Δ at the rule's step; at
+    m = 6 the rate margin alone would leave ≈ 3 % (so the bias bound is what sets h there)."""
+    model = Model(alpha, 1.0, 20.0, m)
+    kb = kalman_bucy(model)
+    h = step_size(model, kb, [optimal_kbf(model, kb)])
+    assert sim.euler_bias(model, kb, h) <= sim.EULER_BIAS
+    if m == 6 and alpha == 0.0:
+        assert sim.euler_bias(model, kb, H_RATE / np.abs(kb.eig).max()) > 2.5 * sim.EULER_BIAS
+
+
+def test_euler_bias_is_the_simulated_excess_of_the_optimal_filter():
+    """Where the grid is coarse on purpose (h·rate = 0.1), the KBF's long-run ratio is 1 + euler_bias, not 1."""
+    model = Model(0.0, 1.0, 1.0, 3)
+    kb = kalman_bucy(model)
+    h = 0.1 / np.abs(kb.eig).max()
+    res = simulate_rmse(model, [optimal_kbf(model, kb)], T=4e3 / kb.r_min, h=h, batches=40, seed=3)
+    ratio, se = ratio_and_se(res)
+    predicted = np.sqrt(np.diagonal(sim.lyapunov(model.A - np.outer(kb.K, model.C[0]),
+                                                  model.beta**2 * (model.E @ model.E.T)
+                                                  + np.outer(kb.K, kb.K) * model.sigma**2, h)) / np.diag(kb.delta))
+    assert np.max(np.abs(predicted - 1.0)) == pytest.approx(sim.euler_bias(model, kb, h))
+    assert np.all(np.abs(ratio - predicted) <= 4.0 * se), (ratio, predicted, se)
+    assert np.max(predicted) > 1.0 + 4.0 * np.max(se)  # the bias is real, not sampling noise
+
+
+def test_step_filters_fix_the_grid_whatever_is_simulated():
+    """Filters named in ``step_filters`` count for h: adding or dropping a simulated one then changes nothing else."""
+    kb = kalman_bucy(FIG3)
+    fast = FilterSpec("fast", "a fast KBF", FIG3.alpha, 8.0 * np.array(kb.K), False)
+    alone = simulate(FIG3, 3.0, seed=2, step_filters=[fast])
+    both = simulate(FIG3, 3.0, seed=2, extra=[fast], step_filters=[fast])
+    plain = simulate(FIG3, 3.0, seed=2)
+    assert alone.h == both.h < plain.h
+    np.testing.assert_array_equal(alone.X, both.X)
+    np.testing.assert_array_equal(alone.X_check, both.X_check)
+    np.testing.assert_array_equal(alone.ratio_hat, both.ratio_hat)
+
+
+def test_a_slower_isl_filter_lengthens_the_run():
+    """T = horizon/r with r the slower of the optimal and the ISL filter's settling rates (B.46), if > 10 % slower."""
+    kb = kalman_bucy(FIG3)
+    fig3 = simulate(FIG3, 3.0, seed=1)
+    assert fig3.stretch == 1.0 and fig3.T == pytest.approx(10.0 / kb.r_min, rel=EPS)  # paper A, Fig. 3
+    slow_nu = 3.0 / 64
+    lam = np.linalg.eigvals(sim.linearized_matrix(FIG3, isl_filter(FIG3, slow_nu)))
+    run = simulate(FIG3, slow_nu, seed=1, horizon=10.0)
+    assert run.stretch == pytest.approx(kb.r_min / np.min(-lam.real), rel=1e-12) and run.stretch > 3.0
+    assert run.T == pytest.approx(10.0 * run.stretch / kb.r_min, rel=4 * EPS)
+    assert run.horizon == pytest.approx(10.0 * run.stretch)
+
+
+def test_errors_keep_their_digits_whatever_the_signal_size():
+    """SPEC §8: the errors depend on X only through X_m (and not at all where α = a_f): the same noise with a signal
+    shifted by 10¹⁵ gives the same errors, bit for bit — where X − Z computed from states would keep no digit."""
+    model = Model(0.0, 1.0, 20.0, 6)
+    kb = kalman_bucy(model)
+    specs = [optimal_kbf(model, kb), isl_filter(model, 1.0)]
+    h, n = step_size(model, kb, specs), 20_000
+    out = []
+    for shift in (0.0, 1e15):
+        rng = np.random.default_rng(4)
+        x, e0 = sim._start(model, kb, rng, "stationary")
+        x[:-1] += shift
+        e = np.tile(e0, (2, 1))
+        X, E = np.empty((n + 1, 6)), np.empty((2, n + 1, 6))
+        sim.advance(x, e, rng, n, h, model.alpha, model.beta, model.sigma, *sim._pack(model, specs), 0, 0, n,
+                    np.zeros((1, 2, 6)), np.empty((1, 0)), X, E, np.empty((0, n + 1)), True, 0)
+        out.append((X, E))
+    np.testing.assert_array_equal(out[0][1][:, 1:], out[1][1][:, 1:])
+    assert np.min(np.abs(out[1][0][1:, 0])) > 1e14
 
 
 # --------------------------------------------------------------------------------------- simulate_rmse
