@@ -36,13 +36,17 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _number(text: str, *, zero: bool) -> float:
-    """``text`` as a finite number > 0 (``zero``: >= 0), or argparse's error naming the range."""
+    """``text`` as a finite number > 0 (``zero``: >= 0) in ASCII notation (:func:`isl_core.validate.read_real`),
+    or argparse's error naming the range."""
+    from isl_core.validate import read_real
+
+    want = f"a finite number {'>=' if zero else '>'} 0"
     try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(x) and (x >= 0 if zero else x > 0)):
-        raise argparse.ArgumentTypeError(f"expected a finite number {'>=' if zero else '>'} 0, got {text!r}")
+        x = read_real(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected {want}; {exc}") from None
+    if not (x >= 0 if zero else x > 0):
+        raise argparse.ArgumentTypeError(f"expected {want}, got {text!r}")
     return x
 
 
@@ -54,13 +58,20 @@ def _nonneg(text: str) -> float:
     return _number(text, zero=True)
 
 
-def _seed(text: str) -> int:
+def _whole(text: str) -> int:
+    """``text`` as a whole number in ASCII digits (:func:`isl_core.validate.read_int`), or argparse's error."""
+    from isl_core.validate import read_int
+
     try:
-        k = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+        return read_int(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected a whole number; {exc}") from None
+
+
+def _seed(text: str) -> int:
+    k = _whole(text)
     if k < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
     return k
 
 
@@ -342,7 +353,7 @@ def _build() -> _Parser:
     sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def common(p, *, horizon: float):
-        p.add_argument("--m", type=int, default=3, help="state dimension 1..6 (default 3)")
+        p.add_argument("--m", type=_whole, default=3, help="state dimension 1..6 (default 3)")
         p.add_argument("--w", type=_positive, default=3.0, help="stationary std of X_m: β = w√(2α) (default 3)")
         p.add_argument("--horizon", type=_positive, default=horizon, help=f"in units of 1/r_min (default {horizon:g})")
 
@@ -359,11 +370,11 @@ def _build() -> _Parser:
     p = sub.add_parser("sweep", help="paper A's Fig. 2 grid: CSV, JSON, HTML and PNG")
     p.add_argument("--alphas", type=_positive, nargs="+", default=list(FIG2_ALPHAS))
     p.add_argument("--sigmas", type=_positive, nargs="+", default=list(FIG2_SIGMAS))
-    p.add_argument("--ell-min", type=int, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
-    p.add_argument("--ell-max", type=int, default=2, help="largest ℓ (default 2)")
+    p.add_argument("--ell-min", type=_whole, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
+    p.add_argument("--ell-max", type=_whole, default=2, help="largest ℓ (default 2)")
     p.add_argument("--seeds", type=_seed, nargs="+", default=[0, 1])
-    p.add_argument("--batches", type=int, default=10, help="batches per seed for the intervals (default 10)")
-    p.add_argument("--workers", type=int, default=None, help="local threads (default: CPU count)")
+    p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
+    p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
     p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
     p.add_argument("--out", default="isl-fig2", help="output directory (default ./isl-fig2)")
     p.add_argument("--no-png", action="store_true", help="skip the PNG")
@@ -385,7 +396,7 @@ def _build() -> _Parser:
     p.add_argument("--alphas", type=_positive, nargs="+", default=list(FIG2_ALPHAS))
     p.add_argument("--sigmas", type=_positive, nargs="+", default=list(FIG2_SIGMAS))
     p.add_argument("--seeds", type=_seed, nargs="+", default=[0, 1])
-    p.add_argument("--batches", type=int, default=10)
+    p.add_argument("--batches", type=_whole, default=10)
     p.add_argument("--no-verify", action="store_true", help="theory only, no simulation")
     p.add_argument("--json", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -399,15 +410,15 @@ def _build() -> _Parser:
                    help="alpha values, comma- or space-separated (default 0.04,0.2,1,5,25)")
     p.add_argument("--sigma-min", type=_positive, default=2.0, help="smallest sigma (default 2)")
     p.add_argument("--sigma-max", type=_positive, default=200.0, help="largest sigma (default 200)")
-    p.add_argument("--n-sigma", type=int, default=5, help="log-spaced sigma values in the range (default 5)")
+    p.add_argument("--n-sigma", type=_whole, default=5, help="log-spaced sigma values in the range (default 5)")
     p.add_argument("--filters", type=_comma(str), nargs="+", default=[list(BASELINES)],
                    help=f"filters to compare (default {','.join(BASELINES)})")
     p.add_argument("--sigma-design", type=_positive, default=None,
                    help="sigma of the mismatched KBF (default the geometric middle of the range)")
     p.add_argument("--window", type=_positive, default=1000.0, help="adaptive KBF window W in steps (default 1000)")
     p.add_argument("--seeds", type=_comma(_seed), nargs="+", default=[[0, 1]])
-    p.add_argument("--batches", type=int, default=10, help="batches per seed for the intervals (default 10)")
-    p.add_argument("--workers", type=int, default=None, help="local threads (default: CPU count)")
+    p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
+    p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
     p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

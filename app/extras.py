@@ -23,10 +23,9 @@ import numpy as np
 import param
 
 from isl_core import BASELINES, Model, WorstCaseTable, baseline_filters, theory_ratios, worst_case
-from isl_core._validate import check_int, check_real
 from isl_core.baselines import LABELS
 
-__all__ = ["EXTRA_NAMES", "INPUTS", "RUN_INPUTS", "WC_INPUTS", "Baselines", "clean", "extra_specs",
+__all__ = ["EXTRA_NAMES", "INPUTS", "RUN_INPUTS", "WC_INPUTS", "Baselines", "check_order", "extra_specs",
            "extra_theory", "worst_case_table"]
 
 EXTRA_NAMES = tuple(n for n in BASELINES if n not in ("kbf", "isl"))  #: filters a user can overlay
@@ -64,37 +63,11 @@ def worst_case_table(alphas: Sequence[float], *, sigma_range: tuple[float, float
                       horizon=horizon, seeds=(seed,), batches=10, workers=WC_WORKERS, progress=progress)
 
 
-def _names(name: str, value) -> list[str]:
-    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
-        raise ValueError(f"{name} must be a list of names from {list(EXTRA_NAMES)}, got {value!r}")
-    if not all(isinstance(v, str) and v in EXTRA_NAMES for v in value) or len(set(value)) != len(value):
-        raise ValueError(f"{name} must be a list of distinct names from {list(EXTRA_NAMES)}, got {value!r}")
-    return [n for n in EXTRA_NAMES if n in value]
-
-
-def _alphas(name: str, value, n_bounds: tuple[int, int]) -> list[float]:
-    lo, hi = ALPHA_BOUNDS
-    n_lo, n_hi = n_bounds
-    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)) or not n_lo <= len(value) <= n_hi:
-        raise ValueError(f"{name} must be a list of {n_lo} to {n_hi} numbers in [{lo:g}, {hi:g}], got {value!r}")
-    return sorted({check_real(f"every entry of {name}", v, lo=lo, hi=hi) for v in value})
-
-
-def clean(state: Baselines, name: str, value):
-    """``value`` checked for input ``name`` of :class:`Baselines`, or a ``ValueError`` naming it and its range."""
-    p = state.param[name]
-    if name == "extra_filters":
-        return _names(name, value)
-    if name == "wc_alphas":
-        return _alphas(name, value, p.bounds)
-    if isinstance(p, param.Integer):
-        return check_int(name, value, lo=p.bounds[0], hi=p.bounds[1])
-    x = check_real(name, value, lo=p.bounds[0], hi=p.bounds[1])
-    if name == "sigma_min" and not x < state.sigma_max:
-        raise ValueError(f"sigma_min must be below sigma_max = {state.sigma_max:g}, got {x!r}")
-    if name == "sigma_max" and not x > state.sigma_min:
-        raise ValueError(f"sigma_max must be above sigma_min = {state.sigma_min:g}, got {x!r}")
-    return x
+def check_order(sigma_min: float, sigma_max: float) -> None:
+    """The σ range must be a range: ``ValueError`` in words otherwise."""
+    if not sigma_min < sigma_max:
+        raise ValueError(f"σ min (sigma_min) must be below σ max (sigma_max); {sigma_min:g} is not below "
+                         f"{sigma_max:g}")
 
 
 class Baselines(param.Parameterized):

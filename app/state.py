@@ -13,6 +13,7 @@ pools, inline otherwise (tests, scripts). Outputs (``run``, ``traces``, ``predic
 """
 from __future__ import annotations
 
+import dataclasses
 import io
 import logging
 import math
@@ -24,18 +25,18 @@ import numpy as np
 import param
 
 from isl_core import DivergenceError, Model, Run, run_plan, simulate
-from isl_core._validate import check_int, check_real
-
-from . import extras, sweeps
+from . import extras, inputs, sweeps
 from .decimate import DISPLAY_POINTS, minmax
 from .export import run_csv
 from .jobs import Jobs, Outcome, call
 from .presets import PRESETS
 
 __all__ = [
+    "ALL_INPUTS",
     "APP_MAX_STEPS",
     "COORDINATES",
     "INPUTS",
+    "KINDS",
     "LIVE_MAX_STEPS",
     "SWEEP_INPUTS",
     "AppState",
@@ -43,6 +44,8 @@ __all__ = [
     "Result",
     "Traces",
     "compute",
+    "fit",
+    "input_label",
 ]
 
 log = logging.getLogger(__name__)
@@ -51,6 +54,7 @@ APP_MAX_STEPS = 1_000_000  #: steps per displayed run (memory ≈ 72·m bytes a 
 LIVE_MAX_STEPS = 50_000  #: runs up to this size follow a slider while it is dragged; larger ones on release
 INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "nu", "m", "seed", "horizon")
 SWEEP_INPUTS = ("sweep_sigmas", "sweep_horizon")
+ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS)
 SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
 COORDINATES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")  #: X_1 … X_6
 
@@ -87,12 +91,27 @@ class Traces:
 
 @dataclass(frozen=True)
 class Result:
-    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (None if unavailable)."""
+    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (None if unavailable).
+
+    ``request`` is what was simulated: the asked-for one, or its nearest allowed setting (``adjusted`` says what
+    changed and why; empty if nothing did).
+    """
 
     run: Run
     traces: Traces
     prediction: np.ndarray | None
     extra_prediction: dict | None = None
+    request: Request | None = None
+    adjusted: str = ""
+
+
+def input_label(name: str, link: bool = False) -> str:
+    """How messages name input ``name``: its label, and with ``link`` how a link spells it (``σ (sigma=… in the
+    link)``)."""
+    label = AppState.param[name].label
+    if not link:
+        return label
+    return f"{name}=… in the link" if label == name else f"{label} ({name}=… in the link)"
 
 
 def decimated(run: Run, max_points: int = DISPLAY_POINTS) -> Traces:
@@ -107,18 +126,50 @@ def decimated(run: Run, max_points: int = DISPLAY_POINTS) -> Traces:
     return Traces(tuple(series))
 
 
-def compute(req: Request) -> Result:
+def _plan(req: Request):
+    """The model, the extra filters shown, every one a view can show (they fix the grid), and the run's plan."""
+    model = Model(req.alpha, req.beta, req.sigma, req.m)
+    extra = extras.extra_specs(model, req.nu, req.extras, req.sigma_design, req.sigma_range)
+    every = extras.extra_specs(model, req.nu, extras.EXTRA_NAMES, req.sigma_design, req.sigma_range)
+    return model, extra, every, run_plan(model, req.nu, horizon=req.horizon, step_filters=every, cap=2**62)
+
+
+def _floor_sig(x: float, digits: int = 3) -> float:
+    """``x`` > 0 rounded DOWN to ``digits`` significant digits (714.28 → 714)."""
+    q = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return float(f"{math.floor(x / q) * q:.{digits}g}")
+
+
+def fit(req: Request) -> tuple[Request, str]:
+    """``req`` itself if its run fits :data:`APP_MAX_STEPS`, else the same with the longest horizon that fits and a
+    sentence saying so; ``ValueError`` if not even the shortest horizon fits (naming the inputs to change)."""
+    _, _, _, plan = _plan(req)
+    if plan.N <= APP_MAX_STEPS:
+        return req, ""
+    shortest = AppState.param.horizon.bounds[0]
+    horizon = _floor_sig(req.horizon * APP_MAX_STEPS / plan.N * 0.999)  # N ∝ horizon (h does not change)
+    if horizon < shortest:
+        raise ValueError(
+            f"this setting needs {plan.N * shortest / req.horizon:,.0f} steps even at the shortest horizon "
+            f"({shortest:g} × 1/r_min), over the dashboard's limit of {APP_MAX_STEPS:,}: the fastest filter forces a "
+            "tiny step; lower ν or raise σ")
+    return (dataclasses.replace(req, horizon=horizon),
+            f"horizon lowered from {req.horizon:g} to {horizon:g} × 1/r_min: the run needs {plan.N:,} steps, over the "
+            f"dashboard's limit of {APP_MAX_STEPS:,}")
+
+
+def compute(req: Request, *, nearest: bool = False) -> Result:
     """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the SPEC §4 rule over every
     filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
     its ratios.
 
-    Raises ``ValueError`` when the run would exceed :data:`APP_MAX_STEPS`, :class:`DivergenceError` when a
-    filter blows up.
+    Raises ``ValueError`` when the run would exceed :data:`APP_MAX_STEPS` (with ``nearest``: first lowers the
+    horizon to the longest that fits, :func:`fit`), :class:`DivergenceError` when a filter blows up.
     """
-    model = Model(req.alpha, req.beta, req.sigma, req.m)
-    extra = extras.extra_specs(model, req.nu, req.extras, req.sigma_design, req.sigma_range)
-    every = extras.extra_specs(model, req.nu, extras.EXTRA_NAMES, req.sigma_design, req.sigma_range)
-    plan = run_plan(model, req.nu, horizon=req.horizon, step_filters=every, cap=2**62)
+    adjusted = ""
+    if nearest:
+        req, adjusted = fit(req)
+    model, extra, every, plan = _plan(req)
     if plan.N > APP_MAX_STEPS:
         longest = req.horizon * APP_MAX_STEPS / plan.N
         raise ValueError(
@@ -128,7 +179,7 @@ def compute(req: Request) -> Result:
     run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every)
     theory = sweeps.theory_module()
     prediction = None if theory is None else np.asarray(theory.predicted_ratios(model, req.nu))
-    return Result(run, decimated(run), prediction, extras.extra_theory(model, extra))
+    return Result(run, decimated(run), prediction, extras.extra_theory(model, extra), req, adjusted)
 
 
 def _describe(exc: BaseException) -> str:
@@ -180,10 +231,11 @@ class AppState(extras.Baselines):
     sweep_note = param.String("", precedence=-1, doc="Status line of the simulated sweep / recommendation.")
 
     def __init__(self, *, jobs: Jobs | None = None, **params) -> None:
-        self._refused: str | None = None
+        self._refused: set[str] = set()  # inputs whose refusal is on screen
         super().__init__(**params)
         self._jobs = jobs or Jobs()
         self._started = False
+        self._quiet = False  # set while the state itself corrects an input (no new run)
         self._serial = 0
         self._cancel = threading.Event()
         self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``sweep_note`` reports on
@@ -194,48 +246,69 @@ class AppState(extras.Baselines):
 
     # ---- validation at the boundary -------------------------------------------------------------------
     def __setattr__(self, name: str, value) -> None:
-        if name in INPUTS or name in SWEEP_INPUTS or name in extras.INPUTS:
+        if name in ALL_INPUTS:
             try:
-                value = self._clean(name, value)
+                value = self.clean(name, value)
             except ValueError as exc:
                 self._refuse(name, exc)
                 return
-            if self._refused == name:  # the refused input has a good value again
-                self._clear()
+            if name in self._refused:  # the refused input has a good value again
+                self._refused.discard(name)
+                if not self._refused:
+                    self._clear()
         super().__setattr__(name, value)
 
-    def _clean(self, name: str, value):
-        if name in extras.INPUTS:
-            return extras.clean(self, name, value)
-        p = self.param[name]
-        if isinstance(p, param.Boolean):
-            if not isinstance(value, (bool, np.bool_)):
-                raise ValueError(f"{name} must be true or false, got {value!r}")
-            return bool(value)
-        if isinstance(p, param.Integer):
-            return check_int(name, value, lo=p.bounds[0], hi=p.bounds[1])
-        if isinstance(p, param.Number):
-            return check_real(name, value, lo=p.bounds[0], hi=p.bounds[1])
-        lo, hi = SWEEP_SIGMA_BOUNDS
-        n_lo, n_hi = p.bounds
-        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)) or not n_lo <= len(value) <= n_hi:
-            raise ValueError(f"{name} must be a list of {n_lo} to {n_hi} numbers in [{lo:g}, {hi:g}], got {value!r}")
-        return sorted({check_real(f"every entry of {name}", v, lo=lo, hi=hi) for v in value})
+    def label_of(self, name: str, link: bool = False) -> str:
+        """How messages name an input: its label, and with ``link`` also its name in links (``σ (sigma=…)``)."""
+        return input_label(name, link)
+
+    def clean(self, name: str, value, pending: dict | None = None, link: bool = False):
+        """``value`` checked for input ``name`` (:mod:`app.inputs`): the clean value or a ``ValueError`` in words.
+
+        ``pending``: other inputs about to be set with it (the σ range is checked against its new other end).
+        """
+        value = inputs.clean(self.label_of(name, link), value, KINDS[name])
+        if name in ("sigma_min", "sigma_max"):
+            ends = {"sigma_min": self.sigma_min, "sigma_max": self.sigma_max, **(pending or {}), name: value}
+            extras.check_order(ends["sigma_min"], ends["sigma_max"])
+        return value
+
+    def set_inputs(self, values: dict, problems: dict[str, str] | None = None, *, link: bool = False) -> list[str]:
+        """Set every good value of ``values`` in one batch (one new run); report every bad one, and those in
+        ``problems`` (name → message, e.g. a link's unreadable values), in ONE message. Returns the reports.
+
+        ``link``: the values come from a URL (messages then give each input's name in links too)."""
+        bad = dict(problems or {})
+        good = {}
+        for name, value in values.items():
+            try:
+                good[name] = self.clean(name, value, {k: v for k, v in values.items() if k != name}, link)
+            except ValueError as exc:
+                bad[name] = str(exc)
+        if good:
+            self.param.update(**good)
+        if bad:
+            kept = "the last good run is kept" if self.run is not None else "nothing was simulated for them"
+            what = "a value" if len(bad) == 1 else f"{len(bad)} values"
+            self._say(f"Refused {what} (each keeps its previous setting; {kept}): " + "; ".join(bad.values()) + ".",
+                      "danger")
+            self._refused = set(bad)
+        return list(bad.values())
 
     def _refuse(self, name: str, exc: ValueError) -> None:
         """A refusal stays on screen until that input gets a good value (or a preset, or another message)."""
-        label = self.param[name].label
-        self._say(f"Refused {label}: {exc}. The last good run is kept.", "danger")
-        self._refused = name
+        kept = "The last good run is kept." if self.run is not None else "Nothing was simulated for it."
+        self._say(f"Refused: {exc}. {kept}", "danger")
+        self._refused = {name}
 
     def _say(self, text: str, kind: str = "info") -> None:
         """Show a message; a run requested before it will not clear it (see ``_apply_run``)."""
         self._serial += 1
-        self._refused = None
+        self._refused = set()
         self.param.update(message=text, message_kind=kind)
 
     def _clear(self) -> None:
-        self._refused = None
+        self._refused = set()
         if self.message:
             self.param.update(message="", message_kind="info")
 
@@ -261,11 +334,16 @@ class AppState(extras.Baselines):
 
     # ---- runs ----------------------------------------------------------------------------------------
     def start(self) -> None:
-        """Compute the first run (inline: the page shows it at once) and the sweep's theory curves."""
+        """Compute the first run and the sweep's theory curves, as jobs (in a served session: off the event loop).
+
+        With no run on screen yet, a run too long for the dashboard is replaced by its nearest allowed setting
+        (:func:`fit`: a shorter horizon, said in the message) — a page opened from any link shows a run or says why
+        it cannot."""
         self._started = True
         if self.alpha == 0.0 and self.beta_from_w:
             self._switch_to_beta()
-        self._apply_run(self._serial, call(partial(compute, self.request())), False)
+        self.busy = True
+        self._jobs.submit("run", partial(compute, self.request(), nearest=True), partial(self._apply_run, self._serial))
         self._refresh_curves()
 
     def _switch_to_beta(self) -> None:
@@ -280,8 +358,12 @@ class AppState(extras.Baselines):
         if self.alpha == 0.0 and self.beta_from_w:
             self._switch_to_beta()  # its own assignments come back here with a valid model
             return
+        if self._quiet:
+            return
         self.busy = not self.live  # a small run is back before a spinner could be seen
-        self._jobs.submit("run", partial(compute, self.request()), partial(self._apply_run, self._serial))
+        nearest = self.run is None  # nothing on screen to keep: show the nearest allowed setting instead
+        self._jobs.submit("run", partial(compute, self.request(), nearest=nearest),
+                          partial(self._apply_run, self._serial))
 
     def _on_extra_inputs(self, *events) -> None:
         """σ̄ and the σ range change the run only when an extra filter is drawn (or the selection changed)."""
@@ -291,13 +373,22 @@ class AppState(extras.Baselines):
     def _apply_run(self, serial: int, outcome: Outcome, superseded: bool) -> None:
         if outcome.error is not None:
             if not superseded:
-                self._say(f"{_describe(outcome.error)}. The last good run is kept.", "danger")
+                kept = "The last good run is kept." if self.run is not None else "Nothing is shown until it is changed."
+                self._say(f"{_describe(outcome.error)}. {kept}", "danger")
             self.busy = superseded
             return
         res: Result = outcome.value
+        if res.adjusted and not superseded:
+            self._quiet = True  # the input now shows what was simulated; that starts no second run
+            try:
+                self.horizon = res.request.horizon
+            finally:
+                self._quiet = False
         self.param.update(run=res.run, traces=res.traces, prediction=res.prediction,
                           extra_prediction=res.extra_prediction or {}, compute_seconds=outcome.seconds, busy=superseded)
-        if serial == self._serial and self._refused is None:
+        if res.adjusted and not superseded:
+            self._say(f"Showing the nearest allowed setting: {res.adjusted}.", "warning")
+        elif serial == self._serial and not self._refused:
             self._clear()
 
     def apply_preset(self, name: str) -> None:
@@ -410,3 +501,7 @@ class AppState(extras.Baselines):
             self.param.update(run=None, traces=None, prediction=None, points=None, curves=None, worst=None,
                               extra_prediction={})
 
+
+#: kind and range of every input (:mod:`app.inputs`), from the declarations above
+KINDS = inputs.kinds_of(ALL_INPUTS, AppState.param, {"sweep_sigmas": SWEEP_SIGMA_BOUNDS,
+                                                     "wc_alphas": extras.ALPHA_BOUNDS})

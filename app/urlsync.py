@@ -3,9 +3,11 @@
 :class:`UrlSync` links an :class:`app.state.AppState` with ``pn.state.location``:
 
 * **URL → state**, when the session opens and when the browser navigates (back/forward): each known query
-  parameter is parsed as JSON (a bare word stays a string) and set on the state, which validates it like a value
-  typed in the page: ``?sigma=-3`` or ``?m=abc`` is refused with a message naming the parameter, and the rest of
-  the link still applies. Inputs missing from the query take their defaults.
+  parameter is read by the strict parser of :mod:`app.inputs` (no ``json``, no recursion, bounded length: a
+  hostile spelling gets a message, never an exception) and set on the state in one batch, which validates it like
+  a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
+  each input and its range — and keeps its previous setting; the rest of the link still applies, and the URL is
+  then rewritten to what the page shows. Inputs missing from the query take their defaults.
 * **state → URL**: the query holds the inputs that differ from their defaults (``?sigma=200&nu=0.5``). It is
   written when the change has been answered — with the run it started, in the same message as the new plots —
   not the moment an input moves: a write on its own costs the server a message of its own and the browser a
@@ -20,30 +22,50 @@ import urllib.parse
 
 import param
 
-from . import extras
-from .state import INPUTS, SWEEP_INPUTS, AppState
+from . import inputs
+from .state import ALL_INPUTS, KINDS, AppState, input_label
 
-__all__ = ["URL_INPUTS", "UrlSync", "parse_query", "query_string"]
+__all__ = ["URL_INPUTS", "UrlSync", "parse_query", "query_string", "read_query"]
 
-URL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS)  #: the inputs a link carries
+URL_INPUTS = ALL_INPUTS  #: the inputs a link carries
+MAX_QUERY = 65536  #: characters of a query read at all (tornado refuses longer request lines anyway)
+MAX_FIELDS = 200  #: key=value pairs of a query read at all
 _OUTCOMES = ["run", "message", "busy"]  #: a run was applied, refused or failed: the change has been answered
-
-
-def _decode(text: str):
-    try:
-        return json.loads(text)
-    except ValueError:
-        return text  # not JSON: the state refuses it with a message naming the parameter
 
 
 def _encode(value) -> str:
     return json.dumps(list(value) if isinstance(value, tuple) else value, separators=(",", ":"))
 
 
+def read_query(search: str) -> tuple[dict[str, object], dict[str, str]]:
+    """The known inputs of a URL query (``"?sigma=200&m=2"``) parsed, and a message for each value that cannot be
+    read (input name → message naming the input and its range). Unknown keys are left out; a repeated key counts
+    once (its last value). Never raises, whatever the text."""
+    search = search if isinstance(search, str) else ""
+    if len(search) > MAX_QUERY:
+        return {}, {"": f"the link's query is {len(search):,} characters long (at most {MAX_QUERY:,} are read); "
+                        "every input keeps its default"}
+    try:
+        pairs = urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True, max_num_fields=MAX_FIELDS)
+    except ValueError:
+        return {}, {"": f"the link has more than {MAX_FIELDS} values; every input keeps its default"}
+    values, problems = {}, {}
+    for key, text in pairs:
+        if key not in URL_INPUTS:
+            continue
+        kind = KINDS[key]
+        try:
+            values[key] = inputs.parse_text(text, kind)
+            problems.pop(key, None)
+        except ValueError as exc:
+            values.pop(key, None)
+            problems[key] = f"{input_label(key, link=True)} must be {kind.describe()}; {exc}"
+    return values, problems
+
+
 def parse_query(search: str) -> dict[str, object]:
-    """The known inputs in a URL query (``"?sigma=200&m=2"``), decoded; unknown keys are left out."""
-    pairs = urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True)
-    return {k: _decode(v) for k, v in pairs if k in URL_INPUTS}
+    """The readable known inputs of a URL query (:func:`read_query` without its messages)."""
+    return read_query(search)[0]
 
 
 def query_string(state: param.Parameterized, search: str = "") -> str:
@@ -68,13 +90,18 @@ class UrlSync:
         location.param.watch(self._on_search, ["search"])
 
     def apply(self, search: str) -> None:
-        """Set the state's inputs from ``search``: the query's values, defaults for the inputs it lacks."""
+        """Set the state's inputs from ``search``: the query's values, defaults for the inputs it lacks; every bad
+        value is reported (one message) and the URL then shows what the page shows."""
+        values, problems = read_query(search)
         wanted = {n: self.state.param[n].default for n in URL_INPUTS}
-        wanted.update(parse_query(search))
+        wanted.update(values)
         changed = {n: v for n, v in wanted.items() if not _same(getattr(self.state, n), v)}
         with param.parameterized.batch_call_watchers(self.state):  # one new run for the whole link
-            for name, value in changed.items():
-                setattr(self.state, name, value)  # validated by the state; a bad value is refused
+            bad = self.state.set_inputs(changed, problems, link=True)
+        if bad and self.state.computing:
+            self._pending = True  # cleaned with the answer to the rest of the link
+        elif bad:
+            self.write()
 
     def write(self) -> None:
         self._pending = False

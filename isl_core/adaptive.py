@@ -37,14 +37,14 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._validate import check_real
 from .filters import AdaptiveGain, FilterSpec
 from .model import Model
-from .riccati import _normalized_care
+from .riccati import A_MAX, _normalized_care
+from .validate import check_real, short
 
 __all__ = [
     "TABLE_MARGIN", "TABLE_PER_DECADE", "WINDOW", "adaptive_kbf", "check_sigma_range", "gain_table", "normalized_gains",
-    "sigma_hat_sd",
+    "sigma_hat_sd", "sigma_limit",
 ]
 
 WINDOW = 1000.0  #: default forgetting window W of the innovation variance, in steps
@@ -96,7 +96,11 @@ def adaptive_kbf(
     window = check_real("window", window, lo=1.0)
     sigma_init = math.sqrt(lo * hi) if sigma_init is None else check_real("sigma_init", sigma_init, lo=0.0,
                                                                           lo_open=True)
-    log_lo, log_hi = math.log(lo / TABLE_MARGIN), math.log(hi * TABLE_MARGIN)
+    top = sigma_limit(model)
+    if hi > top:
+        raise ValueError(f"sigma_range must end at or below {top:.4g} for alpha = {model.alpha:g}, beta = {model.beta:g}, "
+                         f"m = {model.m} (the Riccati equation's domain, isl_core.riccati.A_MAX), got {short(sigma_range)}")
+    log_lo, log_hi = math.log(lo / TABLE_MARGIN), math.log(min(hi * TABLE_MARGIN, top))
     n = max(2, math.ceil(TABLE_PER_DECADE * (log_hi - log_lo) / math.log(10.0)) + 1)
     step = (log_hi - log_lo) / (n - 1)
     table = _table(model.alpha, model.beta, model.m, log_lo, step, n)
@@ -105,13 +109,21 @@ def adaptive_kbf(
                       gain.gain(sigma_init), False, gain)
 
 
+def sigma_limit(model: Model) -> float:
+    """The largest σ whose CARE :func:`isl_core.kalman_bucy` solves for ``model``'s α, β, m: ``β·(A_MAX/α)^m``
+    (inf for α = 0 or m = 1), the normalized damping α/ϱ = A_MAX (:mod:`isl_core.riccati`)."""
+    if model.alpha == 0.0 or model.m == 1:
+        return math.inf
+    with np.errstate(over="ignore"):
+        return float(model.beta * np.float64(A_MAX / model.alpha) ** model.m)
+
+
 def check_sigma_range(sigma_range) -> tuple[float, float]:
     """``(σ_min, σ_max)`` with 0 < σ_min ≤ σ_max finite, or a ``ValueError`` naming ``sigma_range``."""
-    try:
-        lo, hi = sigma_range
-    except (TypeError, ValueError):
+    if not (isinstance(sigma_range, list | tuple | np.ndarray) and len(sigma_range) == 2):
         raise ValueError(
-            f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {sigma_range!r}") from None
+            f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {short(sigma_range)}")
+    lo, hi = sigma_range
     lo = check_real("sigma_range[0]", lo, lo=0.0, lo_open=True)
     hi = check_real("sigma_range[1]", hi, lo=lo)
     return lo, hi

@@ -37,6 +37,7 @@ from .filters import FilterSpec, isl_filter, optimal_kbf
 from .model import Model
 from .riccati import kalman_bucy
 from .theory import _optimal_s, mismatched_kbf, predicted_covariance
+from .validate import short
 
 __all__ = [
     "BASELINES", "LABELS", "baseline_filters", "design_sigma", "minimax_kbf", "model_aware_isl", "theory_ratios",
@@ -112,11 +113,11 @@ def baseline_filters(
 def check_names(names, param: str = "names") -> tuple[str, ...]:
     """``names`` as a non-empty tuple of distinct names of :data:`BASELINES`, or a ``ValueError`` naming ``param``."""
     what = f"{param} must be a non-empty sequence of distinct names from {list(BASELINES)}"
-    if isinstance(names, str) or not hasattr(names, "__iter__"):
-        raise ValueError(f"{what}, got {names!r}")
+    if not isinstance(names, list | tuple):
+        raise ValueError(f"{what}, got {short(names)}")
     names = tuple(names)
-    if not names or len(set(names)) != len(names) or not all(isinstance(n, str) and n in BASELINES for n in names):
-        raise ValueError(f"{what}, got {names!r}")
+    if not (names and all(isinstance(n, str) and n in BASELINES for n in names) and len(set(names)) == len(names)):
+        raise ValueError(f"{what}, got {short(names)}")
     return names
 
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import check_int, check_real
+from .validate import check_int, check_real
 
 __all__ = ["M_MAX", "Model", "shift_matrix"]
 

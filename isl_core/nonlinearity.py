@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._validate import check_int, check_real
+from .validate import check_int, check_real
 from .model import M_MAX
 from .riccati import G_matrix
 

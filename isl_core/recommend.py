@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import check_int, check_real
+from .validate import check_int, check_real, check_reals, short
 from .model import M_MAX, Model
 from .sweep import FIG2_SIGMAS, sweep
 from .theory import mismatched_kbf_ratios, predicted_ratios_grid
@@ -136,14 +136,12 @@ def recommend_nu(
     (:func:`isl_core.baselines.model_aware_isl`) instead of paper A's (A0).
     """
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
-    sig = [check_real("sigmas", s, lo=0.0, lo_open=True) for s in np.atleast_1d(np.asarray(sigmas, dtype=object))]
-    if not sig:
-        raise ValueError("sigmas must be a non-empty sequence of numbers > 0, got ()")
+    sig = list(check_reals("sigmas", sigmas, lo=0.0, lo_open=True))
     m = check_int("m", m, lo=1, hi=M_MAX)
     w = check_real("w", w, lo=0.0, lo_open=True)
-    compare = [check_real("compare", x, lo=0.0, lo_open=True) for x in compare]
+    compare = list(check_reals("compare", compare, lo=0.0, lo_open=True, allow_empty=True))
     if not isinstance(model_aware, bool):
-        raise ValueError(f"model_aware must be True or False, got {model_aware!r}")
+        raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
     beta = w * math.sqrt(2.0 * alpha)
     ell = _search(alpha, sig, m, w, model_aware)
     nob = 2.0**ell

@@ -17,6 +17,12 @@ fails for e.g. σ = 0.01, β = 21, α = 25): with the rate ``ϱ = (β/σ)^{1/m}`
 (substitute: ``A S = ϱ S A'``, ``β² EEᵀ = σ² S EEᵀ S``, ``S CᵀC S = ϱ² CᵀC``). For α = 0, Δ' = G and
 this is (B.16).
 
+Domain: the normalized CARE depends on the one number ``a = α/ϱ``; its solution is accurate to ≲ 3e-12
+(relative residual) up to ``a = A_MAX = 10⁵`` for every m ≤ 6 and degrades beyond (m = 2, a = 10⁷: a closed-loop
+rate off by a factor 30). :func:`kalman_bucy` refuses ``a > A_MAX`` (m ≥ 2; m = 1 is scalar and exact) and any
+model whose Δ, K or eigenvalues leave the float64 range, with a ``ValueError`` naming α, β, σ, m and the limit —
+never a wrong number. The dashboard's ranges reach a ≤ 3.2·10⁴.
+
 Symbols: ``delta`` = Δ, ``K`` gain (m,), ``eig`` eigenvalues of ``A − K C``, ``rho`` = ϱ.
 """
 from __future__ import annotations
@@ -27,10 +33,12 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from ._validate import check_int
+from .validate import check_int
 from .model import M_MAX, Model, shift_matrix
 
-__all__ = ["G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0"]
+__all__ = ["A_MAX", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0"]
+
+A_MAX = 1e5  #: largest normalized damping α/ϱ (ϱ = (β/σ)^{1/m}) solved; see the module docstring
 
 
 def _normalized_residual(a1: np.ndarray, d: np.ndarray) -> float:
@@ -104,12 +112,19 @@ class KalmanBucy:
     r_min: float
 
 
-def _result(A: np.ndarray, delta: np.ndarray, sigma: float) -> KalmanBucy:
+def _result(model: Model, delta: np.ndarray, eig: np.ndarray | None = None) -> KalmanBucy:
+    A, sigma = model.A, model.sigma
     delta = 0.5 * (delta + delta.T)
     K = delta[:, 0] / sigma**2  # K = σ⁻² Δ Cᵀ (A.21)
-    closed = A.copy()
-    closed[:, 0] -= K  # A − K C
-    eig = np.linalg.eigvals(closed)
+    if eig is None:
+        closed = A.copy()
+        closed[:, 0] -= K  # A − K C
+        eig = np.linalg.eigvals(closed)
+    if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(K)) and np.all(np.isfinite(eig))
+            and np.all(np.diagonal(delta) > 0) and np.min(-eig.real) > 0):
+        raise ValueError(f"alpha = {model.alpha:g}, beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the "
+                         "Kalman–Bucy filter's covariance or rates leave the float64 range; bring sigma/beta closer "
+                         "to 1")
     for arr in (K, delta, eig):
         arr.flags.writeable = False
     s = np.sqrt(np.diag(delta))
@@ -122,10 +137,21 @@ def kalman_bucy(model: Model) -> KalmanBucy:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     rho = (model.beta / model.sigma) ** (1.0 / model.m)
+    a = model.alpha / rho if rho > 0 else np.inf
+    if model.m > 1 and not a <= A_MAX:
+        raise ValueError(
+            f"alpha = {model.alpha:g} with beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the normalized "
+            f"damping alpha·(sigma/beta)^(1/m) = {a:.3g} is above {A_MAX:g}, beyond which the Riccati equation (A.23) "
+            "is not solved to 1e-9 here; lower alpha or sigma, or raise beta")
     scale = rho ** np.arange(1, model.m + 1)
-    delta1 = _normalized_care(model.m, model.alpha / rho)
-    delta = model.sigma**2 / rho * scale[:, None] * delta1 * scale[None, :]  # (A.23), normalized form
-    return _result(model.A, delta, model.sigma)
+    delta1 = _normalized_care(model.m, a)
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        delta = model.sigma**2 / rho * scale[:, None] * delta1 * scale[None, :]  # (A.23), normalized form
+        closed1 = shift_matrix(model.m)
+        closed1[-1, -1] = -a
+        closed1[:, 0] -= delta1[:, 0]  # A' − K'C: the closed loop in normalized time (better conditioned)
+        eig = rho * np.linalg.eigvals(closed1)
+    return _result(model, delta, eig)
 
 
 def kalman_bucy_alpha0(m: int, beta: float, sigma: float) -> KalmanBucy:
@@ -134,7 +160,7 @@ def kalman_bucy_alpha0(m: int, beta: float, sigma: float) -> KalmanBucy:
     i = np.arange(1, model.m + 1)
     expo = (i[:, None] + i[None, :] - 1) / model.m
     delta = _G(model.m) * model.sigma**2 * (model.beta / model.sigma) ** expo  # (B.16)
-    return _result(model.A, delta, model.sigma)
+    return _result(model, delta)
 
 
 def care_residual(model: Model, delta: np.ndarray) -> np.ndarray:

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import check_int, check_real
+from .validate import check_int, check_real, short
 from .filters import KIND_ADAPTIVE, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
 from .kernels import AD_INV_STEP, AD_INV_WINDOW, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
 from .model import Model
@@ -237,7 +237,7 @@ def _start(model: Model, kb: KalmanBucy, rng: np.random.Generator, start: str) -
 
 def _check_start(start) -> str:
     if not isinstance(start, str) or start not in STARTS:
-        raise ValueError(f"start must be one of {list(STARTS)}, got {start!r}")
+        raise ValueError(f"start must be one of {list(STARTS)}, got {short(start)}")
     return start
 
 
@@ -341,23 +341,23 @@ def _check_filters(model: Model, nu, extra) -> list[FilterSpec]:
 def _check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[FilterSpec]:
     """``specs`` as a list of :class:`FilterSpec` of the model's size, or a ``ValueError`` naming ``name``."""
     what = f"{name} must be a {'' if allow_empty else 'non-empty '}sequence of FilterSpec of size m = {model.m}"
-    if isinstance(specs, (FilterSpec, str, bytes)) or not hasattr(specs, "__iter__"):
-        raise ValueError(f"{what}, got {specs!r}")
+    if not isinstance(specs, list | tuple | range):
+        raise ValueError(f"{what}, got {short(specs)}")
     specs = list(specs)
     if not (specs or allow_empty):
         raise ValueError(f"{what}, got an empty sequence")
     for spec in specs:
         if not isinstance(spec, FilterSpec) or np.shape(spec.coef) != (model.m,):
-            raise ValueError(f"{what}, got {spec!r}")
+            raise ValueError(f"{what}, got {short(spec)}")
         table = None if spec.adaptive is None else np.shape(getattr(spec.adaptive, "log_gain", None))
         if table is not None and not (len(table) == 2 and table[0] >= 2 and table[1] == model.m):
-            raise ValueError(f"{what} (an adaptive gain table of shape (n >= 2, m)), got {spec!r}")
+            raise ValueError(f"{what} (an adaptive gain table of shape (n >= 2, m)), got {short(spec)}")
     return specs
 
 
 def _check_progress(progress) -> None:
     if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None, got {progress!r}")
+        raise ValueError(f"progress must be a callable or None, got {short(progress)}")
 
 
 @dataclass(frozen=True)
@@ -508,7 +508,7 @@ def simulate_rmse(
     batches = check_int("batches", batches, lo=1, hi=10_000)
     start = _check_start(start)
     kb = kalman_bucy(model)
-    T, h, n = _grid(model, kb, [*filters, *grid_only], T, h, MAX_STEPS)
+    T, h, n = _grid(model, kb, [*filters, *grid_only], check_real("T", T, lo=0.0, lo_open=True), h, MAX_STEPS)
     burn_steps = min(int(check_real("burn", burn, lo=0.0, hi=T) / h), n - batches)
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")

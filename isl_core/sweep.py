@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import check_int, check_real
+from .validate import check_int, check_ints, check_real, check_reals, short
 from .baselines import model_aware_isl
 from .filters import FilterSpec, isl_filter, optimal_kbf
 from .model import M_MAX, Model
@@ -188,13 +188,6 @@ def _run_chunk(tasks: Sequence[_Task]) -> list:
     return [_run_task(t) for t in tasks]
 
 
-def _check_list(name: str, values, *, lo: float) -> np.ndarray:
-    vals = np.atleast_1d(np.asarray(values, dtype=object))
-    if vals.ndim != 1 or vals.size == 0:
-        raise ValueError(f"{name} must be a non-empty sequence of numbers > {lo:g}, got {values!r}")
-    return np.array([check_real(name, v, lo=lo, lo_open=True) for v in vals])
-
-
 def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False):
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
@@ -312,9 +305,7 @@ def _remote(tasks, executor, chunk, prog: _Progress):
 def _check_sampling(horizon, seeds, batches, level) -> tuple[float, tuple[int, ...], int, float]:
     """``horizon``, ``seeds``, ``batches`` and ``level`` of a simulated grid, checked (sweep, worst case)."""
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    seeds = tuple(check_int("seeds", x, lo=0) for x in np.atleast_1d(np.asarray(seeds, dtype=object)))
-    if not seeds:
-        raise ValueError("seeds must be a non-empty sequence of integers >= 0, got ()")
+    seeds = check_ints("seeds", seeds, lo=0)
     batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
     level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     return horizon, seeds, batches, level
@@ -325,7 +316,7 @@ def _check_execution(chunk, workers, progress) -> tuple[int, int]:
     chunk = check_int("chunk", chunk, lo=1)
     workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
     if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None, got {progress!r}")
+        raise ValueError(f"progress must be a callable or None, got {short(progress)}")
     return chunk, workers
 
 
@@ -356,16 +347,16 @@ def sweep(
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
     instead of paper A's (A0); its theory is SPEC §6 with A.
     """
-    alphas = _check_list("alphas", alphas, lo=0.0)
-    sigmas = _check_list("sigmas", sigmas, lo=0.0)
-    nob = _check_list("nu_over_beta", nu_over_beta, lo=0.0)
+    alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
+    sigmas = check_reals("sigmas", sigmas, lo=0.0, lo_open=True)
+    nob = check_reals("nu_over_beta", nu_over_beta, lo=0.0, lo_open=True)
     m = check_int("m", m, lo=1, hi=M_MAX)
     w = check_real("w", w, lo=0.0, lo_open=True)
     horizon, seeds, batches, level = _check_sampling(horizon, seeds, batches, level)
     chunk, workers = _check_execution(chunk, workers, progress)
 
     if not isinstance(model_aware, bool):
-        raise ValueError(f"model_aware must be True or False, got {model_aware!r}")
+        raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
     tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
                                                          model_aware)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)

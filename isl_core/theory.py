@@ -40,7 +40,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._validate import check_real
+from .validate import check_real, check_reals, short
 from .filters import FilterSpec, isl_filter
 from .model import Model
 from .nonlinearity import gamma_abs
@@ -134,7 +134,7 @@ def _check_spec(model: Model, spec: FilterSpec) -> None:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     if not isinstance(spec, FilterSpec) or len(spec.coef) != model.m:
-        raise ValueError(f"spec must be a FilterSpec of size m = {model.m}, got {spec!r}")
+        raise ValueError(f"spec must be a FilterSpec of size m = {model.m}, got {short(spec)}")
 
 
 def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = None) -> np.ndarray:
@@ -181,7 +181,7 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
 
 def predicted_ratios_grid(model: Model, nus: Sequence[float], *, damp: float | None = None) -> np.ndarray:
     """:func:`predicted_ratios` for many ν at once: shape (len(nus), m), one batched Lyapunov solve."""
-    nus = [check_real("nu", v, lo=0.0, lo_open=True) for v in np.atleast_1d(np.asarray(nus, dtype=object))]
+    nus = check_reals("nus", nus, lo=0.0, lo_open=True)
     base = _isl_spec(model, 1.0, damp)
     m = model.m
     i = np.arange(1, m + 1)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import check_int, check_real
+from .validate import check_int, check_real, check_reals, short
 from .adaptive import WINDOW, check_sigma_range
 from .baselines import BASELINES, LABELS, baseline_filters, check_names, design_sigma, theory_ratios
 from .model import M_MAX, Model
@@ -193,13 +193,10 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, bat
 
 
 def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level):
-    vals = np.atleast_1d(np.asarray(alphas, dtype=object))
-    if vals.ndim != 1 or vals.size == 0:
-        raise ValueError(f"alphas must be a non-empty sequence of numbers > 0, got {alphas!r}")
-    alphas = np.array([check_real("alphas", v, lo=0.0, lo_open=True) for v in vals])
+    alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
     lo, hi = check_sigma_range(sigma_range)
     if not hi > lo:
-        raise ValueError(f"sigma_range must have sigma_max > sigma_min, got {sigma_range!r}")
+        raise ValueError(f"sigma_range must have sigma_max > sigma_min, got {short(sigma_range)}")
     n_sigma = check_int("n_sigma", n_sigma, lo=2, hi=101)
     m = check_int("m", m, lo=1, hi=M_MAX)
     w = check_real("w", w, lo=0.0, lo_open=True)

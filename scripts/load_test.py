@@ -119,10 +119,18 @@ class BokehClient:
         if ack is None or ack.msgtype != "ACK":
             raise ConnectionError(f"expected ACK from {self.url}, got {ack!r}")
         await self._send(self._protocol.create("PULL-DOC-REQ"))
-        reply = await asyncio.wait_for(self._read(), timeout)
-        if reply is None or reply.msgtype != "PULL-DOC-REPLY":
-            raise ConnectionError(f"expected PULL-DOC-REPLY from {self.url}, got {reply!r}")
-        reply.push_to_document(self.doc)
+        early = []  # a session computes its first run off the event loop: its patches may overtake the reply
+        while True:
+            reply = await asyncio.wait_for(self._read(), timeout)
+            if reply is None or reply.msgtype not in ("PULL-DOC-REPLY", "PATCH-DOC"):
+                raise ConnectionError(f"expected PULL-DOC-REPLY from {self.url}, got {reply!r}")
+            if reply.msgtype == "PULL-DOC-REPLY":
+                break
+            early.append(reply)
+        reply.push_to_document(self.doc)  # a snapshot made after those patches: they are in it already
+        for message in early:
+            events = message.content.get("events", [])
+            self.patches.append((time.perf_counter(), {e.get("kind", "") for e in events}, set()))
         self._reader = asyncio.ensure_future(self._read_forever())
         await self.send_event(DocumentReady())
 

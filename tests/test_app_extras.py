@@ -72,12 +72,13 @@ def test_bad_values_are_refused_with_a_message(state, name, bad):
     run, before = state.run, getattr(state, name)
     setattr(state, name, bad)
     assert getattr(state, name) == before and state.run is run
-    assert state.message.startswith(f"Refused {state.param[name].label}:") and name in state.message
+    label = state.param[name].label
+    assert state.message.startswith("Refused: ") and label in state.message and " must be " in state.message
 
 
 def test_sigma_range_needs_min_below_max(state):
     state.sigma_min = 200.0
-    assert state.sigma_min == 2.0 and "sigma_max = 200" in state.message
+    assert state.sigma_min == 2.0 and "σ min (sigma_min) must be below σ max (sigma_max)" in state.message
     state.sigma_max = 300.0
     state.sigma_min = 250.0
     assert (state.sigma_min, state.sigma_max) == (250.0, 300.0)

@@ -3,15 +3,18 @@ for the run they started.
 
 Headless: a stand-in for ``pn.state.location`` (only its ``search`` matters) and the state's own job runner.
 """
+import urllib.parse
 from concurrent.futures import ThreadPoolExecutor
 
 import param
 import pytest
 from _loop import ManualLoop
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from app.jobs import Jobs
-from app.state import AppState
-from app.urlsync import URL_INPUTS, UrlSync, parse_query, query_string
+from app.state import AppState, input_label
+from app.urlsync import URL_INPUTS, UrlSync, parse_query, query_string, read_query
 
 
 class Location(param.Parameterized):
@@ -90,3 +93,41 @@ def test_the_url_is_written_with_the_run_it_started_not_before():
         assert location.search == "?sigma=50.0&sweep_sigmas=[3.0,30.0]"
     finally:
         pool.shutdown(wait=True)
+
+
+# ------------------------------------------------------------------------------- hostile links (hypothesis)
+HOSTILE_TEXT = st.one_of(
+    st.text(max_size=40), st.sampled_from(["NaN", "nan", "-Infinity", "inf", "1e999", "٣", "１２", "𝟙", "0x10", "[]",
+                                           "[[1]]", "", " ", "true", "[5,50]", "kbf_adaptive", "\x00", "%00"]),
+    st.integers(1, 3000).map(lambda d: "[" * d), st.integers(1, 6000).map(lambda d: "9" * d),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**20, 10**20).map(str),
+    st.lists(st.floats(-1e4, 1e4).map(repr), max_size=8).map(lambda xs: "[" + ",".join(xs) + "]"),
+)
+QUERIES = st.one_of(
+    st.text(max_size=300),
+    st.lists(st.tuples(st.sampled_from([*URL_INPUTS, "utm", "Sigma", ""]), HOSTILE_TEXT), max_size=6).map(
+        lambda pairs: "?" + urllib.parse.urlencode(pairs)),
+)
+
+
+@settings(max_examples=1200, deadline=None, derandomize=True)
+@given(search=QUERIES)
+def test_any_query_is_read_without_an_exception_and_every_problem_is_named(search):
+    values, problems = read_query(search)
+    assert set(values) <= set(URL_INPUTS) and not set(values) & set(problems)
+    for key, text in problems.items():
+        assert " must be " in text and (key == "" or input_label(key, link=True) in text), text
+        assert len(text) < 400
+
+
+@settings(max_examples=200, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(search=QUERIES)
+def test_any_link_opens_a_run_or_says_why_and_leaves_a_clean_url(search):
+    state, location = linked(search)
+    assert state.run is not None or state.message.strip(), "a blank page"
+    _, problems = read_query(search)
+    if problems and "" not in problems:
+        assert state.message.startswith("Refused")
+        assert all(input_label(key) in state.message for key in problems)
+    assert read_query(location.search)[1] == {}  # the link now spells only what the page shows
+    assert "Traceback" not in state.message
