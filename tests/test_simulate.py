@@ -362,7 +362,8 @@ def test_bad_filters_and_extra():
     ({"burn": math.nan}, r"^burn must be a finite number >= 0"),
     ({"burn": 1e308}, r"^burn must be a finite number >= 0 and <= 10"),
     ({"progress": 3}, r"^progress must be a callable or None"),
-    ({"T": None, "h": -1.0}, r"^h must be a finite number > 0"),
+    ({"h": -1.0}, r"^h must be a finite number > 0"),
+    ({"T": None}, r"^T must be a finite number > 0, got None"),
 ])
 def test_bad_simulate_rmse_inputs(kwargs, pattern):
     kwargs = {"T": 10.0, **kwargs}
