@@ -20,10 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["main", "PAPER_A31"]
-
-#: Paper A, table (A.31): recommended ν/β per α, read off its Fig. 2 — shown only as a comparison column.
-PAPER_A31 = {0.04: 1.0, 0.2: 0.7, 1.0: 0.2, 5.0: 0.03, 25.0: 0.01}
+__all__ = ["main"]
 
 
 class UsageError(Exception):
@@ -183,7 +180,10 @@ def cmd_sweep(args) -> int:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "seeds": list(res.seeds),
+    from isl_core.sweep import BURN
+
+    meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "burn_in_over_r_min": BURN,
+            "lengthened_by": res.stretch.tolist(), "seeds": list(res.seeds),
             "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(), "sigmas": res.sigmas.tolist(),
             "nu_over_beta": res.nu_over_beta.tolist()}
     (out / "fig2.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1, allow_nan=False), "utf-8")
@@ -193,6 +193,7 @@ def cmd_sweep(args) -> int:
     kbf = res.kbf_ratio
     print(f"{res.ratio.size:,} ratios over {len(res.alphas)}×{len(res.sigmas)}×{len(nob)} configurations; "
           f"Kalman–Bucy's own ratio spans {kbf.min():.3f}..{kbf.max():.3f} (should be ≈ 1)")
+    print(_window_line(res.horizon, res.stretch.ravel().tolist(), res.seeds))
     for p in written:
         print(f"wrote {p}")
     return 0
@@ -228,12 +229,12 @@ def _fmt(values) -> str:
 def cmd_recommend(args) -> int:
     """Recommended ν per α (min over ν of the worst case over σ and i), beside paper A's table (A.31)."""
     from isl_core import recommend_nu
+    from isl_core.paper import a31_nu_over_beta
 
-    table = args.m == 3 and args.w == 3.0
     recs = []
     progress = _progress_bar("verify", not args.quiet and not args.no_verify and not args.json)
     for k, alpha in enumerate(args.alphas):
-        paper = PAPER_A31.get(alpha) if table else None
+        paper = a31_nu_over_beta(alpha, args.m, args.w)  # table (A.31), as published
         sub = None if progress is None else (lambda f, k=k: progress((k + f) / len(args.alphas)))
         recs.append(recommend_nu(alpha, sigmas=args.sigmas, m=args.m, w=args.w, verify=not args.no_verify,
                                  compare=[] if paper is None else [paper], horizon=args.horizon, seeds=args.seeds,
@@ -264,7 +265,22 @@ def cmd_recommend(args) -> int:
             line += f"{'—':>12}"
         print(line)
     print("best fixed KBF: a Kalman–Bucy filter designed for one sigma, its worst case over the range (theory).")
+    print("paper (A.31): the nu/beta of paper A's table, as published (read off its Fig. 2), simulated on the same "
+          "noise.")
+    if not args.no_verify:
+        print(_window_line(args.horizon, [s for r in recs for s in r.stretch], args.seeds))
     return 0
+
+
+def _window_line(horizon: float, stretch, seeds) -> str:
+    """Where a simulated table averages: the burn-in and the window, in 1/r_min, lengthened for the slowest filter."""
+    from isl_core.sweep import BURN
+
+    lo, hi = (min(stretch), max(stretch)) if len(stretch) else (1.0, 1.0)
+    span = f"×{lo:.3g}" if lo == hi else f"×{lo:.3g} to ×{hi:.3g}"
+    return (f"averaging window of each simulated run: a burn-in of {BURN:g}/r_min, then {horizon:g}/r_min, both "
+            f"lengthened {span} where a filter settles slower than the optimal one (B.46); seeds {list(seeds)}; "
+            f"filters start at X(0) - e0, e0 ~ N(0, Delta)")
 
 
 def _flat(values) -> list:
@@ -294,8 +310,11 @@ def cmd_worstcase(args) -> int:
         if client is not None:
             client.close()
     if args.json:
-        meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "seeds": list(res.seeds),
-                "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(),
+        from isl_core.sweep import BURN
+
+        meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "burn_in_over_r_min": BURN,
+                "lengthened_by": res.stretch.tolist(), "seeds": list(res.seeds), "batches": res.batches,
+                "level": res.level, "alphas": res.alphas.tolist(),
                 "sigmas": res.sigmas.tolist(), "filters": list(res.names), "labels": list(res.labels),
                 "best_fixed_kbf_worst": res.best_fixed_worst.tolist(),
                 "best_fixed_kbf_sigma": res.best_fixed_sigma.tolist()}
@@ -322,8 +341,12 @@ def _print_worstcase(res) -> None:
     for a, alpha in enumerate(res.alphas):
         cells = []
         for f, w in enumerate(width):
-            cell = "diverged" if math.isnan(worst[a, f]) else \
-                f"{_ratio(worst[a, f])} [{_ratio(low[a, f])}, {_ratio(high[a, f])}]"
+            if res.names[f] == "isl_a31" and math.isnan(res.nu[a, f]):
+                cell = "not in (A.31)"
+            elif math.isnan(worst[a, f]):
+                cell = "diverged"
+            else:
+                cell = f"{_ratio(worst[a, f])} [{_ratio(low[a, f])}, {_ratio(high[a, f])}]"
             cells.append(f"{cell:>{w}}")
         print(f"{alpha:6g} | " + " | ".join(cells))
     print("theory (exact Lyapunov for the fixed-gain Kalman–Bucy filters, statistical linearization for ISL; "
@@ -334,7 +357,7 @@ def _print_worstcase(res) -> None:
         print(f"{alpha:6g} | " + " | ".join(cells))
     tunings = []
     for f, name in enumerate(res.names):
-        if name in ("isl", "isl_model"):
+        if name in ("isl", "isl_model", "isl_a31"):
             tunings.append(f"{name} nu/beta = " + ", ".join(
                 f"{nu / (res.w * math.sqrt(2.0 * alpha)):.3g}" for nu, alpha in zip(res.nu[:, f], res.alphas)))
         elif name in ("kbf_mismatched", "kbf_minimax"):
@@ -343,6 +366,7 @@ def _print_worstcase(res) -> None:
         print("tunings (per alpha): " + "; ".join(tunings))
     print("best fixed-gain KBF over the range (theory): worst " + ", ".join(f"{v:.3f}" for v in res.best_fixed_worst)
           + " at sigma_design " + ", ".join(f"{v:.3g}" for v in res.best_fixed_sigma))
+    print(_window_line(res.horizon, res.stretch.ravel().tolist(), res.seeds))
 
 
 def _build() -> _Parser:
@@ -403,7 +427,7 @@ def _build() -> _Parser:
     common(p, horizon=1000.0)
     p.set_defaults(func=cmd_recommend)
 
-    from isl_core.baselines import BASELINES
+    from isl_core.worstcase import FILTERS
 
     p = sub.add_parser("worstcase", help="each filter's worst-case ratio over a sigma range, per alpha")
     p.add_argument("--alphas", type=_comma(_positive), nargs="+", default=[list(FIG2_ALPHAS)],
@@ -411,8 +435,8 @@ def _build() -> _Parser:
     p.add_argument("--sigma-min", type=_positive, default=2.0, help="smallest sigma (default 2)")
     p.add_argument("--sigma-max", type=_positive, default=200.0, help="largest sigma (default 200)")
     p.add_argument("--n-sigma", type=_whole, default=5, help="log-spaced sigma values in the range (default 5)")
-    p.add_argument("--filters", type=_comma(str), nargs="+", default=[list(BASELINES)],
-                   help=f"filters to compare (default {','.join(BASELINES)})")
+    p.add_argument("--filters", type=_comma(str), nargs="+", default=[list(FILTERS)],
+                   help=f"filters to compare (default {','.join(FILTERS)})")
     p.add_argument("--sigma-design", type=_positive, default=None,
                    help="sigma of the mismatched KBF (default the geometric middle of the range)")
     p.add_argument("--window", type=_positive, default=1000.0, help="adaptive KBF window W in steps (default 1000)")

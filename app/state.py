@@ -476,8 +476,13 @@ class AppState(extras.Baselines):
             self.sweep_note = "The parameters changed while the sweep ran; run it again."
         else:
             self._note_context = self._sweep_model()
-            self.param.update(points=pts, sweep_note=f"Simulated in {outcome.seconds:.2g} s "
-                                                     "(95 % batch-means intervals).")
+            k_lo, k_hi = min(pts.stretch), max(pts.stretch)
+            longer = "" if k_hi == 1.0 else (f", both lengthened ×{k_lo:.3g}–×{k_hi:.3g} for the slowest ν "
+                                             "(its filter settles slower than the optimal one, B.46)")
+            self.param.update(points=pts, sweep_note=(
+                f"Simulated in {outcome.seconds:.2g} s: each σ's run (seed {pts.seed}) averages over "
+                f"{pts.horizon:g}/r_min after a burn-in of {sweeps.BURN:g}/r_min{longer}; 95 % batch-means "
+                "intervals."))
 
     def recommend(self) -> None:
         """Set ν to the value minimizing the worst-case ratio over the sweep's σ (``recommend_nu``, verified)."""

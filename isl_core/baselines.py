@@ -110,13 +110,13 @@ def baseline_filters(
     return [makers[name]() for name in names]
 
 
-def check_names(names, param: str = "names") -> tuple[str, ...]:
-    """``names`` as a non-empty tuple of distinct names of :data:`BASELINES`, or a ``ValueError`` naming ``param``."""
-    what = f"{param} must be a non-empty sequence of distinct names from {list(BASELINES)}"
+def check_names(names, param: str = "names", allowed: Sequence[str] = BASELINES) -> tuple[str, ...]:
+    """``names`` as a non-empty tuple of distinct names of ``allowed``, or a ``ValueError`` naming ``param``."""
+    what = f"{param} must be a non-empty sequence of distinct names from {list(allowed)}"
     if not isinstance(names, list | tuple):
         raise ValueError(f"{what}, got {short(names)}")
     names = tuple(names)
-    if not (names and all(isinstance(n, str) and n in BASELINES for n in names) and len(set(names)) == len(names)):
+    if not (names and all(isinstance(n, str) and n in allowed for n in names) and len(set(names)) == len(names)):
         raise ValueError(f"{what}, got {short(names)}")
     return names
 

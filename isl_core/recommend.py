@@ -19,7 +19,8 @@ import numpy as np
 
 from .validate import check_int, check_real, check_reals, short
 from .model import M_MAX, Model
-from .sweep import FIG2_SIGMAS, sweep
+from .paper import FIG2_SIGMAS
+from .sweep import sweep
 from .theory import mismatched_kbf_ratios, predicted_ratios_grid
 
 __all__ = ["Recommendation", "WorstCase", "best_fixed_kbf", "recommend_nu", "worst_case_theory"]
@@ -50,7 +51,9 @@ class Recommendation:
     ``worst_sigma``, ``worst_i`` where the simulated (else predicted) worst case sits;
     ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case;
     ``compared``: the worst cases of the ``compare`` values of ν/β, simulated on the same noise;
-    ``model_aware``: the recommendation is for the ISL filter that propagates with A.
+    ``model_aware``: the recommendation is for the ISL filter that propagates with A. The simulation's averaging
+    window per σ (``sigmas`` order): a burn-in of ``BURN·stretch[j]/r_min``, then ``horizon·stretch[j]/r_min``
+    (:func:`isl_core.sweep.group_length`); ``stretch`` is empty when not verified.
     """
 
     alpha: float
@@ -70,6 +73,8 @@ class Recommendation:
     kbf_sigma_design: float
     compared: tuple[WorstCase, ...] = ()
     model_aware: bool = False
+    horizon: float = math.nan
+    stretch: tuple[float, ...] = ()
 
 
 def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0,
@@ -146,19 +151,23 @@ def recommend_nu(
     ell = _search(alpha, sig, m, w, model_aware)
     nob = 2.0**ell
     kbf_worst, kbf_design = best_fixed_kbf(alpha, sigmas=sig, m=m, w=w)
-    cases = _worst_cases([nob, *compare], alpha, sig, m, w, verify, dict(
+    cases, stretch = _worst_cases([nob, *compare], alpha, sig, m, w, verify, dict(
         horizon=horizon, seeds=seeds, batches=batches, level=level, executor=executor, progress=progress,
         model_aware=model_aware))
     c = cases[0]
     return Recommendation(alpha, beta, m, w, tuple(sig), beta * nob, nob, c.theory, c.simulated, c.low, c.high,
-                          c.sigma, c.i, kbf_worst, kbf_design, tuple(cases[1:]), model_aware)
+                          c.sigma, c.i, kbf_worst, kbf_design, tuple(cases[1:]), model_aware,
+                          float(horizon) if verify else math.nan, stretch)
 
 
-def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> list[WorstCase]:
-    """Worst case over σ, i of every ν/β in ``nobs`` — simulated in one sweep (same noise) when ``verify``."""
+def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> tuple[list[WorstCase], tuple[float, ...]]:
+    """Worst case over σ, i of every ν/β in ``nobs`` — simulated in one sweep (same noise) when ``verify`` — and
+    that sweep's lengthening per σ (empty when not verified)."""
     cases = []
+    stretch: tuple[float, ...] = ()
     if verify:
         res = sweep([alpha], sigmas, nobs, m=m, w=w, **kw)
+        stretch = tuple(float(x) for x in res.stretch[0])
     damp = alpha if kw["model_aware"] else None
     for n, nob in enumerate(nobs):
         theory = float(worst_case_theory(alpha, nob, sigmas=sigmas, m=m, w=w, model_aware=kw["model_aware"]))
@@ -173,4 +182,4 @@ def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> list[WorstCase]:
             b, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
             sim = low = high = math.nan
         cases.append(WorstCase(float(nob), theory, sim, low, high, float(sigmas[b]), int(i) + 1))
-    return cases
+    return cases, stretch

@@ -38,6 +38,7 @@ from .validate import check_int, check_ints, check_real, check_reals, short
 from .baselines import model_aware_isl
 from .filters import FilterSpec, isl_filter, optimal_kbf
 from .model import M_MAX, Model
+from .paper import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
 from .riccati import kalman_bucy
 from .simulate import MAX_STEPS, DivergenceError, settling_rate, simulate_rmse, step_size
 from .theory import predicted_ratios_grid
@@ -45,9 +46,6 @@ from .theory import predicted_ratios_grid
 __all__ = ["BURN", "SweepResult", "group_length", "group_seed", "ratio_interval", "sweep"]
 
 BURN = 10.0  #: burn-in left out of every average, in units of 1/r_min
-FIG2_ALPHAS = (0.04, 0.2, 1.0, 5.0, 25.0)  #: paper A, Fig. 2 rows
-FIG2_SIGMAS = (2.0, 20.0, 200.0)  #: paper A, Fig. 2 line styles
-FIG2_NU_OVER_BETA = tuple(2.0**ell for ell in range(-8, 3))  #: paper A, Fig. 2 abscissae ν/β = 2^ℓ
 
 
 def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int) -> int:

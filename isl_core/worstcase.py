@@ -9,7 +9,9 @@ The filters are those of :mod:`isl_core.baselines`, all on ONE trajectory per (�
 numbers). Choices, all documented:
 
 * ISL filters: ν from :func:`isl_core.recommend_nu` over the same σ grid (the prediction's minimax ν, not
-  verified there: this table is the verification), separately for paper A's filter and the model-aware one.
+  verified there: this table is the verification), separately for paper A's filter ("ISL, minimax ν") and the
+  model-aware one; and paper A's filter at the ν/β of table (A.31) ("ISL, ν from table A.31",
+  :mod:`isl_core.paper`) for the α the table holds (m = 3, w = 3; other α: not simulated, nan).
 * mismatched KBF: σ̄ = √(σ_min σ_max) unless ``sigma_design`` is given; minimax KBF: σ̄ = σ_max;
   adaptive KBF: its table and start from the same range, window ``window``.
 * simulation: the sweep machinery of :mod:`isl_core.sweep` — one group per (α, σ, seed) with the step h of
@@ -22,6 +24,7 @@ numbers). Choices, all documented:
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -30,13 +33,15 @@ import numpy as np
 
 from .validate import check_int, check_real, check_reals, short
 from .adaptive import WINDOW, check_sigma_range
-from .baselines import BASELINES, LABELS, baseline_filters, check_names, design_sigma, theory_ratios
+from .baselines import BASELINES, baseline_filters, check_names, design_sigma, theory_ratios
+from .baselines import LABELS as BASE_LABELS
+from .filters import isl_filter
 from .model import M_MAX, Model
+from .paper import FIG2_ALPHAS, a31_nu_over_beta
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
 from .sweep import (
     BURN,
-    FIG2_ALPHAS,
     _check_execution,
     _check_sampling,
     _local,
@@ -48,7 +53,13 @@ from .sweep import (
     ratio_interval,
 )
 
-__all__ = ["WorstCaseTable", "worst_case"]
+__all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
+
+#: the filters of the table: the baselines, with paper A's filter twice — at the minimax ν and at table A.31's
+FILTERS = (*BASELINES[:2], "isl_a31", *BASELINES[2:])
+#: column labels: each filter AND where its tuning comes from
+LABELS = {**BASE_LABELS, "isl": "ISL, minimax ν", "isl_a31": "ISL, ν from table A.31",
+          "isl_model": "ISL model-aware, minimax ν"}
 
 
 def _frozen(a, dtype=float) -> np.ndarray:
@@ -95,7 +106,7 @@ class WorstCaseTable:
 
     @property
     def labels(self) -> tuple[str, ...]:
-        """Short human labels of ``names`` (:data:`isl_core.baselines.LABELS`)."""
+        """Short human labels of ``names``, with the origin of each filter's tuning (:data:`LABELS`)."""
         return tuple(LABELS[n] for n in self.names)
 
     @property
@@ -168,28 +179,42 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, bat
     s, r_min, h, steps = np.empty((na, ns, m)), np.empty((na, ns)), np.empty((na, ns)), np.empty((na, ns), np.int64)
     stretch = np.empty((na, ns))
     tasks = []
+    cols = []
     for a, alpha in enumerate(alphas):
         rec = recommend_nu(alpha, sigmas=sigmas, m=m, w=w, verify=False)
         nu_model = recommend_nu(alpha, sigmas=sigmas, m=m, w=w, verify=False, model_aware=True).nu
+        a31 = a31_nu_over_beta(alpha, m, w)
+        nu_a31 = math.nan if a31 is None else a31 * w * math.sqrt(2.0 * alpha)
         best[:, a] = rec.kbf_worst, rec.kbf_sigma_design
+        present = tuple(n for n in names if not (n == "isl_a31" and a31 is None))  # (A.31) holds 5 α only
+        cols.append(tuple(names.index(n) for n in present))
         kw = {"nu": rec.nu, "nu_model": nu_model, "sigma_design": sigma_design, "sigma_range": (lo, hi),
-              "window": window, "names": names}
+              "window": window}
         for f, name in enumerate(names):
-            nu[a, f] = {"isl": rec.nu, "isl_model": nu_model}.get(name, math.nan)
+            nu[a, f] = {"isl": rec.nu, "isl_model": nu_model, "isl_a31": nu_a31}.get(name, math.nan)
             design[a, f] = {"kbf_mismatched": design_sigma((lo, hi)) if sigma_design is None else sigma_design,
                             "kbf_minimax": hi}.get(name, math.nan)
         for b, sigma in enumerate(sigmas):
             model = Model.from_w(alpha, w, sigma, m)
             kb = kalman_bucy(model)
-            filters = tuple(baseline_filters(model, **kw))
-            theory[a, b] = [theory_ratios(model, spec) for spec in filters]
+            filters = tuple(_filter(model, name, nu_a31, kw) for name in present)
+            theory[a, b] = np.nan
+            theory[a, b, list(cols[a])] = [theory_ratios(model, spec) for spec in filters]
             T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             for k, seed in enumerate(seeds):
                 tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
                                    group_seed(seed, alpha, sigma, w, m), n))
     tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
-    return nu, design, best, theory, tasks, s, r_min, h, steps, stretch
+    return nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols
+
+
+def _filter(model: Model, name: str, nu_a31: float, kw: dict):
+    """Filter ``name`` of :data:`FILTERS` for ``model``: a baseline, or paper A's ISL filter at table A.31's ν."""
+    if name == "isl_a31":
+        spec = isl_filter(model, nu_a31)
+        return dataclasses.replace(spec, name="isl_a31", label=f"ISL, ν from table A.31 (ν = {nu_a31:.4g})")
+    return baseline_filters(model, names=(name,), **kw)[0]
 
 
 def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level):
@@ -216,7 +241,7 @@ def worst_case(
     n_sigma: int = 5,
     m: int = 3,
     w: float = 3.0,
-    filters: Sequence[str] = BASELINES,
+    filters: Sequence[str] = FILTERS,
     sigma_design: float | None = None,
     window: float = WINDOW,
     horizon: float = 1000.0,
@@ -230,24 +255,25 @@ def worst_case(
 ) -> WorstCaseTable:
     """Each filter's worst-case RMSE ratio over ``sigma_range`` (``n_sigma`` log-spaced σ) per α > 0.
 
-    ``filters``: names from :data:`isl_core.baselines.BASELINES` (default all). ``sigma_design``: σ̄ of the
+    ``filters``: names from :data:`FILTERS` (default all): the baselines of :mod:`isl_core.baselines` and
+    ``isl_a31``, paper A's filter at table A.31's ν (for the α of that table; nan elsewhere). ``sigma_design``: σ̄ of the
     mismatched Kalman–Bucy filter (default √(σ_min σ_max)); ``window``: the adaptive filter's W in steps.
     ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``chunk``, ``workers`` and
     ``progress`` as in :func:`isl_core.sweep`: results do not depend on the executor or on chunking.
     """
     alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level = _check(
         alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level)
-    names = check_names(filters, "filters")
+    names = check_names(filters, "filters", FILTERS)
     chunk, workers = _check_execution(chunk, workers, progress)
-    nu, design, best, theory, tasks, s, r_min, h, steps, stretch = _plan(
+    nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols = _plan(
         alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
     out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
     na, ns, nf = len(alphas), len(sigmas), len(names)
-    sq = np.empty((na, ns, len(seeds) * batches, nf, m))
+    sq = np.full((na, ns, len(seeds) * batches, nf, m), np.nan)  # a filter not simulated at some α stays nan
     counts = np.empty((na, ns, len(seeds) * batches))
     for (a, b, k), part, cnt in out:
-        sq[a, b, k * batches:(k + 1) * batches] = part
+        sq[a, b, k * batches:(k + 1) * batches][:, list(cols[a])] = part
         counts[a, b, k * batches:(k + 1) * batches] = cnt
     ratio, low, high = (np.empty((na, ns, nf, m)) for _ in range(3))
     for a in range(na):

@@ -110,7 +110,7 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
         assert threading.get_ident() == caller
         t = s.worst
         assert t is not None and "Simulated" in s.worst_note, s.worst_note
-        assert t.alphas.tolist() == [1.0] and t.sigma_range == (2.0, 200.0) and t.names == extras.BASELINES
+        assert t.alphas.tolist() == [1.0] and t.sigma_range == (2.0, 200.0) and t.names == extras.FILTERS
         # internal consistency: each worst case is the largest per-σ value, the oracle's theory is 1
         assert np.all(t.worst[0] >= t.ratio[0].max(axis=-1).max(axis=0) - 1e-12)
         assert t.theory_worst[0, 0] == pytest.approx(1.0, rel=1e-9)

@@ -178,7 +178,7 @@ def test_simulated_sweep_points_and_the_worst_case_table_render(served):
         rows = table.inner_text()
         page.wait_for_timeout(500)  # an error raised while applying the results shows as a notification
         body = page.locator("body").inner_text()
-    assert "α = 1" in rows and "ISL (paper A)" in rows
+    assert "α = 1" in rows and "ISL, minimax ν" in rows and "ISL, ν from table A.31" in rows
     assert "Something went wrong" not in body
     text = log.read_text()
     assert "Traceback" not in text, text[-3000:]

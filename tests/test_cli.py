@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from app.cli import PAPER_A31, main
+from app.cli import main
+from isl_core.paper import A31_NU_OVER_BETA as PAPER_A31
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -92,14 +93,18 @@ def test_worstcase_table_and_json(capsys):
     lines = capsys.readouterr().out.splitlines()
     heads = [k for k, line in enumerate(lines) if line.lstrip().startswith("alpha |")]
     assert len(heads) == 2 and "KBF oracle" in lines[heads[0]] and "ISL model-aware" in lines[heads[0]]
+    assert "ISL, minimax ν" in lines[heads[0]] and "ISL, ν from table A.31" in lines[heads[0]]  # each tuning's origin
     for head in heads:  # one row per α, one column per filter (simulated table, then theory)
         rows = lines[head + 1:head + 6]
         assert [float(r.split("|")[0]) for r in rows] == [0.04, 0.2, 1.0, 5.0, 25.0]
-        assert all(len(r.split("|")) == 1 + 6 for r in rows)
+        assert all(len(r.split("|")) == 1 + 7 for r in rows)
+    assert any(line.startswith("averaging window of each simulated run: a burn-in of 10/r_min, then 30/r_min")
+               for line in lines)
     assert main(["worstcase", "--alphas", "1", "5", "--filters", "kbf,kbf_adaptive,isl", "--n-sigma", "2",
                  "--horizon", "20", "--seeds", "0,1", "--batches", "2", "--json"]) == 0
     res = _json(capsys)
     assert res["meta"]["filters"] == ["kbf", "kbf_adaptive", "isl"] and res["meta"]["seeds"] == [0, 1]
+    assert res["meta"]["burn_in_over_r_min"] == 10.0 and len(res["meta"]["lengthened_by"]) == 2
     assert len(res["rows"]) == 2 * 3
     for row in res["rows"]:
         assert row["worst_low"] <= row["worst"] <= row["worst_high"] and row["worst_sigma"] in res["meta"]["sigmas"]

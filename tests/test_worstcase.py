@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from isl_core import Model, kalman_bucy, optimal_kbf, recommend_nu
-from isl_core.baselines import BASELINES
 from isl_core.theory import predicted_covariance
-from isl_core.worstcase import worst_case
+from isl_core.paper import A31_NU_OVER_BETA
+from isl_core.worstcase import FILTERS, LABELS, worst_case
 
 ALPHAS = (0.04, 0.2, 1.0, 5.0, 25.0)
 N_SIGMA = 3
@@ -30,8 +30,8 @@ def table():
 
 
 def test_layout(table):
-    na, ns, nf = len(ALPHAS), N_SIGMA, len(BASELINES)
-    assert table.names == BASELINES and len(table.labels) == nf
+    na, ns, nf = len(ALPHAS), N_SIGMA, len(FILTERS)
+    assert table.names == FILTERS and len(table.labels) == nf
     np.testing.assert_allclose(table.sigmas, [2.0, 20.0, 200.0], rtol=1e-12)
     assert table.sigmas[0] == 2.0 and table.sigmas[-1] == 200.0
     for arr in (table.ratio, table.low, table.high, table.theory):
@@ -48,7 +48,7 @@ def test_each_worst_case_bounds_every_per_sigma_value(table):
     assert np.all(table.worst_low[:, None, :, None] >= table.low)
     assert np.all((table.worst_low <= worst) & (worst <= table.worst_high))
     for a in range(len(ALPHAS)):
-        for f in range(len(BASELINES)):  # the worst case is attained where the table says
+        for f in range(len(FILTERS)):  # the worst case is attained where the table says
             b = int(np.flatnonzero(table.sigmas == table.worst_sigma[a, f])[0])
             assert ratio[a, b, f, table.worst_i[a, f] - 1] == worst[a, f]
     finite = ~np.isnan(table.theory)
@@ -57,7 +57,7 @@ def test_each_worst_case_bounds_every_per_sigma_value(table):
 
 def test_kbf_oracle_is_one(table):
     """Theory: exactly 1. Simulation: every interval covers the oracle's exact Euler-grid value (1 + O(h·rate))."""
-    f = BASELINES.index("kbf")
+    f = FILTERS.index("kbf")
     np.testing.assert_allclose(table.theory[:, :, f], 1.0, rtol=1e-9)
     for a, alpha in enumerate(ALPHAS):
         for b, sigma in enumerate(table.sigmas):
@@ -70,10 +70,10 @@ def test_kbf_oracle_is_one(table):
 
 def test_adaptive_tracks_the_oracle_and_fixed_gains_pay_for_not_knowing_sigma(table):
     """On the same noise the adaptive filter sits within 1 % of the oracle at every σ; no theory for it."""
-    k, ad = BASELINES.index("kbf"), BASELINES.index("kbf_adaptive")
+    k, ad = FILTERS.index("kbf"), FILTERS.index("kbf_adaptive")
     assert np.all(np.abs(table.ratio[:, :, ad] - table.ratio[:, :, k]) <= 0.01)
     assert np.all(np.isnan(table.theory[:, :, ad])) and np.all(np.isnan(table.theory_worst[:, ad]))
-    mid, top = BASELINES.index("kbf_mismatched"), BASELINES.index("kbf_minimax")
+    mid, top = FILTERS.index("kbf_mismatched"), FILTERS.index("kbf_minimax")
     assert np.all(table.theory_worst[:, mid] >= table.best_fixed_worst * (1 - 1e-9))  # no fixed gain beats that
     # σ̄ = σ_max: gain far too small at σ_min. Its errors decorrelate ~(σ_max/σ_min)^{1/m} times slower than
     # the oracle's, so short batches give it wide intervals: compare the estimates themselves.
@@ -83,13 +83,28 @@ def test_adaptive_tracks_the_oracle_and_fixed_gains_pay_for_not_knowing_sigma(ta
 
 def test_tunings(table):
     sig = tuple(table.sigmas)
-    isl, aware = BASELINES.index("isl"), BASELINES.index("isl_model")
+    isl, aware = FILTERS.index("isl"), FILTERS.index("isl_model")
     for a, alpha in enumerate(ALPHAS):
         assert table.nu[a, isl] == recommend_nu(alpha, sigmas=sig, verify=False).nu
         assert table.nu[a, aware] == recommend_nu(alpha, sigmas=sig, verify=False, model_aware=True).nu
-    np.testing.assert_allclose(table.sigma_design[:, BASELINES.index("kbf_mismatched")], 20.0, rtol=1e-12)
-    np.testing.assert_array_equal(table.sigma_design[:, BASELINES.index("kbf_minimax")], 200.0)
-    assert np.all(np.isnan(table.nu[:, [BASELINES.index(n) for n in BASELINES if not n.startswith("isl")]]))
+    np.testing.assert_allclose(table.sigma_design[:, FILTERS.index("kbf_mismatched")], 20.0, rtol=1e-12)
+    np.testing.assert_array_equal(table.sigma_design[:, FILTERS.index("kbf_minimax")], 200.0)
+    assert np.all(np.isnan(table.nu[:, [FILTERS.index(n) for n in FILTERS if not n.startswith("isl")]]))
+
+
+def test_paper_tuning_beside_the_minimax_tuning(table):
+    """Two ISL columns, each saying where its ν comes from: the project's minimax ν and paper A's table (A.31)."""
+    a31, isl = FILTERS.index("isl_a31"), FILTERS.index("isl")
+    assert table.labels[a31] == LABELS["isl_a31"] == "ISL, ν from table A.31"
+    assert table.labels[isl] == "ISL, minimax ν"
+    for a, alpha in enumerate(ALPHAS):
+        beta = 3.0 * math.sqrt(2.0 * alpha)
+        assert table.nu[a, a31] == pytest.approx(A31_NU_OVER_BETA[alpha] * beta, rel=1e-12)
+    assert np.all(np.isfinite(table.worst[:, a31]))
+    # where the table has no α, the paper's column is not simulated (nan), the others are
+    other = worst_case([0.5], sigma_range=(2.0, 200.0), n_sigma=2, horizon=20.0, seeds=(1,), batches=2,
+                       filters=("kbf", "isl", "isl_a31"))
+    assert np.isnan(other.worst[0, 2]) and np.isnan(other.nu[0, 2]) and np.all(np.isfinite(other.worst[0, :2]))
 
 
 def test_same_result_on_another_executor_and_chunking():

@@ -76,9 +76,14 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         )
     note = ("" if prediction is not None else
             "<p><i>Theory prediction unavailable: isl_core.theory is not installed.</i></p>")
+    longer = "" if run.stretch == 1.0 else (
+        f"<span class='tag'>lengthened ×{run.stretch:.3g}: the ISL filter at this ν settles that much slower than "
+        "the optimal one (B.46)</span>")
     facts = (
         f"<tr><td>r<sub>min</sub> (settling rate, theory)</td><td>{_fmt(run.r_min)}</td></tr>"
-        f"<tr><td>T (simulated time)</td><td>{_fmt(run.T)} = {run.T * run.r_min:.3g} / r<sub>min</sub></td></tr>"
+        f"<tr><td>T (simulated time)</td><td>{_fmt(run.T)} = {run.T * run.r_min:.3g} / r<sub>min</sub>{longer}</td></tr>"
+        "<tr><td>averaging window</td><td>t ∈ [0, T], no burn-in: every filter starts at X(0) − e₀, "
+        "e₀ ~ N(0, Δ)</td></tr>"
         f"<tr><td>h (Euler step)</td><td>{run.h:.3g}</td></tr>"
         f"<tr><td>N (steps)</td><td>{run.N:,}</td></tr>"
         f"<tr><td>compute time (server)</td><td>{1000 * compute_seconds:.0f} ms</td></tr>"

@@ -12,7 +12,8 @@ ISL = "#1f4fc1"  #: ISL X̌_i (blue)
 EXTRA_COLORS = {  #: the baselines of app.extras: hues apart from truth, KBF, ISL and the σ colours below
     "kbf_mismatched": "#8c510a", "kbf_minimax": "#a50026", "kbf_adaptive": "#e6ab02", "isl_model": "#17becf",
 }
-FILTER_COLORS = {"kbf": KBF, "isl": ISL, **EXTRA_COLORS}  #: every filter of isl_core.baselines.BASELINES
+#: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
+FILTER_COLORS = {"kbf": KBF, "isl": ISL, "isl_a31": "#7b9be0", **EXTRA_COLORS}
 SIGMA_COLORS = ("#d95f02", "#7570b3", "#1b9e77", "#e7298a", "#66a61e")  #: one per σ of the sweep
 SIGMA_DASHES = ("dotted", "dashed", "solid", "dashdot", "dotdash")  #: paper A, Fig. 2: σ = 2, 20, 200
 SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
