@@ -34,7 +34,13 @@ _OUTCOMES = ["run", "message", "busy"]  #: a run was applied, refused or failed:
 
 
 def _encode(value) -> str:
-    return json.dumps(list(value) if isinstance(value, tuple) else value, separators=(",", ":"))
+    """A value as the link spells it: shortest exact form, integral numbers without ".0" (``sigma=200``)."""
+    if isinstance(value, float):
+        text = repr(value)
+        return text[:-2] if text.endswith(".0") else text
+    if isinstance(value, list | tuple):
+        return "[" + ",".join(_encode(v) if not isinstance(v, str) else json.dumps(v) for v in value) + "]"
+    return json.dumps(value)
 
 
 def read_query(search: str) -> tuple[dict[str, object], dict[str, str]]:
@@ -84,6 +90,9 @@ class UrlSync:
         self.state, self.location = state, location
         self._writing = False
         self._pending = False
+        # The page's own copy of its URL reports the query it was opened with once, when it loads — after the server
+        # may already have rewritten it (a bad value dropped, a horizon lowered). That echo is not a navigation.
+        self._opened_with = location.search
         self.apply(location.search)
         state.param.watch(self._on_input, list(URL_INPUTS))
         state.param.watch(self._on_outcome, _OUTCOMES)
@@ -126,7 +135,12 @@ class UrlSync:
             self.write()
 
     def _on_search(self, event) -> None:
-        if not self._writing:
+        if self._writing:  # our own write
+            return
+        echo, self._opened_with = event.new == self._opened_with, None
+        if echo:
+            self.write()  # the page reloaded the query it was opened with: give it back what is shown
+        else:
             self.apply(event.new)
 
 

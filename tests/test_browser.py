@@ -9,6 +9,7 @@ worst-case table) and list every request the page makes (none may leave the serv
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import re
 import socket
@@ -18,6 +19,7 @@ import time
 import urllib.request
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -73,14 +75,14 @@ def served(tmp_path_factory):
 
 
 @contextlib.contextmanager
-def dashboard(url: str, on_request=None):
+def dashboard(url: str, on_request=None, viewport: dict | None = None):
     """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
     every request from the start)."""
     sync_api = pytest.importorskip("playwright.sync_api")
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
         try:
-            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page = browser.new_page(viewport=viewport or {"width": 1600, "height": 1000})
             if on_request is not None:
                 page.on("request", lambda request: on_request(request.url))
             page.goto(url)
@@ -200,3 +202,95 @@ def test_the_high_order_sweep_measures_the_optimal_filter_at_one(served):
     assert len(pairs) == 3 * 6, note  # three σ, six coordinates
     assert all(abs(r - 1.0) <= max(w, 0.03) for r, w in pairs), note
     assert "Traceback" not in log.read_text()
+
+
+PLOT_BOXES = """() => Array.from(Bokeh.index.all_views())
+    .filter(v => v.model.type === 'Figure' && v.model.title && /^X. — /.test(v.model.title.text))
+    .map(v => { const r = v.el.getBoundingClientRect(); return [v.model.title.text, r.x, r.y, r.width, r.height]; })"""
+
+EXTRA_DATA = """(names) => {
+    const doc = Bokeh.documents[0];
+    return names.every(n => [1, 2, 3].every(i => {
+        const s = doc.get_model_by_name(`traj-${i}-${n}`); return s && s.data.y.length > 0; }));
+}"""
+
+
+def _pixels_near(image, color: str, tol: float = 0.12) -> int:
+    """How many pixels of an RGB(A) float image lie within ``tol`` (per channel) of the hex ``color``."""
+    rgb = np.array([int(color[k:k + 2], 16) / 255.0 for k in (1, 3, 5)])
+    return int(np.sum(np.all(np.abs(image[..., :3] - rgb) <= tol, axis=-1)))
+
+
+def test_every_ticked_filter_is_drawn_in_every_plot(served):
+    """Tick each of the other filters: in every plot its line is visible — checked on the rendered pixels of its
+    colour inside each plot's box, not only on the legend (the lines once held data but stayed invisible)."""
+    from matplotlib.image import imread
+
+    from app.extras import EXTRA_NAMES
+    from app.views.style import EXTRA_COLORS
+
+    url, log = served
+    # at σ = 100 the filter designed for σ̄ = 20 differs from the optimal one (at σ = σ̄ it IS the optimal one)
+    with dashboard(url + "?sigma=100", viewport={"width": 1600, "height": 1500}) as page:
+        for name in EXTRA_NAMES:
+            page.locator(f".extra-{name} input").click()
+        page.wait_for_function(EXTRA_DATA, arg=list(EXTRA_NAMES), timeout=60_000)
+        page.wait_for_function(f"() => ({PLOT_BOXES})().length === 3", timeout=20_000)
+        boxes = page.evaluate(PLOT_BOXES)
+        shot = imread(io.BytesIO(page.screenshot()))
+    assert [b[0] for b in boxes] == ["X₁ — position", "X₂ — velocity", "X₃ — acceleration"]
+    for title, x, y, w, h in boxes:
+        plot = shot[int(y):int(y + h), int(x):int(x + w)]
+        counts = {name: _pixels_near(plot, EXTRA_COLORS[name]) for name in EXTRA_NAMES}
+        assert all(c >= 30 for c in counts.values()), (title, counts)
+    assert "Traceback" not in log.read_text()
+
+
+def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(served):
+    """Each value in range, together too long a run: the page shows a run at the longest horizon that fits and says
+    so (it used to show empty plots, "No run yet." and sliders at values never simulated)."""
+    url, log = served
+    with dashboard(url + "?horizon=1000&sigma=0.1&nu=10000") as page:
+        page.get_by_text("Showing the nearest allowed setting").wait_for(timeout=60_000)
+        status = page.get_by_text("Showing the nearest allowed setting").inner_text()
+        page.wait_for_function("() => /horizon=/.test(location.search) && !/horizon=1000/.test(location.search)",
+                               timeout=20_000)  # the link now says what is shown
+        boxes = page.evaluate(PLOT_BOXES)
+    assert "horizon lowered from 1000 to" in status and len(boxes) == 3
+    assert "Traceback" not in log.read_text()
+
+
+def test_a_link_no_setting_can_serve_says_why_instead_of_empty_plots(served):
+    url, _ = served
+    hopeless = "?m=1&alpha=0&beta_from_w=false&beta=0.01&sigma=0.1&nu=10000&horizon=1000"
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page.goto(url + hopeless)
+            page.get_by_text("Nothing to show.").wait_for(timeout=60_000)
+            text = page.locator("p", has_text="Nothing to show.").inner_text()
+            boxes = page.evaluate(PLOT_BOXES)
+        finally:
+            browser.close()
+    assert "even at the shortest horizon" in text and "lower ν or raise σ" in text
+    assert boxes == []  # no empty axes
+
+
+TRUTH_DATA = """() => [1, 2, 3].map(i => Array.from(
+    Bokeh.documents[0].get_model_by_name(`traj-${i}-truth`).data.y).join(','))"""
+
+
+def test_showing_another_filter_changes_neither_the_signal_nor_the_other_numbers(served):
+    """The grid covers every filter a view can show, so ticking one leaves the simulated signal and the optimal and
+    ISL filters' numbers bit-identical (it used to shrink h: N 1089 → 1458, X₁'s ratio 1.423 → 1.340)."""
+    url, _ = served
+    with dashboard(url) as page:
+        truth = page.evaluate(TRUTH_DATA)
+        table = page.locator("table.isl-numbers.ratios").inner_text()
+        page.locator(".extra-kbf_adaptive input").click()
+        page.wait_for_function(EXTRA_DATA, arg=["kbf_adaptive"], timeout=60_000)
+        after = page.evaluate(TRUTH_DATA)
+        table_after = page.locator("table.isl-numbers.ratios").inner_text()
+    assert after == truth and table_after == table

@@ -60,7 +60,7 @@ def extras_html(run, extra_prediction: dict | None) -> str:
 def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict | None = None) -> str:
     """The tables (per-coordinate ratios; the extra filters' ratios, if any; run figures) as HTML."""
     if run is None:
-        return "<p>No run yet.</p>"
+        return "<p><i>The numbers appear with the first run.</i></p>"
     head = ("<tr><th>coordinate</th><th>s<sub>i</sub><span class='tag'>theory</span></th>"
             "<th>ŝ<sub>i</sub>/s<sub>i</sub> KBF<span class='tag'>measured</span></th>"
             "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>measured</span></th>"

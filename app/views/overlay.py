@@ -16,7 +16,7 @@ from bokeh.plotting import figure
 from isl_core.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
-from .style import EXTRA_COLORS
+from .style import EXTRA_COLORS, EXTRA_DASHES
 
 __all__ = ["KEY_DATA", "Overlay", "follow"]
 
@@ -45,7 +45,7 @@ def follow(key: GlyphRenderer) -> list:
 
 
 def _style(n: str) -> dict:
-    return {"line_color": EXTRA_COLORS[n], "line_width": 1.5, "line_alpha": 0.9}
+    return {"line_color": EXTRA_COLORS[n], "line_width": 2.0, "line_alpha": 0.95, "line_dash": EXTRA_DASHES[n]}
 
 
 class Overlay:
@@ -83,10 +83,17 @@ class Overlay:
                 src.data = dict(_EMPTY)
 
     def show(self, names) -> int:
-        """Legend entries and lines for ``names`` (the run's extra filters); returns how many are shown."""
+        """Legend entries and lines for ``names`` (the run's extra filters); returns how many are shown.
+
+        A newly drawn filter shows (its key and its lines, set here: a key's ``on_change`` callback runs for a
+        click in the browser, not for a change made on the server); a filter already drawn keeps whatever a
+        legend click made of it.
+        """
         for n, item in zip(EXTRA_NAMES, self.items):
             item.visible = n in names
-            if (n in names) != (n in self._shown):  # a newly drawn filter shows; a legend click may hide it again
-                self._keys[n].visible = n in names  # and its lines follow
+            if (n in names) != (n in self._shown):
+                self._keys[n].visible = n in names
+                for line in self._followers[n]:
+                    line.visible = n in names
         self._shown = set(names)
         return len(self._shown)

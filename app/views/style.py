@@ -4,7 +4,7 @@ from __future__ import annotations
 from bokeh.models import BasicTickFormatter
 from bokeh.plotting import figure
 
-__all__ = ["EXTRA_COLORS", "FILTER_COLORS", "ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
+__all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
 
 TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
 KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
@@ -13,6 +13,9 @@ EXTRA_COLORS = {  #: the baselines of app.extras: hues apart from truth, KBF, IS
     "kbf_mismatched": "#8c510a", "kbf_minimax": "#a50026", "kbf_adaptive": "#e6ab02", "isl_model": "#17becf",
 }
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
+#: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
+#: the optimal one, the mismatched one at σ̄ = σ) the one below still shows between the dashes
+EXTRA_DASHES = {"kbf_mismatched": "dashed", "kbf_minimax": "dotdash", "kbf_adaptive": [6, 3], "isl_model": [2, 2]}
 FILTER_COLORS = {"kbf": KBF, "isl": ISL, "isl_a31": "#7b9be0", **EXTRA_COLORS}
 SIGMA_COLORS = ("#d95f02", "#7570b3", "#1b9e77", "#e7298a", "#66a61e")  #: one per σ of the sweep
 SIGMA_DASHES = ("dotted", "dashed", "solid", "dashdot", "dotdash")  #: paper A, Fig. 2: σ = 2, 20, 200

@@ -97,7 +97,12 @@ class TrajectoriesView(Viewer):
         self._panes = [pn.pane.Bokeh(f, sizing_mode="stretch_width", margin=(0, 5)) for f in self._figures]
         self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
         self._column = pn.Column(sizing_mode="stretch_width")
+        self._waiting = pn.Row(pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
+                               pn.pane.Markdown("**Simulating the first run …**", margin=(6, 0)),
+                               sizing_mode="stretch_width", margin=(20, 10))
+        self._reason = pn.pane.Alert("", alert_type="danger", sizing_mode="stretch_width", margin=(20, 10))
         self.state.param.watch(self._update, ["traces"])
+        self.state.param.watch(self._placeholder, ["busy", "message"])
         self._update()
 
     def _legend_keys(self) -> dict[str, LegendItem]:
@@ -156,8 +161,21 @@ class TrajectoriesView(Viewer):
                         src.data = dict(_EMPTY)
                     self._overlay.update(i, None)
             self._summary.text = self._header_text()
-            if len(self._column.objects) != m + 1:  # only the m plots in the page: hidden ones would be laid out
+            if run is None:
+                self._placeholder()
+            elif len(self._column.objects) != m + 1:  # only the m plots in the page: hidden ones would be laid out
                 self._column.objects = [self._key_pane, *self._panes[:m]]
+
+    def _placeholder(self, *events) -> None:
+        """No run to draw (yet): a progress indicator while the first one is computed, else the reason — never
+        empty axes."""
+        if self.state.run is not None:
+            return
+        if self.state.busy or not self.state.message:
+            self._column.objects = [self._waiting]
+        else:
+            self._reason.object = f"**Nothing to show.** {self.state.message}"
+            self._column.objects = [self._reason]
 
     def _header_text(self) -> str:
         run = self.state.run
