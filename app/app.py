@@ -8,6 +8,7 @@ tests) jobs run inline.
 from __future__ import annotations
 
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -26,7 +27,7 @@ from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, ab
 from app.views.filters_panel import FiltersPanel
 from app.views.worstcase import WorstCaseView
 
-__all__ = ["TITLE", "LocalFast", "create_app", "session_jobs"]
+__all__ = ["TITLE", "LocalFast", "SessionGate", "create_app", "session_jobs"]
 
 TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
 
@@ -37,11 +38,43 @@ pn.extension(notifications=True)  # the hardening handler reports errors as noti
 hardening.install()  # tracebacks to the log, a short message to the user; session data released on close
 
 
-def _loop_scheduler(doc) -> Callable[[Callable[[], None]], None]:
-    """``schedule(fn)``: run ``fn`` on ``doc``'s event loop with its lock held (callable from any thread)."""
-    from panel.io.state import set_curdoc
+class SessionGate:
+    """``schedule(fn)``: run ``fn`` on ``doc``'s event loop with its lock held (callable from any thread) — but only
+    once the browser has the page.
 
-    def schedule(fn: Callable[[], None]) -> None:
+    Panel drops the changes made to a document before its session counts as connected, because the document is
+    "serialized in full once the session connects"; yet the browser may already have pulled it. A job that
+    finishes in that window (a session's first run, computed while the page loads) would then be lost: the page
+    kept showing "Simulating the first run …" (seen under CPU load). So outcomes wait here until Panel's
+    ``onload`` for the session has run, then go to the loop in order.
+    """
+
+    def __init__(self, doc) -> None:
+        self.doc = doc
+        self._open = False
+        self._pending: list[Callable[[], None]] = []
+        self._lock = threading.Lock()
+
+    def schedule(self, fn: Callable[[], None]) -> None:
+        with self._lock:
+            if not self._open:
+                self._pending.append(fn)
+                return
+        self._execute(fn)
+
+    def opened(self) -> None:
+        """The page is connected (Panel's onload): apply what waited, and everything from now on at once."""
+        with self._lock:
+            self._open = True
+            pending, self._pending = self._pending, []
+        for fn in pending:
+            self._execute(fn)
+
+    def _execute(self, fn: Callable[[], None]) -> None:
+        from panel.io.state import set_curdoc
+
+        doc = self.doc
+
         def run() -> None:
             # every model change of one outcome goes out in one message; and Panel must see the session's
             # document while the views update: without it Panel rebuilds each pane's stylesheet models on each
@@ -52,8 +85,6 @@ def _loop_scheduler(doc) -> Callable[[Callable[[], None]], None]:
         with set_curdoc(doc):
             pn.state.execute(run, schedule=True)
 
-    return schedule
-
 
 def session_jobs() -> Jobs:
     """Thread-pool jobs bound to the current server session, or inline jobs outside a server."""
@@ -62,7 +93,9 @@ def session_jobs() -> Jobs:
         return Jobs()
     pools = {"run": RUN_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL,
              "worstcase": SWEEP_POOL}
-    return Jobs(pools, schedule=_loop_scheduler(doc))
+    gate = SessionGate(doc)
+    pn.state.onload(gate.opened)
+    return Jobs(pools, schedule=gate.schedule)
 
 
 class LocalFast(pn.theme.Fast):

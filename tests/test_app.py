@@ -1,0 +1,30 @@
+"""The page assembly (app.app): a session's job outcomes wait until its page is connected."""
+from __future__ import annotations
+
+import threading
+
+import panel as pn
+from bokeh.document import Document
+from panel.io.state import set_curdoc
+
+from app.app import SessionGate
+
+
+def test_outcomes_wait_for_the_page_then_apply_in_order(monkeypatch):
+    """Panel drops changes made to a document before its session is connected (the browser may already hold the
+    serialized page): outcomes scheduled then are queued, and applied in order by ``opened`` (Panel's onload)."""
+    applied, sent = [], []
+    monkeypatch.setattr(pn.state, "execute", lambda fn, schedule=False: sent.append(fn))
+    doc = Document()
+    gate = SessionGate(doc)
+    workers = [threading.Thread(target=gate.schedule, args=(lambda k=k: applied.append(k),)) for k in range(3)]
+    for w in workers:
+        w.start()
+        w.join()  # in order, from other threads, as job outcomes arrive
+    assert sent == []  # nothing reached the loop before the page loaded
+    gate.opened()
+    gate.schedule(lambda: applied.append(3))  # after onload: at once
+    with set_curdoc(doc):
+        for fn in sent:
+            fn()
+    assert applied == [0, 1, 2, 3]
