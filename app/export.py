@@ -1,27 +1,90 @@
-"""Export of a run as CSV text (the dashboard's download button)."""
+"""Export of the run on screen as CSV (the dashboard's download button): everything needed to reuse or redo it.
+
+The page holds a decimated copy of the run (:mod:`isl_core.runview`); the export simulates the same run again —
+same inputs, same seed, hence the same trajectories bit for bit — keeping every step, or every k-th step when the
+run has more than :data:`MAX_ROWS` (so a download stays a few MB; the header says which). The RMSE and ratios are
+over every step, as on the page.
+
+Layout: ``#`` lines first — the version and date, every input (with w, the horizon asked for and the horizon
+simulated), the grid (h, N, T, the rows kept), the start, the averaging window, then per coordinate s_i (theory)
+and every filter's measured ratio with its theory — then one row per kept step with named columns
+``t, X1_position, …, kbf_X1_position, …, isl_X1_position, …`` (X the signal, then each filter's estimate).
+"""
 from __future__ import annotations
 
+import datetime as _dt
 import io
+import math
+from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
 
-from isl_core import Run
+from isl_core import Model, simulate
+from isl_core.runview import TUBE_THEORY
 
-__all__ = ["run_csv"]
+__all__ = ["MAX_ROWS", "run_csv"]
+
+MAX_ROWS = 20_000  #: rows of a CSV at most (every k-th step beyond; a 20 000-row CSV at m = 6 is ≈ 10 MB)
 
 
-def run_csv(run: Run | None) -> str:
-    """``t, X1..Xm, Xhat1..Xhatm, Xcheck1..Xcheckm`` rows (N+1 of them) under a ``#`` header with the parameters.
+def _version() -> str:
+    try:
+        return version("isl")
+    except PackageNotFoundError:  # a source checkout that was not installed
+        return "unknown"
 
-    X is the truth, Xhat the Kalman–Bucy estimate X̂, Xcheck the ISL estimate X̌; 9 significant digits.
-    """
-    if run is None:
-        return "# no run\n"
-    mo, m = run.model, run.model.m
-    cols = ["t", *(f"{name}{i}" for name in ("X", "Xhat", "Xcheck") for i in range(1, m + 1))]
-    head = (f"isl run: alpha={mo.alpha:.17g} beta={mo.beta:.17g} sigma={mo.sigma:.17g} m={m} "
-            f"nu={run.nu:.17g} seed={run.seed} T={run.T:.17g} h={run.h:.17g} N={run.N}\n" + ",".join(cols))
+
+def _header(state, req, run, view, prediction: dict) -> list[str]:
+    m = req.m
+    names = [f"X{i + 1}_{c}" for i, c in enumerate(_coordinates(m))]
+    lines = [
+        f"isl run export; isl {_version()}; {_dt.datetime.now(_dt.UTC).isoformat(timespec='seconds')}",
+        f"model: m={m} alpha={req.alpha:.17g} beta={req.beta:.17g} sigma={req.sigma:.17g}"
+        + (f" (beta = w*sqrt(2*alpha), w={state.w:.17g})" if state.beta_from_w else " (beta set directly)"),
+        f"ISL filter: nu={req.nu:.17g} (nu/beta={req.nu / req.beta:.6g}); seed={req.seed}",
+        f"horizon: asked {req.horizon:.17g}/r_min, simulated {run.horizon:.17g}/r_min (lengthened x{run.stretch:.6g});"
+        f" r_min={run.r_min:.17g} T={run.T:.17g} h={run.h:.17g} N={run.N}",
+        f"rows: every {run.every} step(s) ({len(run.t)} rows); the RMSE and ratios below are over all N steps",
+        f"start: every filter at X(0) - e0, e0 ~ N(0, Delta) ({run.start}); averaging window t in [0, T], no burn-in",
+        "other filters: " + (", ".join(f"{tr.name} = {tr.label}" for tr in run.tracks[2:]) or "none")
+        + f"; sigma_design={req.sigma_design:.6g} sigma_range=[{req.sigma_range[0]:.6g}, {req.sigma_range[1]:.6g}]",
+        "coordinate, s_i (theory), then per filter: measured RMSE ratio (theory ratio), share of time |e_i| <= 3 s_i"
+        f" (theory {100 * TUBE_THEORY:.2f} % for the optimal filter)",
+    ]
+    for i in range(m):
+        cells = []
+        for tr, vtr in zip(run.tracks, view.tracks, strict=True):
+            th = prediction.get(tr.name)
+            theory = "n/a" if th is None or not math.isfinite(th[i]) else f"{th[i]:.6g}"
+            cells.append(f"{tr.name} {tr.ratio[i]:.6g} ({theory}) {100 * vtr.inside[i]:.2f} %")
+        lines.append(f"{names[i]}: s={run.s[i]:.9g}; " + "; ".join(cells))
+    return lines
+
+
+def _coordinates(m: int) -> tuple[str, ...]:
+    from .state import COORDINATES
+
+    return COORDINATES[:m]
+
+
+def run_csv(state) -> str:
+    """The run on screen in ``state`` (:class:`app.state.AppState`) as CSV text (module docstring)."""
+    view = state.run
+    if view is None:
+        return "# no run to export\n"
+    req = state.shown_request
+    model = Model(req.alpha, req.beta, req.sigma, req.m)
+    from .state import extra_filters
+
+    extra, every_spec = extra_filters(req, model)
+    every = max(1, math.ceil((view.N + 1) / MAX_ROWS))
+    run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every_spec,
+                   every=every)
+    prediction = {"kbf": np.ones(req.m), "isl": state.prediction, **(state.extra_prediction or {})}
+    coords = [f"X{i + 1}_{c}" for i, c in enumerate(_coordinates(req.m))]
+    cols = ["t", *coords, *(f"{tr.name}_{c}" for tr in run.tracks for c in coords)]
+    data = np.column_stack([run.t, run.X, *(tr.estimate for tr in run.tracks)])
     out = io.StringIO()
-    np.savetxt(out, np.column_stack([run.t, run.X, run.X_hat, run.X_check]), delimiter=",", header=head,
-               comments="# ", fmt="%.9g")
+    head = "\n".join(_header(state, req, run, view, prediction)) + "\n" + ",".join(cols)
+    np.savetxt(out, data, delimiter=",", header=head, comments="# ", fmt="%.9g")
     return out.getvalue()

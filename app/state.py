@@ -24,9 +24,9 @@ from functools import partial
 import numpy as np
 import param
 
-from isl_core import DivergenceError, Model, Run, run_plan, simulate
+from isl_core import DivergenceError, Model, run_plan
+from isl_core.runview import RunView, simulate_view
 from . import extras, inputs, sweeps
-from .decimate import DISPLAY_POINTS, minmax
 from .export import run_csv
 from .jobs import Jobs, Outcome, call
 from .presets import PRESETS
@@ -44,6 +44,7 @@ __all__ = [
     "Result",
     "Traces",
     "compute",
+    "extra_filters",
     "fit",
     "input_label",
 ]
@@ -81,9 +82,11 @@ class Request:
 
 @dataclass(frozen=True)
 class Traces:
-    """Display copies of a run, decimated (:mod:`app.decimate`): ``series[i][name] = (t, y)`` in float32.
+    """Display copies of a run, min/max-decimated while it was simulated (:mod:`isl_core.runview`):
+    ``series[i][name] = (t, y)`` in float32.
 
-    ``name`` is ``"truth"`` (X_i), ``"kbf"`` (X̂_i), ``"isl"`` (X̌_i) or an extra filter's name (:mod:`app.extras`).
+    ``name`` is ``"truth"`` (X_i), ``"kbf"`` (X̂_i), ``"isl"`` (X̌_i) or an extra filter's name (:mod:`app.extras`);
+    ``"error:" + name`` is that filter's error e_i = Z_i − X_i.
     """
 
     series: tuple[dict[str, tuple[np.ndarray, np.ndarray]], ...]
@@ -97,7 +100,7 @@ class Result:
     changed and why; empty if nothing did).
     """
 
-    run: Run
+    run: RunView
     traces: Traces
     prediction: np.ndarray | None
     extra_prediction: dict | None = None
@@ -114,23 +117,29 @@ def input_label(name: str, link: bool = False) -> str:
     return f"{name}=… in the link" if label == name else f"{label} ({name}=… in the link)"
 
 
-def decimated(run: Run, max_points: int = DISPLAY_POINTS) -> Traces:
-    """Min/max-decimated float32 copies of X_i and of every filter's estimate (X̂_i, X̌_i, extras) for the plots."""
+def traces(run: RunView) -> Traces:
+    """The float32 copies the plots receive of a decimated run: X_i, every filter's estimate and error."""
     series = []
     for i in range(run.model.m):
-        x = run.X[:, i]
-        pairs = {"truth": minmax(run.t, x, max_points)}
-        for tr in run.tracks:  # the estimate X + e, one coordinate at a time (no (N+1, m) copy)
-            pairs[tr.name] = minmax(run.t, x + tr.error[:, i], max_points)
-        series.append({name: (t.astype(np.float32), y.astype(np.float32)) for name, (t, y) in pairs.items()})
+        pairs = {"truth": run.truth[i]}
+        for tr in run.tracks:
+            pairs[tr.name] = tr.estimate[i]
+            pairs[f"error:{tr.name}"] = tr.error[i]
+        series.append({name: (p.t.astype(np.float32), p.y.astype(np.float32)) for name, p in pairs.items()})
     return Traces(tuple(series))
 
 
-def _plan(req: Request):
-    """The model, the extra filters shown, every one a view can show (they fix the grid), and the run's plan."""
-    model = Model(req.alpha, req.beta, req.sigma, req.m)
+def extra_filters(req: Request, model: Model) -> tuple[list, list]:
+    """The extra filters shown, and every one a view can show (they fix the grid: showing one changes nothing)."""
     extra = extras.extra_specs(model, req.nu, req.extras, req.sigma_design, req.sigma_range)
     every = extras.extra_specs(model, req.nu, extras.EXTRA_NAMES, req.sigma_design, req.sigma_range)
+    return extra, every
+
+
+def _plan(req: Request):
+    """The model, the extra filters shown, every one a view can show, and the run's plan."""
+    model = Model(req.alpha, req.beta, req.sigma, req.m)
+    extra, every = extra_filters(req, model)
     return model, extra, every, run_plan(model, req.nu, horizon=req.horizon, step_filters=every, cap=2**62)
 
 
@@ -158,7 +167,7 @@ def fit(req: Request) -> tuple[Request, str]:
             f"dashboard's limit of {APP_MAX_STEPS:,}")
 
 
-def compute(req: Request, *, nearest: bool = False) -> Result:
+def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
     """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the SPEC §4 rule over every
     filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
     its ratios.
@@ -176,10 +185,11 @@ def compute(req: Request, *, nearest: bool = False) -> Result:
             f"horizon = {req.horizon:g} needs {plan.N:,} steps here, over the dashboard's limit of "
             f"{APP_MAX_STEPS:,}; choose a horizon <= {longest:.3g}"
         )
-    run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every)
+    run = simulate_view(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every,
+                        progress=progress)
     theory = sweeps.theory_module()
     prediction = None if theory is None else np.asarray(theory.predicted_ratios(model, req.nu))
-    return Result(run, decimated(run), prediction, extras.extra_theory(model, extra), req, adjusted)
+    return Result(run, traces(run), prediction, extras.extra_theory(model, extra), req, adjusted)
 
 
 def _describe(exc: BaseException) -> str:
@@ -216,7 +226,8 @@ class AppState(extras.Baselines):
     sweep_horizon = param.Number(200.0, bounds=(20.0, 2000.0), label="sweep horizon (× 1/r_min)", doc=(
         "Length of each simulated sweep run in units of 1/r_min; ±2 % needs about 1000."))
 
-    run = param.ClassSelector(class_=Run, default=None, allow_None=True, precedence=-1, doc="The latest good run.")
+    run = param.ClassSelector(class_=RunView, default=None, allow_None=True, precedence=-1,
+                              doc="The latest good run (decimated for display).")
     traces = param.ClassSelector(class_=Traces, default=None, allow_None=True, precedence=-1)
     prediction = param.Array(default=None, allow_None=True, precedence=-1, doc="Predicted š_i/s_i of `run`.")
     compute_seconds = param.Number(0.0, precedence=-1, doc="Wall time of the latest run's computation.")
@@ -236,6 +247,7 @@ class AppState(extras.Baselines):
         self._jobs = jobs or Jobs()
         self._started = False
         self._quiet = False  # set while the state itself corrects an input (no new run)
+        self.shown_request: Request | None = None  # the inputs of the run on screen
         self._serial = 0
         self._cancel = threading.Event()
         self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``sweep_note`` reports on
@@ -384,6 +396,7 @@ class AppState(extras.Baselines):
                 self.horizon = res.request.horizon
             finally:
                 self._quiet = False
+        self.shown_request = res.request
         self.param.update(run=res.run, traces=res.traces, prediction=res.prediction,
                           extra_prediction=res.extra_prediction or {}, compute_seconds=outcome.seconds, busy=superseded)
         if res.adjusted and not superseded:
@@ -400,8 +413,8 @@ class AppState(extras.Baselines):
         self.param.update(**PRESETS[name].values)
 
     def csv(self) -> io.StringIO:
-        """The current run as CSV (:func:`app.export.run_csv`), for the download button."""
-        return io.StringIO(run_csv(self.run))
+        """The run on screen as CSV (:func:`app.export.run_csv`), for the download button."""
+        return io.StringIO(run_csv(self))
 
     # ---- the ν-sweep (Fig. 2) ------------------------------------------------------------------------
     def _on_context(self, *events) -> None:

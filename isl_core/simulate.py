@@ -108,8 +108,9 @@ class Track:
 class Run:
     """One simulated trajectory with the optimal and the ISL filter (and any extra filters).
 
-    ``t`` (N+1,), ``X`` truth (N+1, m), ``tracks`` in order: Kalman–Bucy, ISL, extras.
-    ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = t_N``. ``stretch = r_min / r``
+    ``t`` (K,), ``X`` truth (K, m) at the kept steps — every ``every``-th of the N + 1 (all of them by default) —,
+    ``tracks`` in order: Kalman–Bucy, ISL, extras; their RMSE and ratios are over every step k = 1..N.
+    ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = N·h``. ``stretch = r_min / r``
     with r the settling rate of the optimal and the ISL filter (≥ 1; T = horizon/r when the horizon was given in
     units of 1/r_min), ``start`` how the filters started (:data:`STARTS`).
     """
@@ -126,10 +127,12 @@ class Run:
     T: float
     stretch: float = 1.0
     start: str = "stationary"
+    every: int = 1
 
     @property
     def N(self) -> int:
-        return len(self.t) - 1
+        """Steps simulated (T = N·h)."""
+        return round(self.T / self.h)
 
     @property
     def horizon(self) -> float:
@@ -286,11 +289,16 @@ def _pack(model: Model, filters: Sequence[FilterSpec]):
     return damp, coef, kind, table, ad
 
 
-def _loop(model, kb, filters, h, n, seed, *, start, burn, batches, X_out, E_out, S_out, store, progress=None):
+def _loop(model, kb, filters, h, n, seed, *, start, burn, batches, X_out, E_out, S_out, store, progress=None,
+          on_block=None, chunk=None):
     """Run the kernel over ``n`` steps chunk by chunk.
 
-    Returns squared-error sums (batches, nf, m), the adaptive filters' σ̂ sums (batches, na) and their final σ̂
-    (na,). ``progress(fraction)`` is called after every chunk; an exception it raises (e.g. to cancel) propagates.
+    ``store``: the trajectories are written to ``X_out`` (n+1, m), ``E_out`` (nf, n+1, m), ``S_out`` (na, n+1);
+    or, with ``on_block``, each chunk is written to those buffers (chunk+1 rows) and handed over as
+    ``on_block(X, E, S)`` — rows of the samples it added (the first call also gets sample 0) — so that no array
+    of n rows ever exists. Returns squared-error sums (batches, nf, m), the adaptive filters' σ̂ sums
+    (batches, na) and their final σ̂ (na,). ``progress(fraction)`` is called after every chunk; an exception it
+    raises (e.g. to cancel) propagates.
     """
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, start)
@@ -301,16 +309,22 @@ def _loop(model, kb, filters, h, n, seed, *, start, burn, batches, X_out, E_out,
         X_out[0] = x
         E_out[:, 0] = e
         S_out[:, 0] = ad[adaptive, AD_SIGMA]
+        if on_block is not None:
+            on_block(X_out[:1], E_out[:, :1], S_out[:, :1])
     sq = np.zeros((batches, len(filters), model.m))
     sig_sum = np.zeros((batches, int(adaptive.sum())))
     batch_len = (n - burn) // batches  # the remainder goes to the last batch
+    chunk = chunk or CHUNK
     k = 0
     while k < n:
-        todo = min(CHUNK, n - k)
+        todo = min(chunk, n - k)
+        out0 = k if on_block is not None else 0
         done = advance(x, e, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, kind, table, ad,
-                       k, burn, batch_len, sq, sig_sum, X_out, E_out, S_out, store, 0)
+                       k, burn, batch_len, sq, sig_sum, X_out, E_out, S_out, store, out0)
         if done < todo:
             raise _divergence(model, filters, x if store else x[-1:], e, k + done, n, h)
+        if on_block is not None:
+            on_block(X_out[1:done + 1], E_out[:, 1:done + 1], S_out[:, 1:done + 1])
         k += done
         if progress is not None:
             progress(k / n)
@@ -412,6 +426,7 @@ def simulate(
     extra: Sequence[FilterSpec] = (),
     step_filters: Sequence[FilterSpec] = (),
     start: str = "stationary",
+    every: int = 1,
     progress: Callable[[float], None] | None = None,
 ) -> Run:
     """Simulate truth, the optimal Kalman–Bucy filter and the ISL filter with tuning ``nu`` on one grid.
@@ -421,21 +436,31 @@ def simulate(
     docstring). ``h`` by :func:`step_size` over every filter simulated and ``step_filters`` — filters that are not
     simulated but must not change the grid when they are (e.g. those a view can show on demand). ``seed`` (int ≥ 0)
     fixes the noise: the same seed gives the same run, bit for bit. ``extra`` filters ride on the same noise.
-    ``start``: :data:`STARTS`. ``progress(fraction)`` is called between kernel chunks; raising from it cancels.
-    Raises ``ValueError`` for bad input or too many steps, :class:`DivergenceError` for a blown-up filter.
+    ``start``: :data:`STARTS`. ``every``: keep the trajectories at every ``every``-th step only (memory ÷ every;
+    the RMSE still counts every step). ``progress(fraction)`` is called between kernel chunks; raising from it
+    cancels. Raises ``ValueError`` for bad input or too many steps, :class:`DivergenceError` for a blown-up filter.
     """
     plan = run_plan(model, nu, horizon=horizon, T=T, h=h, extra=extra, step_filters=step_filters)
     seed = check_int("seed", seed, lo=0)
+    every = check_int("every", every, lo=1)
     start = _check_start(start)
     _check_progress(progress)
     kb = kalman_bucy(model)
     filters = [optimal_kbf(model, kb), *_check_filters(model, nu, extra)]
     T, h, n, stretch = plan.T, plan.h, plan.N, plan.stretch
-    X = np.empty((n + 1, model.m))
-    E = np.empty((len(filters), n + 1, model.m))
-    S = np.empty((sum(spec.kind == KIND_ADAPTIVE for spec in filters), n + 1))
-    sq, _, _ = _loop(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, X_out=X, E_out=E, S_out=S,
-                     store=True, progress=progress)
+    na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
+    if every == 1:
+        X, E, S = np.empty((n + 1, model.m)), np.empty((len(filters), n + 1, model.m)), np.empty((na, n + 1))
+        sq, _, _ = _loop(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, X_out=X, E_out=E, S_out=S,
+                         store=True, progress=progress)
+        kept = np.arange(n + 1)
+    else:
+        keep = _Stride(every, n, model.m, len(filters), na)
+        rows = min(CHUNK, n) + 1
+        sq, _, _ = _loop(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, X_out=np.empty((rows, model.m)),
+                         E_out=np.empty((len(filters), rows, model.m)), S_out=np.empty((na, rows)), store=True,
+                         progress=progress, on_block=keep)
+        X, E, S, kept = keep.X, keep.E, keep.S, keep.index
     s = _freeze(kb.s.copy())
     X = _freeze(X)
     tracks = []
@@ -444,10 +469,27 @@ def simulate(
         rmse = np.sqrt(sq[0, f] / n)  # (A.30)
         sig = _freeze(next(sigma_hat)) if spec.kind == KIND_ADAPTIVE else None
         tracks.append(Track(spec.name, spec.label, _freeze(E[f]), _freeze(rmse), _freeze(rmse / s), sig, X))
-    t = np.arange(n + 1, dtype=np.float64)
+    t = kept.astype(np.float64)
     t *= h
     t = _freeze(t)
-    return Run(model, float(nu), seed, t, X, tuple(tracks), s, kb.r_min, h, T, stretch, start)
+    return Run(model, float(nu), seed, t, X, tuple(tracks), s, kb.r_min, h, T, stretch, start, every)
+
+
+class _Stride:
+    """Keeps the samples k = 0, every, 2·every, … of the chunks :func:`_loop` hands over."""
+
+    def __init__(self, every: int, n: int, m: int, nf: int, na: int) -> None:
+        self.every, self.seen = every, 0
+        self.index = np.arange(0, n + 1, every)
+        self.X, self.E, self.S = np.empty((len(self.index), m)), np.empty((nf, len(self.index), m)), np.empty(
+            (na, len(self.index)))
+
+    def __call__(self, X: np.ndarray, E: np.ndarray, S: np.ndarray) -> None:
+        k0, k1 = self.seen, self.seen + len(X)
+        rows = np.arange(-(-k0 // self.every) * self.every, k1, self.every)  # kept samples in [k0, k1)
+        at = rows // self.every
+        self.X[at], self.E[:, at], self.S[:, at] = X[rows - k0], E[:, rows - k0], S[:, rows - k0]
+        self.seen = k1
 
 
 @dataclass(frozen=True)

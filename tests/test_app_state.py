@@ -137,7 +137,7 @@ def test_core_divergence_is_a_message(state, monkeypatch):
     def diverge(*args, **kwargs):
         raise DivergenceError("filter ISL diverged at t = 1")
 
-    monkeypatch.setattr(state_module, "simulate", diverge)
+    monkeypatch.setattr(state_module, "simulate_view", diverge)
     run = state.run
     state.seed = 99
     assert state.run is run and "diverged" in state.message and state.message_kind == "danger"
@@ -158,15 +158,34 @@ def test_sweep_sigmas_are_validated_and_sorted(state):
         assert state.message.startswith("Refused: σ values must be a list of 1 to 5 numbers from 0.1 to 1000; ")
 
 
-def test_csv_holds_the_run(state):
+def test_csv_holds_the_run_its_parameters_and_its_numbers(state):
+    from app.export import MAX_ROWS
+    from isl_core import simulate
+
+    state.extra_filters = ["kbf_adaptive"]
     text = state.csv().getvalue()
     lines = text.splitlines()
-    assert lines[0].startswith("# isl run: alpha=0.5 beta=3 sigma=20 m=3 nu=3 seed=1")
+    head = "\n".join(line for line in lines if line.startswith("#"))
+    assert lines[0].startswith("# isl run export; isl ") and "seed=1" in head
+    for needle in ("m=3 alpha=0.5 beta=3 sigma=20 (beta = w*sqrt(2*alpha), w=3)", "nu=3 (nu/beta=1)",
+                   "horizon: asked 10/r_min", "r_min=", "T=", "h=", "N=", "every 1 step(s)", "e0 ~ N(0, Delta)",
+                   "kbf_adaptive = Kalman–Bucy, adaptive"):
+        assert needle in head, needle
+    columns = next(line for line in lines if line.startswith("# t,"))[2:].split(",")
+    assert columns[:4] == ["t", "X1_position", "X2_velocity", "X3_acceleration"]
+    assert columns[-1] == "kbf_adaptive_X3_acceleration" and len(columns) == 1 + 3 * 4
     data = np.loadtxt(lines, delimiter=",", comments="#")
-    run = state.run
-    assert data.shape == (run.N + 1, 1 + 3 * 3)
-    expected = np.column_stack([run.t, run.X, run.X_hat, run.X_check])
-    assert np.allclose(data, expected, rtol=1e-8, atol=1e-12 * np.abs(expected).max())
+    view = state.run
+    extra, grid = state_module.extra_filters(state.shown_request, view.model)
+    run = simulate(view.model, view.nu, horizon=state.horizon, seed=view.seed, extra=extra, step_filters=grid)
+    assert data.shape == (view.N + 1, len(columns))  # the same run, every step
+    expected = np.column_stack([run.t, run.X, *(tr.estimate for tr in run.tracks)])
+    np.testing.assert_allclose(data, expected, rtol=1e-8, atol=1e-12 * np.abs(expected).max())
+    ratios = next(line for line in lines if line.startswith("# X1_position: s="))
+    assert f"kbf {view.ratio_hat[0]:.6g} (1)" in ratios and f"isl {view.ratio_check[0]:.6g}" in ratios
+    state.horizon = 1000.0  # ≈ 10⁵ steps: every k-th row only
+    data = np.loadtxt(state.csv().getvalue().splitlines(), delimiter=",", comments="#")
+    assert len(data) <= MAX_ROWS and data[-1, 0] <= state.run.T
 
 
 def test_traces_are_small_and_real_samples(state):
@@ -178,8 +197,8 @@ def test_traces_are_small_and_real_samples(state):
         assert len(t) <= 2400 and t.dtype == np.float32
         k = np.clip(np.rint(t.astype(float) / run.h).astype(int), 0, run.N)
         tol = np.finfo(np.float32).eps * run.T  # float32 copies of the run's grid times
-        assert np.max(np.abs(run.t[k] - t)) <= tol and np.all(np.abs(run.t[k] - t) < run.h / 2)
-        assert y.max() == np.float32(run.X_check[:, i].max())  # the envelope survives
+        assert np.max(np.abs(k * run.h - t)) <= tol and np.all(np.abs(k * run.h - t) < run.h / 2)
+        assert y.max() == np.float32(run.track("isl").estimate[i].y.max())  # float32 copies of the envelope
 
 
 def test_theory_curves_follow_the_context(state):

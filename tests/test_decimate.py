@@ -1,8 +1,8 @@
-"""Min/max display decimation (app.decimate): size bound, endpoints, and the per-bucket envelope contract."""
+"""Min/max display decimation (isl_core.decimate): size bound, endpoints, and the per-bucket envelope contract."""
 import numpy as np
 import pytest
 
-from app.decimate import DISPLAY_POINTS, minmax, minmax_indices
+from isl_core.decimate import DISPLAY_POINTS, MinMax, minmax, minmax_indices
 
 
 def _walk(n: int, seed: int = 3) -> np.ndarray:
@@ -49,3 +49,32 @@ def test_minmax_returns_real_samples():
 def test_too_few_points_is_refused():
     with pytest.raises(ValueError, match="max_points"):
         minmax_indices(np.zeros(100), 3)
+
+
+@pytest.mark.parametrize("n, max_points", [(10, 2400), (2_401, 2400), (10_007, 1000), (123_457, 2400), (5_000, 4),
+                                           (99_999, 2400)])
+@pytest.mark.parametrize("blocks", ["one", "random", "tiny"])
+def test_block_by_block_keeps_exactly_what_the_whole_trace_keeps(n, max_points, blocks):
+    rng = np.random.default_rng(n)
+    Y = np.stack([_walk(n, seed) for seed in range(3)] + [np.round(_walk(n, 9))], axis=1)  # rounded: many ties
+    red = MinMax(n, Y.shape[1], max_points)
+    cuts = {"one": [n], "random": rng.integers(1, 5000, size=n).tolist(), "tiny": [1, 2, 3] * n}[blocks]
+    k = 0
+    for size in cuts:
+        if k >= n:
+            break
+        red.add(Y[k:k + size])
+        k += size
+    for j in range(Y.shape[1]):
+        idx, val = red.result(j)
+        expected = minmax_indices(Y[:, j], max_points)
+        np.testing.assert_array_equal(idx, expected)
+        np.testing.assert_array_equal(val, Y[expected, j])
+
+
+def test_block_reducer_refuses_misuse():
+    red = MinMax(10_000, 2, 100)
+    with pytest.raises(ValueError, match="only 0 of 10000 samples"):
+        red.result(0)
+    with pytest.raises(ValueError, match="expected rows 0..9999 of 2 traces"):
+        red.add(np.zeros((5, 3)))

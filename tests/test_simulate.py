@@ -369,3 +369,14 @@ def test_bad_simulate_rmse_inputs(kwargs, pattern):
     kwargs = {"T": 10.0, **kwargs}
     with pytest.raises(ValueError, match=pattern):
         simulate_rmse(FIG3, [isl_filter(FIG3, 3.0)], **kwargs)
+
+
+def test_every_kth_step_is_the_same_run_thinned():
+    full = simulate(FIG3, 3.0, horizon=50.0, seed=6)
+    thin = simulate(FIG3, 3.0, horizon=50.0, seed=6, every=7)
+    assert thin.N == full.N and thin.every == 7 and len(thin.t) == -(-(full.N + 1) // 7)
+    np.testing.assert_array_equal(thin.t, full.t[::7])
+    np.testing.assert_array_equal(thin.X, full.X[::7])
+    for a, b in zip(thin.tracks, full.tracks, strict=True):
+        np.testing.assert_array_equal(a.error, b.error[::7])
+        np.testing.assert_allclose(a.rmse, b.rmse, rtol=1e-12)  # over every step, not the kept ones

@@ -51,7 +51,7 @@ def extras_html(run, extra_prediction: dict | None) -> str:
             f"<td>{tr.ratio[i]:.3f}" + ("" if th is None or not np.isfinite(th[i]) else
                                          f" <span class='theory'>({_fmt(th[i])})</span>") + "</td>"
             for i in range(run.model.m))
-        note = "" if tr.sigma_hat is None else f"<span class='tag'>mean σ̂ = {float(np.mean(tr.sigma_hat)):.4g}</span>"
+        note = "" if tr.sigma_hat_mean is None else f"<span class='tag'>mean σ̂ = {tr.sigma_hat_mean:.4g}</span>"
         color = EXTRA_COLORS.get(tr.name, "#000")
         rows.append(f"<tr><td><span style='color:{color}'>&#9632;</span> {html.escape(tr.label)}{note}</td>{cells}</tr>")
     return f"<table class='isl-numbers extras'><tr><th>other filters</th>{head}</tr>{''.join(rows)}</table>"
