@@ -20,14 +20,14 @@ from panel.io.resources import CDN_DIST
 from threadpoolctl import threadpool_limits
 
 from app import hardening
-from app.jobs import RUN_POOL, SWEEP_POOL, Jobs
+from app.jobs import LARGE_POOL, RUN_POOL, SWEEP_POOL, Jobs
 from app.state import AppState
 from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
 from app.views.filters_panel import FiltersPanel
 from app.views.worstcase import WorstCaseView
 
-__all__ = ["TITLE", "LocalFast", "SessionGate", "create_app", "session_jobs"]
+__all__ = ["TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
 
@@ -91,7 +91,7 @@ def session_jobs() -> Jobs:
     doc = pn.state.curdoc
     if doc is None or doc.session_context is None:
         return Jobs()
-    pools = {"run": RUN_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL,
+    pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL,
              "worstcase": SWEEP_POOL}
     gate = SessionGate(doc)
     pn.state.onload(gate.opened)
@@ -112,6 +112,18 @@ class LocalFast(pn.theme.Fast):
     _resources["js_modules"] = {**_resources["js_modules"], "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"}
 
 
+def deferred(build: Callable[[], object]):
+    """``build()``'s result, built after the page is connected — on Panel's thread pool when the server has one
+    (``--num-threads``), never while the session is being created on the event loop.
+
+    Building the plots of the three tabs costs ≈ 1 s of Python (bokeh models); done while a session is created it
+    blocked the loop that answers every other session and ``/liveness``. With ``defer_load`` the page appears at
+    once with a loading indicator where the content will be. (Panel still converts each piece into bokeh models on
+    the loop — 6 to 65 ms each — so the pieces are kept apart: the loop answers others between them.)
+    """
+    return pn.panel(build, defer_load=True, loading_indicator=True, sizing_mode="stretch_width")
+
+
 def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     """A new dashboard page over ``state`` (a fresh :class:`AppState` by default), URL-synced when served."""
     if state is None:
@@ -120,12 +132,15 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         UrlSync(state, pn.state.location)  # kept alive by the watchers it registers
     state.start()
     hardening.release_on_destroy(state.close)
-    trajectories = pn.Row(TrajectoriesView(state=state), NumbersView(state=state), sizing_mode="stretch_width")
-    tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories), ("ν sweep (paper A, Fig. 2)", SweepView(state=state)),
-                   ("Worst case over σ", WorstCaseView(state=state)),
-                   sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not laid out
+    trajectories = deferred(lambda: pn.Row(TrajectoriesView(state=state), NumbersView(state=state),
+                                           sizing_mode="stretch_width"))
+    tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories),
+                   ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state))),
+                   ("Worst case over σ", deferred(lambda: WorstCaseView(state=state))),
+                   sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
     return pn.template.FastListTemplate(
-        title=TITLE, sidebar=[ControlsView(state=state), FiltersPanel(state=state), about_card()], main=[tabs],
+        title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),
+                              deferred(about_card)], main=[tabs],
         sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
         main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
     )

@@ -37,7 +37,7 @@ INPUTS = RUN_INPUTS + WC_INPUTS
 SIGMA_BOUNDS = (0.1, 1000.0)
 ALPHA_BOUNDS = (0.001, 100.0)
 log = logging.getLogger(__name__)
-WC_WORKERS = 2  #: threads of one worst-case computation (the machine's cores; the kernel releases the GIL)
+WC_WORKERS = 1  #: threads of one worst-case computation (it runs on the long-job thread: one core, low priority)
 
 
 class WorstCaseCancelled(Exception):

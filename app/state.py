@@ -248,6 +248,7 @@ class AppState(extras.Baselines):
         self._started = False
         self._quiet = False  # set while the state itself corrects an input (no new run)
         self.shown_request: Request | None = None  # the inputs of the run on screen
+        self._curves_wanted = False  # the ν-sweep's theory curves: computed once its tab is open
         self._serial = 0
         self._cancel = threading.Event()
         self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``sweep_note`` reports on
@@ -355,8 +356,10 @@ class AppState(extras.Baselines):
         if self.alpha == 0.0 and self.beta_from_w:
             self._switch_to_beta()
         self.busy = True
-        self._jobs.submit("run", partial(compute, self.request(), nearest=True), partial(self._apply_run, self._serial))
-        self._refresh_curves()
+        self._jobs.submit("run", partial(compute, self.request(), nearest=True), partial(self._apply_run, self._serial),
+                          cancellable=True)
+        if self._curves_wanted:
+            self._refresh_curves()
 
     def _switch_to_beta(self) -> None:
         beta = self.run.model.beta if self.run is not None else self.beta
@@ -375,7 +378,8 @@ class AppState(extras.Baselines):
         self.busy = not self.live  # a small run is back before a spinner could be seen
         nearest = self.run is None  # nothing on screen to keep: show the nearest allowed setting instead
         self._jobs.submit("run", partial(compute, self.request(), nearest=nearest),
-                          partial(self._apply_run, self._serial))
+                          partial(self._apply_run, self._serial), pool="run" if self.live else "large",
+                          cancellable=True)
 
     def _on_extra_inputs(self, *events) -> None:
         """σ̄ and the σ range change the run only when an extra filter is drawn (or the selection changed)."""
@@ -417,21 +421,35 @@ class AppState(extras.Baselines):
         return io.StringIO(run_csv(self))
 
     # ---- the ν-sweep (Fig. 2) ------------------------------------------------------------------------
+    def want_curves(self) -> None:
+        """The ν-sweep is on screen: compute its theory curves, now and whenever their context changes (a session
+        that never opens that tab never computes them)."""
+        if not self._curves_wanted:
+            self._curves_wanted = True
+            if self._started:
+                self._refresh_curves()
+
     def _on_context(self, *events) -> None:
         if self._started:
-            self._refresh_curves()
+            self._drop_stale()
+            if self._curves_wanted:
+                self._refresh_curves()
 
     def _sweep_model(self) -> tuple[float, float, int, tuple[float, ...]]:
         return self.alpha, self.beta_effective, self.m, tuple(self.sweep_sigmas)
 
-    def _refresh_curves(self) -> None:
-        """Theory curves for the current α, β, m and sweep σ; simulated points of another context go stale."""
+    def _drop_stale(self) -> None:
+        """Simulated points and a status note of another context (α, β, m, sweep σ) go stale."""
         key = self._sweep_model()
         pts = self.points
         if pts is not None and (pts.alpha, pts.beta, pts.m, pts.sigmas) != key:
             self.points = None
         if not self.sweep_busy and self._note_context not in (None, key):  # the note spoke of another context
             self.sweep_note, self._note_context = "", None
+
+    def _refresh_curves(self) -> None:
+        """Theory curves for the current α, β, m and sweep σ."""
+        key = self._sweep_model()
         self._jobs.submit("theory", partial(sweeps.theory_curves, *key, extras=tuple(self.extra_filters),
                                             sigma_design=self.sigma_design, sigma_range=self.sigma_range),
                           self._apply_curves)

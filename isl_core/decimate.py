@@ -69,11 +69,9 @@ class MinMax:
         if max_points < 4:
             raise ValueError(f"max_points must be an integer >= 4, got {max_points!r}")
         self.n, self.traces, self.whole = n, traces, n <= max_points
-        self.size, self.buckets = _layout(n, max_points) if not self.whole else (1, 0)
+        # short: every sample is kept — as buckets of one sample each
+        self.size, self.buckets = _layout(n, max_points) if not self.whole else (1, max(n - 2, 0))
         self.seen = 0
-        if self.whole:  # short: every sample is kept
-            self._all = np.empty((n, traces))
-            return
         self._ends = np.empty((2, traces))  # samples 0 and n − 1
         shape = (self.buckets, traces)
         self._lo_i, self._hi_i = np.zeros(shape, np.int64), np.zeros(shape, np.int64)
@@ -86,9 +84,6 @@ class MinMax:
         if k1 > self.n or Y.ndim != 2 or Y.shape[1] != self.traces:
             raise ValueError(f"expected rows {k0}..{self.n - 1} of {self.traces} traces, got shape {Y.shape}")
         self.seen = k1
-        if self.whole:
-            self._all[k0:k1] = Y
-            return
         if k0 == 0:
             self._ends[0] = Y[0]
         if k1 == self.n:
@@ -106,6 +101,16 @@ class MinMax:
                 self._merge(slice(b, b + 1), np.full((1, 1), lo), Y[lo - k0:end - k0][None])
             lo = end
 
+    @property
+    def state(self) -> tuple[np.ndarray, ...]:
+        """The arrays the compiled :func:`isl_core.kernels.minmax_block` folds chunks into (in place):
+        ``lo_v, lo_i, hi_v, hi_i, ends`` — call :meth:`advanced` after it."""
+        return self._lo_v, self._lo_i, self._hi_v, self._hi_i, self._ends
+
+    def advanced(self, rows: int) -> None:
+        """``rows`` more samples were folded in by :func:`isl_core.kernels.minmax_block`."""
+        self.seen += rows
+
     def _merge(self, rows: slice, first: np.ndarray, block: np.ndarray) -> None:
         """Fold ``block`` (buckets, samples, T) whose first samples have indices ``first`` into buckets ``rows``."""
         i_lo, i_hi = block.argmin(axis=1), block.argmax(axis=1)
@@ -121,8 +126,8 @@ class MinMax:
         """``(indices, values)`` kept for ``trace``, indices increasing (after all n samples were added)."""
         if self.seen != self.n:
             raise ValueError(f"only {self.seen} of {self.n} samples were added")
-        if self.whole:
-            return np.arange(self.n), self._all[:, trace].copy()
+        if self.n == 1:
+            return np.zeros(1, np.int64), self._ends[0, trace:trace + 1].copy()
         idx = np.concatenate([[0], self._lo_i[:, trace], self._hi_i[:, trace], [self.n - 1]])
         val = np.concatenate([[self._ends[0, trace]], self._lo_v[:, trace], self._hi_v[:, trace],
                               [self._ends[1, trace]]])

@@ -47,6 +47,7 @@ from numba import njit
 
 __all__ = [
     "AD_INV_STEP", "AD_INV_WINDOW", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "advance", "fast_cbrt",
+    "minmax_block",
 ]
 
 #: steps between flushes of the squared-error accumulator into the batch sums (see the module docstring)
@@ -235,3 +236,79 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
             return j + 1
     _flush(acc, sacc, sq, sig_sum, b, slot, kind)
     return n
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _source(c, m, nf):
+    """What trace (column) ``c`` is: (kind, f, i) — 0 X_i, 1 X_i + e_f,i, 2 e_f,i, 3 σ̂ of adaptive filter f."""
+    if c < m:
+        return 0, 0, c
+    if c < m * (1 + nf):
+        f, i = divmod(c - m, m)
+        return 1, f, i
+    if c < m * (1 + 2 * nf):
+        f, i = divmod(c - m * (1 + nf), m)
+        return 2, f, i
+    return 3, c - m * (1 + 2 * nf), 0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _sample(X, E, S, kind, f, i, r):
+    """Value at row r of the trace (kind, f, i) of :func:`_source`."""
+    if kind == 0:
+        return X[r, i]
+    if kind == 1:
+        return X[r, i] + E[f, r, i]
+    if kind == 2:
+        return E[f, r, i]
+    return S[f, r]
+
+
+@njit(cache=True, nogil=True)
+def minmax_block(X, E, S, k0, n, size, lo_v, lo_i, hi_v, hi_i, ends, bound, inside, sig_sum):
+    """Fold one chunk of a display run into its min/max buckets (:class:`isl_core.decimate.MinMax`), without the GIL.
+
+    Rows r of ``X`` (rows, m), ``E`` (nf, rows, m), ``S`` (na, rows) are the samples k = k0 + r of n in all. The
+    traces, in column order: X_i; the estimates X_i + e_f,i; the errors e_f,i; σ̂ of each adaptive filter. Sample 0
+    and n − 1 go to ``ends``; interior sample k to bucket (k − 1) // size, where a strictly smaller (larger) value
+    replaces the bucket's min (max): ties keep the earlier sample, as ``argmin`` does. For k ≥ 1, counts
+    ``|e_f,i| ≤ bound_i`` into ``inside`` (nf, m) and sums σ̂ into ``sig_sum`` (na,).
+
+    Each trace is walked through the chunk with its current bucket's extremes in registers (written back when the
+    bucket ends and at the end of the chunk), and the bucket advanced by a counter, not a division per sample.
+    """
+    rows, m = X.shape
+    nf = E.shape[0]
+    na = S.shape[0]
+    first = max(k0, 1)  # the chunk's first interior sample
+    last = min(k0 + rows, n - 1)  # one past its last
+    for c in range(m * (1 + 2 * nf) + na):
+        kind, f, i = _source(c, m, nf)
+        if k0 == 0:
+            ends[0, c] = _sample(X, E, S, kind, f, i, 0)
+        if k0 + rows == n:
+            ends[1, c] = _sample(X, E, S, kind, f, i, rows - 1)
+        if first >= last:
+            continue
+        b = (first - 1) // size
+        edge = 1 + (b + 1) * size  # first sample of the next bucket
+        lo, li, hi, hj = lo_v[b, c], lo_i[b, c], hi_v[b, c], hi_i[b, c]
+        for k in range(first, last):
+            if k == edge:
+                lo_v[b, c], lo_i[b, c], hi_v[b, c], hi_i[b, c] = lo, li, hi, hj
+                b += 1
+                edge += size
+                lo, li, hi, hj = lo_v[b, c], lo_i[b, c], hi_v[b, c], hi_i[b, c]
+            v = _sample(X, E, S, kind, f, i, k - k0)
+            if v < lo:
+                lo, li = v, k
+            if v > hi:
+                hi, hj = v, k
+        lo_v[b, c], lo_i[b, c], hi_v[b, c], hi_i[b, c] = lo, li, hi, hj
+    for r in range(max(1 - k0, 0), rows):  # steps k ≥ 1: the tube count and the σ̂ sum
+        for f in range(nf):
+            for i in range(m):
+                if abs(E[f, r, i]) <= bound[i]:
+                    inside[f, i] += 1
+        for a in range(na):
+            sig_sum[a] += S[a, r]

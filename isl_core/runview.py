@@ -20,6 +20,7 @@ import numpy as np
 
 from .decimate import DISPLAY_POINTS, MinMax
 from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
+from .kernels import minmax_block
 from .model import Model
 from .riccati import kalman_bucy
 from .simulate import _check_filters, _check_progress, _check_start, _freeze, _loop, run_plan
@@ -94,29 +95,22 @@ class RunView:
 
 
 class _Collector:
-    """Hands each chunk to the reducer: truth, estimates and errors as columns; counts the steps inside the tube."""
+    """Folds each chunk into the min/max buckets — truth, estimates, errors, σ̂ as columns — and counts the steps
+    inside the tube, in compiled code that releases the GIL (:func:`isl_core.kernels.minmax_block`): a display run
+    then leaves the server's other threads (its event loop included) free while it reduces its chunks."""
 
     def __init__(self, n: int, m: int, nf: int, na: int, s: np.ndarray, points: int) -> None:
-        self.m, self.nf, self.na = m, nf, na
-        self.reducer = MinMax(n + 1, m * (1 + 2 * nf) + na, points)
-        self.bound = 3.0 * s
+        self.n = n + 1
+        self.reducer = MinMax(self.n, m * (1 + 2 * nf) + na, points)
+        self.bound = 3.0 * np.asarray(s, dtype=float)
         self.inside = np.zeros((nf, m), np.int64)
         self.sigma_sum = np.zeros(na)
-        self.first = True
 
     def __call__(self, X: np.ndarray, E: np.ndarray, S: np.ndarray) -> None:
-        rows, m, nf = len(X), self.m, self.nf
-        errors = E.transpose(1, 0, 2)  # (rows, nf, m)
-        block = np.empty((rows, m * (1 + 2 * nf) + self.na))
-        block[:, :m] = X
-        block[:, m:m * (1 + nf)] = (X[:, None, :] + errors).reshape(rows, nf * m)
-        block[:, m * (1 + nf):m * (1 + 2 * nf)] = errors.reshape(rows, nf * m)
-        block[:, m * (1 + 2 * nf):] = S.T
-        self.reducer.add(block)
-        skip = 1 if self.first else 0  # the RMSE, the tube count and the σ̂ mean use steps k = 1..N
-        self.inside += np.count_nonzero(np.abs(errors[skip:]) <= self.bound, axis=0)
-        self.sigma_sum += S[:, skip:].sum(axis=1)
-        self.first = False
+        lo_v, lo_i, hi_v, hi_i, ends = self.reducer.state
+        minmax_block(X, E, S, self.reducer.seen, self.n, self.reducer.size, lo_v, lo_i, hi_v, hi_i, ends,
+                     self.bound, self.inside, self.sigma_sum)  # steps k ≥ 1 counted: the RMSE's k = 1..N
+        self.reducer.advanced(len(X))
 
     def trace(self, column: int, h: float) -> Trace:
         idx, val = self.reducer.result(column)

@@ -44,6 +44,7 @@ from typing import Any, Self
 from urllib.parse import urlparse
 
 import panel  # noqa: F401  (registers Panel's bokeh models, so pulled documents deserialize)
+from bokeh.core.serialization import Serialized, UnknownReferenceError
 from bokeh.document import Document
 from bokeh.document.events import MessageSentEvent, ModelChangedEvent
 from bokeh.events import DocumentReady, Event
@@ -92,16 +93,17 @@ class BokehClient:
 
     @classmethod
     async def connect(cls, base_url: str, app_path: str = "/app", *, origin: str | None = None,
-                      timeout: float = 60.0, light: bool = False) -> BokehClient:
+                      timeout: float = 60.0, light: bool = False, query: str = "") -> BokehClient:
         """Open a session like a browser on ``base_url`` would, pull the document and announce it ready.
 
-        ``light``: keep the pulled document but do not apply the server's later patches to it (the plots' data
-        in ``doc`` go stale; ``patches`` still records every change) — one process can then drive a classroom.
+        ``light``: apply the server's later patches to ``doc`` except plot data (those go stale; ``patches`` still
+        records every change) — one process can then drive a classroom.
+        ``query``: the page's URL query (``"sigma=200&m=6"``), as a link would carry it.
         """
         parsed = urlparse(base_url)
         session_id = generate_session_id()
         token = generate_jwt_token(session_id)
-        ws_url = f"ws://{parsed.netloc}{app_path}/ws"
+        ws_url = f"ws://{parsed.netloc}{app_path}/ws" + (f"?{query.lstrip('?')}" if query else "")
         request = HTTPRequest(ws_url, headers={"Origin": origin or f"http://{parsed.netloc}"},
                               connect_timeout=timeout, request_timeout=timeout)
         socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
@@ -183,6 +185,16 @@ class BokehClient:
             models = {str(e.get("model", {}).get("id", "")) for e in events if isinstance(e.get("model"), dict)}
             if not self.light:
                 message.apply_to_document(self.doc, self)
+            else:  # the page's structure (deferred widgets, new panes) but not the plots' data
+                kept = [e for e in events if e.get("kind") not in DATA_EVENTS
+                        and not (e.get("kind") == "ModelChanged" and e.get("attr") == "data")]
+                if kept:
+                    payload = Serialized({**message.content, "events": kept}, message.payload.buffers)
+                    try:
+                        self.doc.apply_json_patch(payload, setter=self)
+                    except UnknownReferenceError:  # it referred to a model only a skipped data change carried
+                        pass
+                    self._cds = None  # new sources may have arrived
             self.patches.append((time.perf_counter(), kinds, models))
         elif kind in ("OK", "ERROR"):
             reply = Reply(kind, message.content.get("text", ""), message.content.get("traceback"))
@@ -206,6 +218,10 @@ class BokehClient:
             except TimeoutError:
                 return predicate()
         return True
+
+    async def widgets(self, timeout: float = 120.0) -> bool:
+        """Wait until the page's controls have arrived (the dashboard builds them after the page connects)."""
+        return await self.wait_until(lambda: bool(sliders(self.doc)), timeout)
 
     async def reply_to(self, msgid: str, timeout: float) -> Reply | None:
         """The ``OK`` / ``ERROR`` answer to message ``msgid`` (None if none came in time)."""
@@ -409,6 +425,8 @@ async def _student(base_url: str, index: int, slider_pattern: str, duration: flo
         opened.set()
         return
     out[index] = (client, latencies, errors)
+    if not await client.widgets():
+        errors.append("no controls arrived within 120 s")
     opened.set()
     await all_open.wait()
     deadline = time.perf_counter() + duration

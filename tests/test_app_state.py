@@ -202,8 +202,8 @@ def test_traces_are_small_and_real_samples(state):
 
 
 def test_theory_curves_follow_the_context(state):
-    if state.curves is None:
-        pytest.skip(f"no theory curves: {state.curves_note}")
+    state.want_curves()
+    assert state.curves is not None, state.curves_note
     assert state.curves.ratios.shape == (3, 81, 3)
     state.m = 2
     assert state.curves.m == 2 and state.curves.ratios.shape == (3, 81, 2)

@@ -16,7 +16,7 @@ from bokeh.plotting import figure
 from isl_core.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
-from .style import EXTRA_COLORS, EXTRA_DASHES
+from .style import EXTRA_COLORS, EXTRA_DASHES, line
 
 __all__ = ["KEY_DATA", "Overlay", "follow"]
 
@@ -62,16 +62,21 @@ class Overlay:
         self.items = [LegendItem(label=value(LABELS[n]), renderers=[self._keys[n]], visible=False)
                       for n in EXTRA_NAMES]
         self._followers = {n: follow(key) for n, key in self._keys.items()}
+        self._figures: list[figure] = []
         self._sources: list[dict[str, ColumnDataSource]] = []
         self._shown: set[str] = set()
 
     def add(self, fig: figure, i: int) -> None:
-        """Lines for coordinate ``i`` in ``fig``, linked to their legend entries."""
-        src = {n: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{n}") for n in EXTRA_NAMES}
-        lines = {n: fig.line("t", "y", source=src[n], visible=False, **_style(n)) for n in EXTRA_NAMES}
-        for n in EXTRA_NAMES:
-            self._followers[n].append(lines[n])
-        self._sources.append(src)
+        """Register ``fig`` as the plot of coordinate ``i``: the lines of the filters shown are built at once, the
+        others when their filter is first shown (each costs 8 models; most pages never show them)."""
+        self._figures.append(fig)
+        self._sources.append({})
+        for n in self._shown:
+            self._line(i, n)
+
+    def _line(self, i: int, n: str) -> None:
+        src = self._sources[i][n] = ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{n}")
+        self._followers[n].append(line(self._figures[i], src, visible=self._keys[n].visible, **_style(n)))
 
     def update(self, i: int, series: dict | None) -> None:
         """Data of plot ``i`` from the decimated ``series`` (None: the plot is not shown)."""
@@ -93,7 +98,10 @@ class Overlay:
             item.visible = n in names
             if (n in names) != (n in self._shown):
                 self._keys[n].visible = n in names
-                for line in self._followers[n]:
-                    line.visible = n in names
+                for i, sources in enumerate(self._sources):
+                    if n in names and n not in sources:
+                        self._line(i, n)
+                for renderer in self._followers[n]:
+                    renderer.visible = n in names
         self._shown = set(names)
         return len(self._shown)

@@ -59,6 +59,7 @@ class SweepView(Viewer):
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
         self._rows = (pn.Row(sizing_mode="stretch_width"), pn.Row(sizing_mode="stretch_width"))
         s = self.state
+        s.want_curves()
         s.param.watch(self._update_curves, ["curves"])
         s.param.watch(self._update_points, ["points"])
         s.param.watch(self._update_nu, ["nu", "alpha", "beta_from_w", "w", "beta"])

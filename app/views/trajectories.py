@@ -23,7 +23,7 @@ from isl_core import M_MAX
 
 from ..state import COORDINATES, AppState
 from .overlay import KEY_DATA, Overlay, follow
-from .style import ISL, KBF, SUBSCRIPT, TRUTH, styled
+from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled
 
 __all__ = ["TrajectoriesView", "plot_height"]
 
@@ -89,12 +89,13 @@ class TrajectoriesView(Viewer):
         self._keys = self._legend_keys()
         self._followers = {name: follow(item.renderers[0]) for name, item in self._keys.items()}
         self._overlay = Overlay(self._key_figure)
-        self._figures = [self._figure(i) for i in range(M_MAX)]
+        self._figures: list[figure] = []
+        self._panes: list[pn.pane.Bokeh] = []
+        self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
         self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
                               label_text_font_size="11pt", click_policy="hide", padding=2, margin=2, spacing=14,
                               location="top_left", border_line_alpha=0, background_fill_alpha=0)
         self._key_figure.add_layout(self._legend, "center")
-        self._panes = [pn.pane.Bokeh(f, sizing_mode="stretch_width", margin=(0, 5)) for f in self._figures]
         self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
         self._column = pn.Column(sizing_mode="stretch_width")
         self._waiting = pn.Row(pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
@@ -104,6 +105,13 @@ class TrajectoriesView(Viewer):
         self.state.param.watch(self._update, ["traces"])
         self.state.param.watch(self._placeholder, ["busy", "message"])
         self._update()
+
+    def _ensure(self, m: int) -> None:
+        """Plots for coordinates 1..m (each costs ≈ 45 ms of Python to build: only those shown are built)."""
+        while len(self._figures) < min(m, M_MAX):
+            fig = self._figure(len(self._figures))
+            self._figures.append(fig)
+            self._panes.append(pn.pane.Bokeh(fig, sizing_mode="stretch_width", margin=(0, 5)))
 
     def _legend_keys(self) -> dict[str, LegendItem]:
         """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
@@ -125,10 +133,11 @@ class TrajectoriesView(Viewer):
         up, down = Dodge(value=0.0), Dodge(value=0.0)
         band = Band(base="t", lower=field("y", down), upper=field("y", up), source=src["kbf"], fill_alpha=0.0, **_TUBE)
         fig.add_layout(band)
-        drawn = {"tube": band, "truth": fig.line("t", "y", source=src["truth"], **_TRUTH),
-                 "kbf": fig.line("t", "y", source=src["kbf"], **_KBF), "isl": fig.line("t", "y", source=src["isl"], **_ISL)}
+        drawn = {"tube": band, "truth": line(fig, src["truth"], **_TRUTH), "kbf": line(fig, src["kbf"], **_KBF),
+                 "isl": line(fig, src["isl"], **_ISL)}
         for name, model in drawn.items():  # a click on a legend entry hides that trace in every plot
             self._followers[name].append(model)
+            model.visible = self._keys[name].renderers[0].visible  # a plot built later: as its legend entry says
         if i == 0:  # the run's parameters, drawn on the canvas (no page re-layout)
             self._summary = Title(text="", text_font_size="10.5pt", text_font_style="italic")
             fig.add_layout(self._summary, "above")
@@ -140,6 +149,7 @@ class TrajectoriesView(Viewer):
     def _update(self, *events) -> None:
         traces, run = self.state.traces, self.state.run
         m = 0 if traces is None else len(traces.series)
+        self._ensure(m)
         with pn.io.hold():
             if run is not None:
                 _set_range(self._x_range, 0.0, run.T)

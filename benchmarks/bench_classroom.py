@@ -1,0 +1,297 @@
+"""The classroom scenario: 40 students moving sliders while 4 sessions try to stall the server (issue figures).
+
+    PYTHONPATH=. python benchmarks/bench_classroom.py [--students 40] [--duration 300] [--baseline 60]
+    PYTHONPATH=. python benchmarks/bench_classroom.py --url http://127.0.0.1:5006 --server-pid PID --log LOG
+
+Starts ``python -m app.serve`` on a free loopback port (or measures a running one) and, with the scripted
+browser-like client of ``scripts/load_test.py``:
+
+1. *idle*: the server's RSS, and how long a default page takes to be ready (connect → first run's plot data);
+2. *baseline*: ``--students`` sessions each move the σ slider every ~3 s for ``--baseline`` s (slider → plot-data
+   latency), while ``/liveness`` is probed every 0.25 s;
+3. *loaded*: the same students go on for ``--duration`` s while four hostile-heavy sessions run beside them — two
+   open ``HEAVY`` (m = 6, ν = 10⁴, horizon 1000, every extra filter: ≈ 10⁶ steps a run) and press "new noise"
+   again as soon as a run is shown, two open the worst-case tab at its maximum (m = 6, 11 σ, horizon 2000) and
+   press Compute again as soon as a table (or a refusal) is shown; a fresh default page is opened every 30 s;
+   RSS is sampled every 2 s;
+4. *closed*: every session is closed; once the server reports none left, its RSS.
+
+Prints one table: errors, liveness p50/p99/max, the students' latency p50/p95 (baseline and loaded), page-ready
+times (idle and loaded), RSS (idle, peak, after close), and what the heavy sessions got done. The machine's load
+average is printed too: figures are only comparable on an otherwise idle machine.
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import random
+import re
+import statistics
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from bokeh.events import ButtonClick
+from tornado.httpclient import AsyncHTTPClient
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import load_test as lt  # noqa: E402  (the scripted client lives with the load script)
+
+HEAVY = ("alpha=1&w=1&sigma=1&m=6&nu=10000&horizon=1000"
+         "&extra_filters=[\"kbf_mismatched\",\"kbf_minimax\",\"kbf_adaptive\",\"isl_model\"]")
+WORST = "m=6&wc_n_sigma=11&wc_horizon=2000"
+TIMELINE: list = []
+DONE = re.compile(r"Simulated in|Failed|Refused|refused|queue|Cancelled")
+
+
+@dataclass
+class Figures:
+    errors: list[str] = field(default_factory=list)
+    liveness: list[float] = field(default_factory=list)
+    baseline: list[float] = field(default_factory=list)
+    loaded: list[float] = field(default_factory=list)
+    ready_idle: list[float] = field(default_factory=list)
+    ready_loaded: list[float] = field(default_factory=list)
+    rss: list[float] = field(default_factory=list)
+    rss_idle: float = float("nan")
+    rss_closed: float = float("nan")
+    heavy_runs: int = 0
+    worst_tables: int = 0
+
+
+def pct(data: list[float], q: float) -> float:
+    if not data:
+        return float("nan")
+    data = sorted(data)
+    return data[min(len(data) - 1, int(q * len(data)))]
+
+
+def _traj(doc):
+    return doc.get_model_by_name("traj-1-isl")
+
+
+async def page_ready(base: str, figures: Figures, query: str = "") -> float | None:
+    """Seconds from opening a page to its first run's plot data (a full client: it applies every patch)."""
+    t0 = time.perf_counter()
+    try:
+        client = await lt.BokehClient.connect(base, query=query, timeout=lt.CONNECT_TIMEOUT_S)
+    except Exception as exc:  # noqa: BLE001
+        figures.errors.append(f"page: {exc!r}")
+        return None
+    try:
+        if not await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]),
+                                        120.0):
+            figures.errors.append("page: no run within 120 s")
+            return None
+        return time.perf_counter() - t0
+    finally:
+        figures.errors.extend(client.errors)
+        await client.close()
+
+
+async def liveness(base: str, stop: asyncio.Event, figures: Figures, interval: float = 0.25) -> None:
+    http = AsyncHTTPClient()
+    while not stop.is_set():
+        t0 = time.perf_counter()
+        try:
+            r = await http.fetch(f"{base}/liveness", request_timeout=30.0)
+            if r.code != 200:
+                figures.errors.append(f"liveness: HTTP {r.code}")
+            figures.liveness.append(time.perf_counter() - t0)
+            TIMELINE.append((t0, "liveness", figures.liveness[-1]))
+        except Exception as exc:  # noqa: BLE001
+            figures.errors.append(f"liveness: {exc!r}")
+        await asyncio.sleep(interval)
+
+
+def _button(doc, label: str):
+    return next((m for m in doc.models if getattr(m, "label", None) == label and type(m).__name__ == "Button"), None)
+
+
+async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
+    """Open HEAVY and press "new noise" each time its run is shown."""
+    client = await lt.BokehClient.connect(base, query=HEAVY, timeout=lt.CONNECT_TIMEOUT_S)
+    try:
+        await client.widgets()
+        await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]), 300.0)
+        while not stop.is_set() and not client.closed:
+            before = list(_traj(client.doc).data["y"][:8])
+            await client.send_event(ButtonClick(_button(client.doc, "new noise")))
+            changed = await client.wait_until(lambda b=before: list(_traj(client.doc).data["y"][:8]) != b
+                                              or stop.is_set(), 300.0)
+            if changed and not stop.is_set():
+                figures.heavy_runs += 1
+                TIMELINE.append((time.perf_counter(), "heavy run shown", 0.0))
+            elif not changed:
+                figures.errors.append("heavy: no new run within 300 s")
+    finally:
+        figures.errors.extend(client.errors)
+        await client.close()
+
+
+async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
+    """Open the worst-case tab at its maximum and press Compute each time a table or a refusal is shown."""
+    client = await lt.BokehClient.connect(base, query=WORST, timeout=lt.CONNECT_TIMEOUT_S)
+    try:
+        tabs = next(m for m in client.doc.models if type(m).__name__ == "Tabs")
+        await client.change(tabs, active=2)
+        await client.wait_until(lambda: _button(client.doc, "Compute") is not None, 120.0)
+        while not stop.is_set() and not client.closed:
+            notes = {m.id: m.text for m in client.doc.models if isinstance(m, lt.Markup)}
+            await client.send_event(ButtonClick(_button(client.doc, "Compute")))
+            TIMELINE.append((time.perf_counter(), "worst case pressed", 0.0))
+
+            def answered(notes=notes) -> bool:
+                return stop.is_set() or any(isinstance(m, lt.Markup) and m.text != notes.get(m.id)
+                                            and DONE.search(m.text or "") for m in client.doc.models)
+            if await client.wait_until(answered, 900.0) and not stop.is_set():
+                figures.worst_tables += 1
+                await client.wait_until(lambda: stop.is_set(), 2.0)  # a student reads the table, then asks again
+    finally:
+        figures.errors.extend(client.errors)
+        await client.close()
+
+
+async def students(base: str, n: int, figures: Figures, phases: list[tuple[float, list[float]]],
+                   stop: asyncio.Event) -> None:
+    """``n`` light sessions; in each phase (seconds, list to fill) each moves the σ slider every ~3 s."""
+    clients = []
+    for first in range(0, n, 10):
+        batch = await asyncio.gather(*(lt.BokehClient.connect(base, light=True, timeout=lt.CONNECT_TIMEOUT_S)
+                                       for _ in range(first, min(first + 10, n))), return_exceptions=True)
+        for c in batch:
+            (figures.errors.append(f"student connect: {c!r}") if isinstance(c, BaseException) else clients.append(c))
+        for c in clients[first:]:
+            if not await c.widgets():
+                figures.errors.append("student: no controls within 120 s")
+
+    async def one(k: int, client, until: float, out: list[float]) -> None:
+        rng = random.Random(k)
+        last = None
+        await asyncio.sleep(rng.uniform(0, 3.0))
+        while time.perf_counter() < until and not client.closed:
+            slider = lt.find_slider(client.doc, "σ")
+            value = last = lt.new_value(slider, rng, last)
+            _, t0 = await client.change(slider, value=value, value_throttled=value)
+            if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 30.0):
+                out.append(client.data_update_after(t0) - t0)
+                TIMELINE.append((t0, "student", out[-1]))
+            else:
+                figures.errors.append("student: no plot update within 30 s")
+            await asyncio.sleep(3.0 * rng.uniform(0.75, 1.25))
+
+    try:
+        for seconds, out in phases:
+            until = time.perf_counter() + seconds
+            await asyncio.gather(*(one(k, c, until, out) for k, c in enumerate(clients)))
+            if out is phases[0][1]:
+                stop.set()  # the baseline is over: the heavy sessions may start
+    finally:
+        for c in clients:
+            figures.errors.extend(c.errors)
+        await asyncio.gather(*(c.close() for c in clients))
+
+
+async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: float, duration: float) -> Figures:
+    fig = Figures()
+    await asyncio.sleep(2.0)
+    fig.rss_idle = lt.rss_mb(pid)
+    for _ in range(3):
+        if (t := await page_ready(base, fig)) is not None:
+            fig.ready_idle.append(t)
+    stop_probe, baseline_over, stop_heavy = asyncio.Event(), asyncio.Event(), asyncio.Event()
+    probe = asyncio.ensure_future(liveness(base, stop_probe, fig))
+    crowd = asyncio.ensure_future(students(base, n, fig, [(baseline, fig.baseline), (duration, fig.loaded)],
+                                           baseline_over))
+    await baseline_over.wait()
+    heavy = [asyncio.ensure_future(heavy_runs(base, stop_heavy, fig)) for _ in range(2)]
+    heavy += [asyncio.ensure_future(worst_cases(base, stop_heavy, fig)) for _ in range(2)]
+    t_end = time.perf_counter() + duration
+    next_page = time.perf_counter() + 30.0
+    while time.perf_counter() < t_end:
+        fig.rss.append(lt.rss_mb(pid))
+        if time.perf_counter() >= next_page:
+            next_page += 30.0
+            if (t := await page_ready(base, fig)) is not None:
+                fig.ready_loaded.append(t)
+        await asyncio.sleep(2.0)
+    stop_heavy.set()
+    await crowd
+    for task in heavy:
+        try:
+            await asyncio.wait_for(task, 60.0)
+        except Exception as exc:  # noqa: BLE001
+            fig.errors.append(f"heavy session: {exc!r}")
+    stop_probe.set()
+    await probe
+    fig.rss.append(lt.rss_mb(pid))
+    deadline = time.perf_counter() + 120.0  # unused sessions are released 10 s after their last connection
+    while time.perf_counter() < deadline:
+        stats = lt.server_stats(log) if log is not None else []
+        if stats and stats[-1][0] == 0:
+            break
+        await asyncio.sleep(2.0)
+    await asyncio.sleep(6.0)  # the memory trimmer runs every 5 s after sessions ended
+    fig.rss_closed = lt.rss_mb(pid)
+    return fig
+
+
+def report(f: Figures) -> str:
+    ms = lambda x: f"{1000 * x:.0f} ms"  # noqa: E731
+    med = lambda xs: statistics.median(xs) if xs else float("nan")  # noqa: E731
+    rows = [
+        ("errors", f"{len(f.errors)}" + (f" (first: {f.errors[0][:120]})" if f.errors else "")),
+        ("/liveness p50 / p99 / max", f"{ms(pct(f.liveness, .5))} / {ms(pct(f.liveness, .99))} / "
+                                      f"{ms(pct(f.liveness, 1.0))}  ({len(f.liveness)} probes)"),
+        ("students' slider → data p50 / p95, baseline", f"{ms(pct(f.baseline, .5))} / {ms(pct(f.baseline, .95))}"
+                                                        f"  ({len(f.baseline)} changes)"),
+        ("students' slider → data p50 / p95, loaded", f"{ms(pct(f.loaded, .5))} / {ms(pct(f.loaded, .95))}"
+                                                      f"  ({len(f.loaded)} changes)"),
+        ("new default page ready, idle / loaded (median)", f"{med(f.ready_idle):.2f} s / {med(f.ready_loaded):.2f} s"
+                                                            f"  (loaded max {max(f.ready_loaded, default=float('nan')):.2f} s)"),
+        ("server RSS idle / peak / after close", f"{f.rss_idle:.0f} / {max(f.rss, default=float('nan')):.0f} / "
+                                                 f"{f.rss_closed:.0f} MB"),
+        ("heavy runs shown / worst-case answers", f"{f.heavy_runs} / {f.worst_tables}"),
+    ]
+    width = max(len(a) for a, _ in rows)
+    return "\n".join(f"{a:<{width}}  {b}" for a, b in rows)
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--students", type=int, default=40)
+    p.add_argument("--baseline", type=float, default=60.0, help="seconds of students alone")
+    p.add_argument("--duration", type=float, default=300.0, help="seconds with the heavy sessions")
+    p.add_argument("--url")
+    p.add_argument("--server-pid", type=int)
+    p.add_argument("--log", type=Path, help="the running server's log (with --stats-interval 1000)")
+    p.add_argument("--server-args", default="", help="more options for the server this script starts")
+    opts = p.parse_args()
+    proc = None
+    url, pid, log = opts.url, opts.server_pid, opts.log
+    if url is None:
+        port = lt.free_port()
+        log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-classroom-{port}.log"
+        proc = lt.start_server(port, log, ["--stats-interval", "1000", *opts.server_args.split()])
+        lt.wait_healthy(port, 180, proc)
+        url, pid = f"http://127.0.0.1:{port}", proc.pid
+    try:
+        figures = asyncio.run(scenario(url, pid, log, opts.students, opts.baseline, opts.duration))
+    finally:
+        if proc is not None:
+            lt.stop_server(proc)
+    print(f"classroom scenario: {opts.students} students, baseline {opts.baseline:g} s, loaded {opts.duration:g} s "
+          f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)")
+    print(report(figures))
+    if os.environ.get("ISL_TIMELINE"):
+        t0 = min(t for t, _, _ in TIMELINE)
+        with open(os.environ["ISL_TIMELINE"], "w") as f:
+            for t, what, dt in sorted(TIMELINE):
+                f.write(f"{t - t0:8.3f} {what:20s} {1000 * dt:8.0f}\n")
+    return 0 if not figures.errors else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
