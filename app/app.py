@@ -20,7 +20,8 @@ from panel.io.resources import CDN_DIST
 from threadpoolctl import threadpool_limits
 
 from app import hardening
-from app.jobs import LARGE_POOL, RUN_POOL, SWEEP_POOL, Jobs
+from app.jobs import LARGE_POOL, RUN_POOL, Jobs
+from app.longjobs import LongJobQueue
 from app.state import AppState
 from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
@@ -30,6 +31,9 @@ from app.views.worstcase import WorstCaseView
 __all__ = ["TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
+
+#: the server's one queue of long jobs (sweeps, recommendations, worst cases): every session's, one at a time
+LONG_JOBS = LongJobQueue(workers=1, max_waiting=8)
 
 # The model's matrices are m×m (m ≤ 7): multithreaded BLAS only adds overhead, and with several sessions' jobs
 # on a 2-core machine its spinning threads made a Riccati solve ~10× slower (58 ms vs 5 ms per run, measured).
@@ -91,11 +95,10 @@ def session_jobs() -> Jobs:
     doc = pn.state.curdoc
     if doc is None or doc.session_context is None:
         return Jobs()
-    pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL, "sweep": SWEEP_POOL, "recommend": SWEEP_POOL,
-             "worstcase": SWEEP_POOL}
+    pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL}
     gate = SessionGate(doc)
     pn.state.onload(gate.opened)
-    return Jobs(pools, schedule=gate.schedule)
+    return Jobs(pools, schedule=gate.schedule, long_queue=LONG_JOBS)
 
 
 class LocalFast(pn.theme.Fast):

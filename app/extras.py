@@ -15,7 +15,6 @@ the current m, w and seed. :class:`app.state.AppState` inherits these inputs and
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Sequence
 from functools import partial
 
@@ -38,10 +37,6 @@ SIGMA_BOUNDS = (0.1, 1000.0)
 ALPHA_BOUNDS = (0.001, 100.0)
 log = logging.getLogger(__name__)
 WC_WORKERS = 1  #: threads of one worst-case computation (it runs on the long-job thread: one core, low priority)
-
-
-class WorstCaseCancelled(Exception):
-    """Raised from the worst-case computation's progress callback to stop it."""
 
 
 def extra_specs(model: Model, nu: float, names: Sequence[str], sigma_design: float,
@@ -104,52 +99,24 @@ class Baselines(param.Parameterized):
         return self.sigma_min, self.sigma_max
 
     def compute_worst_case(self) -> None:
-        """Simulate the worst-case table off the event loop (progress in ``worst_progress``; cancellable)."""
-        self._wc_cancel = cancel = threading.Event()
-        self.param.update(worst_busy=True, worst_progress=0.0, worst_note=(
-            f"Simulating {len(self.wc_alphas)} α × {self.wc_n_sigma} σ, {len(FILTERS)} filters on each run …"))
-        last = [0.0]
-
-        def progress(f: float) -> None:  # called on worker threads
-            if cancel.is_set():
-                raise WorstCaseCancelled()
-            if f - last[0] >= 0.01 or f >= 1.0:
-                last[0] = f
-                self._jobs.later(partial(self._set_worst_progress, cancel, f))
-
+        """Simulate the worst-case table as the session's long job (progress in ``worst_progress``; cancellable)."""
         fn = partial(worst_case_table, tuple(self.wc_alphas), sigma_range=self.sigma_range, n_sigma=self.wc_n_sigma,
-                     m=self.m, w=self.w, sigma_design=self.sigma_design, horizon=self.wc_horizon, seed=self.seed,
-                     progress=progress)
-        self._jobs.submit("worstcase", fn, self._apply_worst)
-
-    def _set_worst_progress(self, token: threading.Event, f: float) -> None:
-        if token is getattr(self, "_wc_cancel", None) and self.worst_busy:
-            self.worst_progress = min(f, 1.0)
+                     m=self.m, w=self.w, sigma_design=self.sigma_design, horizon=self.wc_horizon, seed=self.seed)
+        self._worst_task.start(fn, self._apply_worst, (
+            f"Simulating {len(self.wc_alphas)} α × {self.wc_n_sigma} σ, {len(FILTERS)} filters on each run …"))
 
     def cancel_worst_case(self) -> None:
-        """Stop the worst-case computation at its next progress report."""
-        if getattr(self, "_wc_cancel", None) is not None:
-            self._wc_cancel.set()
+        """Stop the worst-case computation: dropped if it waits in the queue, else at its next progress report."""
+        self._worst_task.cancel()
 
-    def _apply_worst(self, outcome, superseded: bool) -> None:
-        if superseded:
-            return
-        self.param.update(worst_busy=False, worst_progress=0.0)
-        err = outcome.error
-        if isinstance(err, WorstCaseCancelled):
-            self.worst_note = "Cancelled."
-        elif isinstance(err, ValueError):
-            self.worst_note = f"Failed: {err}."
-        elif err is not None:
-            log.error("unexpected error in the worst-case table", exc_info=err)
-            self.worst_note = f"Failed: internal error ({type(err).__name__}); details are in the server log."
-        else:
-            t: WorstCaseTable = outcome.value
-            lo, hi = t.sigma_range
-            k_lo, k_hi = float(t.stretch.min()), float(t.stretch.max())
-            longer = "" if k_hi == 1.0 else (f", both lengthened ×{k_lo:.3g}–×{k_hi:.3g} where a filter settles slower "
-                                             "than the optimal one (B.46)")
-            self.param.update(worst=t, worst_note=(
-                f"Simulated in {outcome.seconds:.1f} s: σ ∈ [{lo:g}, {hi:g}] ({len(t.sigmas)} values), m = {t.m}, "
-                f"w = {t.w:g}, seed {t.seeds[0]}. Each run averages over {t.horizon:g}/r_min after a burn-in of "
-                f"{BURN:g}/r_min{longer}; 95 % batch-means intervals."))
+    def _apply_worst(self, outcome) -> None:
+        """Show a computed worst-case table and where its numbers come from."""
+        t: WorstCaseTable = outcome.value
+        lo, hi = t.sigma_range
+        k_lo, k_hi = float(t.stretch.min()), float(t.stretch.max())
+        longer = "" if k_hi == 1.0 else (f", both lengthened ×{k_lo:.3g}–×{k_hi:.3g} where a filter settles slower "
+                                         "than the optimal one (B.46)")
+        self.param.update(worst=t, worst_note=(
+            f"Simulated in {outcome.seconds:.1f} s: σ ∈ [{lo:g}, {hi:g}] ({len(t.sigmas)} values), m = {t.m}, "
+            f"w = {t.w:g}, seed {t.seeds[0]}. Each run averages over {t.horizon:g}/r_min after a burn-in of "
+            f"{BURN:g}/r_min{longer}; 95 % batch-means intervals."))

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
-__all__ = ["LARGE_NICE", "LARGE_POOL", "LONG_NICE", "RUN_NICE", "RUN_POOL", "SWEEP_POOL", "Jobs", "Outcome", "Superseded", "call",
+__all__ = ["LARGE_NICE", "LARGE_POOL", "LONG_NICE", "RUN_NICE", "RUN_POOL", "Jobs", "Outcome", "Superseded", "call",
            "lower_priority"]
 
 log = logging.getLogger(__name__)
@@ -49,12 +49,12 @@ def lower_priority(nice: int) -> Callable[[], None]:
     return initializer
 
 
-#: Shared by every session of a server process: runs (a slider's answer) on two threads; large runs (≈ 10⁵–10⁶ steps,
-#: followed on release only) on one thread of their own, long jobs on another, each at a lower priority — so that
-#: neither ever queues a slider's run behind it, and each leaves the cores to the work above it.
+#: Shared by every session of a server process: runs (a slider's answer) on two threads, large runs (≈ 10⁵–10⁶ steps,
+#: followed on release only) on one thread of their own at a lower priority, long jobs in the queue of
+#: :mod:`app.longjobs` (one thread, lower still) — so that no run queues behind a large run or a long job, and each
+#: leaves the cores to the work above it.
 RUN_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-run", initializer=lower_priority(RUN_NICE))
 LARGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-large", initializer=lower_priority(LARGE_NICE))
-SWEEP_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-long", initializer=lower_priority(LONG_NICE))
 
 
 class Superseded(Exception):
@@ -92,8 +92,10 @@ class Jobs:
     """
 
     def __init__(self, executors: dict[str, Executor] | None = None,
-                 schedule: Callable[[Callable[[], None]], None] | None = None) -> None:
+                 schedule: Callable[[Callable[[], None]], None] | None = None, long_queue=None) -> None:
         self._executors = executors or {}
+        self._long = long_queue  # an app.longjobs.LongJobQueue, shared by the server's sessions (None: inline)
+        self._tickets: set = set()
         self._schedule = schedule or _inline
         self._busy: set[str] = set()
         self._waiting: dict[str, tuple[Callable[[], Any], Callable[[Outcome, bool], None]]] = {}
@@ -159,8 +161,37 @@ class Jobs:
             if waiting is not None and not self.closed:
                 self._start(kind, *waiting)
 
+    def submit_long(self, fn: Callable[[threading.Event], Any], done: Callable[[Outcome], None],
+                    on_position: Callable[[int], None]) -> Callable[[], None]:
+        """Queue ``fn(cancel_event)`` as this session's long job (:class:`app.longjobs.LongJobQueue`); ``done`` and
+        ``on_position`` run on the session's loop. Returns a function that cancels it. Inline without a queue."""
+        from .longjobs import QueueFull
+
+        if self.closed:
+            return lambda: None
+        if self._long is None:
+            event = threading.Event()
+            done(call(lambda: fn(event)))
+            return event.set
+        holder: list = []
+
+        def finished(outcome: Outcome) -> None:
+            self._tickets.discard(holder[0] if holder else None)
+            self._deliver(partial(done, outcome))
+
+        try:
+            ticket = self._long.submit(self, fn, finished, lambda ahead: self._deliver(partial(on_position, ahead)))
+        except QueueFull as exc:
+            done(Outcome(error=exc))
+            return lambda: None
+        holder.append(ticket)
+        self._tickets.add(ticket)
+        return lambda: self._long.cancel(ticket)
+
     def close(self) -> None:
-        """Forget waiting requests and drop outcomes still to come (the session has ended)."""
+        """Forget waiting requests, cancel this session's long job and drop outcomes still to come."""
         with self._lock:
             self.closed = True
             self._waiting.clear()
+        for ticket in list(self._tickets):
+            self._long.cancel(ticket)

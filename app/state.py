@@ -17,7 +17,6 @@ import dataclasses
 import io
 import logging
 import math
-import threading
 from dataclasses import dataclass
 from functools import partial
 
@@ -29,6 +28,7 @@ from isl_core.runview import RunView, simulate_view
 from . import extras, inputs, sweeps
 from .export import run_csv
 from .jobs import Jobs, Outcome, call
+from .longjobs import Cancelled, LongTask
 from .presets import PRESETS
 
 __all__ = [
@@ -58,10 +58,6 @@ SWEEP_INPUTS = ("sweep_sigmas", "sweep_horizon")
 ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS)
 SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
 COORDINATES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")  #: X_1 … X_6
-
-
-class SweepCancelled(Exception):
-    """Raised from the sweep's progress callback to stop it."""
 
 
 @dataclass(frozen=True)
@@ -193,7 +189,7 @@ def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
 
 
 def _describe(exc: BaseException) -> str:
-    if isinstance(exc, (ValueError, DivergenceError, sweeps.TheoryMissing)):
+    if isinstance(exc, (ValueError, DivergenceError, sweeps.TheoryMissing, Cancelled)):
         return str(exc)
     log.error("unexpected error in a dashboard job", exc_info=exc)
     return f"internal error ({type(exc).__name__}); details are in the server log"
@@ -250,7 +246,8 @@ class AppState(extras.Baselines):
         self.shown_request: Request | None = None  # the inputs of the run on screen
         self._curves_wanted = False  # the ν-sweep's theory curves: computed once its tab is open
         self._serial = 0
-        self._cancel = threading.Event()
+        self._sweep_task = LongTask(self, busy="sweep_busy", progress="sweep_progress", note="sweep_note")
+        self._worst_task = LongTask(self, busy="worst_busy", progress="worst_progress", note="worst_note")
         self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``sweep_note`` reports on
         self.param.watch(self._on_inputs, list(INPUTS))
         self.param.watch(self._on_extra_inputs, list(extras.RUN_INPUTS))
@@ -460,46 +457,20 @@ class AppState(extras.Baselines):
         elif not superseded:
             self.param.update(curves=None, curves_note=f"No theory curves: {_describe(outcome.error)}.")
 
-    def _long_job(self, kind: str, fn, apply, note: str) -> None:
-        """Run ``fn(progress=…)`` on the sweep pool with a progress bar and a cancel button."""
-        self._cancel = cancel = threading.Event()
-        self.param.update(sweep_busy=True, sweep_progress=0.0, sweep_note=note)
-        last = [0.0]
-
-        def progress(f: float) -> None:  # called on a worker thread
-            if cancel.is_set():
-                raise SweepCancelled()
-            if f - last[0] >= 0.01 or f >= 1.0:
-                last[0] = f
-                self._jobs.later(partial(self._set_progress, cancel, f))
-
-        self._jobs.submit(kind, partial(fn, progress=progress), partial(self._finish_long_job, apply))
-
-    def _set_progress(self, token: threading.Event, f: float) -> None:
-        if token is self._cancel and self.sweep_busy:
-            self.sweep_progress = min(f, 1.0)
+    def describe(self, error: BaseException) -> str:
+        """A job's failure in words for the page (tracebacks go to the server log)."""
+        return _describe(error)
 
     def cancel_sweep(self) -> None:
-        """Stop the running sweep or recommendation at its next progress report."""
-        self._cancel.set()
-
-    def _finish_long_job(self, apply, outcome: Outcome, superseded: bool) -> None:
-        if superseded:
-            return
-        self.param.update(sweep_busy=False, sweep_progress=0.0)
-        if isinstance(outcome.error, SweepCancelled):
-            self.sweep_note = "Cancelled."
-        elif outcome.error is not None:
-            self.sweep_note = f"Failed: {_describe(outcome.error)}."
-        else:
-            apply(outcome)
+        """Stop the sweep or recommendation: dropped if it waits in the queue, else at its next progress report."""
+        self._sweep_task.cancel()
 
     def simulate_sweep(self) -> None:
         """Simulate the sweep's points for the current context (progress in ``sweep_progress``; cancellable)."""
         alpha, beta, m, sigmas = self._sweep_model()
         fn = partial(sweeps.simulate_points, alpha, beta, m, sigmas, horizon=self.sweep_horizon, seed=self.seed)
-        self._long_job("sweep", fn, self._apply_points,
-                       f"Simulating {len(sigmas)} × {len(sweeps.SIM_LEVELS)} configurations …")
+        self._sweep_task.start(fn, self._apply_points,
+                               f"Simulating {len(sigmas)} × {len(sweeps.SIM_LEVELS)} configurations …")
 
     def _apply_points(self, outcome: Outcome) -> None:
         pts: sweeps.SweepPoints = outcome.value
@@ -519,8 +490,8 @@ class AppState(extras.Baselines):
         """Set ν to the value minimizing the worst-case ratio over the sweep's σ (``recommend_nu``, verified)."""
         alpha, beta, m, sigmas = self._sweep_model()
         fn = partial(sweeps.recommend, alpha, beta, m, sigmas, horizon=self.sweep_horizon, seed=self.seed)
-        self._long_job("sweep", fn, self._apply_recommendation,
-                       "Searching the theory for the best ν, then checking it by simulation …")
+        self._sweep_task.start(fn, self._apply_recommendation,
+                               "Searching the theory for the best ν, then checking it by simulation …")
 
     def _apply_recommendation(self, outcome: Outcome) -> None:
         nu, text = outcome.value
@@ -529,9 +500,7 @@ class AppState(extras.Baselines):
         self.sweep_note = text
 
     def close(self) -> None:
-        """End of the session: stop the sweep, drop pending work and the large arrays."""
-        self._cancel.set()
-        self.cancel_worst_case()
+        """End of the session: stop its long job, drop pending work and the large arrays."""
         self._jobs.close()
         with param.parameterized.discard_events(self):  # the views are going away: no redraw
             self.param.update(run=None, traces=None, prediction=None, points=None, curves=None, worst=None,

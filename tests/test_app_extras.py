@@ -12,6 +12,7 @@ from _loop import ManualLoop
 from app import extras
 from app.extras import EXTRA_NAMES
 from app.jobs import Jobs
+from app.longjobs import LongJobQueue
 from app.state import AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import WorstCaseView, worst_case_html
@@ -101,14 +102,14 @@ def test_sweep_curves_of_the_extra_filters(state):
 def test_worst_case_table_is_computed_off_thread_and_shown():
     loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
     try:
-        s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule, long_queue=LongJobQueue()))
         s.start()
         s.param.update(wc_alphas=[1.0], wc_n_sigma=2, wc_horizon=20.0)
         view = WorstCaseView(state=s)
         assert not view._figure.visible and "No table yet" in view._table.object  # nothing to plot yet
         caller = threading.get_ident()
         s.compute_worst_case()
-        assert s.worst_busy  # returned before the table exists: the work is on the pool
+        assert s.worst_busy  # returned before the table exists: the work is in the long-job queue
         loop.pump(lambda: not s.worst_busy, timeout=120.0)
         assert threading.get_ident() == caller
         t = s.worst
@@ -129,7 +130,7 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
 def test_worst_case_can_be_cancelled():
     loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
     try:
-        s = AppState(jobs=Jobs({"run": pool, "theory": pool, "worstcase": pool}, schedule=loop.schedule))
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule, long_queue=LongJobQueue()))
         s.start()
         s.param.update(wc_alphas=[0.04, 25.0], wc_horizon=2000.0)  # long enough to be caught running
         s.compute_worst_case()

@@ -13,6 +13,7 @@ from _loop import ManualLoop
 from app import state as state_module
 from app import sweeps
 from app.jobs import Jobs
+from app.longjobs import LongJobQueue
 from app.presets import PRESETS
 from app.state import APP_MAX_STEPS, INPUTS, AppState
 from isl_core import DivergenceError, Model, kalman_bucy
@@ -242,7 +243,7 @@ def test_threaded_runs_coalesce_to_the_latest_request():
 def test_threaded_sweep_can_be_cancelled():
     loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=2)
     try:
-        s = AppState(jobs=Jobs({"run": pool, "theory": pool, "sweep": pool}, schedule=loop.schedule))
+        s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule, long_queue=LongJobQueue()))
         s.start()
         s.param.update(sweep_horizon=2000.0, alpha=25.0)  # long enough to be caught running
         s.simulate_sweep()

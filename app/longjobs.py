@@ -1,0 +1,192 @@
+"""The server's long jobs (ν-sweep points, recommendations, worst-case tables): one queue for every session.
+
+Long jobs take seconds to minutes of one core each. They run one at a time (``workers``, default 1) on threads at a
+lower CPU priority than the slider runs and the event loop (:func:`app.jobs.lower_priority`), first come first served,
+so that a classroom's long jobs never hold up its slider updates and the machine keeps a core for them. The rules,
+as data that a test can check without a browser:
+
+* each session has at most one long job, waiting or running (a second one is refused with a message);
+* at most ``max_waiting`` jobs wait (then a new one is refused: "the server is busy, try again");
+* a waiting job knows its place — ``on_position(k)`` is called with the number of jobs ahead of it (running ones
+  included) whenever that number changes;
+* a job can be cancelled while it waits (it is dropped) or while it runs (its ``cancel`` event is set; the job's
+  progress callback raises at its next report).
+
+Each session reaches the queue through its :class:`app.jobs.Jobs` (``submit_long``) and shows a job's progress,
+place and outcome through a :class:`LongTask`.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from .jobs import LONG_NICE, Outcome, call, lower_priority
+
+__all__ = ["Cancelled", "LongJobQueue", "LongTask", "QueueFull", "Ticket"]
+
+log = logging.getLogger(__name__)
+
+
+class QueueFull(RuntimeError):
+    """Too many long jobs are waiting, or this session has one already; the message says which."""
+
+
+@dataclass(eq=False)
+class Ticket:
+    """One long job: its owner (a session), the work, and the callbacks (called from the queue's threads)."""
+
+    owner: object
+    fn: Callable[[threading.Event], Any]
+    done: Callable[[Outcome], None]
+    on_position: Callable[[int], None]
+    cancel: threading.Event = field(default_factory=threading.Event)
+
+
+class LongJobQueue:
+    """A first-come-first-served queue of long jobs on ``workers`` low-priority threads (module docstring)."""
+
+    def __init__(self, workers: int = 1, max_waiting: int = 8, nice: int = LONG_NICE) -> None:
+        self.max_waiting = max_waiting
+        self._waiting: list[Ticket] = []
+        self._running: list[Ticket] = []
+        self._cv = threading.Condition()
+        self._threads = [threading.Thread(target=self._work, args=(lower_priority(nice),), daemon=True,
+                                          name=f"isl-long-{k}") for k in range(workers)]
+        for t in self._threads:
+            t.start()
+
+    def submit(self, owner: object, fn: Callable[[threading.Event], Any], done: Callable[[Outcome], None],
+               on_position: Callable[[int], None]) -> Ticket:
+        """Queue ``fn(cancel_event)`` for ``owner``; ``done(outcome)`` when it ends. ``QueueFull`` if it may not."""
+        ticket = Ticket(owner, fn, done, on_position)
+        with self._cv:
+            if any(t.owner is owner for t in (*self._waiting, *self._running)):
+                raise QueueFull("you already have a long computation waiting or running; wait for it or cancel it")
+            if len(self._waiting) >= self.max_waiting:
+                raise QueueFull(f"the server is busy: {len(self._waiting)} long computations are waiting already; "
+                                "try again in a minute")
+            self._waiting.append(ticket)
+            self._cv.notify()
+        self._report()
+        return ticket
+
+    def cancel(self, ticket: Ticket) -> bool:
+        """Drop ``ticket`` if it waits (True; it ends at once as :class:`Cancelled`), else ask it to stop (its
+        progress callback raises at its next report)."""
+        ticket.cancel.set()
+        with self._cv:
+            waiting = ticket in self._waiting
+            if waiting:
+                self._waiting.remove(ticket)
+        if waiting:
+            self._report()
+            ticket.done(Outcome(error=Cancelled()))
+        return waiting
+
+    def positions(self) -> dict[int, int]:
+        """``{id(ticket): jobs ahead}`` of the waiting tickets (for tests and logs)."""
+        with self._cv:
+            return {id(t): len(self._running) + k for k, t in enumerate(self._waiting)}
+
+    @property
+    def load(self) -> tuple[int, int]:
+        """``(running, waiting)`` jobs."""
+        with self._cv:
+            return len(self._running), len(self._waiting)
+
+    def _report(self) -> None:
+        with self._cv:
+            places = [(t, len(self._running) + k) for k, t in enumerate(self._waiting)]
+        for ticket, ahead in places:
+            try:
+                ticket.on_position(ahead)
+            except Exception:  # noqa: BLE001 — a closed session's callback must not stop the queue
+                log.debug("position report failed", exc_info=True)
+
+    def _work(self, initializer: Callable[[], None]) -> None:
+        initializer()
+        while True:
+            with self._cv:
+                while not self._waiting:
+                    self._cv.wait()
+                ticket = self._waiting.pop(0)
+                self._running.append(ticket)
+            self._report()
+            outcome = call(lambda t=ticket: t.fn(t.cancel))
+            with self._cv:
+                self._running.remove(ticket)
+            self._report()
+            try:
+                ticket.done(outcome)
+            except Exception:  # noqa: BLE001
+                log.exception("delivering a long job's outcome failed")
+
+
+class Cancelled(Exception):
+    """Raised from a long job's progress callback to stop it."""
+
+
+class LongTask:
+    """One kind of long job of a session (the ν-sweep's, the worst case's): start, progress, place in the queue,
+    cancel, and the outcome — written to three of ``state``'s parameters (``busy``, ``progress``, ``note``).
+
+    ``state`` provides ``_jobs`` (:class:`app.jobs.Jobs`) and ``describe(error)`` for failures.
+    """
+
+    def __init__(self, state, *, busy: str, progress: str, note: str) -> None:
+        self.state, self.busy, self.progress, self.note = state, busy, progress, note
+        self._cancel: Callable[[], None] | None = None
+        self._token = object()
+
+    def start(self, fn: Callable[..., Any], apply: Callable[[Outcome], None], note: str) -> None:
+        """Run ``fn(progress=…)`` as the session's long job; ``apply(outcome)`` on success (on the session's loop)."""
+        token = self._token = object()
+        self.state.param.update(**{self.busy: True, self.progress: 0.0, self.note: note})
+        last = [0.0]
+
+        def run(cancel: threading.Event):
+            def progress(fraction: float) -> None:  # on the worker thread
+                if cancel.is_set():
+                    raise Cancelled()
+                if fraction - last[0] >= 0.01 or fraction >= 1.0:
+                    last[0] = fraction
+                    self.state._jobs.later(lambda: self._set(token, progress=min(fraction, 1.0)))
+            return fn(progress=progress)
+
+        def waiting(ahead: int) -> None:
+            what = "another long computation is" if ahead == 1 else f"{ahead} long computations are"
+            self._set(token, note=f"Waiting: {what} ahead of yours (the server runs them one at a time). {note}"
+                      if ahead else note)
+
+        self._cancel = self.state._jobs.submit_long(run, lambda outcome: self._finish(token, apply, outcome), waiting)
+
+    def cancel(self) -> None:
+        """Stop the job: dropped if it still waits, stopped at its next progress report if it runs."""
+        if self._cancel is not None:
+            self._cancel()
+
+    def _set(self, token: object, *, progress: float | None = None, note: str | None = None) -> None:
+        if token is not self._token or not getattr(self.state, self.busy):
+            return
+        if progress is not None:
+            setattr(self.state, self.progress, progress)
+        if note is not None:
+            setattr(self.state, self.note, note)
+
+    def _finish(self, token: object, apply: Callable[[Outcome], None], outcome: Outcome) -> None:
+        if token is not self._token:
+            return
+        self._cancel = None
+        self.state.param.update(**{self.busy: False, self.progress: 0.0})
+        err = outcome.error
+        if isinstance(err, Cancelled):
+            setattr(self.state, self.note, "Cancelled.")
+        elif isinstance(err, QueueFull):
+            setattr(self.state, self.note, f"Not started: {err}.")
+        elif err is not None:
+            setattr(self.state, self.note, f"Failed: {self.state.describe(err)}.")
+        else:
+            apply(outcome)
