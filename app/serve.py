@@ -16,7 +16,8 @@ option                          environment              default
 ``--stats-interval``            —                        60000 ms between ``isl stats`` log lines
 ==============================  =======================  ====================================================
 
-Always on: ``--liveness`` (``GET /liveness`` → 200 while the server's event loop answers), ``--warm`` (the app runs
+Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`app.webguard`, with the security
+headers, the host check and compression), ``--warm`` (the app runs
 once before the port opens), a global exception handler and per-session release hooks (:mod:`app.hardening`).
 Never on: ``--admin``, ``--dev``/``--autoreload``, a ``*`` websocket origin.
 
@@ -59,7 +60,7 @@ TRIM_INTERVAL_MS = 5_000
 # Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
 WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 LIVENESS_ENDPOINT = "liveness"
-ENV = {"address": "ISL_ADDRESS", "port": "ISL_PORT", "origins": "ISL_ALLOWED_ORIGINS",
+ENV = {"address": "ISL_ADDRESS", "port": "ISL_PORT", "origins": "ISL_ALLOWED_ORIGINS", "frames": "ISL_FRAME_ANCESTORS",
        "num_procs": "ISL_NUM_PROCS", "num_threads": "ISL_NUM_THREADS"}
 # Bokeh reads this variable and lets it REPLACE the allow-list; the origins come from ISL_ALLOWED_ORIGINS only.
 BOKEH_ORIGIN_ENV = "BOKEH_ALLOW_WS_ORIGIN"
@@ -140,6 +141,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"interval of the sweep for unused sessions (default {CHECK_UNUSED_SESSIONS_MS})")
     p.add_argument("--stats-interval", type=int, default=STATS_INTERVAL_MS, metavar="MS",
                    help=f"log live sessions, connections and RSS this often, 0 = never (default {STATS_INTERVAL_MS})")
+    p.add_argument("--frame-ancestors", action="append", default=[], metavar="SITE",
+                   help=f"a site that may show the dashboard in a frame, e.g. https://lms.example.edu (repeatable; "
+                        f"added to env {ENV['frames']}; default: none, only the dashboard itself)")
     p.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error", "critical"])
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--check", action="store_true", help="run the warm-up (numba cache, the app once) and exit")
@@ -154,7 +158,7 @@ def panel_argv(opts: argparse.Namespace, script: str, origins: Sequence[str]) ->
             "--unused-session-lifetime", str(opts.unused_session_lifetime),
             "--check-unused-sessions", str(opts.check_unused_sessions),
             "--websocket-max-message-size", str(WEBSOCKET_MAX_MESSAGE_BYTES),
-            "--log-level", opts.log_level, "--warm", "--liveness", "--liveness-endpoint", LIVENESS_ENDPOINT]
+            "--log-level", opts.log_level, "--warm"]  # /liveness: app.webguard's (Panel's can build a session)
     for origin in origins:
         argv += ["--allow-websocket-origin", origin]
     return argv
@@ -207,7 +211,7 @@ class MemoryTrimmer:
         self.sessions = sessions
 
 
-def _serve_command(origins: Sequence[str], stats_interval_ms: int):
+def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Sequence[str] = ()):
     """Panel's ``serve`` sub-command with a strict warm-up and a URL banner (imports panel lazily)."""
     from panel.command.serve import Serve
 
@@ -226,6 +230,9 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int):
             if stats_interval_ms > 0:
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
             PeriodicCallback(MemoryTrimmer(server), TRIM_INTERVAL_MS).start()
+            from app import webguard
+
+            webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
             return super().customize_server(server)
 
     return StrictServe
@@ -266,7 +273,7 @@ def health(port: int, timeout: float = 3.0) -> int:
         return 1
 
 
-def serve(opts: argparse.Namespace, origins: Sequence[str]) -> int:
+def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[str] = ()) -> int:
     """Serve until interrupted; 1 if the app fails its warm-up or the port cannot be bound."""
     from app import hardening
 
@@ -276,7 +283,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str]) -> int:
     warm_core()
     argv = panel_argv(opts, app_script(), origins)
     parser = argparse.ArgumentParser(prog="panel serve")
-    command = _serve_command(origins, opts.stats_interval)(parser=parser)
+    command = _serve_command(origins, opts.stats_interval, ancestors)(parser=parser)
     args = parser.parse_args(argv)
     try:
         command.invoke(args)
@@ -298,6 +305,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         check_counts(opts)
         origins = allowed_origins(opts.port, os.environ.get(ENV["origins"]), opts.allow_websocket_origin)
+        from app.webguard import check_frame_ancestors
+
+        ancestors = check_frame_ancestors(" ".join(filter(None, [os.environ.get(ENV["frames"]), *opts.frame_ancestors])))
     except ValueError as exc:
         log.error("%s", exc)
         return 2
@@ -312,7 +322,7 @@ def main(argv: list[str] | None = None) -> int:
             return 1
         print("isl dashboard: warm-up passed", flush=True)
         return 0
-    return serve(opts, origins)
+    return serve(opts, origins, ancestors)
 
 
 if __name__ == "__main__":

@@ -93,18 +93,21 @@ class BokehClient:
 
     @classmethod
     async def connect(cls, base_url: str, app_path: str = "/app", *, origin: str | None = None,
-                      timeout: float = 60.0, light: bool = False, query: str = "") -> BokehClient:
+                      timeout: float = 60.0, light: bool = False, query: str = "", host: str | None = None
+                      ) -> BokehClient:
         """Open a session like a browser on ``base_url`` would, pull the document and announce it ready.
 
         ``light``: apply the server's later patches to ``doc`` except plot data (those go stale; ``patches`` still
         records every change) — one process can then drive a classroom.
-        ``query``: the page's URL query (``"sigma=200&m=6"``), as a link would carry it.
+        ``query``: the page's URL query (``"sigma=200&m=6"``), as a link would carry it. ``host``: the ``Host`` header
+        (as a reverse proxy forwards the public name), default the URL's.
         """
         parsed = urlparse(base_url)
         session_id = generate_session_id()
         token = generate_jwt_token(session_id)
         ws_url = f"ws://{parsed.netloc}{app_path}/ws" + (f"?{query.lstrip('?')}" if query else "")
-        request = HTTPRequest(ws_url, headers={"Origin": origin or f"http://{parsed.netloc}"},
+        request = HTTPRequest(ws_url, headers={"Origin": origin or f"http://{parsed.netloc}",
+                                               **({"Host": host} if host else {})},
                               connect_timeout=timeout, request_timeout=timeout)
         socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
         protocol = Protocol()

@@ -294,3 +294,66 @@ def test_showing_another_filter_changes_neither_the_signal_nor_the_other_numbers
         after = page.evaluate(TRUTH_DATA)
         table_after = page.locator("table.isl-numbers.ratios").inner_text()
     assert after == truth and table_after == table
+
+
+@contextlib.contextmanager
+def lms_page(app_url: str, port: int = 0):
+    """A course page on another port (another origin) that shows ``app_url`` in an iframe; yields its URL."""
+    import http.server
+    import threading
+
+    html = f'<!doctype html><title>course</title><iframe id="isl" src="{app_url}" width="1200" height="800"></iframe>'
+
+    class Page(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):  # noqa: N802  (http.server's name)
+            self.send_response(200)
+            self.send_header("Content-Type", "text/html")
+            self.end_headers()
+            self.wfile.write(html.encode())
+
+        def log_message(self, *args):
+            pass
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Page)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        yield f"http://127.0.0.1:{server.server_port}/"
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
+def _framed(page_url: str) -> str:
+    """Open ``page_url`` in chromium; 'blocked' if its iframe was refused, 'shown' once the dashboard draws in it."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page()
+            blocked = []
+            page.on("console", lambda msg: blocked.append(msg.text) if "frame-ancestors" in msg.text else None)
+            page.goto(page_url)
+            page.wait_for_function("() => document.getElementById('isl').contentWindow !== null")
+            frame = page.frame_locator("#isl")
+            try:
+                frame.locator(".bk-Canvas, .bk-panel-models-layout-Column").first.wait_for(timeout=30_000)
+                return "shown"
+            except sync_api.TimeoutError:
+                return "blocked" if blocked else "neither"
+        finally:
+            browser.close()
+
+
+def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
+    """By default the dashboard refuses to be framed by another origin (CSP frame-ancestors 'self'); a course page
+    named in ISL_FRAME_ANCESTORS shows it."""
+    from _serving import served as serve_app
+
+    lms_port = free_port()
+    with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _):
+        with lms_page(url + "/app", lms_port) as lms:
+            assert _framed(lms) == "blocked"
+    lms_origin = f"http://127.0.0.1:{lms_port}"
+    with serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _):
+        with lms_page(url + "/app", lms_port) as lms:
+            assert _framed(lms) == "shown"

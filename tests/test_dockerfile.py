@@ -177,7 +177,7 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
         assert healthy_after is not None, log.read_text()[-3000:]
         record_property("start_to_healthy_s", round(healthy_after, 2))
         print(f"start to healthy: {healthy_after:.2f} s")
-        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=60) as page:
+        with urllib.request.urlopen(f"http://localhost:{port}/", timeout=60) as page:  # an allowed host name
             body = page.read().decode()
             assert page.status == 200 and page.url.endswith("/app")
         assert "<html" in body.lower() and "Bokeh" in body and "Traceback" not in body

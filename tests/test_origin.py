@@ -1,11 +1,13 @@
-"""Origin checks and error pages of the served dashboard (``python -m app.serve`` on 127.0.0.1).
+"""Origin and host checks, security headers and error pages of the served dashboard (``python -m app.serve``).
 
-A browser on another site must not be able to open a dashboard session (websocket ``Origin`` check); no HTTP
+A browser on another site must not be able to open a dashboard session (websocket ``Origin`` check); a request
+for another host name is refused (DNS rebinding); every answer carries the framing and sniffing headers; no HTTP
 answer, however malformed the request, may carry a Python traceback.
 """
 from __future__ import annotations
 
 import http.client
+import re
 from urllib.parse import urlparse
 
 import pytest
@@ -23,19 +25,30 @@ def default_server(tmp_path_factory):
         yield url, log
 
 
-def connect(url: str, origin: str):
+def connect(url: str, origin: str, host: str | None = None):
     async def go():
-        async with await load_test.BokehClient.connect(url, origin=origin, timeout=60) as client:
+        async with await load_test.BokehClient.connect(url, origin=origin, timeout=60, host=host) as client:
             return len(client.doc.roots)
     return run(go(), 120)
 
 
-def refused(url: str, origin: str) -> bool:
+def refused(url: str, origin: str, host: str | None = None) -> bool:
     try:
-        connect(url, origin)
+        connect(url, origin, host)
     except HTTPClientError as exc:
         return exc.code == 403
     return False
+
+
+def get(url: str, path: str, **headers) -> tuple[int, dict, bytes]:
+    parsed = urlparse(url)
+    conn = http.client.HTTPConnection(parsed.hostname, parsed.port, timeout=60)
+    try:
+        conn.request("GET", path, headers=headers)
+        r = conn.getresponse()
+        return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
+    finally:
+        conn.close()
 
 
 def test_default_origins_admit_this_machine_only(default_server):
@@ -51,12 +64,47 @@ def test_default_origins_admit_this_machine_only(default_server):
 
 
 def test_listed_origins_replace_the_defaults(tmp_path):
-    with served(tmp_path, "--stats-interval", "0", env={"ISL_ALLOWED_ORIGINS": "class.example.edu:8443"}) as (url, _, _):
-        assert connect(url, "https://class.example.edu:8443") > 0
+    public = "class.example.edu:8443"  # behind a reverse proxy that forwards the public Host name
+    with served(tmp_path, "--stats-interval", "0", env={"ISL_ALLOWED_ORIGINS": public}) as (url, _, _):
+        assert connect(url, "https://class.example.edu:8443", host=public) > 0
         port = urlparse(url).port
-        assert refused(url, f"http://localhost:{port}")
-        assert refused(url, "https://class.example.edu:9999")
-        assert refused(url, "https://evil.example.edu:8443")
+        assert refused(url, f"http://localhost:{port}", host=public)
+        assert refused(url, "https://class.example.edu:9999", host=public)
+        assert refused(url, "https://evil.example.edu:8443", host=public)
+        assert refused(url, "https://class.example.edu:8443")  # the right origin, reached under another host name
+        assert get(url, "/liveness")[0] == 200  # health probes come by IP: always answered
+
+
+def test_other_host_names_are_refused_before_any_session_exists(default_server):
+    url, log = default_server
+    port = urlparse(url).port
+    for host in ("evil.example.com", f"evil.example.com:{port}", f"127.0.0.1.evil.example.com:{port}"):
+        status, _, body = get(url, "/app", Host=host)
+        assert status == 403 and b"does not answer to that host name" in body
+    assert get(url, "/app", Host=f"localhost:{port}")[0] == 200
+
+
+def test_answers_carry_the_framing_and_sniffing_headers_and_scripts_are_compressed(default_server):
+    url, _ = default_server
+    status, headers, page = get(url, "/app")
+    assert status == 200
+    assert headers["content-security-policy"] == "frame-ancestors 'self'"
+    assert headers["x-frame-options"] == "SAMEORIGIN" and headers["x-content-type-options"] == "nosniff"
+    assert headers["referrer-policy"] == "same-origin"
+    script = "/" + next(s for s in re.findall(rb'src="([^"]+\.js[^"]*)"', page) if b"bokeh.min" in s).decode()
+    status, plain_headers, plain = get(url, script)
+    status_gz, headers, body = get(url, script, **{"Accept-Encoding": "gzip"})
+    assert status == status_gz == 200 and headers.get("content-encoding") == "gzip"
+    assert len(plain) > 500_000 and len(body) < len(plain) / 2, (len(plain), len(body))  # bokeh.min.js
+
+
+def test_liveness_never_builds_a_session(default_server):
+    """Panel's /liveness?endpoint=/app built a whole session on the event loop (1.2–1.8 s); this one answers only."""
+    url, log = default_server
+    before = log.read_text().count("Session")
+    status, _, body = get(url, "/liveness?endpoint=/app")
+    assert status == 200 and body == b'{"alive": true}'
+    assert log.read_text().count("Session") == before
 
 
 PROBES = [
