@@ -2,23 +2,26 @@
 #   docker build -t isl .
 #   docker run --rm -p 5006:5006 -e ISL_ALLOWED_ORIGINS=localhost:5006 isl
 # Settings by environment at `docker run` time: ISL_ALLOWED_ORIGINS (comma-separated host[:port] the browsers
-# use to reach the server), ISL_NUM_PROCS, ISL_NUM_THREADS (see app/serve.py).
-ARG PYTHON_IMAGE=python:3.11.14-slim-bookworm
+# use to reach the server), ISL_FRAME_ANCESTORS (a course page allowed to frame it), ISL_NUM_PROCS,
+# ISL_NUM_THREADS (see app/serve.py). Runs as any UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
+# The base image by digest: python:3.11.14-slim-bookworm (the multi-architecture index).
+ARG PYTHON_IMAGE=python:3.11.14-slim-bookworm@sha256:65a93d69fa75478d554f4ad27c85c1e69fa184956261b4301ebaf6dbb0a3543d
 
 FROM ${PYTHON_IMAGE} AS build
 ENV PIP_DISABLE_PIP_VERSION_CHECK=1
 WORKDIR /src
-COPY pyproject.toml README.md ./
+COPY pyproject.toml README.md requirements.lock ./
 COPY isl_core ./isl_core
 COPY app ./app
 RUN python -m venv /opt/venv \
-    && /opt/venv/bin/pip install --no-cache-dir .
+    && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock .
 
 FROM ${PYTHON_IMAGE}
 ENV PATH=/opt/venv/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     PYTHONDONTWRITEBYTECODE=1 \
     NUMBA_CACHE_DIR=/var/cache/isl/numba \
+    HOME=/tmp \
     ISL_ADDRESS=0.0.0.0 \
     ISL_PORT=5006
 RUN useradd --create-home --uid 10001 --gid 0 isl \
@@ -28,8 +31,12 @@ RUN useradd --create-home --uid 10001 --gid 0 isl \
 COPY --from=build /opt/venv /opt/venv
 USER 10001
 WORKDIR /home/isl
-# Compile the numba kernel into NUMBA_CACHE_DIR and run the app once: a broken app fails the build.
-RUN python -m app.serve --check
+# Compile the numba kernel into NUMBA_CACHE_DIR and run the app once: a broken app fails the build. Then the same
+# with no writable cache (as under --read-only, or a UID that may not write NUMBA_CACHE_DIR): the kernels must fall
+# back to a cache under /tmp instead of refusing to load.
+RUN python -m app.serve --check \
+    && NUMBA_CACHE_DIR=/proc/isl-read-only python -m app.serve --check \
+    && rm -rf /tmp/isl-numba-cache-*
 EXPOSE 5006
 HEALTHCHECK --interval=30s --timeout=5s --start-period=60s --retries=3 \
     CMD ["python", "-m", "app.serve", "--health"]

@@ -34,14 +34,25 @@ Squared errors e_f,i² are summed per batch: into a per-call accumulator that is
 ≈ (FLUSH + n/FLUSH)·eps relative (≈ 6e-12 for 2·10⁸ steps), not n·eps. The kernel trusts its inputs (validated
 in :mod:`isl_core.simulate`).
 
+Caching: the kernels are compiled once and cached on disk (numba's ``cache=True``) — in ``NUMBA_CACHE_DIR``, or
+beside this file, or the user's cache directory. A container may allow none of them (an arbitrary UID in group 0, a
+read-only root file system): numba would then refuse to load this module ("cannot cache function …: no locator
+available"). :func:`_cache_flag` checks that first; if no place is writable it points numba at a directory under the
+system's temporary directory (``/tmp``, a tmpfs in such containers), and if even that fails it compiles without a
+cache (each process then compiles once, ≈ 10 s). Either fallback is said in one log line (logger ``isl_core``).
+
 ``fastmath={"contract"}`` only lets LLVM fuse ``a*b + c`` into one FMA (one rounding instead of two); it
 keeps IEEE nan/inf semantics, so a diverging filter still shows up as non-finite. Results are bit-identical
 from run to run on one machine.
 """
 from __future__ import annotations
 
+import logging
 import math
+import os
+import tempfile
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -61,11 +72,41 @@ AD_WIDTH = 5
 #: FMA contraction only: no reassociation, nan/inf kept (see the module docstring)
 _FASTMATH = {"contract"}
 
+
+def _probe() -> None:  # a function of this file, to ask numba whether it can cache this file's functions
+    pass
+
+
+def _cache_flag() -> bool:
+    """Whether the kernels can be cached on disk — after falling back to a temporary directory if need be."""
+    try:
+        njit(cache=True)(_probe)
+        return True
+    except RuntimeError as exc:  # "cannot cache function …: no locator available"
+        reason = str(exc)
+    fallback = os.path.join(tempfile.gettempdir(), f"isl-numba-cache-{os.getuid() if hasattr(os, 'getuid') else 0}")
+    try:
+        os.makedirs(fallback, exist_ok=True)
+        tempfile.TemporaryFile(dir=fallback).close()
+        numba.config.CACHE_DIR = fallback
+        njit(cache=True)(_probe)
+    except (OSError, RuntimeError):
+        logging.getLogger("isl_core").warning(
+            "numba: no writable cache directory (%s; %s neither): the kernels are compiled in each process", reason,
+            fallback)
+        return False
+    logging.getLogger("isl_core").warning("numba: the configured cache is not writable (%s); caching in %s",
+                                          reason, fallback)
+    return True
+
+
+CACHE = _cache_flag()  #: whether the compiled kernels are cached on disk (see the module docstring)
+
 #: bit pattern such that ``MAGIC − bits(a)/3`` approximates ``a^{-1/3}`` within |1 − a·y³| < 0.11
 _RCBRT_MAGIC = np.uint64(0x553EE978D4FDF3B7)
 
 
-@njit(cache=True, nogil=True, inline="always", fastmath=_FASTMATH)
+@njit(cache=CACHE, nogil=True, inline="always", fastmath=_FASTMATH)
 def fast_cbrt(a):
     """Cube root of a ≥ 0 without a division (a few ulp from ``np.cbrt``).
 
@@ -83,7 +124,7 @@ def fast_cbrt(a):
     return (a * y) * y
 
 
-@njit(cache=True, nogil=True, inline="always", fastmath=_FASTMATH)
+@njit(cache=CACHE, nogil=True, inline="always", fastmath=_FASTMATH)
 def _root(a, m):
     """``a^{1/m}`` for a ≥ 0 by the cheapest route for each m."""
     if m == 3:
@@ -99,7 +140,7 @@ def _root(a, m):
     return a ** (1.0 / m)
 
 
-@njit(cache=True, nogil=True, inline="always", fastmath=_FASTMATH)
+@njit(cache=CACHE, nogil=True, inline="always", fastmath=_FASTMATH)
 def _table_gain(table, ad, f, gain, sqh):
     """``gain[f] = √h·K(σ̂)`` with log K linear in log σ̂ on the table of filter f, held at its ends."""
     nt = table.shape[1]
@@ -117,7 +158,7 @@ def _table_gain(table, ad, f, gain, sqh):
         gain[f, i] = sqh * math.exp(lo + w * (table[f, j + 1, i] - lo))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=CACHE, nogil=True, inline="always")
 def _flush(acc, sacc, sq, sig_sum, b, slot, kind):
     """Add the accumulated squared errors (and σ̂ sums) into batch ``b`` and zero the accumulators."""
     nf, m = acc.shape
@@ -130,7 +171,7 @@ def _flush(acc, sacc, sq, sig_sum, b, slot, kind):
             sacc[f] = 0.0
 
 
-@njit(cache=True, nogil=True, fastmath=_FASTMATH)
+@njit(cache=CACHE, nogil=True, fastmath=_FASTMATH)
 def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0, burn, batch_len, sq, sig_sum,
             X_out, E_out, S_out, store, out0):
     """Advance truth ``x`` (m,) and the filters' errors ``e`` (nf, m) in place by ``n`` steps, noise from ``rng``.
@@ -238,7 +279,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
     return n
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=CACHE, nogil=True, inline="always")
 def _source(c, m, nf):
     """What trace (column) ``c`` is: (kind, f, i) — 0 X_i, 1 X_i + e_f,i, 2 e_f,i, 3 σ̂ of adaptive filter f."""
     if c < m:
@@ -252,7 +293,7 @@ def _source(c, m, nf):
     return 3, c - m * (1 + 2 * nf), 0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=CACHE, nogil=True, inline="always")
 def _sample(X, E, S, kind, f, i, r):
     """Value at row r of the trace (kind, f, i) of :func:`_source`."""
     if kind == 0:
@@ -264,7 +305,7 @@ def _sample(X, E, S, kind, f, i, r):
     return S[f, r]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=CACHE, nogil=True)
 def minmax_block(X, E, S, k0, n, size, lo_v, lo_i, hi_v, hi_i, ends, bound, inside, sig_sum):
     """Fold one chunk of a display run into its min/max buckets (:class:`isl_core.decimate.MinMax`), without the GIL.
 

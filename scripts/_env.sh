@@ -8,4 +8,5 @@ fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check --upgrade pip
 target="."
 if [ -n "${ISL_EXTRAS:-}" ]; then target=".[${ISL_EXTRAS}]"; fi
-.venv/bin/python -m pip install --quiet --disable-pip-version-check -e "$target"
+# requirements.lock pins every package (./scripts/lock regenerates it): a fresh clone installs what CI tested
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -c requirements.lock -e "$target"

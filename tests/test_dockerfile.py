@@ -82,8 +82,19 @@ def test_base_image_is_a_pinned_slim_python():
     images = [rest.split()[0] for word, rest in instructions() if word == "FROM"]
     resolved = [re.sub(r"\$\{(\w+)\}", lambda m: args[m.group(1)], image) for image in images]
     assert len(resolved) == 2                                # build stage + runtime stage
-    for image in resolved:
-        assert re.fullmatch(r"python:3\.1[1-9]\.\d+-slim-\w+", image), image
+    for image in resolved:  # by tag (for people) and by digest (for the build): the tag cannot move under it
+        assert re.fullmatch(r"python:3\.1[1-9]\.\d+-slim-\w+@sha256:[0-9a-f]{64}", image), image
+
+
+def test_the_image_and_ci_install_the_locked_versions():
+    """requirements.lock pins every package; the image and ./scripts/test (CI) install with it as constraints."""
+    lock = [line for line in (REPO / "requirements.lock").read_text().splitlines() if line and line[0] != "#"]
+    assert len(lock) > 20 and all(re.fullmatch(r"[A-Za-z0-9_.\-\[\]]+==[^\s]+", line) for line in lock), lock[:5]
+    names = {line.split("==")[0].lower() for line in lock}
+    assert {"numpy", "scipy", "numba", "panel", "bokeh", "param", "pytest", "playwright", "hypothesis"} <= names
+    runs = " ".join(rest for word, rest in instructions() if word == "RUN")
+    assert "-c requirements.lock" in runs
+    assert "-c requirements.lock" in (REPO / "scripts" / "_env.sh").read_text()
 
 
 def test_runtime_stage_is_hardened():
@@ -141,6 +152,7 @@ def test_build_context_holds_everything_the_copies_need():
         assert files
         for f in files:
             assert not _dockerignored(str(f.relative_to(REPO)), patterns), f"{f} excluded by .dockerignore"
+    assert "requirements.lock" in sources
     for junk in (".git/config", ".venv/bin/python", "tests/test_serve.py", "app/__pycache__/x.pyc"):
         assert _dockerignored(junk, patterns), junk
 
@@ -185,3 +197,50 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
     finally:
         code = load_test.stop_server(proc)
     assert code == 0, log.read_text()[-3000:]                      # SIGTERM (docker stop) is a clean exit
+
+
+# ------------------------------------------------------------------------------------- any container platform
+def _interpreter_for_another_user() -> str | None:
+    """An interpreter of this Python version that a user other than its owner may run (this one may live under a
+    private home directory), or None."""
+    candidates = [sys.executable, f"/usr/bin/python{sys.version_info.major}.{sys.version_info.minor}"]
+    for path in candidates:
+        real = Path(path).resolve()
+        if real.exists() and all(os.stat(p).st_mode & 0o055 == 0o055 for p in [real, *real.parents]):
+            return str(real)
+    return None
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0, reason="switching UID needs root")
+@pytest.mark.parametrize("tmp_writable", [True, False], ids=["tmp-cache", "no-cache-at-all"])
+def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_path, tmp_writable):
+    """As OpenShift runs it (any UID, group 0) and under ``--read-only --tmpfs /tmp``: the code and NUMBA_CACHE_DIR
+    are not writable. The check must pass, saying in one log line where the kernels are cached — or that they are
+    compiled without a cache when not even the temporary directory can take them."""
+    python = _interpreter_for_another_user()
+    assert python is not None, "no interpreter another UID may run (neither this one nor Debian's)"
+    tree, cache, tmp = tmp_path / "tree", tmp_path / "cache", tmp_path / "tmp"
+    for d in (tree, cache, tmp):
+        d.mkdir()
+    for package in ("isl_core", "app"):
+        shutil.copytree(REPO / package, tree / package, ignore=shutil.ignore_patterns("__pycache__"))
+    subprocess.run(["chmod", "-R", "a-w", str(tree), str(cache)], check=True)
+    subprocess.run(["chmod", "a+rwx,+t" if tmp_writable else "a-w", str(tmp)], check=True)
+    for p in (tmp_path, *tmp_path.parents):  # let the other UID reach the tree: it is in group 0 (root's group),
+        os.chmod(p, os.stat(p).st_mode | 0o055)  # so the group's bits apply to it, not the others'
+    subprocess.run(["chmod", "-R", "g+rX", str(tree), str(cache)], check=True)
+    site = next(p for p in sys.path if p.endswith("site-packages") and Path(p).is_dir())
+    code = "import sys, tempfile\n" + ("" if tmp_writable else f"tempfile.tempdir = {str(cache)!r}\n") + \
+        "import app.serve as s\nsys.exit(s.main(['--check']))"
+    env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "NUMBA_CACHE_DIR": str(cache), "TMPDIR": str(tmp),
+           "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": f"{tree}{os.pathsep}{site}"}
+    done = subprocess.run(["setpriv", "--reuid=54321", "--regid=0", "--clear-groups", python, "-c", code],
+                          env=env, cwd=str(tmp_path), capture_output=True, text=True, timeout=600, check=False)
+    out = done.stdout + done.stderr
+    assert done.returncode == 0 and "warm-up passed" in out, out[-3000:]
+    said = [line for line in out.splitlines() if "isl_core WARNING numba:" in line]
+    assert len(said) == 1, out[-3000:]
+    if tmp_writable:
+        assert f"caching in {tmp}/isl-numba-cache-54321" in said[0] and any(tmp.rglob("*.nbi"))
+    else:
+        assert "compiled in each process" in said[0]
