@@ -185,10 +185,13 @@ async def students(base: str, n: int, figures: Figures, phases: list[tuple[float
     try:
         for seconds, out in phases:
             until = time.perf_counter() + seconds
-            await asyncio.gather(*(one(k, c, until, out) for k, c in enumerate(clients)))
+            results = await asyncio.gather(*(one(k, c, until, out) for k, c in enumerate(clients)),
+                                           return_exceptions=True)
+            figures.errors.extend(f"student: {r!r}" for r in results if isinstance(r, BaseException))
             if out is phases[0][1]:
                 stop.set()  # the baseline is over: the heavy sessions may start
     finally:
+        stop.set()
         for c in clients:
             figures.errors.extend(c.errors)
         await asyncio.gather(*(c.close() for c in clients))
