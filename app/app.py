@@ -1,153 +1,19 @@
-"""The isl dashboard: assembles state and views into a page (``panel serve app/app.py``).
+"""The isl dashboard (``panel serve app/app.py``, or ``python -m app.serve`` with safe defaults).
 
-:func:`create_app` builds a fresh, independent page per browser session: its own :class:`AppState`, with
-the parameters read from (and written back to) the URL, compute on the shared thread pools of
-:mod:`app.jobs`, and the session's results released when it closes. Outside a server session (scripts,
-tests) jobs run inline.
+The server runs this script for every session, in a fresh namespace: it only builds that session's page. Everything
+shared by the sessions lives in the module :mod:`app.page`.
 """
-from __future__ import annotations
-
 import sys
-import threading
-from collections.abc import Callable
 from pathlib import Path
 
 if not __package__:  # run as a script (`panel serve app/app.py`): make `app` the package, not this file
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import panel as pn
-from panel.io.resources import CDN_DIST
-from threadpoolctl import threadpool_limits
 
-from app import hardening
-from app.jobs import LARGE_POOL, RUN_POOL, Jobs
-from app.longjobs import LongJobQueue
-from app.state import AppState
-from app.urlsync import UrlSync
-from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
-from app.views.filters_panel import FiltersPanel
-from app.views.worstcase import WorstCaseView
+from app.page import LONG_JOBS, TITLE, LocalFast, SessionGate, create_app, deferred, session_jobs
 
-__all__ = ["TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
-
-TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
-
-#: the server's one queue of long jobs (sweeps, recommendations, worst cases): every session's, one at a time
-LONG_JOBS = LongJobQueue(workers=1, max_waiting=8)
-
-# The model's matrices are m×m (m ≤ 7): multithreaded BLAS only adds overhead, and with several sessions' jobs
-# on a 2-core machine its spinning threads made a Riccati solve ~10× slower (58 ms vs 5 ms per run, measured).
-threadpool_limits(limits=1, user_api="blas")
-pn.extension(notifications=True)  # the hardening handler reports errors as notifications
-hardening.install()  # tracebacks to the log, a short message to the user; session data released on close
-
-
-class SessionGate:
-    """``schedule(fn)``: run ``fn`` on ``doc``'s event loop with its lock held (callable from any thread) — but only
-    once the browser has the page.
-
-    Panel drops the changes made to a document before its session counts as connected, because the document is
-    "serialized in full once the session connects"; yet the browser may already have pulled it. A job that
-    finishes in that window (a session's first run, computed while the page loads) would then be lost: the page
-    kept showing "Simulating the first run …" (seen under CPU load). So outcomes wait here until Panel's
-    ``onload`` for the session has run, then go to the loop in order.
-    """
-
-    def __init__(self, doc) -> None:
-        self.doc = doc
-        self._open = False
-        self._pending: list[Callable[[], None]] = []
-        self._lock = threading.Lock()
-
-    def schedule(self, fn: Callable[[], None]) -> None:
-        with self._lock:
-            if not self._open:
-                self._pending.append(fn)
-                return
-        self._execute(fn)
-
-    def opened(self) -> None:
-        """The page is connected (Panel's onload): apply what waited, and everything from now on at once."""
-        with self._lock:
-            self._open = True
-            pending, self._pending = self._pending, []
-        for fn in pending:
-            self._execute(fn)
-
-    def _execute(self, fn: Callable[[], None]) -> None:
-        from panel.io.state import set_curdoc
-
-        doc = self.doc
-
-        def run() -> None:
-            # every model change of one outcome goes out in one message; and Panel must see the session's
-            # document while the views update: without it Panel rebuilds each pane's stylesheet models on each
-            # update, and new models make the server re-walk every model of the page (≈ 15 ms a run, py-spy)
-            with set_curdoc(doc), pn.io.hold(doc):
-                fn()
-
-        with set_curdoc(doc):
-            pn.state.execute(run, schedule=True)
-
-
-def session_jobs() -> Jobs:
-    """Thread-pool jobs bound to the current server session, or inline jobs outside a server."""
-    doc = pn.state.curdoc
-    if doc is None or doc.session_context is None:
-        return Jobs()
-    pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL}
-    gate = SessionGate(doc)
-    pn.state.onload(gate.opened)
-    return Jobs(pools, schedule=gate.schedule, long_queue=LONG_JOBS)
-
-
-class LocalFast(pn.theme.Fast):
-    """Panel's Fast design without its web font (Open Sans from fonts.googleapis.com).
-
-    Every other file of the page is served by the dashboard's own server; the font alone came from the internet.
-    On a classroom network without internet access that request fails, and behind a firewall that drops it the
-    stylesheet (in the page's head) can hold the first paint until the browser gives up. Text uses the system
-    sans-serif instead (the font never loaded where the request failed, so the page looks the same there).
-    """
-
-    _resources = {kind: res for kind, res in pn.theme.Fast._resources.items() if kind != "font"}
-    # Panel names a design's own files after the class ("localfast/..."): point at the Fast design's file
-    _resources["js_modules"] = {**_resources["js_modules"], "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"}
-
-
-def deferred(build: Callable[[], object]):
-    """``build()``'s result, built after the page is connected — on Panel's thread pool when the server has one
-    (``--num-threads``), never while the session is being created on the event loop.
-
-    Building the plots of the three tabs costs ≈ 1 s of Python (bokeh models); done while a session is created it
-    blocked the loop that answers every other session and ``/liveness``. With ``defer_load`` the page appears at
-    once with a loading indicator where the content will be. (Panel still converts each piece into bokeh models on
-    the loop — 6 to 65 ms each — so the pieces are kept apart: the loop answers others between them.)
-    """
-    return pn.panel(build, defer_load=True, loading_indicator=True, sizing_mode="stretch_width")
-
-
-def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
-    """A new dashboard page over ``state`` (a fresh :class:`AppState` by default), URL-synced when served."""
-    if state is None:
-        state = AppState(jobs=session_jobs())
-    if pn.state.location is not None:
-        UrlSync(state, pn.state.location)  # kept alive by the watchers it registers
-    state.start()
-    hardening.release_on_destroy(state.close)
-    trajectories = deferred(lambda: pn.Row(TrajectoriesView(state=state), NumbersView(state=state),
-                                           sizing_mode="stretch_width"))
-    tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories),
-                   ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state))),
-                   ("Worst case over σ", deferred(lambda: WorstCaseView(state=state))),
-                   sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
-    return pn.template.FastListTemplate(
-        title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),
-                              deferred(about_card)], main=[tabs],
-        sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
-        main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
-    )
-
+__all__ = ["LONG_JOBS", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 if pn.state.served:
     create_app().servable(title="isl — Kalman–Bucy vs ISL")

@@ -105,6 +105,11 @@ class Jobs:
     def busy(self, kind: str) -> bool:
         return kind in self._busy
 
+    @property
+    def long_in_process(self) -> bool:
+        """Long jobs compute in child processes (the server's queue, :mod:`app.longjobs`)."""
+        return self._long is not None and self._long.processes
+
     def submit(self, kind: str, fn: Callable[..., Any], done: Callable[[Outcome, bool], None], *,
                pool: str | None = None, cancellable: bool = False) -> None:
         """Compute ``fn()`` off the loop (on the executor named ``pool``, default ``kind``), then call

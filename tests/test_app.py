@@ -28,3 +28,20 @@ def test_outcomes_wait_for_the_page_then_apply_in_order(monkeypatch):
         for fn in sent:
             fn()
     assert applied == [0, 1, 2, 3]
+
+
+def test_sessions_share_the_servers_one_long_job_queue():
+    """The server runs app/app.py anew for each session: what must exist once (the long-job queue and its thread)
+    lives in the module app.page. (A queue made by the script itself was one per session — two sessions' long jobs
+    ran at once, and each queue's thread kept its closed session's namespace alive.)"""
+    import threading
+
+    from bokeh.command.util import build_single_handler_application
+    from panel.io.session import generate_session
+
+    from app.serve import app_script
+
+    application = build_single_handler_application(app_script())
+    docs = [generate_session(application).document for _ in range(3)]
+    assert len(docs) == 3 and all(d.roots for d in docs)
+    assert sum(t.name.startswith("isl-long") for t in threading.enumerate()) == 1

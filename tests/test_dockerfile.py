@@ -240,7 +240,10 @@ def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_
     assert done.returncode == 0 and "warm-up passed" in out, out[-3000:]
     said = [line for line in out.splitlines() if "isl_core WARNING numba:" in line]
     assert len(said) == 1, out[-3000:]
+    long_jobs = [line for line in out.splitlines() if "long jobs run on a thread" in line]
     if tmp_writable:
         assert f"caching in {tmp}/isl-numba-cache-54321" in said[0] and any(tmp.rglob("*.nbi"))
+        assert not long_jobs, out[-3000:]  # their child processes started (the fork server's socket is in TMPDIR)
     else:
         assert "compiled in each process" in said[0]
+        assert len(long_jobs) == 1, out[-3000:]  # no temporary directory for the fork server: one line, no failure

@@ -1,12 +1,14 @@
 """The server's queue of long jobs (app.longjobs): one per session, bounded, first come first served, positions."""
 from __future__ import annotations
 
+import multiprocessing
 import threading
+from functools import partial
 
 import pytest
 
 from app.jobs import Outcome
-from app.longjobs import Cancelled, LongJobQueue, QueueFull
+from app.longjobs import Cancelled, LongJobQueue, QueueFull, in_process
 
 
 class Gate:
@@ -79,3 +81,44 @@ def test_cancel_drops_a_waiting_job_and_stops_a_running_one():
     assert box1["event"].wait(10) and isinstance(box1["outcome"].error, RuntimeError)
     assert not second.started.is_set()
     assert box2["event"].is_set() and isinstance(box2["outcome"].error, Cancelled)  # it ended, as cancelled
+
+
+def _counting(n: int, *, progress) -> int:
+    """A picklable long job: reports n steps of progress, returns n (or runs forever when n < 0)."""
+    k = 0
+    while n < 0 or k < n:
+        k += 1
+        progress(k / abs(n) if n > 0 else 0.5)
+    return k
+
+
+def _failing(*, progress) -> None:
+    raise ValueError("horizon must be at most 2000, got 3000")
+
+
+def test_in_process_returns_the_value_and_relays_progress():
+    seen: list[float] = []
+    assert in_process(partial(_counting, 200), seen.append, threading.Event()) == 200
+    assert seen[-1] == 1.0 and 50 <= len(seen) <= 101 and seen == sorted(seen)  # 1 % steps, in order
+
+
+def test_in_process_raises_the_jobs_error_with_its_message():
+    with pytest.raises(ValueError, match="horizon must be at most 2000, got 3000"):
+        in_process(_failing, lambda f: None, threading.Event())
+
+
+def test_cancelling_stops_the_child_process():
+    cancel, children = threading.Event(), []
+
+    def progress(fraction: float) -> None:  # the job reports; cancel once it is surely running
+        children.extend(multiprocessing.active_children())
+        cancel.set()
+    with pytest.raises(Cancelled):
+        in_process(partial(_counting, -1), progress, cancel)
+    assert children and not any(c.is_alive() for c in children)
+
+
+def test_the_servers_queue_runs_long_jobs_in_processes():
+    from app.app import LONG_JOBS
+
+    assert LONG_JOBS.processes
