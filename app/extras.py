@@ -106,7 +106,7 @@ class Baselines(param.Parameterized):
             f"Simulating {len(self.wc_alphas)} α × {self.wc_n_sigma} σ, {len(FILTERS)} filters on each run …"))
 
     def cancel_worst_case(self) -> None:
-        """Stop the worst-case computation: dropped if it waits in the queue, else at its next progress report."""
+        """Stop the worst-case computation: dropped if it waits in the queue, else ended (see LongTask.cancel)."""
         self._worst_task.cancel()
 
     def _apply_worst(self, outcome) -> None:

@@ -253,7 +253,8 @@ class LongTask:
         self._cancel = self.state._jobs.submit_long(run, lambda outcome: self._finish(token, apply, outcome), waiting)
 
     def cancel(self) -> None:
-        """Stop the job: dropped if it still waits, stopped at its next progress report if it runs."""
+        """Stop the job: dropped if it still waits; if it runs, its child process is ended at once (on a thread: at its
+        next progress report)."""
         if self._cancel is not None:
             self._cancel()
 

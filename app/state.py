@@ -462,7 +462,7 @@ class AppState(extras.Baselines):
         return _describe(error)
 
     def cancel_sweep(self) -> None:
-        """Stop the sweep or recommendation: dropped if it waits in the queue, else at its next progress report."""
+        """Stop the sweep or recommendation: dropped if it waits in the queue, else ended (see LongTask.cancel)."""
         self._sweep_task.cancel()
 
     def simulate_sweep(self) -> None:
