@@ -88,7 +88,7 @@ def check_real(
     """
     rng = _describe(lo, hi, lo_open, hi_open)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be {rng}, got {_short(value)} of type {type(value).__name__}")
+        raise ValueError(f"{name} must be {rng}; {_not_a_number(value)}")
     try:
         x = float(value)
     except (OverflowError, ValueError, TypeError):  # a giant integer, an exotic Real
@@ -127,6 +127,17 @@ def short(value: object) -> str:
 
 
 _short = short
+
+
+def _not_a_number(value: object) -> str:
+    """What a value that is not a number is, in words ("got nothing (an empty box)", "got 'abc', which is text")."""
+    if value is None:
+        return "got nothing (an empty box or a missing value)"
+    if isinstance(value, str):
+        return f"got {_quoted(value)}, which is text, not a number"
+    if isinstance(value, bool | np.bool_):
+        return f"got {value}, a yes/no value, not a number"
+    return f"got {short(value)}, a {type(value).__name__}, not a number"
 
 
 def _flat(name: str, values, what: str, allow_empty: bool) -> list:
@@ -168,7 +179,7 @@ def check_int(name: str, value: object, *, lo: int, hi: int | None = None) -> in
     """
     rng = f"an integer >= {lo}" + (f" and <= {hi}" if hi is not None else "")
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be {rng}, got {_short(value)} of type {type(value).__name__}")
+        raise ValueError(f"{name} must be {rng}; {_not_a_number(value)}")
     if isinstance(value, numbers.Integral):
         n = int(value)
     else:

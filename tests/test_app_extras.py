@@ -199,3 +199,14 @@ def test_trajectories_overlay_the_extra_filters(state):
     assert all(ln.visible for ln in lines["isl_model"]) and not any(ln.visible for ln in lines["kbf_minimax"])
     state.extra_filters = []
     assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())
+
+
+def test_the_numbers_give_the_measured_share_of_time_in_the_tube_beside_the_theory(state):
+    import re
+
+    html = numbers_html(state.run, state.prediction, 0.0, state.extra_prediction)
+    assert "measured (theory 99.7 %)" in html
+    shares = [float(x) for x in re.findall(r"<td>([0-9.]+) %</td>", html)]
+    assert len(shares) == state.m  # one per coordinate, the optimal filter's
+    assert shares == [pytest.approx(100 * x, abs=0.05) for x in state.run.tracks[0].inside]
+    assert all(85.0 <= x <= 100.0 for x in shares)  # a 10/r_min run: near 99.7 %, never far below

@@ -316,3 +316,15 @@ def test_create_app_builds_a_page_outside_a_server():
     tabs = page.main[0][0]
     for view in (*page.sidebar, *tabs):  # every view renders to bokeh models without a warning
         assert pn.panel(view).get_root() is not None
+
+
+def test_at_alpha_zero_the_alpha_slider_shows_no_number(state):
+    """Its scale is log α: at α = 0 it used to read 0.01, its end. It now shows no value and says α = 0."""
+    from app.views import ControlsView
+
+    view = ControlsView(state=state)
+    state.alpha = 0.0
+    slider = view._alpha
+    assert slider.disabled and not slider.show_value and slider.name.endswith("= 0 (ticked below)")
+    state.alpha = 0.5
+    assert not slider.disabled and slider.show_value and "= 0" not in slider.name

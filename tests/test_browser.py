@@ -357,3 +357,29 @@ def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
     with serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _):
         with lms_page(url + "/app", lms_port) as lms:
             assert _framed(lms) == "shown"
+
+
+@pytest.mark.parametrize(("lo", "hi", "expected"), [
+    (0.9, 12.0, [1, 1.2, 1.5, 2, 3, 5, 10, 12]),          # a ν-sweep row: the minimum ≈ 1.1 can be read off
+    (1.0, 1.3, [1, 1.05, 1.1, 1.2, 1.3]),                  # worst cases of 1.06 and 1.23 apart
+    (1.0, 1e6, [1, 10, 100, 1000, 1e4, 1e5, 1e6]),          # many decades: powers of ten
+    (0.5, 0.5, []),                                        # an empty range: no ticks rather than an error
+])
+def test_ratio_axes_tick_the_first_digits(lo, hi, expected):
+    """The log ratio axes of the ν sweep and the worst case (app.views.style.ratio_ticker) tick 1, 1.2, 1.5, 2, …:
+    the ticker's own JavaScript, run in chromium on the ranges those charts show."""
+    from app.views.style import ratio_ticker
+
+    ticker = ratio_ticker()
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        try:
+            page = browser.new_page()
+            ticks = page.evaluate(
+                "([code, args, cb_data]) => new Function('cb_data', ...Object.keys(args), code)"
+                "(cb_data, ...Object.values(args))",
+                [ticker.major_code, ticker.args, {"start": lo, "end": hi}])
+        finally:
+            browser.close()
+    assert ticks == pytest.approx(expected)

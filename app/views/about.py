@@ -3,31 +3,55 @@ from __future__ import annotations
 
 import panel as pn
 
+from isl_core.paper import PAPER_A, PAPER_B
+
 __all__ = ["ABOUT", "about_card"]
 
 ABOUT = r"""
 **The signal.** X₁ is a position, X₂ its velocity, X₃ its acceleration, … (m coordinates). The top
-derivative X_m is an Ornstein–Uhlenbeck process, dX_m = −α X_m dt + β dv; α = 0 makes it a random walk
-(paper B). Only the position is observed, through white noise: dY = X₁ dt + σ dε.
+derivative X_m is an Ornstein–Uhlenbeck process, dX_m = −α X_m dt + β dv: α is how fast it forgets (α = 0 makes
+it a random walk, paper B), β how hard it is pushed. With **"β from w"**, β = w·√(2α) keeps the spread of X_m at w
+whatever α (paper A's choice, w = 3). Only the position is observed, through white noise: dY = X₁ dt + σ dε.
 
 **Two filters** estimate all m coordinates from Y:
 
 * the **Kalman–Bucy filter** X̂ (green) is optimal — but it needs the noise intensity σ;
 * the **ISL filter** X̌ (blue, *inverse statistical linearization*) does **not** know σ: it replaces the
-  Kalman–Bucy gain by odd power laws of the innovation that match it for every σ. Its one knob is ν.
+  Kalman–Bucy gain by odd power laws of the innovation that match it for every σ. Its one knob is ν: a larger ν
+  reacts faster (less lag behind a quickly moving signal) but passes more noise; the ν-sweep tab shows the
+  trade-off, and "Use recommended ν" picks the ν whose worst ratio over the sweep's σ is smallest.
 
 **The tube** X̂ᵢ ± 3 sᵢ (dashed green): sᵢ is the optimal filter's RMSE from theory (the Riccati equation),
-so the true signal Xᵢ stays inside it about 99.7 % of the time. The ISL estimate X̌ᵢ should stay close to
-X̂ᵢ, well within the tube, if it is nearly as good as the optimum.
+so the true signal Xᵢ stays inside it about 99.7 % of the time; the table gives the measured share beside it.
+
+**Time scale.** r_min is the slowest decay rate of the optimal filter's error (the smallest real part of its
+closed-loop poles): after a few 1/r_min its error has forgotten where it started. The horizon is counted in
+1/r_min — 10/r_min (paper A's Fig. 3) shows a few independent stretches of error; longer horizons tighten the
+measured ratios. Every filter starts from the same random error drawn from the optimal filter's stationary
+covariance Δ, so the optimal filter's ratio is ≈ 1 at any horizon.
 
 **The numbers.** *Measured* figures come from this one simulated run (they scatter: raise the horizon to
-tighten them); *theory* is computed, not simulated. A ratio š/s = 1.2 means the ISL filter's RMSE is 20 %
-above the optimum's. The **ν sweep** tab shows that ratio for all ν at once (paper A, Fig. 2).
+tighten them); *theory* is computed from the equations, not simulated. A ratio š/s = 1.2 means the ISL filter's
+RMSE is 20 % above the optimum's.
 
-Sources: Kuznetsov, Lebedev & Semenikhin (2025), *paper A*; Kuznetsov & Semenikhin (2025), *paper B*.
+**Other filters** (tick them to overlay): the Kalman–Bucy filter designed for one σ used at another
+(*mismatched*), the one designed for the largest σ of the range (*minimax*), an *adaptive* Kalman–Bucy filter
+that estimates σ from its innovations, and a *model-aware* ISL filter (the same nonlinearity, with the
+model's damping −αX_m in its prediction).
+
+**When estimating σ works as well.** If σ is constant, the noise Gaussian and the sensor sampled finely, the
+innovations reveal σ within a few hundred steps, and the adaptive filter is then as good as the optimal one —
+the worst-case tab shows it. The ISL filter needs no such estimate and no Riccati equation: one fixed nonlinear
+gain, tuned once by ν, that stays close to the optimum over a whole range of σ. Where σ changes, the noise has
+heavy tails or the sensor samples coarsely, an estimate of σ can lag or mislead.
+
+**Equation numbers** such as (A.17) or (B.46) refer to the papers' equations:
+
+* paper A — {a}
+* paper B — {b}
 """
 
 
 def about_card() -> pn.Card:
-    return pn.Card(pn.pane.Markdown(ABOUT, styles={"font-size": "14px"}), title="What am I looking at?",
+    return pn.Card(pn.pane.Markdown(ABOUT.format(a=PAPER_A, b=PAPER_B), styles={"font-size": "14px"}), title="What am I looking at?",
                    collapsed=False, sizing_mode="stretch_width", margin=(10, 5))

@@ -155,7 +155,10 @@ class ControlsView(Viewer):
     def _sync_alpha_zero(self, *events) -> None:
         zero = self.state.alpha == 0.0
         self._alpha_zero.value = zero
-        self._alpha.disabled = zero
+        # at α = 0 the slider cannot show the value (its scale is log α): no number rather than its end, 0.01
+        self._alpha.param.update(disabled=zero, show_value=not zero,
+                                 name=f"{self.state.param.alpha.label} = 0 (ticked below)" if zero
+                                 else self.state.param.alpha.label)
 
     # ---- reactive text -----------------------------------------------------------------------------
     @param.depends("state.alpha", "state.beta_from_w", "state.w", "state.beta", "state.nu")

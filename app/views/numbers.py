@@ -2,7 +2,8 @@
 
 Per coordinate i: the optimal RMSE s_i = √Δ_ii (theory, A.29), the Kalman–Bucy filter's measured ratio
 ŝ_i/s_i (A.30; ≈ 1 up to sampling error on long runs), the ISL filter's measured ratio š_i/s_i and its
-statistical-linearization prediction (theory, B.48 / SPEC §6). Extra filters (:mod:`app.extras`), when drawn,
+statistical-linearization prediction (theory, B.48 / SPEC §6), and the measured share of steps at which X_i lies in
+the tube X̂_i ± 3 s_i (theory: 99.73 % for a Gaussian error of standard deviation s_i). Extra filters (:mod:`app.extras`), when drawn,
 get a table of their own: one row per filter, its measured ratio per coordinate with the theory beside it
 (Lyapunov for the fixed-gain Kalman–Bucy filters, SPEC §6 for the model-aware ISL filter, none for the adaptive
 one, whose time-averaged σ̂ is shown instead). Below: r_min (A.24), T, h, N.
@@ -15,6 +16,8 @@ import numpy as np
 import panel as pn
 import param
 from panel.viewable import Viewer
+
+from isl_core.runview import TUBE_THEORY
 
 from ..state import COORDINATES, AppState
 from .style import EXTRA_COLORS, SUBSCRIPT
@@ -64,7 +67,8 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
     head = ("<tr><th>coordinate</th><th>s<sub>i</sub><span class='tag'>theory</span></th>"
             "<th>ŝ<sub>i</sub>/s<sub>i</sub> KBF<span class='tag'>measured</span></th>"
             "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>measured</span></th>"
-            "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>theory</span></th></tr>")
+            "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>theory</span></th>"
+            f"<th>X<sub>i</sub> in tube<span class='tag'>measured (theory {100 * TUBE_THEORY:.1f} %)</span></th></tr>")
     rows = []
     for i in range(run.model.m):
         k = str(i + 1).translate(SUBSCRIPT)
@@ -72,7 +76,7 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         rows.append(
             f"<tr><td>X{k} {html.escape(COORDINATES[i])}</td><td class='theory'>{_fmt(run.s[i])}</td>"
             f"<td>{run.ratio_hat[i]:.3f}</td><td>{run.ratio_check[i]:.3f}</td>"
-            f"<td class='theory'>{pred}</td></tr>"
+            f"<td class='theory'>{pred}</td><td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
         )
     note = ("" if prediction is not None else
             "<p><i>Theory prediction unavailable: isl_core.theory is not installed.</i></p>")

@@ -1,10 +1,11 @@
 """Colours and fonts shared by the plots (sized to stay readable on a projector)."""
 from __future__ import annotations
 
-from bokeh.models import BasicTickFormatter, ColumnDataSource, GlyphRenderer, Line
+from bokeh.models import BasicTickFormatter, ColumnDataSource, CustomJSTicker, GlyphRenderer, Line
 from bokeh.plotting import figure
 
-__all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "line", "FILTER_COLORS", "ISL", "KBF", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "styled"]
+__all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "RATIO_MANTISSAS", "SIGMA_COLORS",
+           "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "line", "ratio_ticker", "styled"]
 
 TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
 KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
@@ -47,3 +48,33 @@ def line(fig: figure, source: ColumnDataSource, *, x: str = "t", y: str = "y", v
     renderer = GlyphRenderer(data_source=source, glyph=Line(x=x, y=y, **style), visible=visible)
     fig.renderers.append(renderer)
     return renderer
+
+
+#: tick values of a log axis of RMSE ratios, per decade, finest first: a ratio's point is in its first digits
+#: (1.06 vs 1.23), which ticks at 1, 10, 100 only (or 5, 10, 15) do not let a reader see
+RATIO_MANTISSAS = ((1, 1.05, 1.1, 1.2, 1.3, 1.5, 1.7, 2, 2.5, 3, 4, 5, 7), (1, 1.1, 1.2, 1.5, 2, 3, 5, 7),
+                   (1, 1.2, 1.5, 2, 3, 5), (1, 2, 5), (1, 3), (1,))
+
+
+def ratio_ticker(max_ticks: int = 9) -> CustomJSTicker:
+    """Ticks for a log axis of ratios: the finest set of :data:`RATIO_MANTISSAS` that puts at most ``max_ticks``
+    ticks in view (1, 1.2, 1.5, 2, 3, 5, … over a ratio range of 1–10), computed in the browser as the view
+    changes; a range of many decades falls back to powers of 10 (every k-th one)."""
+    code = """
+        const lo = Math.min(cb_data.start, cb_data.end), hi = Math.max(cb_data.start, cb_data.end);
+        if (!(lo > 0) || !(hi > lo)) return [];
+        const d0 = Math.floor(Math.log10(lo)), d1 = Math.ceil(Math.log10(hi));
+        for (const set of sets) {
+            const ticks = [];
+            for (let d = d0; d <= d1; d++)
+                for (const m of set) {
+                    const v = Number((m * Math.pow(10, d)).toPrecision(6));
+                    if (v >= lo && v <= hi) ticks.push(v);
+                }
+            if (ticks.length <= max_ticks && ticks.length >= 2) return ticks;
+        }
+        const step = Math.max(1, Math.ceil((d1 - d0) / max_ticks)), ticks = [];
+        for (let d = d0; d <= d1; d += step) { const v = Math.pow(10, d); if (v >= lo && v <= hi) ticks.push(v); }
+        return ticks;
+    """
+    return CustomJSTicker(major_code=code, args={"sets": [list(m) for m in RATIO_MANTISSAS], "max_ticks": max_ticks})
