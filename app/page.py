@@ -136,8 +136,11 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         UrlSync(state, pn.state.location)  # kept alive by the watchers it registers
     state.start()
     hardening.release_on_destroy(state.close)
-    trajectories = deferred(lambda: pn.Row(TrajectoriesView(state=state), NumbersView(state=state),
-                                           sizing_mode="stretch_width"))
+    trajectories = deferred(lambda: pn.FlexBox(  # the numbers beside the plots where both fit, else below them
+        pn.Column(TrajectoriesView(state=state), styles={"flex": "1 1 620px", "min-width": "0"},
+                  sizing_mode="stretch_width"),
+        NumbersView(state=state), flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"))
+    present = presenter_mode()
     tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories),
                    ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state))),
                    ("Worst case over σ", deferred(lambda: WorstCaseView(state=state))),
@@ -145,6 +148,38 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     return pn.template.FastListTemplate(
         title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),
                               deferred(about_card)], main=[tabs],
-        sidebar_width=380, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
+        sidebar_width=340, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
         main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
+        header=[presenter_toggle(present)], collapsed_sidebar=present, raw_css=[PRESENTER_CSS] if present else [],
     )
+
+
+#: presenter mode: larger text everywhere (the plots' own fonts are already sized for a projector)
+PRESENTER_CSS = """
+:root, body { font-size: 19px; --type-ramp-base-font-size: 19px; --isl-table-font: 18px; }
+.bk-root, .bk-panel-models-markup-HTML, .markdown { font-size: 19px; }
+"""
+
+#: the toggle's script: the same page with ``present=1`` added to (or removed from) its URL — every input is in the
+#: URL already, so the page comes back with the same run
+_TOGGLE_JS = """
+const url = new URL(window.location.href);
+if (url.searchParams.get('present') === '1') url.searchParams.delete('present'); else url.searchParams.set('present', '1');
+window.location.href = url.toString();
+"""
+
+
+def presenter_mode() -> bool:
+    """``?present=1`` in the page's URL: presenter mode (sidebar collapsed, larger text)."""
+    args = pn.state.session_args if pn.state.curdoc is not None and pn.state.curdoc.session_context else {}
+    return [v.strip() for v in args.get("present", [])] == [b"1"]
+
+
+def presenter_toggle(present: bool) -> pn.widgets.Button:
+    """The header's one toggle of presenter mode, kept in the URL (``present=1``)."""
+    button = pn.widgets.Button(label="Leave presenter mode" if present else "Presenter mode", color="light",
+                               variant="outline", width=240, margin=(12, 10),
+                               description="Larger text and the controls folded away, for a projector; the "
+                                           "setting stays in the link")
+    button.js_on_click(code=_TOGGLE_JS)
+    return button

@@ -383,3 +383,52 @@ def test_ratio_axes_tick_the_first_digits(lo, hi, expected):
         finally:
             browser.close()
     assert ticks == pytest.approx(expected)
+
+
+def _outside(page, width: int) -> list[str]:
+    """Visible buttons and inputs of the page (shadow roots included) that do not fit in ``width`` pixels."""
+    out = []
+    for loc in page.locator("button, input").all():
+        box = loc.bounding_box() if loc.is_visible() else None
+        if box is not None and box["width"] > 0 and (box["x"] < 0 or box["x"] + box["width"] > width + 0.5):
+            out.append(f"{loc.evaluate('e => e.textContent || e.value || e.outerHTML.slice(0, 60)')!r} at {box}")
+    return out
+
+
+def test_a_projector_sized_window_shows_every_control_without_sideways_scrolling(served):
+    """At 1280 × 720 the page does not overflow sideways, every button and input of the trajectories, ν-sweep and
+    worst-case tabs lies inside the window (the worst case's Compute was cut at the edge), and the plots get the
+    width: the numbers table goes below them instead of squeezing them to ≈ 310 px."""
+    url, _ = served
+    with dashboard(url, viewport={"width": 1280, "height": 720}) as page:
+        for tab in (None, "ν sweep (paper A, Fig. 2)", "Worst case over σ"):
+            if tab is not None:
+                page.get_by_text(tab).click()
+                page.get_by_role("button", name="Simulate points" if "sweep" in tab else "Compute").wait_for()
+            assert page.evaluate("document.documentElement.scrollWidth") <= 1280, tab
+            assert _outside(page, 1280) == [], tab
+            if tab is None:
+                plot = page.locator(".bk-Canvas, canvas").first.bounding_box()
+                assert plot is not None and plot["width"] >= 600, plot
+
+
+def test_presenter_mode_is_one_toggle_kept_in_the_link(served):
+    """The header's toggle reloads the page with ``present=1`` (sidebar folded away, larger text) and back, keeping
+    every input of the link."""
+    url, _ = served
+    with dashboard(url + "?sigma=200") as page:
+        def sidebar_width() -> float:
+            return page.evaluate("() => { const s = document.querySelector('#sidebar');"
+                                 " return s ? s.getBoundingClientRect().width : -1; }")
+        assert sidebar_width() > 200
+        page.get_by_role("button", name="Presenter mode").click()
+        page.wait_for_function("() => new URL(location.href).searchParams.get('present') === '1'")
+        page.wait_for_function(PLOT_DATA, timeout=30_000)
+        assert "sigma=200" in page.url
+        page.get_by_role("button", name="Leave presenter mode").wait_for()
+        assert sidebar_width() < 50
+        assert page.evaluate("parseFloat(getComputedStyle(document.body).fontSize)") >= 18
+        page.get_by_role("button", name="Leave presenter mode").click()
+        page.wait_for_function("() => !new URL(location.href).searchParams.has('present')")
+        page.get_by_role("button", name="Presenter mode").wait_for()
+        assert "sigma=200" in page.url

@@ -25,13 +25,14 @@ from .style import EXTRA_COLORS, SUBSCRIPT
 __all__ = ["NumbersView", "numbers_html"]
 
 _CSS = """
-table.isl-numbers { border-collapse: collapse; font-size: 15px; margin: 4px 0 8px 0; }
+table.isl-numbers { border-collapse: collapse; font-size: var(--isl-table-font, 15px); margin: 4px 0 8px 0; }
 table.isl-numbers th, table.isl-numbers td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
 table.isl-numbers th { font-weight: 600; vertical-align: bottom; }
 table.isl-numbers td:first-child, table.isl-numbers th:first-child { text-align: left; }
 table.isl-numbers .tag { display: block; font-weight: normal; font-size: 12px; color: #666; }
 table.isl-numbers .theory { color: #555; font-style: italic; }
 table.isl-numbers.run td { text-align: left; }
+table.isl-numbers.ratios td { white-space: nowrap; }
 """
 
 

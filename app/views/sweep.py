@@ -186,7 +186,8 @@ class SweepView(Viewer):
         recommend.on_click(lambda e: s.recommend())
         note = pn.pane.Markdown(pn.bind(self._note, s.param.sweep_note, s.param.curves_note, s.param.points,
                                         s.param.curves), margin=(0, 10))
-        return pn.Column(pn.Row(sigmas, horizon, run, cancel, progress, recommend), note, sizing_mode="stretch_width")
+        return pn.Column(pn.FlexBox(sigmas, horizon, run, cancel, progress, recommend, flex_wrap="wrap",
+                                    sizing_mode="stretch_width"), note, sizing_mode="stretch_width")
 
     def _note(self, sweep_note: str, curves_note: str, points, curves) -> str:
         parts = [p for p in (curves_note, sweep_note) if p]

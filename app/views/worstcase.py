@@ -146,7 +146,8 @@ class WorstCaseView(Viewer):
         progress = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), p.worst_progress), max=100,
                                           width=200, visible=p.worst_busy, margin=(34, 10))
         note = pn.pane.Markdown(p.worst_note, margin=(0, 10))
-        return pn.Column(pn.Row(lo, hi, n, alphas, horizon, run, cancel, progress), note,
+        return pn.Column(pn.FlexBox(lo, hi, n, alphas, horizon, run, cancel, progress, flex_wrap="wrap",
+                                    sizing_mode="stretch_width"), note,  # wraps on a narrow screen (1280 × 720)
                          sizing_mode="stretch_width")
 
     def __panel__(self):

@@ -1,0 +1,49 @@
+"""Regenerate the README's screenshots under docs/ from a running dashboard (Debian's chromium via Playwright).
+
+    ./scripts/serve &                      # or any running server
+    PYTHONPATH=. .venv/bin/python scripts/screenshots.py [--url http://127.0.0.1:5006/app]
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from playwright.sync_api import sync_playwright
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+PLOT_DATA = """() => { const d = window.Bokeh && Bokeh.documents[0]; const s = d && d.get_model_by_name('traj-1-isl');
+                       return !!(s && s.data.y.length > 0); }"""
+#: file name, window size, query, tab to open (None: the trajectories)
+SHOTS = [
+    ("default-1280x720.png", (1280, 720), "", None),
+    ("default-1920x1080.png", (1920, 1080), "", None),
+    ("presenter-1280x720.png", (1280, 720), "?present=1", None),
+    ("sweep-1280x720.png", (1280, 720), "", "ν sweep (paper A, Fig. 2)"),
+]
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--url", default="http://127.0.0.1:5006/app")
+    url = p.parse_args().url
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        try:
+            for name, (w, h), query, tab in SHOTS:
+                page = browser.new_page(viewport={"width": w, "height": h})
+                page.goto(url + query)
+                page.wait_for_function(PLOT_DATA, timeout=60_000)
+                if tab is not None:
+                    page.get_by_text(tab).click()
+                    page.get_by_role("button", name="Simulate points").wait_for()
+                page.wait_for_load_state("networkidle")
+                page.screenshot(path=str(DOCS / name))
+                page.close()
+                print(f"wrote docs/{name}")
+        finally:
+            browser.close()
+
+
+if __name__ == "__main__":
+    main()
