@@ -417,6 +417,20 @@ class AppState(extras.Baselines):
         """The run on screen as CSV (:func:`app.export.run_csv`), for the download button."""
         return io.StringIO(run_csv(self))
 
+    def png(self) -> io.BytesIO:
+        """The run on screen as a PNG figure — every coordinate, the legend, the parameters and the measured ratios
+        — drawn by the renderer of ``isl figure3`` (:func:`app.static_figures.fig3_png`), for the download button."""
+        from .static_figures import fig3_png
+
+        out = io.BytesIO()
+        if self.run is None:
+            raise ValueError("there is no run to draw yet")
+        ratios = "\n".join(f"{tr.label}: measured RMSE/s_i = " + ", ".join(f"{r:.3f}" for r in tr.ratio)
+                            for tr in self.run.tracks[:2])
+        fig3_png([self.run], out, note=f"{ratios}\n(this run, averaged over t in [0, T])")
+        out.seek(0)
+        return out
+
     # ---- the ν-sweep (Fig. 2) ------------------------------------------------------------------------
     def want_curves(self) -> None:
         """The ν-sweep is on screen: compute its theory curves, now and whenever their context changes (a session

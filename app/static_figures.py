@@ -3,14 +3,15 @@
 * Fig. 2 — ratio š_i/s_i against ν/β (log axis): rows α, columns i, σ = 2 dotted, 20 dashed, 200 solid;
   simulated points with their confidence interval, the statistical-linearization theory (SPEC §6) as a thin
   long-dashed line of the same colour.
-* Fig. 3 — one trajectory per σ: X_i black, Kalman–Bucy X̂_i green, ISL X̌_i blue, X̂_i ± 3 s_i dashed green.
+* Fig. 3 — one trajectory per σ: X_i black, Kalman–Bucy X̂_i green, ISL X̌_i blue, X̂_i ± 3 s_i dashed green,
+  every other filter of the run in its dashboard colour. The same renderer draws ``isl figure3``'s PNG and the
+  dashboard's "Download figure (PNG)": all rows, the legend and every parameter in the title.
 
-Views only: they take :class:`isl_core.SweepResult` / :class:`isl_core.Run` objects and never compute.
+Views only: they take :class:`isl_core.SweepResult` / :class:`isl_core.runview.RunView` objects and never compute;
+the trajectories come decimated by the core (:mod:`isl_core.decimate`, the project's one decimation function).
 """
 from __future__ import annotations
 
-import itertools
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +23,8 @@ _MPL_DASH = {"dotted": ":", "dotdash": (0, (1, 2, 4, 2)), "dashdot": "-.", "dash
 _COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
 THEORY_DASH = (0, (8, 3))  #: long dashes for theory (matplotlib); bokeh: "8 3"
 COORD_NAMES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")
-MAX_POINTS = 4000  #: trajectories are decimated by min/max to about this many points per line
+#: colours of the other filters (the dashboard's, :data:`app.views.style.EXTRA_COLORS`, without importing bokeh)
+EXTRA_COLORS = {"kbf_mismatched": "#8c510a", "kbf_minimax": "#a50026", "kbf_adaptive": "#e6ab02", "isl_model": "#17becf"}
 
 
 def _sigma_styles(sigmas) -> list[str]:
@@ -130,56 +132,54 @@ def fig2_html(res, path: str | Path) -> Path:
     return _save_html(gridplot(grid), path, "isl — paper A, Fig. 2")
 
 
-def _decimate(t: np.ndarray, ys: Sequence[np.ndarray], n: int = MAX_POINTS):
-    """Min/max decimation on a common set of indices (keeps every line's extremes per bucket)."""
-    if len(t) <= n:
-        return t, ys
-    edges = np.linspace(0, len(t), n // 2 + 1).astype(int)
-    idx = set()
-    for y in ys:
-        for lo, hi in itertools.pairwise(edges):
-            seg = y[lo:hi]
-            idx.update((lo + int(np.argmin(seg)), lo + int(np.argmax(seg))))
-    keep = np.array(sorted(idx))
-    return t[keep], [y[keep] for y in ys]
+def _fig3_lines(view, i: int) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
+    """Coordinate i of a :class:`isl_core.runview.RunView` as ``(label, t, y, style)`` lines: X, X̂, X̌, the tube
+    X̂ ± 3 s (one label) and each other filter's estimate. Styles are matplotlib's; ``ls`` "--" is dashed."""
+    kbf, isl = view.tracks[0].estimate[i], view.tracks[1].estimate[i]
+    tube = 3.0 * float(view.s[i])
+    lines = [("X (truth)", view.truth[i].t, view.truth[i].y, {"color": "black", "lw": 0.9}),
+             ("X̂ (Kalman–Bucy, knows σ)", kbf.t, kbf.y, {"color": "green", "lw": 0.9}),
+             ("X̌ (ISL, σ unknown)", isl.t, isl.y, {"color": "blue", "lw": 0.9}),
+             ("X̂ ± 3s (optimal RMSE)", kbf.t, kbf.y - tube, {"color": "green", "ls": "--", "lw": 0.7}),
+             ("", kbf.t, kbf.y + tube, {"color": "green", "ls": "--", "lw": 0.7})]
+    for tr in view.tracks[2:]:
+        est = tr.estimate[i]
+        lines.append((tr.label, est.t, est.y, {"color": EXTRA_COLORS.get(tr.name, "gray"), "lw": 0.8}))
+    return lines
 
 
-def _fig3_lines(run, i: int):
-    """t and the five lines of coordinate i: X, X̂, X̌, X̂ − 3s, X̂ + 3s (decimated)."""
-    xh = run.X_hat[:, i]
-    return _decimate(run.t, [run.X[:, i], xh, run.X_check[:, i], xh - 3 * run.s[i], xh + 3 * run.s[i]])
+def _fig3_title(view) -> str:
+    md = view.model
+    return (f"σ = {md.sigma:g} (m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed}, "
+            f"T = {view.T:.4g} = {view.horizon:.3g}/r_min, N = {view.N:,})")
 
 
-def _fig3_title(run) -> str:
-    md = run.model
-    return f"σ = {md.sigma:g} (α = {md.alpha:g}, β = {md.beta:g}, ν = {run.nu:g}, T = {run.T:.3g})"
-
-
-def fig3_png(runs, path: str | Path, *, dpi: int = 110) -> Path:
-    """Fig. 3 of paper A as a PNG: one column per run (σ), one row per coordinate."""
+def fig3_png(views, path, *, dpi: int = 110, note: str = ""):
+    """Fig. 3 of paper A as a PNG: one column per run (σ), one row per coordinate, the legend below the plots and
+    the parameters above each column (``note``: a line under the figure, e.g. the measured ratios). ``views``:
+    :class:`isl_core.runview.RunView` objects; ``path``: a file name or a binary file object."""
     from matplotlib.figure import Figure
 
-    m = runs[0].model.m
-    fig = Figure(figsize=(6.0 * len(runs), 2.4 * m + 0.6), layout="constrained")
-    axes = fig.subplots(m, len(runs), squeeze=False)
-    for c, run in enumerate(runs):
+    m = views[0].model.m
+    fig = Figure(figsize=(max(6.4 * len(views), 9.0), 2.2 * m + 1.6), layout="constrained")
+    axes = fig.subplots(m, len(views), squeeze=False)
+    for c, view in enumerate(views):
         for i in range(m):
             ax = axes[i, c]
-            t, (x, xh, xc, lo, hi) = _fig3_lines(run, i)
-            ax.plot(t, x, color="black", lw=0.9, label="X (truth)")
-            ax.plot(t, xh, color="green", lw=0.9, label="X̂ (Kalman–Bucy)")
-            ax.plot(t, xc, color="blue", lw=0.9, label="X̌ (ISL)")
-            ax.plot(t, lo, color="green", ls="--", lw=0.7, label="X̂ ± 3s")
-            ax.plot(t, hi, color="green", ls="--", lw=0.7)
+            for label, t, y, style in _fig3_lines(view, i):
+                ax.plot(t, y, label=label or None, **style)
             ax.set_ylabel(_coord(i))
             if i == 0:
-                ax.set_title(_fig3_title(run), fontsize=9)
+                ax.set_title(_fig3_title(view), fontsize=8.5)
             if i == m - 1:
                 ax.set_xlabel("t")
-    axes[0, 0].legend(fontsize=7, loc="best")
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    return path
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 2 if len(views) == 1 else 4),
+               fontsize=8)
+    if note:
+        fig.suptitle(note, fontsize=8.5)
+    fig.savefig(path, dpi=dpi, format="png")
+    return Path(path) if isinstance(path, str | Path) else path
 
 
 def fig3_html(runs, path: str | Path) -> Path:
@@ -195,12 +195,11 @@ def fig3_html(runs, path: str | Path) -> Path:
             p = figure(width=520, height=210, title=_fig3_title(run) if i == 0 else None,
                        tools="pan,xwheel_zoom,box_zoom,reset,save", **({} if x_range is None else {"x_range": x_range}))
             x_range = x_range or p.x_range
-            t, (x, xh, xc, lo, hi) = _fig3_lines(run, i)
-            p.line(t, x, color="black", legend_label="X (truth)")
-            p.line(t, xh, color="green", legend_label="X̂ (Kalman–Bucy)")
-            p.line(t, xc, color="blue", legend_label="X̌ (ISL)")
-            p.line(t, lo, color="green", line_dash="dashed", legend_label="X̂ ± 3s")
-            p.line(t, hi, color="green", line_dash="dashed", legend_label="X̂ ± 3s")
+            tube = ""
+            for label, t, y, style in _fig3_lines(run, i):
+                tube = label or tube  # the tube's upper edge shares the lower edge's legend entry
+                p.line(t, y, color=style["color"], line_dash="dashed" if style.get("ls") == "--" else "solid",
+                       legend_label=label or tube)
             p.yaxis.axis_label = _coord(i)
             p.legend.label_text_font_size = "7pt"
             p.legend.click_policy = "hide"

@@ -14,12 +14,13 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 PLOT_DATA = """() => { const d = window.Bokeh && Bokeh.documents[0]; const s = d && d.get_model_by_name('traj-1-isl');
                        return !!(s && s.data.y.length > 0); }"""
-#: file name, window size, query, tab to open (None: the trajectories)
+#: file name, window size, query, what to click first (None: nothing), the button to wait for after it
 SHOTS = [
-    ("default-1280x720.png", (1280, 720), "", None),
-    ("default-1920x1080.png", (1920, 1080), "", None),
-    ("presenter-1280x720.png", (1280, 720), "?present=1", None),
-    ("sweep-1280x720.png", (1280, 720), "", "ν sweep (paper A, Fig. 2)"),
+    ("default-1280x720.png", (1280, 720), "", None, None),
+    ("default-1920x1080.png", (1920, 1080), "", None, None),
+    ("presenter-1280x720.png", (1280, 720), "?present=1", None, None),
+    ("sweep-1280x720.png", (1280, 720), "", "ν sweep (paper A, Fig. 2)", "Simulate points"),
+    ("errors-m6-1920x1080.png", (1920, 1080), "?m=6&horizon=100", "Errors (estimate − signal)", None),
 ]
 
 
@@ -30,13 +31,14 @@ def main() -> None:
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
         try:
-            for name, (w, h), query, tab in SHOTS:
+            for name, (w, h), query, click, button in SHOTS:
                 page = browser.new_page(viewport={"width": w, "height": h})
                 page.goto(url + query)
                 page.wait_for_function(PLOT_DATA, timeout=60_000)
-                if tab is not None:
-                    page.get_by_text(tab).click()
-                    page.get_by_role("button", name="Simulate points").wait_for()
+                if click is not None:
+                    page.get_by_text(click).click()
+                if button is not None:
+                    page.get_by_role("button", name=button).wait_for()
                 page.wait_for_load_state("networkidle")
                 page.screenshot(path=str(DOCS / name))
                 page.close()

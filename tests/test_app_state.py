@@ -328,3 +328,22 @@ def test_at_alpha_zero_the_alpha_slider_shows_no_number(state):
     assert slider.disabled and not slider.show_value and slider.name.endswith("= 0 (ticked below)")
     state.alpha = 0.5
     assert not slider.disabled and slider.show_value and "= 0" not in slider.name
+
+
+def test_the_figure_download_draws_the_run_on_screen_with_the_clis_renderer(state, monkeypatch):
+    """One renderer for exported figures: the dashboard's PNG comes from app.static_figures.fig3_png, as isl
+    figure3's does, with every coordinate, the legend and the parameters."""
+    from app import static_figures
+
+    drawn = []
+    original = static_figures.fig3_png
+    monkeypatch.setattr(static_figures, "fig3_png", lambda views, path, **kw: drawn.append((views, kw)) or
+                        original(views, path, **kw))
+    png = state.png().getvalue()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+    (views, kw), = drawn
+    assert views == [state.run] and "measured RMSE/s_i" in kw["note"]
+    lines = static_figures._fig3_lines(state.run, 0)
+    assert [label for label, *_ in lines][:4] == ["X (truth)", "X̂ (Kalman–Bucy, knows σ)", "X̌ (ISL, σ unknown)",
+                                                   "X̂ ± 3s (optimal RMSE)"]
+    assert f"m = {state.m}" in static_figures._fig3_title(state.run)

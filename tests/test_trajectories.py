@@ -26,7 +26,7 @@ def test_plots_show_the_run_and_the_tube_is_three_s_around_the_kalman_bucy_estim
         assert band.source is view._sources[i]["kbf"]
         assert band.upper.transform.value == pytest.approx(3 * run.s[i])
         assert band.lower.transform.value == pytest.approx(-3 * run.s[i])
-    assert [p.object for p in view._column.objects[1:]] == view._figures[:run.model.m]
+    assert [p.object for p in view._column.objects[2:]] == view._figures[:run.model.m]
     assert [f.xaxis[0].visible for f in view._figures[:3]] == [False, False, True]  # one time axis, at the bottom
 
 
@@ -50,3 +50,33 @@ def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(view):
     assert all(isinstance(b, Band) and not b.visible for b in tube)
     key.visible = True
     assert all(r.visible for r in isl_lines)
+
+
+def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero():
+    """m = 6 at a long horizon: X₁ spans ±10⁵ and more, the tube is invisible beside it; the error view draws
+    X̂_i − X_i, X̌_i − X_i (and each extra filter's) with the band ±3 s_i around the zero line, at their own scale."""
+    from app.views.trajectories import ERRORS
+
+    state = AppState()
+    state.param.update(m=6, horizon=100.0, extra_filters=["kbf_adaptive"])
+    state.start()
+    view = TrajectoriesView(state=state)
+    run, traces = state.run, state.traces
+    span = float(np.ptp(view._sources[0]["truth"].data["y"]))
+    view._mode.value = ERRORS
+    for i in range(6):
+        for name in ("kbf", "isl"):
+            np.testing.assert_array_equal(view._sources[i][name].data["y"], traces.series[i][f"error:{name}"][1])
+        np.testing.assert_array_equal(view._overlay._sources[i]["kbf_adaptive"].data["y"],
+                                      traces.series[i]["error:kbf_adaptive"][1])
+        assert list(view._sources[i]["truth"].data["y"]) == [0.0, 0.0]  # the signal is the zero line
+        band = view._bands[i]
+        assert band.source is view._sources[i]["truth"] and band.upper.transform.value == pytest.approx(3 * run.s[i])
+        lo, hi = view._figures[i].y_range.start, view._figures[i].y_range.end
+        assert lo <= -3 * run.s[i] and hi >= 3 * run.s[i]
+        assert hi - lo < 20 * run.s[i] * max(run.tracks[1].ratio[i], 1.0)  # the errors' scale, not the signal's
+    assert view._figures[0].y_range.end - view._figures[0].y_range.start < span / 10
+    assert view._legend.items[1].label.value == "X̂ᵢ − Xᵢ Kalman–Bucy"
+    view._mode.value = "Signal and estimates"  # and back: the estimates in the tube around X̂
+    np.testing.assert_array_equal(view._sources[0]["kbf"].data["y"], traces.series[0]["kbf"][1])
+    assert view._bands[0].source is view._sources[0]["kbf"]

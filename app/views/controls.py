@@ -201,6 +201,9 @@ class ControlsView(Viewer):
         download = pn.widgets.FileDownload(callback=s.csv, filename="isl_run.csv", label="Download run (CSV)",
                                            color="success", variant="outline",
                                            sizing_mode="stretch_width", margin=(10, 10))
+        figure_png = pn.widgets.FileDownload(callback=s.png, filename="isl_figure.png", label="Download figure (PNG)",
+                                             color="success", variant="outline", sizing_mode="stretch_width",
+                                             margin=(0, 10, 10, 10))
         spinner = pn.indicators.LoadingSpinner(value=s.param.busy, size=20, margin=(0, 10))
         def helped(name: str, widget):
             return with_help(widget, s.param[name].doc)
@@ -216,6 +219,6 @@ class ControlsView(Viewer):
             pn.pane.Markdown("### ISL filter and run", margin=(0, 10)),
             helped("nu", self._nu), self._derived, helped("horizon", self._horizon),
             pn.Row(self._seed, new_seed),
-            download,
+            download, figure_png,
             sizing_mode="stretch_width",
         )

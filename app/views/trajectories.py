@@ -8,6 +8,10 @@ data, and as an annotation the browser redraws it without the per-glyph work (sp
 that two extra line glyphs cost on every update — about 18 ms of a redraw, measured with
 ``benchmarks/bench_app_latency.py``. Extra filters of the run (:mod:`app.extras`) are drawn by
 :class:`app.views.overlay.Overlay`, one colour each.
+
+The **error view** (a switch above the plots) draws each filter's error X̂_i − X_i, X̌_i − X_i, … instead, with
+the band ±3 s_i around 0 and the signal as the zero line: at high orders X_1 spans ±10⁶ and the tube is invisible
+beside it, while the errors show at their own scale. The errors are decimated by the core like the estimates.
 """
 from __future__ import annotations
 
@@ -56,12 +60,30 @@ def plot_height(m: int) -> int:
     return int(min(max(720 // m, 170), 330))
 
 
-def _y_limits(series: dict, tube: float) -> tuple[float, float]:
-    """y range showing every trace and the tube X̂ ± ``tube``, with 4 % margins."""
+MODES = {"Signal and estimates": False, "Errors (estimate − signal)": True}  #: the view switch's options
+ERRORS = "Errors (estimate − signal)"
+#: legend texts: (signal view, error view)
+KEY_LABELS = {"truth": ("Xᵢ signal", "0 (no error)"), "kbf": ("X̂ᵢ Kalman–Bucy (knows σ)", "X̂ᵢ − Xᵢ Kalman–Bucy"),
+              "isl": ("X̌ᵢ ISL (σ unknown)", "X̌ᵢ − Xᵢ ISL"), "tube": ("X̂ᵢ ± 3 sᵢ (optimal RMSE)", "± 3 sᵢ")}
+
+
+def shown_series(series: dict, errors: bool, T: float) -> dict:
+    """The traces one plot draws: per name (``truth``, ``kbf``, ``isl``, extra filters) the decimated ``(t, y)`` of
+    the estimates — or, with ``errors``, of the errors (``error:<name>`` in ``series``) and a zero line for the
+    signal, which the band ±3 s_i is drawn around."""
+    if not errors:
+        return {n: v for n, v in series.items() if not n.startswith("error:")}
+    zero = (np.array([0.0, T], np.float32), np.zeros(2, np.float32))
+    return {"truth": zero, **{n[len("error:"):]: v for n, v in series.items() if n.startswith("error:")}}
+
+
+def _y_limits(series: dict, tube: float, around_zero: bool = False) -> tuple[float, float]:
+    """y range showing every trace and the tube (X̂ ± ``tube``, or ±``tube`` around 0), with 4 % margins."""
     lo = min(float(series[n][1].min()) for n in series) if len(series["kbf"][1]) else -1.0
     hi = max(float(series[n][1].max()) for n in series) if len(series["kbf"][1]) else 1.0
-    lo = min(lo, float(series["kbf"][1].min()) - tube)
-    hi = max(hi, float(series["kbf"][1].max()) + tube)
+    center = series["truth"] if around_zero else series["kbf"]
+    lo = min(lo, float(center[1].min()) - tube)
+    hi = max(hi, float(center[1].max()) + tube)
     pad = 0.04 * (hi - lo) or 1.0
     return lo - pad, hi + pad
 
@@ -91,6 +113,10 @@ class TrajectoriesView(Viewer):
         self._overlay = Overlay(self._key_figure)
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
+        self._bands: list[Band] = []
+        self._mode = pn.widgets.RadioButtonGroup(options=list(MODES), value=next(iter(MODES)), margin=(5, 10),
+                                                 variant="outline", stylesheets=[":host { font-size: 14px; }"])
+        self._mode.param.watch(self._on_mode, "value")
         self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
         self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
                               label_text_font_size="11pt", click_policy="hide", padding=2, margin=2, spacing=14,
@@ -116,9 +142,8 @@ class TrajectoriesView(Viewer):
     def _legend_keys(self) -> dict[str, LegendItem]:
         """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
         empty = lambda **style: self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
-        keys = {"truth": ("Xᵢ signal", empty(**_TRUTH)), "kbf": ("X̂ᵢ Kalman–Bucy (knows σ)", empty(**_KBF)),
-                "isl": ("X̌ᵢ ISL (σ unknown)", empty(**_ISL)), "tube": ("X̂ᵢ ± 3 sᵢ (optimal RMSE)", empty(**_TUBE))}
-        return {name: LegendItem(label=value(text), renderers=[key]) for name, (text, key) in keys.items()}
+        keys = {"truth": empty(**_TRUTH), "kbf": empty(**_KBF), "isl": empty(**_ISL), "tube": empty(**_TUBE)}
+        return {name: LegendItem(label=value(KEY_LABELS[name][False]), renderers=[key]) for name, key in keys.items()}
 
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
@@ -133,6 +158,7 @@ class TrajectoriesView(Viewer):
         up, down = Dodge(value=0.0), Dodge(value=0.0)
         band = Band(base="t", lower=field("y", down), upper=field("y", up), source=src["kbf"], fill_alpha=0.0, **_TUBE)
         fig.add_layout(band)
+        self._bands.append(band)
         drawn = {"tube": band, "truth": line(fig, src["truth"], **_TRUTH), "kbf": line(fig, src["kbf"], **_KBF),
                  "isl": line(fig, src["isl"], **_ISL)}
         for name, model in drawn.items():  # a click on a legend entry hides that trace in every plot
@@ -155,15 +181,20 @@ class TrajectoriesView(Viewer):
                 _set_range(self._x_range, 0.0, run.T)
             extras = self._overlay.show([] if run is None else [tr.name for tr in run.tracks[2:]])
             self._key_figure.height = (2 + -(-extras // 2)) * LEGEND_ROW + 8
+            errors = self.errors
             for i, fig in enumerate(self._figures):
                 if i < m:
+                    shown = shown_series(traces.series[i], errors, run.T)
                     for name, src in self._sources[i].items():
-                        t, y = traces.series[i][name]
+                        t, y = shown[name]
                         src.data = {"t": t, "y": y}
-                    self._overlay.update(i, traces.series[i])
+                    self._overlay.update(i, shown)
                     up, down = self._dodges[i]
                     up.value, down.value = 3.0 * float(run.s[i]), -3.0 * float(run.s[i])
-                    _set_range(fig.y_range, *_y_limits(traces.series[i], 3.0 * float(run.s[i])))
+                    self._bands[i].source = self._sources[i]["truth" if errors else "kbf"]
+                    k = str(i + 1).translate(SUBSCRIPT)
+                    fig.yaxis.axis_label = (f"error in X{k}" if errors else f"{COORDINATES[i]} X{k}")
+                    _set_range(fig.y_range, *_y_limits(shown, 3.0 * float(run.s[i]), around_zero=errors))
                     fig.height = plot_height(m) + (SUMMARY_HEIGHT if i == 0 else 0)
                     fig.xaxis.visible = i == m - 1  # one shared time axis, under the last plot
                 elif len(self._sources[i]["kbf"].data["t"]):
@@ -173,8 +204,18 @@ class TrajectoriesView(Viewer):
             self._summary.text = self._header_text()
             if run is None:
                 self._placeholder()
-            elif len(self._column.objects) != m + 1:  # only the m plots in the page: hidden ones would be laid out
-                self._column.objects = [self._key_pane, *self._panes[:m]]
+            elif len(self._column.objects) != m + 2:  # only the m plots in the page: hidden ones would be laid out
+                self._column.objects = [self._mode, self._key_pane, *self._panes[:m]]
+
+    @property
+    def errors(self) -> bool:
+        """The error view is on."""
+        return self._mode.value == ERRORS
+
+    def _on_mode(self, event) -> None:
+        for name, item in self._keys.items():
+            item.label = value(KEY_LABELS[name][self.errors])
+        self._update()
 
     def _placeholder(self, *events) -> None:
         """No run to draw (yet): a progress indicator while the first one is computed, else the reason — never
