@@ -25,6 +25,7 @@ from app.longjobs import LongJobQueue
 from app.state import AppState
 from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
+from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
 from app.views.worstcase import WorstCaseView
 
@@ -144,6 +145,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories),
                    ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state))),
                    ("Worst case over σ", deferred(lambda: WorstCaseView(state=state))),
+                   ("Compare σ", deferred(lambda: CompareView(state=state))),
                    sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
     return pn.template.FastListTemplate(
         title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),

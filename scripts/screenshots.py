@@ -14,13 +14,14 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 PLOT_DATA = """() => { const d = window.Bokeh && Bokeh.documents[0]; const s = d && d.get_model_by_name('traj-1-isl');
                        return !!(s && s.data.y.length > 0); }"""
-#: file name, window size, query, what to click first (None: nothing), the button to wait for after it
+#: file name, window size, query, texts to click in turn, what to wait for then (a CSS selector, or None)
 SHOTS = [
-    ("default-1280x720.png", (1280, 720), "", None, None),
-    ("default-1920x1080.png", (1920, 1080), "", None, None),
-    ("presenter-1280x720.png", (1280, 720), "?present=1", None, None),
-    ("sweep-1280x720.png", (1280, 720), "", "ν sweep (paper A, Fig. 2)", "Simulate points"),
-    ("errors-m6-1920x1080.png", (1920, 1080), "?m=6&horizon=100", "Errors (estimate − signal)", None),
+    ("default-1280x720.png", (1280, 720), "", (), None),
+    ("default-1920x1080.png", (1920, 1080), "", (), None),
+    ("presenter-1280x720.png", (1280, 720), "?present=1", (), None),
+    ("sweep-1280x720.png", (1280, 720), "", ("ν sweep (paper A, Fig. 2)",), "text=Simulate points"),
+    ("errors-m6-1920x1080.png", (1920, 1080), "?m=6&horizon=100", ("Errors (estimate − signal)",), None),
+    ("compare-1920x1080.png", (1920, 1080), "", ("Compare σ", "button:Compare"), "img"),
 ]
 
 
@@ -31,14 +32,15 @@ def main() -> None:
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
         try:
-            for name, (w, h), query, click, button in SHOTS:
+            for name, (w, h), query, clicks, wait in SHOTS:
                 page = browser.new_page(viewport={"width": w, "height": h})
                 page.goto(url + query)
                 page.wait_for_function(PLOT_DATA, timeout=60_000)
-                if click is not None:
-                    page.get_by_text(click).click()
-                if button is not None:
-                    page.get_by_role("button", name=button).wait_for()
+                for text in clicks:  # "button:NAME" is a button, anything else a text
+                    (page.get_by_role("button", name=text[7:], exact=True) if text.startswith("button:")
+                     else page.get_by_text(text, exact=True)).click()
+                if wait is not None:
+                    page.locator(wait).first.wait_for(timeout=120_000)
                 page.wait_for_load_state("networkidle")
                 page.screenshot(path=str(DOCS / name))
                 page.close()

@@ -347,3 +347,19 @@ def test_the_figure_download_draws_the_run_on_screen_with_the_clis_renderer(stat
     assert [label for label, *_ in lines][:4] == ["X (truth)", "X̂ (Kalman–Bucy, knows σ)", "X̌ (ISL, σ unknown)",
                                                    "X̂ ± 3s (optimal RMSE)"]
     assert f"m = {state.m}" in static_figures._fig3_title(state.run)
+
+
+def test_the_compare_view_draws_the_run_beside_the_same_run_at_another_sigma(state):
+    """Paper A's Fig. 3 pair: σ = 20 | σ = 200, the same seed and inputs; the left column is the run on screen."""
+    from app.views.compare import CompareView
+
+    view = CompareView(state=state)
+    assert view.sigma_b == 200.0 and view._image.object is None  # drawn on request only
+    view.draw()
+    png, table = view._image.object, view._table.object
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "σ = 20<" in table and "σ = 200<" in table
+    on_screen = f"{state.run.tracks[0].ratio[0]:.3f} / {state.run.tracks[1].ratio[0]:.3f}"
+    assert on_screen in table  # the left column is the run on screen, bit for bit
+    state.nu = 1.5
+    assert "has changed since this picture" in view._note.object

@@ -54,12 +54,12 @@ def wait_http(url: str, proc: subprocess.Popen, timeout: float = 120.0) -> None:
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    """URL of the dashboard served by ``panel serve app/app.py``; the server's log file."""
+    """URL of the dashboard served as users serve it (``python -m app.serve``: callbacks on its worker threads,
+    long jobs in processes, the headers and the host check); the server's log file."""
     port = free_port()
     log = tmp_path_factory.mktemp("serve") / "panel.log"
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    cmd = [sys.executable, "-m", "panel", "serve", "app/app.py", "--port", str(port), "--address", "127.0.0.1",
-           "--allow-websocket-origin", f"127.0.0.1:{port}"]
+    cmd = [sys.executable, "-m", "app.serve", "--port", str(port), "--address", "127.0.0.1"]
     with open(log, "w") as out:
         proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
     try:
@@ -432,3 +432,19 @@ def test_presenter_mode_is_one_toggle_kept_in_the_link(served):
         page.wait_for_function("() => !new URL(location.href).searchParams.has('present')")
         page.get_by_role("button", name="Presenter mode").wait_for()
         assert "sigma=200" in page.url
+
+
+def test_the_error_view_switch_redraws_every_plot_without_a_server_error(served):
+    """The switch's callback runs on a server thread; the plots must change on the session's loop (changing bokeh
+    models from the thread failed with "_pending_writes should be non-None" and left the plots as they were)."""
+    url, log = served
+    with dashboard(url) as page:
+        page.get_by_text("Errors (estimate − signal)", exact=True).click()
+        page.wait_for_function("""() => { const d = Bokeh.documents[0];
+            return [1, 2, 3].every(i => d.get_model_by_name(`traj-${i}-truth`).data.y.length === 2); }""",
+                               timeout=20_000)
+        page.get_by_text("Signal and estimates", exact=True).click()
+        page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('traj-1-truth').data.y.length > 2",
+                               timeout=20_000)
+    text = log.read_text("utf-8", errors="replace")
+    assert "Callback failed" not in text and "_pending_writes" not in text

@@ -213,6 +213,11 @@ class TrajectoriesView(Viewer):
         return self._mode.value == ERRORS
 
     def _on_mode(self, event) -> None:
+        # the switch's callback may run on one of the server's threads: the bokeh models change on the session's
+        # loop, with its document locked, like every run's outcome (Jobs.later)
+        self.state._jobs.later(self._apply_mode)
+
+    def _apply_mode(self) -> None:
         for name, item in self._keys.items():
             item.label = value(KEY_LABELS[name][self.errors])
         self._update()

@@ -1,0 +1,112 @@
+"""Compare view: the run on screen beside the same run at another σ — paper A's Fig. 3 (σ = 20 | σ = 200).
+
+Both runs share every other input and the seed (the same driving noise v and ε; only σ scales the observation
+noise), so the difference is σ's alone. The picture is drawn by the renderer of ``isl figure3`` and of the figure
+download (:func:`app.static_figures.fig3_png`), both columns on one canvas with the parameters above each, and
+the measured ratios of both runs are tabulated below it. Drawn on request ("Compare"), as one job on the pool of
+large runs (off the event loop, below the slider runs' priority); a run on screen that changes afterwards marks
+the picture as out of date instead of redrawing it at every slider move.
+"""
+from __future__ import annotations
+
+import dataclasses
+import html
+import io
+
+import panel as pn
+import param
+from panel.viewable import Viewer
+
+from ..state import COORDINATES, AppState, Request, compute
+from .style import SUBSCRIPT
+
+__all__ = ["CompareView", "compare_figure", "other_sigma"]
+
+
+def other_sigma(sigma: float) -> float:
+    """The σ to compare with by default: paper A's pair 20 | 200 (200 from anything below it, else 20)."""
+    return 200.0 if sigma < 200.0 else 20.0
+
+
+def compare_figure(req: Request, sigma_b: float) -> tuple[bytes, list]:
+    """Run ``req`` and ``req`` at σ = ``sigma_b`` (same seed, same other inputs); both drawn side by side as a PNG,
+    and the two :class:`isl_core.runview.RunView` objects (for the table)."""
+    from ..static_figures import fig3_png
+
+    runs = [compute(req, nearest=True).run, compute(dataclasses.replace(req, sigma=sigma_b), nearest=True).run]
+    out = io.BytesIO()
+    fig3_png(runs, out, dpi=90, note="the same seed and inputs; only σ differs")
+    return out.getvalue(), runs
+
+
+def ratios_html(runs) -> str:
+    """Measured RMSE ratios of both runs (KBF and ISL per coordinate), one column per run."""
+    head = "".join(f"<th>σ = {r.model.sigma:g}<span class='tag'>KBF / ISL, measured</span></th>" for r in runs)
+    rows = []
+    for i in range(runs[0].model.m):
+        k = str(i + 1).translate(SUBSCRIPT)
+        cells = "".join(f"<td>{r.tracks[0].ratio[i]:.3f} / {r.tracks[1].ratio[i]:.3f}</td>" for r in runs)
+        rows.append(f"<tr><td>X{k} {html.escape(COORDINATES[i])}</td>{cells}</tr>")
+    return f"<table class='isl-numbers'><tr><th>RMSE / s<sub>i</sub></th>{head}</tr>{''.join(rows)}</table>"
+
+
+_CSS = """
+table.isl-numbers { border-collapse: collapse; font-size: var(--isl-table-font, 15px); }
+table.isl-numbers th, table.isl-numbers td { padding: 4px 10px; text-align: right; border-bottom: 1px solid #ddd; }
+table.isl-numbers td:first-child, table.isl-numbers th:first-child { text-align: left; }
+table.isl-numbers .tag { display: block; font-weight: normal; font-size: 12px; color: #666; }
+"""
+
+
+class CompareView(Viewer):
+    """The run on screen beside the same run at another σ (a tab of its own, built when first opened)."""
+
+    state = param.ClassSelector(class_=AppState)
+    sigma_b = param.Number(200.0, bounds=(0.1, 1000.0), label="σ of the second run")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self.sigma_b = other_sigma(self.state.sigma)
+        self._image = pn.pane.PNG(None, sizing_mode="scale_width", max_width=1400, margin=(0, 10))
+        self._table = pn.pane.HTML("", stylesheets=[_CSS], margin=(0, 10))
+        self._note = pn.pane.Markdown("", margin=(0, 10))
+        self._input = pn.widgets.FloatInput.from_param(self.param.sigma_b, start=0.1, end=1000.0, width=180)
+        self._button = pn.widgets.Button(label="Compare", color="primary", width=130, margin=(24, 10, 0, 10))
+        self._button.on_click(lambda event: self.draw())
+        self._drawn: Request | None = None
+        self.state.param.watch(self._stale, ["run"])
+        self._note.object = "Press **Compare** to draw the run on screen beside the same run at the σ above."
+
+    def draw(self) -> None:
+        """Simulate the second run and draw both (a job; the picture replaces the last one when it is done)."""
+        if self.state.run is None:
+            self._note.object = "The comparison can be drawn once the first run is shown."
+            return
+        self._drawn = req = self.state.request()
+        self._note.object = f"Simulating σ = {req.sigma:g} and σ = {self.sigma_b:g} …"
+        self.state._jobs.submit("compare", lambda b=self.sigma_b: compare_figure(req, b), self._show, pool="large")
+
+    def _stale(self, *events) -> None:
+        if self._drawn is not None and self._drawn != self.state.request():
+            self._note.object = "The run on screen has changed since this picture: press **Compare** to redraw it."
+
+    def _show(self, outcome, superseded: bool) -> None:
+        if superseded:
+            return
+        if outcome.error is not None:
+            self._note.object = f"No comparison: {self.state.describe(outcome.error)}."
+            return
+        png, runs = outcome.value
+        self._image.object = png
+        self._table.object = ratios_html(runs)
+        self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {runs[0].horizon:.3g}/r_min of each run's own "
+                             f"r_min; computed in {outcome.seconds:.2g} s. Drawn as `isl figure3` draws it.")
+
+    def __panel__(self):
+        intro = pn.pane.Markdown(
+            "The run on screen beside the same run at another σ — paper A's Fig. 3 compares σ = 20 and σ = 200. "
+            "Both use the same seed and every other input, so what changes is σ's doing.", margin=(0, 10),
+            styles={"font-size": "14px"})
+        return pn.Column(intro, pn.Row(self._input, self._button), self._note, self._image, self._table,
+                         sizing_mode="stretch_width")
+
