@@ -14,13 +14,15 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 PLOT_DATA = """() => { const d = window.Bokeh && Bokeh.documents[0]; const s = d && d.get_model_by_name('traj-1-isl');
                        return !!(s && s.data.y.length > 0); }"""
-#: file name, window size, query, texts to click in turn, what to wait for then (a CSS selector, or None)
+#: file name, window size, query, texts to click in turn, what to wait for then (a CSS selector, "js:" and a
+#: function that returns true when the page is ready, or None)
 SHOTS = [
     ("default-1280x720.png", (1280, 720), "", (), None),
     ("default-1920x1080.png", (1920, 1080), "", (), None),
     ("presenter-1280x720.png", (1280, 720), "?present=1", (), None),
     ("sweep-1280x720.png", (1280, 720), "", ("ν sweep (paper A, Fig. 2)",), "text=Simulate points"),
-    ("errors-m6-1920x1080.png", (1920, 1080), "?m=6&horizon=100", ("Errors (estimate − signal)",), None),
+    ("errors-m6-1920x1080.png", (1920, 1080), "?m=6&horizon=100", ("Errors (estimate − signal)",),
+     "js:() => Bokeh.documents[0].get_model_by_name('traj-1-truth').data.y.length === 2"),
     ("compare-1920x1080.png", (1920, 1080), "", ("Compare σ", "button:Compare"), "img"),
 ]
 
@@ -39,7 +41,9 @@ def main() -> None:
                 for text in clicks:  # "button:NAME" is a button, anything else a text
                     (page.get_by_role("button", name=text[7:], exact=True) if text.startswith("button:")
                      else page.get_by_text(text, exact=True)).click()
-                if wait is not None:
+                if wait is not None and wait.startswith("js:"):
+                    page.wait_for_function(wait[3:], timeout=120_000)
+                elif wait is not None:
                     page.locator(wait).first.wait_for(timeout=120_000)
                 page.wait_for_load_state("networkidle")
                 page.screenshot(path=str(DOCS / name))
