@@ -363,7 +363,7 @@ def test_bad_filters_and_extra():
     ({"burn": 1e308}, r"^burn must be a finite number >= 0 and <= 10"),
     ({"progress": 3}, r"^progress must be a callable or None"),
     ({"h": -1.0}, r"^h must be a finite number > 0"),
-    ({"T": None}, r"^T must be a finite number > 0, got None"),
+    ({"T": None}, r"^T must be a finite number > 0; got nothing \(an empty box or a missing value\)"),
 ])
 def test_bad_simulate_rmse_inputs(kwargs, pattern):
     kwargs = {"T": 10.0, **kwargs}
