@@ -20,10 +20,14 @@ SHOTS = [
     ("default-1280x720.png", (1280, 720), "", (), None),
     ("default-1920x1080.png", (1920, 1080), "", (), None),
     ("presenter-1280x720.png", (1280, 720), "?present=1", (), None),
+    ("presenter-1920x1080.png", (1920, 1080), "?present=1", (), None),
     ("sweep-1280x720.png", (1280, 720), "", ("ν sweep (paper A, Fig. 2)",), "text=Simulate points"),
     ("errors-m6-1920x1080.png", (1920, 1080), "?m=6&horizon=100", ("Errors (estimate − signal)",),
      "js:() => Bokeh.documents[0].get_model_by_name('traj-1-truth').data.y.length === 2"),
+    ("errors-m6-1280x720.png", (1280, 720), "?m=6&horizon=100", ("Errors (estimate − signal)",),
+     "js:() => Bokeh.documents[0].get_model_by_name('traj-1-truth').data.y.length === 2"),
     ("compare-1920x1080.png", (1920, 1080), "", ("Compare σ", "button:Compare"), "img"),
+    ("compare-1280x720.png", (1280, 720), "", ("Compare σ", "button:Compare"), "img"),
 ]
 
 

@@ -448,3 +448,23 @@ def test_the_error_view_switch_redraws_every_plot_without_a_server_error(served)
                                timeout=20_000)
     text = log.read_text("utf-8", errors="replace")
     assert "Callback failed" not in text and "_pending_writes" not in text
+
+
+def test_the_downloads_carry_the_run_on_screen(served):
+    """Both exports from the browser: the CSV with every parameter, s_i, the ratios and named columns; the PNG
+    figure of the whole view."""
+    url, _ = served
+    with dashboard(url + "?sigma=200") as page:
+        with page.expect_download() as csv_download:
+            page.get_by_role("button", name="Download run (CSV)").click()
+        text = Path(csv_download.value.path()).read_text("utf-8")
+        header = [line for line in text.splitlines() if line.startswith("#")]
+        assert any("sigma=200" in line and "w=3" in line for line in header), header[:3]
+        assert any(line.startswith("# X1_position: s=") and " kbf " in line and " isl " in line for line in header)
+        columns = header[-1]  # the named columns, then one row per kept step
+        assert columns.startswith("# t,X1_position,") and columns.endswith("isl_X3_acceleration")
+        assert len(text.splitlines()) > len(header) + 1000
+        with page.expect_download() as png_download:
+            page.get_by_role("button", name="Download figure (PNG)").click()
+        png = Path(png_download.value.path()).read_bytes()
+        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
