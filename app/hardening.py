@@ -62,6 +62,21 @@ def install() -> None:
         _installed = True
 
 
+def quiet_closed_websockets(loop) -> None:
+    """A page closed while the server was writing to it: tornado's write task then ends in ``WebSocketClosedError``
+    and asyncio logs "Task exception was never retrieved" with a traceback — nothing went wrong (the reader left).
+    Those become one debug line on ``loop``; every other unhandled loop error still reaches the default handler."""
+    from tornado.iostream import StreamClosedError
+    from tornado.websocket import WebSocketClosedError
+
+    def handler(loop, context) -> None:
+        if isinstance(context.get("exception"), WebSocketClosedError | StreamClosedError):
+            log.debug("a page closed during a write: %s", context.get("message"))
+        else:
+            loop.default_exception_handler(context)
+    loop.set_exception_handler(handler)
+
+
 def handle_exception(exc: BaseException) -> None:
     """Log ``exc`` with its traceback under a new incident id; tell the user only that id."""
     incident = uuid.uuid4().hex[:8]

@@ -41,6 +41,24 @@ LONG_JOBS = LongJobQueue(workers=1, max_waiting=8, processes=True)
 # on a 2-core machine its spinning threads made a Riccati solve ~10× slower (58 ms vs 5 ms per run, measured).
 threadpool_limits(limits=1, user_api="blas")
 pn.extension(notifications=True)  # the hardening handler reports errors as notifications
+
+
+def _serialize_busy_bookkeeping() -> None:
+    """Panel counts every widget event as "busy" by lifting the read-only flag of ``pn.state.busy`` for a moment
+    (``edit_readonly`` changes the class's parameter object); with ``--num-threads`` two worker threads interleave
+    there and one fails with "Read-only parameter 'busy' cannot be modified" — a callback error on the page (seen
+    in the browser tests when the other filters were ticked at once). The three bookkeeping methods take one lock."""
+    lock = threading.RLock()
+    for name in ("_add_busy_event", "_remove_busy_event", "_cleanup_busy_counter"):
+        method = getattr(pn.state, name)
+
+        def locked(*args, _method=method, **kwargs):
+            with lock:
+                return _method(*args, **kwargs)
+        setattr(pn.state, name, locked)
+
+
+_serialize_busy_bookkeeping()
 hardening.install()  # tracebacks to the log, a short message to the user; session data released on close
 
 

@@ -236,6 +236,9 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
             from app import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
+            from app.hardening import quiet_closed_websockets
+
+            quiet_closed_websockets(server.io_loop.asyncio_loop)  # a tab closed mid-write is not an error
             return super().customize_server(server)
 
     return StrictServe

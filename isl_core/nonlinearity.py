@@ -1,6 +1,10 @@
 """The ISL nonlinearity φ and its statistical linearization (A.17, B.23–B.27, B.40–B.43).
 
     φ_i(x) = c_i · sign(x)·|x|^{q_i},   c_i = G_i1 · γ_{p_i}^{-1/2} · ν^{i/m},   q_i = 1 − i/m,  p_i = 2 q_i   (A.17)
+
+This is paper B's power law (B.23), whose constant γ_p^{-1/2} makes its second moment match the Kalman–Bucy gain's
+for every σ (B.24); with it the filter's equations (B.25) for i < m and (B.26) for i = m no longer contain σ. At
+m = 3 they are paper B's explicit filter (B.54): c = (2β^{1/3}γ_{4/3}^{-1/2}, 2β^{2/3}γ_{2/3}^{-1/2}, β) at ν = β.
     γ_p    = E|U|^p = 2^{p/2} Γ((p+1)/2) / √π,   U ~ N(0, 1)
 
 For ξ ~ N(0, σ²) the power law has closed-form moments (SPEC §6):

@@ -1,7 +1,8 @@
-"""Stationary Kalman–Bucy filter: the CARE, its gain, RMSE and settling rate (A.10, A.21–A.24, B.16–B.18).
+"""Stationary Kalman–Bucy filter: the CARE, its gain, RMSE and settling rate (A.10, A.21–A.24, B.4–B.7, B.16–B.18).
 
-    A Δ + Δ Aᵀ + β² E Eᵀ − σ⁻² Δ Cᵀ C Δ = 0        (A.23)
-    K = σ⁻² Δ Cᵀ,   s_i = √Δ_ii                       (A.21, A.29–A.30)
+    dX̂ = A X̂ dt + K (dY − C X̂ dt)                   (A.21; B.4, the filter this gain drives)
+    A Δ + Δ Aᵀ + β² E Eᵀ − σ⁻² Δ Cᵀ C Δ = 0        (A.23; B.7 with Q = Δ, Σ = σ²)
+    K = σ⁻² Δ Cᵀ,   s_i = √Δ_ii                       (A.21, A.29–A.30; B.5; Δ = cov(X̂ − X) is B.6's Q)
     r_min = min_i −Re λ_i(A − K C)                    (A.24)
 
 α = 0 has a closed form through the normalized solution G = G(m) of

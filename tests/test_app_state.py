@@ -266,8 +266,6 @@ def test_inline_sweep_gives_points_with_intervals(state):
 
 
 def test_a_recommendation_note_goes_with_its_context(state):
-    if sweeps.sweep_module() is None:
-        pytest.skip("isl_core.sweep is not installed")
     state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
     state.recommend()
     assert state.sweep_note.startswith("Recommended ν")
@@ -289,8 +287,6 @@ def test_every_preset_is_valid(state):
 
 
 def test_recommendation_sets_nu(state):
-    if sweeps.sweep_module() is None:
-        pytest.skip("isl_core.sweep is not installed")
     state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
     state.recommend()
     assert state.sweep_note.startswith("Recommended ν"), state.sweep_note

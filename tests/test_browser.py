@@ -26,10 +26,13 @@ CHROMIUM = Path("/usr/bin/chromium")
 ROOT = Path(__file__).resolve().parent.parent
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not CHROMIUM.exists(), reason="Debian's chromium is not installed at /usr/bin/chromium"),
-]
+pytestmark = [pytest.mark.browser]
+
+
+def _launch(p):
+    """Debian's chromium, headless: a missing browser fails the test (./scripts/test installs it), never skips it."""
+    assert CHROMIUM.exists(), "Debian's chromium is not installed at /usr/bin/chromium: run ./scripts/test"
+    return p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
 
 
 def free_port() -> int:
@@ -78,9 +81,9 @@ def served(tmp_path_factory):
 def dashboard(url: str, on_request=None, viewport: dict | None = None):
     """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
     every request from the start)."""
-    sync_api = pytest.importorskip("playwright.sync_api")
+    from playwright import sync_api
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        browser = _launch(p)
         try:
             page = browser.new_page(viewport=viewport or {"width": 1600, "height": 1000})
             if on_request is not None:
@@ -263,9 +266,9 @@ def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(served)
 def test_a_link_no_setting_can_serve_says_why_instead_of_empty_plots(served):
     url, _ = served
     hopeless = "?m=1&alpha=0&beta_from_w=false&beta=0.01&sigma=0.1&nu=10000&horizon=1000"
-    sync_api = pytest.importorskip("playwright.sync_api")
+    from playwright import sync_api
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        browser = _launch(p)
         try:
             page = browser.new_page(viewport={"width": 1600, "height": 1000})
             page.goto(url + hopeless)
@@ -325,9 +328,9 @@ def lms_page(app_url: str, port: int = 0):
 
 def _framed(page_url: str) -> str:
     """Open ``page_url`` in chromium; 'blocked' if its iframe was refused, 'shown' once the dashboard draws in it."""
-    sync_api = pytest.importorskip("playwright.sync_api")
+    from playwright import sync_api
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        browser = _launch(p)
         try:
             page = browser.new_page()
             blocked = []
@@ -371,9 +374,9 @@ def test_ratio_axes_tick_the_first_digits(lo, hi, expected):
     from app.views.style import ratio_ticker
 
     ticker = ratio_ticker()
-    sync_api = pytest.importorskip("playwright.sync_api")
+    from playwright import sync_api
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+        browser = _launch(p)
         try:
             page = browser.new_page()
             ticks = page.evaluate(

@@ -266,3 +266,34 @@ def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(
     assert "SECRET-DETAIL" not in messages[0] and "Traceback" not in messages[0] and ".py" not in messages[0]
     assert f"incident {incident}" in text and "Traceback (most recent call last)" in text
 
+
+
+def test_a_page_closed_mid_write_is_not_logged_as_an_error(caplog):
+    """tornado's write task ends in WebSocketClosedError when a tab closes mid-write: one debug line, no traceback;
+    any other unhandled error on the loop is still logged by asyncio."""
+    import asyncio
+    import gc
+
+    from tornado.websocket import WebSocketClosedError
+
+    from app.hardening import log, quiet_closed_websockets
+
+    async def closed():
+        raise WebSocketClosedError()
+
+    async def broken():
+        raise RuntimeError("a real failure")
+
+    loop = asyncio.new_event_loop()
+    try:
+        quiet_closed_websockets(loop)
+        with caplog.at_level("DEBUG", logger=log.name):
+            tasks = [loop.create_task(closed()), loop.create_task(broken())]
+            loop.run_until_complete(asyncio.wait(tasks))
+            del tasks
+            gc.collect()  # "never retrieved" is reported when a failed task is collected
+    finally:
+        loop.close()
+    errors = [r for r in caplog.records if r.levelname == "ERROR"]
+    assert len(errors) == 1 and "a real failure" in str(errors[0].exc_info[1])
+    assert any("a page closed during a write" in r.getMessage() for r in caplog.records)

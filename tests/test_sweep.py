@@ -92,7 +92,7 @@ def test_group_seed_does_not_depend_on_the_grid(local):
 
 
 def test_dask_local_cluster_gives_identical_results(local):
-    distributed = pytest.importorskip("distributed")
+    import distributed  # the dask extra: installed with the tests (ISL_EXTRAS=test,dask)
     with (
         distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cl,
         distributed.Client(cl) as client,
