@@ -23,7 +23,7 @@ from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
 from .kernels import minmax_block
 from .model import Model
 from .riccati import kalman_bucy
-from .simulate import _check_filters, _check_progress, _check_start, _freeze, _loop, run_plan
+from .simulate import _Tracked, _check_filters, _check_progress, _check_start, _freeze, _loop, run_plan
 from .validate import check_int
 
 __all__ = ["DISPLAY_CHUNK", "TUBE_THEORY", "RunView", "Trace", "TrackView", "simulate_view"]
@@ -58,7 +58,7 @@ class TrackView:
 
 
 @dataclass(frozen=True)
-class RunView:
+class RunView(_Tracked):
     """A simulated run, decimated for display: ``truth`` (per coordinate), ``tracks`` (Kalman–Bucy, ISL, extras).
 
     The same fields as :class:`isl_core.Run` where they are numbers (``s``, ``r_min``, ``h``, ``T``, ``N``,
@@ -78,20 +78,6 @@ class RunView:
     truth: tuple[Trace, ...]
     tracks: tuple[TrackView, ...]
     points: int
-
-    @property
-    def horizon(self) -> float:
-        """T in units of 1/r_min (A.24)."""
-        return self.T * self.r_min
-
-    def track(self, name: str) -> TrackView:
-        for tr in self.tracks:
-            if tr.name == name:
-                return tr
-        raise KeyError(f"no filter named {name!r} in this run; have {[tr.name for tr in self.tracks]}")
-
-    ratio_hat = property(lambda self: self.tracks[0].ratio, doc="ŝ_i/s_i of the optimal filter (measured)")
-    ratio_check = property(lambda self: self.tracks[1].ratio, doc="š_i/s_i of the ISL filter (measured)")
 
 
 class _Collector:

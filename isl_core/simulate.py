@@ -104,8 +104,27 @@ class Track:
         return _freeze(self.truth + self.error)
 
 
+class _Tracked:
+    """What a run with ``tracks`` (Kalman–Bucy, ISL, extras), ``T`` and ``r_min`` answers, full or decimated
+    (:class:`Run`, :class:`isl_core.runview.RunView`)."""
+
+    @property
+    def horizon(self) -> float:
+        """T in units of 1/r_min (A.24)."""
+        return self.T * self.r_min
+
+    def track(self, name: str):
+        for tr in self.tracks:
+            if tr.name == name:
+                return tr
+        raise KeyError(f"no filter named {name!r} in this run; have {[tr.name for tr in self.tracks]}")
+
+    ratio_hat = property(lambda self: self.tracks[0].ratio, doc="ŝ_i/s_i of the optimal filter (≈ 1 on long runs)")
+    ratio_check = property(lambda self: self.tracks[1].ratio, doc="š_i/s_i of the ISL filter")
+
+
 @dataclass(frozen=True)
-class Run:
+class Run(_Tracked):
     """One simulated trajectory with the optimal and the ISL filter (and any extra filters).
 
     ``t`` (K,), ``X`` truth (K, m) at the kept steps — every ``every``-th of the N + 1 (all of them by default) —,
@@ -134,23 +153,10 @@ class Run:
         """Steps simulated (T = N·h)."""
         return round(self.T / self.h)
 
-    @property
-    def horizon(self) -> float:
-        """T in units of 1/r_min (A.24)."""
-        return self.T * self.r_min
-
-    def track(self, name: str) -> Track:
-        for tr in self.tracks:
-            if tr.name == name:
-                return tr
-        raise KeyError(f"no filter named {name!r} in this run; have {[tr.name for tr in self.tracks]}")
-
     X_hat = property(lambda self: self.tracks[0].estimate, doc="Kalman–Bucy estimate X̂ (N+1, m)")
     X_check = property(lambda self: self.tracks[1].estimate, doc="ISL estimate X̌ (N+1, m)")
     s_hat = property(lambda self: self.tracks[0].rmse, doc="empirical RMSE ŝ_i of X̂ (A.30)")
     s_check = property(lambda self: self.tracks[1].rmse, doc="empirical RMSE š_i of X̌ (A.30)")
-    ratio_hat = property(lambda self: self.tracks[0].ratio, doc="ŝ_i/s_i (≈ 1 on long runs)")
-    ratio_check = property(lambda self: self.tracks[1].ratio, doc="š_i/s_i")
 
 
 def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
