@@ -153,17 +153,23 @@ def _context():
     return _CONTEXT[0]
 
 
+def in_steps(report: Callable[[float], None], step: float = 0.01) -> Callable[[float], None]:
+    """``report`` called only when the progress fraction has moved by ``step`` since its last call, or reached 1
+    (a job reports per chunk; a page or a pipe needs no more than 1 % steps)."""
+    last = [0.0]
+
+    def progress(fraction: float) -> None:
+        if fraction - last[0] >= step or fraction >= 1.0:
+            last[0] = fraction
+            report(fraction)
+    return progress
+
+
 def _child(fn: Callable[..., Any], conn, nice: int) -> None:
     """In the child: ``fn(progress=…)``, its progress (in 1 % steps) and its value or error sent back on ``conn``."""
     os.nice(nice)
-    last = [-1.0]
-
-    def progress(fraction: float) -> None:
-        if fraction - last[0] >= 0.01 or fraction >= 1.0:
-            last[0] = fraction
-            conn.send(("progress", float(fraction)))
     try:
-        conn.send(("value", fn(progress=progress)))
+        conn.send(("value", fn(progress=in_steps(lambda fraction: conn.send(("progress", float(fraction)))))))
     except Exception as exc:  # noqa: BLE001 — every failure goes back to the session as a message
         logging.getLogger(__name__).debug("long job failed", exc_info=True)
         try:
@@ -232,15 +238,13 @@ class LongTask:
         """Run ``fn(progress=…)`` as the session's long job; ``apply(outcome)`` on success (on the session's loop)."""
         token = self._token = object()
         self.state.param.update(**{self.busy: True, self.progress: 0.0, self.note: note})
-        last = [0.0]
+        show = in_steps(lambda fraction: self.state._jobs.later(lambda: self._set(token, progress=min(fraction, 1.0))))
 
         def run(cancel: threading.Event):
             def progress(fraction: float) -> None:  # on the worker thread
                 if cancel.is_set():
                     raise Cancelled()
-                if fraction - last[0] >= 0.01 or fraction >= 1.0:
-                    last[0] = fraction
-                    self.state._jobs.later(lambda: self._set(token, progress=min(fraction, 1.0)))
+                show(fraction)
             if self.state._jobs.long_in_process:
                 return in_process(fn, progress, cancel)
             return fn(progress=progress)
