@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .colors import EXTRA_COLORS
+
 __all__ = ["fig2_png", "fig2_html", "fig3_png", "fig3_html", "SIGMA_DASH", "COORD_NAMES"]
 
 SIGMA_DASH = ("dotted", "dashed", "solid")  #: paper A's line styles for σ = 2, 20, 200 (by rank of σ)
@@ -23,8 +25,6 @@ _MPL_DASH = {"dotted": ":", "dotdash": (0, (1, 2, 4, 2)), "dashdot": "-.", "dash
 _COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
 THEORY_DASH = (0, (8, 3))  #: long dashes for theory (matplotlib); bokeh: "8 3"
 COORD_NAMES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")
-#: colours of the other filters (the dashboard's, :data:`app.views.style.EXTRA_COLORS`, without importing bokeh)
-EXTRA_COLORS = {"kbf_mismatched": "#8c510a", "kbf_minimax": "#a50026", "kbf_adaptive": "#e6ab02", "isl_model": "#17becf"}
 
 
 def _sigma_styles(sigmas) -> list[str]:

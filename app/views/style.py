@@ -4,15 +4,11 @@ from __future__ import annotations
 from bokeh.models import BasicTickFormatter, ColumnDataSource, CustomJSTicker, GlyphRenderer, Line
 from bokeh.plotting import figure
 
+from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
+
 __all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "RATIO_MANTISSAS", "SIGMA_COLORS",
            "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "line", "ratio_ticker", "styled"]
 
-TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
-KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
-ISL = "#1f4fc1"  #: ISL X̌_i (blue)
-EXTRA_COLORS = {  #: the baselines of app.extras: hues apart from truth, KBF, ISL and the σ colours below
-    "kbf_mismatched": "#8c510a", "kbf_minimax": "#a50026", "kbf_adaptive": "#e6ab02", "isl_model": "#17becf",
-}
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
 #: the optimal one, the mismatched one at σ̄ = σ) the one below still shows between the dashes
