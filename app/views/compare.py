@@ -18,6 +18,7 @@ import param
 from panel.viewable import Viewer
 
 from ..state import COORDINATES, AppState, Request, compute
+from .numbers import TABLE_CSS
 from .style import SUBSCRIPT
 
 __all__ = ["CompareView", "compare_figure", "other_sigma"]
@@ -28,12 +29,12 @@ def other_sigma(sigma: float) -> float:
     return 200.0 if sigma < 200.0 else 20.0
 
 
-def compare_figure(req: Request, sigma_b: float) -> tuple[bytes, list]:
-    """Run ``req`` and ``req`` at σ = ``sigma_b`` (same seed, same other inputs); both drawn side by side as a PNG,
-    and the two :class:`isl_core.runview.RunView` objects (for the table)."""
+def compare_figure(shown, req: Request, sigma_b: float) -> tuple[bytes, list]:
+    """The run on screen ``shown`` (simulated from ``req``) beside ``req`` at σ = ``sigma_b`` (same seed, same other
+    inputs), drawn side by side as a PNG; and the two :class:`isl_core.runview.RunView` objects (for the table)."""
     from ..static_figures import fig3_png
 
-    runs = [compute(req, nearest=True).run, compute(dataclasses.replace(req, sigma=sigma_b), nearest=True).run]
+    runs = [shown, compute(dataclasses.replace(req, sigma=sigma_b), nearest=True).run]
     out = io.BytesIO()
     fig3_png(runs, out, dpi=90, note="the same seed and inputs; only σ differs")
     return out.getvalue(), runs
@@ -50,14 +51,6 @@ def ratios_html(runs) -> str:
     return f"<table class='isl-numbers'><tr><th>RMSE / s<sub>i</sub></th>{head}</tr>{''.join(rows)}</table>"
 
 
-_CSS = """
-table.isl-numbers { border-collapse: collapse; font-size: var(--isl-table-font, 15px); }
-table.isl-numbers th, table.isl-numbers td { padding: 4px 10px; text-align: right; border-bottom: 1px solid #ddd; }
-table.isl-numbers td:first-child, table.isl-numbers th:first-child { text-align: left; }
-table.isl-numbers .tag { display: block; font-weight: normal; font-size: 12px; color: #666; }
-"""
-
-
 class CompareView(Viewer):
     """The run on screen beside the same run at another σ (a tab of its own, built when first opened)."""
 
@@ -68,7 +61,7 @@ class CompareView(Viewer):
         super().__init__(**params)
         self.sigma_b = other_sigma(self.state.sigma)
         self._image = pn.pane.PNG(None, sizing_mode="scale_width", max_width=1400, margin=(0, 10))
-        self._table = pn.pane.HTML("", stylesheets=[_CSS], margin=(0, 10))
+        self._table = pn.pane.HTML("", stylesheets=[TABLE_CSS], margin=(0, 10))
         self._note = pn.pane.Markdown("", margin=(0, 10))
         self._input = pn.widgets.FloatInput.from_param(self.param.sigma_b, start=0.1, end=1000.0, width=180)
         self._button = pn.widgets.Button(label="Compare", color="primary", width=130, margin=(24, 10, 0, 10))
@@ -82,12 +75,13 @@ class CompareView(Viewer):
         if self.state.run is None:
             self._note.object = "The comparison can be drawn once the first run is shown."
             return
-        self._drawn = req = self.state.request()
-        self._note.object = f"Simulating σ = {req.sigma:g} and σ = {self.sigma_b:g} …"
-        self.state._jobs.submit("compare", lambda b=self.sigma_b: compare_figure(req, b), self._show, pool="large")
+        shown, self._drawn = self.state.run, self.state.shown_request
+        self._note.object = f"Simulating σ = {self.sigma_b:g} beside the run on screen (σ = {shown.model.sigma:g}) …"
+        self.state._jobs.submit("compare", lambda req=self._drawn, b=self.sigma_b: compare_figure(shown, req, b),
+                                self._show, pool="large")
 
     def _stale(self, *events) -> None:
-        if self._drawn is not None and self._drawn != self.state.request():
+        if self._drawn is not None and self._drawn != self.state.shown_request:
             self._note.object = "The run on screen has changed since this picture: press **Compare** to redraw it."
 
     def _show(self, outcome, superseded: bool) -> None:

@@ -22,9 +22,9 @@ from isl_core.runview import TUBE_THEORY
 from ..state import COORDINATES, AppState
 from .style import EXTRA_COLORS, SUBSCRIPT
 
-__all__ = ["NumbersView", "numbers_html"]
+__all__ = ["TABLE_CSS", "NumbersView", "numbers_html"]
 
-_CSS = """
+TABLE_CSS = """
 table.isl-numbers { border-collapse: collapse; font-size: var(--isl-table-font, 15px); margin: 4px 0 8px 0; }
 table.isl-numbers th, table.isl-numbers td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
 table.isl-numbers th { font-weight: 600; vertical-align: bottom; }
@@ -104,7 +104,7 @@ class NumbersView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._pane = pn.pane.HTML(self._html(), stylesheets=[_CSS], margin=(0, 10))
+        self._pane = pn.pane.HTML(self._html(), stylesheets=[TABLE_CSS], margin=(0, 10))
         self.state.param.watch(self._update, ["run", "prediction", "extra_prediction"])
 
     def _html(self) -> str:
