@@ -27,7 +27,7 @@ from isl_core import DivergenceError, Model, run_plan
 from isl_core.runview import RunView, simulate_view
 from . import extras, inputs, sweeps
 from .export import run_csv
-from .jobs import Jobs, Outcome, call
+from .jobs import Jobs, Outcome
 from .longjobs import Cancelled, LongTask
 from .presets import PRESETS
 

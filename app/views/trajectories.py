@@ -60,8 +60,7 @@ def plot_height(m: int) -> int:
     return int(min(max(720 // m, 170), 330))
 
 
-MODES = {"Signal and estimates": False, "Errors (estimate − signal)": True}  #: the view switch's options
-ERRORS = "Errors (estimate − signal)"
+SIGNAL, ERRORS = "Signal and estimates", "Errors (estimate − signal)"  #: the view switch's two options
 #: legend texts: (signal view, error view)
 KEY_LABELS = {"truth": ("Xᵢ signal", "0 (no error)"), "kbf": ("X̂ᵢ Kalman–Bucy (knows σ)", "X̂ᵢ − Xᵢ Kalman–Bucy"),
               "isl": ("X̌ᵢ ISL (σ unknown)", "X̌ᵢ − Xᵢ ISL"), "tube": ("X̂ᵢ ± 3 sᵢ (optimal RMSE)", "± 3 sᵢ")}
@@ -114,7 +113,7 @@ class TrajectoriesView(Viewer):
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
         self._bands: list[Band] = []
-        self._mode = pn.widgets.RadioButtonGroup(options=list(MODES), value=next(iter(MODES)), margin=(5, 10),
+        self._mode = pn.widgets.RadioButtonGroup(options=[SIGNAL, ERRORS], value=SIGNAL, margin=(5, 10),
                                                  variant="outline", stylesheets=[":host { font-size: 14px; }"])
         self._mode.param.watch(self._on_mode, "value")
         self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
