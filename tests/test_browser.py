@@ -95,12 +95,16 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None):
             browser.close()
 
 
-PLOT_DATA = """() => {
-    const doc = window.Bokeh && Bokeh.documents[0];
-    const src = doc && doc.get_model_by_name('traj-1-isl');
+#: ``named(name)``: the model of that name in the page's document, or null — also while a patch is being applied, when
+#: bokeh's get_model_by_name throws on a model whose properties are not set yet ("… name is unset")
+NAMED = """(name) => { try { const d = window.Bokeh && Bokeh.documents[0]; return d ? d.get_model_by_name(name) : null; }
+                     catch (e) { return null; } }"""
+
+PLOT_DATA = f"""() => {{
+    const src = ({NAMED})('traj-1-isl');
     if (!src || src.data.y.length === 0) return null;
     return Array.from(src.data.y.slice(0, 50)).join(',');
-}"""
+}}"""
 
 
 def test_sigma_slider_updates_plot_table_and_url(served):
@@ -163,10 +167,10 @@ def test_the_page_loads_nothing_from_other_hosts(served):
     assert foreign == []
 
 
-SIM_POINTS = """() => {
-    const src = Bokeh.documents[0].get_model_by_name('sweep-sim-1-0');
+SIM_POINTS = f"""() => {{
+    const src = ({NAMED})('sweep-sim-1-0');
     return src !== null && src.data.y.length > 0;
-}"""
+}}"""
 
 
 def test_simulated_sweep_points_and_the_worst_case_table_render(served):
@@ -211,11 +215,8 @@ PLOT_BOXES = """() => Array.from(Bokeh.index.all_views())
     .filter(v => v.model.type === 'Figure' && v.model.title && /^X. — /.test(v.model.title.text))
     .map(v => { const r = v.el.getBoundingClientRect(); return [v.model.title.text, r.x, r.y, r.width, r.height]; })"""
 
-EXTRA_DATA = """(names) => {
-    const doc = Bokeh.documents[0];
-    return names.every(n => [1, 2, 3].every(i => {
-        const s = doc.get_model_by_name(`traj-${i}-${n}`); return s && s.data.y.length > 0; }));
-}"""
+EXTRA_DATA = f"""(names) => names.every(n => [1, 2, 3].every(i => {{
+    const s = ({NAMED})(`traj-${{i}}-${{n}}`); return s && s.data.y.length > 0; }}))"""
 
 
 def _pixels_near(image, color: str, tol: float = 0.12) -> int:
@@ -443,11 +444,11 @@ def test_the_error_view_switch_redraws_every_plot_without_a_server_error(served)
     url, log = served
     with dashboard(url) as page:
         page.get_by_text("Errors (estimate − signal)", exact=True).click()
-        page.wait_for_function("""() => { const d = Bokeh.documents[0];
-            return [1, 2, 3].every(i => d.get_model_by_name(`traj-${i}-truth`).data.y.length === 2); }""",
+        page.wait_for_function(f"""() => [1, 2, 3].every(i => {{
+            const s = ({NAMED})(`traj-${{i}}-truth`); return s && s.data.y.length === 2; }})""",
                                timeout=20_000)
         page.get_by_text("Signal and estimates", exact=True).click()
-        page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('traj-1-truth').data.y.length > 2",
+        page.wait_for_function(f"() => {{ const s = ({NAMED})('traj-1-truth'); return s && s.data.y.length > 2; }}",
                                timeout=20_000)
     text = log.read_text("utf-8", errors="replace")
     assert "Callback failed" not in text and "_pending_writes" not in text
