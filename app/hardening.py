@@ -8,6 +8,8 @@ session exists, so it applies to every session; ``app/app.py`` may call it too, 
   callback is logged with its full traceback to the server log (logger ``isl.app``) under a short incident id,
   and the user sees a notification with that id and no traceback, no exception text, no file paths.
 * ``pn.config.notifications = True``, so that every session has a place to show that message.
+* models the browser has not been sent stay "new" when a browser change arrives (:func:`keep_unsent_models_new`),
+  so the server's next change sends them in full instead of by id, which the browser rejects.
 * websocket ``ERROR`` replies without server internals: bokeh answers a message it cannot apply (e.g. a scripted
   client setting a slider to a string) with an ``ERROR`` reply that carries the server's full traceback. The
   traceback is dropped (bokeh's protocol handler already logs it), and a reply text that is not bokeh's own
@@ -59,6 +61,7 @@ def install() -> None:
     pn.config.notifications = True
     if not _installed:
         quiet_error_replies()
+        keep_unsent_models_new()
         _installed = True
 
 
@@ -109,6 +112,36 @@ def quiet_error_replies() -> None:
 
     quiet_create._isl_quiet = True
     error.create = classmethod(quiet_create)
+
+
+def keep_unsent_models_new() -> None:
+    """Fix bokeh's bookkeeping of which models the browser knows (idempotent).
+
+    The server sends a model in full the first time it is attached to the page, and by id later. Bokeh tracks the
+    models not sent yet, but when it applies a change from the browser (``Document.apply_json_patch``) it marks
+    every model of the document as sent — also those the server has just attached whose change is still held
+    (Panel holds a document's events while a worker thread updates it and sends them on the next tick). The held
+    change then names those models by id only, the browser rejects it ("reference p… isn't known") and every later
+    change to that part of the page: seen as a page that stayed empty when the browser reported its URL while the
+    dashboard was being built. Here the models that were unsent before the browser's change stay unsent; those the
+    browser's change created itself count as known, as bokeh intends.
+    """
+    from bokeh.document.document import Document
+
+    if getattr(Document.apply_json_patch, "_isl_keeps_unsent", False):
+        return
+    apply_json_patch = Document.apply_json_patch
+
+    def apply_keeping_unsent(self, patch_json, *args, **kwargs):
+        manager = self.models
+        unsent = set(manager._new_models)
+        try:
+            return apply_json_patch(self, patch_json, *args, **kwargs)
+        finally:
+            manager._new_models |= {model for model in unsent if manager.get_by_id(model.id) is model}
+
+    apply_keeping_unsent._isl_keeps_unsent = True
+    Document.apply_json_patch = apply_keeping_unsent
 
 
 def release_on_destroy(target: Any) -> None:

@@ -80,7 +80,7 @@ def served(tmp_path_factory):
 @contextlib.contextmanager
 def dashboard(url: str, on_request=None, viewport: dict | None = None):
     """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
-    every request from the start)."""
+    every request from the start); the test fails if the page raised a script error meanwhile."""
     from playwright import sync_api
     with sync_api.sync_playwright() as p:
         browser = _launch(p)
@@ -88,11 +88,15 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None):
             page = browser.new_page(viewport=viewport or {"width": 1600, "height": 1000})
             if on_request is not None:
                 page.on("request", lambda request: on_request(request.url))
+            errors: list[str] = []
+            page.on("pageerror", lambda error: errors.append(str(error)))
             page.goto(url)
             page.wait_for_function(PLOT_DATA, timeout=30_000)
             yield page
         finally:
             browser.close()
+    # e.g. "reference p… isn't known": the browser dropped a change of the page (parts of it then stay empty)
+    assert not errors, errors
 
 
 #: ``named(name)``: the model of that name in the page's document, or null — also while a patch is being applied, when

@@ -158,6 +158,46 @@ def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog)
     assert f"incident {incident}" in caplog.text and "SECRET-DETAIL" in caplog.text
 
 
+def _held_changes(doc: Document, change) -> list:
+    """The events ``change()`` makes while ``doc`` is on hold (Panel holds a document while a thread updates it)."""
+    doc.hold("collect")
+    try:
+        change()
+        return list(doc.callbacks._held_events)
+    finally:
+        doc.callbacks._held_events = []
+        doc.callbacks._hold = None
+
+
+def test_a_model_not_yet_sent_is_sent_in_full_after_a_browser_change():
+    """The page once stayed empty: a browser change (its URL) arrived while the server's change adding the page's
+    content was held; bokeh then counted the new models as sent, so the change named them by id only and the
+    browser rejected it ("reference p… isn't known"). Models the browser's own change creates still count as sent."""
+    from bokeh.models import Column, Div
+    hardening.install()
+    doc = Document()
+    column = Column()
+    doc.add_root(column)
+    doc.to_json()                       # the browser pulls the page
+    built = Div(text="built on the server")
+
+    def server_change_then_browser_change():
+        column.children = [built]       # held: not serialized yet
+        doc.apply_json_patch({"events": [
+            {"kind": "ModelChanged", "model": {"id": column.id}, "attr": "width", "new": 10},
+            {"kind": "ModelChanged", "model": {"id": column.id}, "attr": "css_classes", "new": ["x"]}]})
+
+    events = _held_changes(doc, server_change_then_browser_change)
+    patch = Protocol().create("PATCH-DOC", [e for e in events if getattr(e, "attr", None) == "children"])
+    [change] = patch.content["events"]
+    assert change["new"][0]["id"] == built.id and "attributes" in change["new"][0]  # in full, not {"id": …}
+
+    from_browser = {"type": "object", "name": "Div", "id": "c1", "attributes": {"text": "made in the browser"}}
+    doc.apply_json_patch({"events": [{"kind": "ModelChanged", "model": {"id": column.id}, "attr": "children",
+                                      "new": [from_browser]}]})
+    assert doc.get_model_by_id("c1") in doc.models.synced_references
+
+
 class _Payload(param.Parameterized):
     run = param.Parameter(default=None)
     traces = param.Parameter(default=None)
