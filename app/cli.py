@@ -167,8 +167,8 @@ def cmd_sweep(args) -> int:
     nob = [2.0**ell for ell in range(args.ell_min, args.ell_max + 1)]
     client = _client(args.dask)
     try:
-        res = sweep(args.alphas, args.sigmas, nob, m=args.m, w=args.w, horizon=args.horizon, seeds=args.seeds,
-                    batches=args.batches, executor=client, workers=args.workers,
+        res = sweep(args.alphas, args.sigmas, nob, m=args.m, w=args.w, beta=args.beta, horizon=args.horizon,
+                    seeds=args.seeds, batches=args.batches, executor=client, workers=args.workers,
                     progress=_progress_bar("sweep", not args.quiet))
     finally:
         if client is not None:
@@ -182,9 +182,9 @@ def cmd_sweep(args) -> int:
         writer.writerows(rows)
     from isl_core.sweep import BURN
 
-    meta = {"m": res.m, "w": res.w, "horizon_over_r_min": res.horizon, "burn_in_over_r_min": BURN,
-            "lengthened_by": res.stretch.tolist(), "seeds": list(res.seeds),
-            "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(), "sigmas": res.sigmas.tolist(),
+    meta = {"m": res.m, "w": None if res.beta is not None else res.w, "beta": res.beta,
+            "horizon_over_r_min": res.horizon, "burn_in_over_r_min": BURN, "lengthened_by": res.stretch.tolist(),
+            "seeds": list(res.seeds), "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(), "sigmas": res.sigmas.tolist(),
             "nu_over_beta": res.nu_over_beta.tolist()}
     (out / "fig2.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1, allow_nan=False), "utf-8")
     written = [out / "fig2.csv", out / "fig2.json", fig2_html(res, out / "fig2.html")]
@@ -393,8 +393,11 @@ def _build() -> _Parser:
     common(p, horizon=10.0)
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("sweep", help="paper A's Fig. 2 grid: CSV, JSON, HTML and PNG")
-    p.add_argument("--alphas", type=_positive, nargs="+", default=list(FIG2_ALPHAS))
+    p = sub.add_parser("sweep", help="paper A's Fig. 2 grid (or any model's): CSV, JSON, HTML and PNG")
+    p.add_argument("--alphas", type=_nonneg, nargs="+", default=list(FIG2_ALPHAS),
+                   help="OU rates α (α = 0 needs --beta)")
+    p.add_argument("--beta", type=_positive, default=None,
+                   help="one β for every α: any model, α = 0 included (default: paper A's β = w√(2α))")
     p.add_argument("--sigmas", type=_positive, nargs="+", default=list(FIG2_SIGMAS))
     p.add_argument("--ell-min", type=_whole, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
     p.add_argument("--ell-max", type=_whole, default=2, help="largest ℓ (default 2)")

@@ -493,7 +493,8 @@ class AppState(extras.Baselines):
         else:
             self._note_context = self._sweep_model()
             k_lo, k_hi = min(pts.stretch), max(pts.stretch)
-            longer = "" if k_hi == 1.0 else (f", both lengthened ×{k_lo:.3g}–×{k_hi:.3g} for the slowest ν "
+            by = f"×{k_hi:.3g}" if k_lo == k_hi else f"×{k_lo:.3g}–×{k_hi:.3g}"
+            longer = "" if k_hi == 1.0 else (f", both lengthened {by} for the slowest ν "
                                              "(its filter settles slower than the optimal one, B.46)")
             self.param.update(points=pts, sweep_note=(
                 f"Simulated in {outcome.seconds:.2g} s: each σ's run (seed {pts.seed}) averages over "

@@ -79,7 +79,8 @@ def fig2_png(res, path: str | Path, *, dpi: int = 110) -> Path:
                       label=f"σ = {res.sigmas[b]:g} (simulated)") for b in range(ns)]
     handles.append(Line2D([], [], color="0.4", ls=THEORY_DASH, lw=0.8, label="theory (SPEC §6)"))
     axes[0, -1].legend(handles=handles, fontsize=7, loc="best")
-    fig.suptitle(f"ISL / optimal RMSE ratio (m = {m}, w = {res.w:g}; horizon {res.horizon:g}/r_min × "
+    model = f"β = {res.beta:g}" if res.beta is not None else f"w = {res.w:g}"
+    fig.suptitle(f"ISL / optimal RMSE ratio (m = {m}, {model}; horizon {res.horizon:g}/r_min × "
                  f"{len(res.seeds)} seeds; {res.level:.0%} intervals)", fontsize=9)
     path = Path(path)
     fig.savefig(path, dpi=dpi)

@@ -8,13 +8,12 @@ For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_
   adaptive filter has no theory and no curve.
 * Recommended ν: :func:`isl_core.sweep.recommend_nu` (minimax over σ on the theory, verified by simulation);
   it uses paper A's parametrization, so it needs α > 0 (w = β/√(2α)).
-* Simulated points: for each σ, **one** long run carries the optimal Kalman–Bucy filter and the ISL filter
-  at every ν of the grid on the same noise (common random numbers, :func:`isl_core.simulate_rmse`); the
-  run is cut into ``BATCHES`` batches after a burn-in, and the 95 % interval of each ratio is the
-  batch-means interval ``t_{0.975, B−1} · sd(batch ratios) / √B``. Burn-in and horizon are those of the core's
-  sweep (:func:`isl_core.sweep.group_length`): counted in the settling time of the slowest filter of the run,
-  ``stretch/r_min``. The Kalman–Bucy column must sit at 1 within its interval: it is the check that the horizon
-  is long enough.
+* Simulated points: the core's sweep (:func:`isl_core.sweep` at the current β, one seed, ``BATCHES`` batches) —
+  exactly what ``isl sweep --beta β`` prints for the same inputs. For each σ **one** long run carries the optimal
+  Kalman–Bucy filter and the ISL filter at every ν of the grid on the same noise (common random numbers); burn-in
+  and horizon are counted in the settling time of the slowest filter of the run, and the 95 % interval of each
+  ratio is the core's batch-means interval. The Kalman–Bucy column must sit at 1 within its interval: it is the
+  check that the horizon is long enough.
 """
 from __future__ import annotations
 
@@ -24,14 +23,14 @@ from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
-from scipy.stats import t as student_t
 
-from isl_core import Model, baseline_filters, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, theory_ratios
-from isl_core.sweep import BURN, group_length
+from isl_core import Model, baseline_filters, sweep, theory_ratios
+from isl_core.sweep import BURN
 from isl_core.theory import predicted_ratios_grid
 
 __all__ = [
     "BATCHES",
+    "BURN",
     "SIM_LEVELS",
     "THEORY_LEVELS",
     "SweepCurves",
@@ -89,7 +88,8 @@ class SweepCurves:
 
 @dataclass(frozen=True)
 class SweepPoints:
-    """Simulated ratios and 95 % half-widths (S, K, m) of the ISL filter; ``kbf*`` (S, m) the optimal filter's."""
+    """Simulated ratios (S, K, m) of the ISL filter with their 95 % interval ``[low, high]``; ``kbf*`` (S, m) the
+    optimal filter's; ``result`` the core's :class:`isl_core.SweepResult` they are read from."""
 
     alpha: float
     beta: float
@@ -97,12 +97,15 @@ class SweepPoints:
     sigmas: tuple[float, ...]
     nu_over_beta: np.ndarray
     ratio: np.ndarray
-    half_width: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
     kbf: np.ndarray
-    kbf_half_width: np.ndarray
+    kbf_low: np.ndarray
+    kbf_high: np.ndarray
     horizon: float
     seed: int
     stretch: tuple[float, ...] = ()
+    result: object = field(default=None, repr=False, compare=False)
 
 
 def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, extras: Sequence[str] = (),
@@ -132,40 +135,19 @@ def _extra_curve(model: Model, name: str, nob: np.ndarray, sigma_design: float, 
     return np.broadcast_to(theory_ratios(model, spec), (len(nob), model.m))
 
 
-def _interval(batch: np.ndarray) -> np.ndarray:
-    """95 % batch-means half-width over axis 0 (Student t with B − 1 degrees of freedom)."""
-    b = batch.shape[0]
-    return float(student_t.ppf(0.975, b - 1)) * batch.std(axis=0, ddof=1) / np.sqrt(b)
-
-
 def simulate_points(
     alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,
     progress: Callable[[float], None] | None = None,
 ) -> SweepPoints:
-    """Simulated ratios at ``ν/β = 2^SIM_LEVELS``, one common-noise run of ``horizon/r_min`` per σ.
+    """Simulated ratios at ``ν/β = 2^SIM_LEVELS``: :func:`isl_core.sweep` at this α and β, one seed.
 
     ``progress(fraction)`` receives the overall fraction done; an exception raised from it cancels.
     """
-    nob = 2.0 ** SIM_LEVELS
-    S, K = len(sigmas), len(nob)
-    ratio, half = np.empty((S, K, m)), np.empty((S, K, m))
-    kbf, kbf_half = np.empty((S, m)), np.empty((S, m))
-    stretch = []
-    for j, sigma in enumerate(sigmas):
-        model = Model(alpha, beta, sigma, m)
-        kb = kalman_bucy(model)
-        filters = [optimal_kbf(model, kb), *(isl_filter(model, beta * x) for x in nob)]
-        report = None if progress is None else (lambda f, j=j: progress((j + f) / S))
-        T, n, k = group_length(model, kb, filters, horizon)
-        stretch.append(k)
-        res = simulate_rmse(model, filters, T=T, h=T / n, seed=seed, burn=BURN * k / kb.r_min,
-                            batches=BATCHES, progress=report)
-        whole, batch = res.ratios(), res.batch_ratios()
-        width = _interval(batch)
-        kbf[j], kbf_half[j] = whole[0], width[0]
-        ratio[j], half[j] = whole[1:], width[1:]
-    return SweepPoints(alpha, beta, m, tuple(sigmas), nob, ratio, half, kbf, kbf_half, float(horizon), int(seed),
-                       tuple(stretch))
+    res = sweep([alpha], sigmas, 2.0 ** SIM_LEVELS, m=m, beta=beta, horizon=horizon, seeds=(seed,),
+                batches=BATCHES, workers=1, progress=progress)
+    return SweepPoints(alpha, beta, m, tuple(float(s) for s in sigmas), res.nu_over_beta, res.ratio[0],
+                       res.ratio_low[0], res.ratio_high[0], res.kbf_ratio[0], res.kbf_low[0], res.kbf_high[0],
+                       float(horizon), int(seed), tuple(float(k) for k in res.stretch[0]), res)
 
 
 def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,

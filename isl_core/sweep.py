@@ -1,6 +1,7 @@
 """Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, SPEC §5).
 
-For every (α, σ) with β = w·√(2α) (A.25) and every seed, ONE long run carries the optimal Kalman–Bucy filter
+For every (α, σ) with β = w·√(2α) (A.25) — or one β for every α (``beta=``: any model, α = 0 included) — and every
+seed, ONE long run carries the optimal Kalman–Bucy filter
 and the ISL filters of all ν together (common random numbers), accumulating squared errors on the fly
 (:func:`isl_core.simulate_rmse`); this unit of work is a *group*. Groups run in parallel on a local thread
 pool (the kernel releases the GIL), or on any ``concurrent.futures.Executor``, or on a
@@ -48,10 +49,12 @@ __all__ = ["BURN", "SweepResult", "group_length", "group_seed", "ratio_interval"
 BURN = 10.0  #: burn-in left out of every average, in units of 1/r_min
 
 
-def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int) -> int:
-    """Seed of one (α, σ) group, from the user's seed and the group's own parameters only."""
-    bits = [int(np.float64(x).view(np.uint64)) for x in (alpha, sigma, w)]
-    return int(np.random.SeedSequence([seed, *bits, m]).generate_state(1, np.uint64)[0])
+def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int, *, beta: float | None = None) -> int:
+    """Seed of one (α, σ) group, from the user's seed and the group's own parameters only (``beta``: a sweep at a
+    fixed β instead of a fixed w; its seeds differ from every w-sweep's)."""
+    bits = [int(np.float64(x).view(np.uint64)) for x in (alpha, sigma, w if beta is None else beta)]
+    tag = [] if beta is None else [1]
+    return int(np.random.SeedSequence([seed, *bits, m, *tag]).generate_state(1, np.uint64)[0])
 
 
 def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: float):
@@ -92,7 +95,8 @@ class SweepResult:
     statistical-linearization prediction (B.48, SPEC §6). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
     ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
     ``BURN·stretch/r_min`` then an average over ``horizon·stretch/r_min``. ``model_aware``: the ISL filter
-    propagated with A instead of A0.
+    propagated with A instead of A0. ``beta``: the one β of every α (a sweep of any model), else None and β follows
+    from ``w`` (A.25; ``w`` is nan in a fixed-β sweep).
     """
 
     alphas: np.ndarray
@@ -117,10 +121,13 @@ class SweepResult:
     steps: np.ndarray = field(repr=False)
     stretch: np.ndarray = field(repr=False, default=None)
     model_aware: bool = False
+    beta: float | None = None
 
     @property
     def betas(self) -> np.ndarray:
-        """β = w·√(2α) per α (A.25)."""
+        """β per α: w·√(2α) (A.25), or the sweep's fixed β."""
+        if self.beta is not None:
+            return np.full(len(self.alphas), self.beta)
         return self.w * np.sqrt(2.0 * self.alphas)
 
     @property
@@ -186,7 +193,7 @@ def _run_chunk(tasks: Sequence[_Task]) -> list:
     return [_run_task(t) for t in tasks]
 
 
-def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False):
+def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False, beta=None):
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
     s, r_min, h, steps = np.empty(shape + (m,)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
@@ -195,7 +202,7 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
     tasks = []
     for a, alpha in enumerate(alphas):
         for b, sigma in enumerate(sigmas):
-            model = Model.from_w(alpha, w, sigma, m)
+            model = Model.from_w(alpha, w, sigma, m) if beta is None else Model(alpha, beta, sigma, m)
             kb = kalman_bucy(model)
             isl = model_aware_isl if model_aware else isl_filter
             filters = (optimal_kbf(model, kb), *(isl(model, model.beta * x) for x in nob))
@@ -204,7 +211,7 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
             theory[a, b] = predicted_ratios_grid(model, model.beta * nob, damp=model.alpha if model_aware else None)
             for k, seed in enumerate(seeds):
                 tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
-                                   group_seed(seed, alpha, sigma, w, m), n))
+                                   group_seed(seed, alpha, sigma, w, m, beta=beta), n))
     tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
     return tasks, s, r_min, h, steps, theory, stretch
 
@@ -334,6 +341,7 @@ def sweep(
     workers: int | None = None,
     progress: Callable[[float], None] | None = None,
     model_aware: bool = False,
+    beta: float | None = None,
 ) -> SweepResult:
     """Simulate š_i/s_i on the grid ``alphas × sigmas × nu_over_beta`` (paper A's Fig. 2 by default).
 
@@ -343,24 +351,30 @@ def sweep(
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
-    instead of paper A's (A0); its theory is SPEC §6 with A.
+    instead of paper A's (A0); its theory is SPEC §6 with A. ``beta``: sweep any model — the same β at every α
+    (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
     """
-    alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
+    if beta is None:
+        alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
+        w = check_real("w", w, lo=0.0, lo_open=True)
+    else:
+        alphas = check_reals("alphas", alphas, lo=0.0)
+        beta = check_real("beta", beta, lo=0.0, lo_open=True)
+        w = math.nan
     sigmas = check_reals("sigmas", sigmas, lo=0.0, lo_open=True)
     nob = check_reals("nu_over_beta", nu_over_beta, lo=0.0, lo_open=True)
     m = check_int("m", m, lo=1, hi=M_MAX)
-    w = check_real("w", w, lo=0.0, lo_open=True)
     horizon, seeds, batches, level = _check_sampling(horizon, seeds, batches, level)
     chunk, workers = _check_execution(chunk, workers, progress)
 
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
     tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
-                                                         model_aware)
+                                                         model_aware, beta)
     prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
     out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
     res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
-    return dataclasses.replace(res, stretch=_freeze(stretch), model_aware=model_aware)
+    return dataclasses.replace(res, stretch=_freeze(stretch), model_aware=model_aware, beta=beta)
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):

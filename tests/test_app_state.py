@@ -259,7 +259,7 @@ def test_inline_sweep_gives_points_with_intervals(state):
     state.param.update(sweep_sigmas=[20.0], sweep_horizon=50.0)
     state.simulate_sweep()
     pts = state.points
-    assert pts is not None and pts.ratio.shape == (1, 11, 3) and np.all(pts.half_width > 0)
+    assert pts is not None and pts.ratio.shape == (1, 11, 3) and np.all(pts.high > pts.low)
     assert pts.sigmas == (20.0,) and "Simulated" in state.sweep_note
     state.alpha = 1.0  # another context: the points are stale and dropped, and the note that reported them
     assert state.points is None and state.sweep_note == ""

@@ -121,6 +121,7 @@ def test_worstcase_table_and_json(capsys):
     ["recommend", "--alphas", "x"], ["recommend", "--m", "0", "--no-verify"],
     ["worstcase", "--sigma-min", "5", "--sigma-max", "2"], ["worstcase", "--filters", "kbf,nope"],
     ["worstcase", "--alphas", "1,x"], ["worstcase", "--n-sigma", "1"], ["worstcase", "--alphas", "0"],
+    ["sweep", "--alphas", "0", "--horizon", "5"],
 ])
 def test_bad_arguments_exit_2_with_one_line(argv, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a rejected command writes nothing
@@ -145,3 +146,26 @@ def test_serve_delegates_or_explains(monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "app.serve", None)  # as if the module were absent
     assert main(["serve"]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_dashboard_sweep_points_are_what_isl_sweep_prints(tmp_path, capsys):
+    """One path: the ν-sweep tab's points are the core's sweep — digit for digit what ``isl sweep`` writes for the
+    same α, β, m, σ, ν grid, horizon and seed (α = 0: a model outside paper A's w-parametrization)."""
+    from app.sweeps import BATCHES, SIM_LEVELS, simulate_points
+
+    pts = simulate_points(0.0, 3.0, 2, [2.0, 20.0], horizon=20.0, seed=4)
+    argv = ["sweep", "--alphas", "0", "--beta", "3", "--m", "2", "--sigmas", "2", "20", "--horizon", "20",
+            "--ell-min", str(int(SIM_LEVELS[0])), "--ell-max", str(int(SIM_LEVELS[-1])), "--seeds", "4",
+            "--batches", str(BATCHES), "--no-png", "--quiet", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    data = json.loads((tmp_path / "fig2.json").read_text("utf-8"))
+    assert data["meta"]["beta"] == 3.0 and data["meta"]["w"] is None
+    rows = data["rows"]
+    assert len(rows) == 2 * len(SIM_LEVELS) * 2
+    for row in rows:
+        j, k, i = [2.0, 20.0].index(row["sigma"]), list(pts.nu_over_beta).index(row["nu_over_beta"]), row["i"] - 1
+        dashboard = (pts.ratio[j, k, i], pts.low[j, k, i], pts.high[j, k, i], pts.kbf[j, i], pts.kbf_low[j, i],
+                     pts.kbf_high[j, i])
+        cli = (row["ratio"], row["ratio_low"], row["ratio_high"], row["kbf_ratio"], row["kbf_low"], row["kbf_high"])
+        assert [repr(float(x)) for x in dashboard] == [repr(x) for x in cli], row

@@ -151,9 +151,9 @@ class SweepView(Viewer):
             for i in range(M_MAX):
                 for j in range(_SLOTS):
                     if pts is not None and i < pts.m and j < len(pts.sigmas):
-                        y, hw = pts.ratio[j, :, i], pts.half_width[j, :, i]
-                        data = {"x": pts.nu_over_beta, "y": _positive(y), "lower": _positive(np.maximum(y - hw, 1e-3)),
-                                "upper": _positive(y + hw)}
+                        data = {"x": pts.nu_over_beta, "y": _positive(pts.ratio[j, :, i]),
+                                "lower": _positive(np.maximum(pts.low[j, :, i], 1e-3)),
+                                "upper": _positive(pts.high[j, :, i])}
                     else:
                         data = {"x": [], "y": [], "lower": [], "upper": []}
                     self._points[i][j].data = data
@@ -197,8 +197,8 @@ class SweepView(Viewer):
                              "ratio depends on ν/β only, not on σ.")
             parts.append("*Use recommended ν* needs α > 0: its search is over paper A's β = w·√(2α).")
         if points is not None:
-            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(f"{r:.2f}±{w:.2f}" for r, w in zip(points.kbf[j],
-                                                                                        points.kbf_half_width[j]))
+            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(f"{r:.2f} [{lo:.2f}, {hi:.2f}]" for r, lo, hi in
+                                                        zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j]))
                             for j, s in enumerate(points.sigmas))
             parts.append(f"Check — Kalman–Bucy measured ratios (should be 1 within the interval): {kbf}.")
         return "  \n".join(parts)
