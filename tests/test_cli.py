@@ -169,3 +169,21 @@ def test_dashboard_sweep_points_are_what_isl_sweep_prints(tmp_path, capsys):
                      pts.kbf_high[j, i])
         cli = (row["ratio"], row["ratio_low"], row["ratio_high"], row["kbf_ratio"], row["kbf_low"], row["kbf_high"])
         assert [repr(float(x)) for x in dashboard] == [repr(x) for x in cli], row
+
+
+def test_dashboard_worst_case_table_is_what_isl_worstcase_prints(capsys):
+    """One path: the worst-case tab's table is the core's worst case — digit for digit what ``isl worstcase
+    --json`` prints for the same α, σ range, m, w, design σ, horizon and seed (the tab's one seed, 10 batches)."""
+    from app.extras import worst_case_table
+
+    table = worst_case_table([1.0], sigma_range=(2.0, 200.0), n_sigma=2, m=2, w=3.0, sigma_design=20.0,
+                             horizon=20.0, seed=7)
+    assert main(["worstcase", "--alphas", "1", "--sigma-min", "2", "--sigma-max", "200", "--n-sigma", "2", "--m", "2",
+                 "--w", "3", "--sigma-design", "20", "--horizon", "20", "--seeds", "7", "--batches", "10",
+                 "--json"]) == 0
+    cli = _json(capsys)["rows"]
+    dashboard = json.loads(json.dumps(table.records()), parse_constant=lambda c: None)
+    keys = ("filter", "worst", "worst_low", "worst_high", "worst_sigma", "worst_i", "nu", "sigma_design")
+    assert len(cli) == len(dashboard) == len(table.names) >= 5
+    for mine, theirs in zip(dashboard, cli, strict=True):
+        assert [repr(mine[k]) for k in keys] == [repr(theirs[k]) for k in keys], mine["filter"]
