@@ -1,11 +1,11 @@
 """Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, SPEC §5).
 
 For every (α, σ) with β = w·√(2α) (A.25) — or one β for every α (``beta=``: any model, α = 0 included) — and every
-seed, ONE long run carries the optimal Kalman–Bucy filter
-and the ISL filters of all ν together (common random numbers), accumulating squared errors on the fly
-(:func:`isl_core.simulate_rmse`); this unit of work is a *group*. Groups run in parallel on a local thread
-pool (the kernel releases the GIL), or on any ``concurrent.futures.Executor``, or on a
-``dask.distributed.Client`` (optional extra ``isl[dask]``), in chunks of groups.
+seed, ONE long run carries the optimal Kalman–Bucy filter and the ISL filters of all ν together (common random
+numbers), accumulating squared errors on the fly (:func:`isl_core.simulate_rmse`); this unit of work is a *group*,
+an :class:`isl_core.jobs.Task`. Groups run through :func:`isl_core.jobs.run`: in parallel on a local thread pool (the
+kernel releases the GIL), on any ``concurrent.futures.Executor`` or on a ``dask.distributed.Client`` (optional extra
+``isl[dask]``), in chunks of groups.
 
 Conventions, all documented choices:
 
@@ -25,24 +25,22 @@ Conventions, all documented choices:
 """
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
 import math
-import os
-import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .validate import check_int, check_ints, check_real, check_reals, short
 from .baselines import model_aware_isl
-from .filters import FilterSpec, isl_filter, optimal_kbf
+from .filters import isl_filter, optimal_kbf
+from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model
 from .paper import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
 from .riccati import kalman_bucy
-from .simulate import MAX_STEPS, DivergenceError, settling_rate, simulate_rmse, step_size
+from .simulate import MAX_STEPS, settling_rate, step_size
 from .theory import predicted_ratios_grid
+from .validate import check_int, check_real, check_reals, short
 
 __all__ = ["BURN", "SweepResult", "group_length", "group_seed", "ratio_interval", "sweep"]
 
@@ -156,43 +154,6 @@ class SweepResult:
         return rows
 
 
-@dataclass(frozen=True)
-class _Task:
-    """One group: model, filters (KBF first), fixed grid and seed. Picklable for process pools and Dask."""
-
-    key: tuple[int, int, int]
-    model: Model
-    filters: tuple[FilterSpec, ...]
-    T: float
-    h: float
-    burn: float
-    batches: int
-    seed: int
-    steps: int
-
-
-def _run_task(task: _Task, progress: Callable[[float], None] | None = None):
-    """Squared-error sums (batches, nf, m) and counts of one group; a diverged filter gets nan."""
-    kw = dict(T=task.T, h=task.h, burn=task.burn, batches=task.batches, seed=task.seed)
-    try:
-        res = simulate_rmse(task.model, task.filters, progress=progress, **kw)
-        return task.key, res.sq, res.counts
-    except DivergenceError:  # the noise stream does not depend on the filter set: rerun them one by one
-        parts = []
-        for spec in task.filters:
-            try:
-                one = simulate_rmse(task.model, [spec], **kw)
-                parts.append(one.sq[:, 0])
-                counts = one.counts
-            except DivergenceError:
-                parts.append(np.full((task.batches, task.model.m), np.nan))
-        return task.key, np.stack(parts, axis=1), counts
-
-
-def _run_chunk(tasks: Sequence[_Task]) -> list:
-    return [_run_task(t) for t in tasks]
-
-
 def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False, beta=None):
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
@@ -210,9 +171,9 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             theory[a, b] = predicted_ratios_grid(model, model.beta * nob, damp=model.alpha if model_aware else None)
             for k, seed in enumerate(seeds):
-                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
-                                   group_seed(seed, alpha, sigma, w, m, beta=beta), n))
-    tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
+                tasks.append(Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
+                                  group_seed(seed, alpha, sigma, w, m, beta=beta), n))
+    tasks.sort(key=lambda t: -t.cost)
     return tasks, s, r_min, h, steps, theory, stretch
 
 
@@ -228,101 +189,6 @@ def group_length(model: Model, kb, filters, horizon: float) -> tuple[float, int,
                          f"sigma = {model.sigma:g} (lengthened ×{stretch:.3g} for the slowest filter), over the limit "
                          f"of {MAX_STEPS:,}; shorten horizon")
     return T, math.ceil(steps - 1e-9), stretch
-
-
-class _Cancelled(RuntimeError):
-    """Raised in the other groups once one group failed or the progress callback raised."""
-
-
-class _Progress:
-    """Thread-safe aggregation of per-group fractions into one overall fraction; also the cancel switch."""
-
-    def __init__(self, weights: dict, callback):
-        self.weights, self.callback = weights, callback
-        self.total = float(sum(weights.values()))
-        self.done = dict.fromkeys(weights, 0.0)
-        self.lock = threading.Lock()
-        self.cancelled = threading.Event()
-
-    def update(self, key, fraction: float) -> None:
-        with self.lock:
-            if self.cancelled.is_set():
-                raise _Cancelled("sweep cancelled")
-            self.done[key] = fraction
-            overall = sum(self.weights[k] * f for k, f in self.done.items()) / self.total
-            if self.callback is not None:
-                try:
-                    self.callback(overall)
-                except BaseException:
-                    self.cancelled.set()  # no further report reaches the callback
-                    raise
-
-
-def _stop(prog: _Progress, futures) -> None:
-    """Cancel queued groups; running ones raise at their next progress report (≤ one kernel chunk)."""
-    prog.cancelled.set()
-    for f in futures:
-        f.cancel()
-
-
-def _local(tasks, workers, prog: _Progress):
-    def job(task):
-        return _run_task(task, progress=lambda f, key=task.key: prog.update(key, f))
-
-    with cf.ThreadPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(job, t) for t in tasks]
-        try:
-            cf.wait(futures, return_when=cf.FIRST_EXCEPTION)
-        except BaseException:  # e.g. KeyboardInterrupt while waiting
-            _stop(prog, futures)
-            raise
-        failed = [f.exception() for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
-        if failed:
-            _stop(prog, futures)  # report the cause, not the cancellations it triggered in other groups
-            raise next((e for e in failed if not isinstance(e, _Cancelled)), failed[0])
-        return [f.result() for f in futures]
-
-
-def _remote(tasks, executor, chunk, prog: _Progress):
-    chunks = [tasks[i:i + chunk] for i in range(0, len(tasks), chunk)]
-    if isinstance(executor, cf.Executor):
-        futures = [executor.submit(_run_chunk, c) for c in chunks]
-        completed = cf.as_completed(futures)
-    else:  # a dask.distributed.Client
-        from distributed import as_completed  # optional extra isl[dask]
-
-        futures = [executor.submit(_run_chunk, c, pure=False) for c in chunks]
-        completed = as_completed(futures)
-    out = []
-    try:
-        for fut in completed:
-            part = fut.result()
-            out.extend(part)
-            for key, _, _ in part:
-                prog.update(key, 1.0)
-    except BaseException:
-        for f in futures:
-            f.cancel()
-        raise
-    return out
-
-
-def _check_sampling(horizon, seeds, batches, level) -> tuple[float, tuple[int, ...], int, float]:
-    """``horizon``, ``seeds``, ``batches`` and ``level`` of a simulated grid, checked (sweep, worst case)."""
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    seeds = check_ints("seeds", seeds, lo=0)
-    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
-    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
-    return horizon, seeds, batches, level
-
-
-def _check_execution(chunk, workers, progress) -> tuple[int, int]:
-    """``chunk`` and ``workers`` (None: the CPU count) checked, and ``progress`` a callable or None."""
-    chunk = check_int("chunk", chunk, lo=1)
-    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None, got {short(progress)}")
-    return chunk, workers
 
 
 def sweep(
@@ -364,15 +230,14 @@ def sweep(
     sigmas = check_reals("sigmas", sigmas, lo=0.0, lo_open=True)
     nob = check_reals("nu_over_beta", nu_over_beta, lo=0.0, lo_open=True)
     m = check_int("m", m, lo=1, hi=M_MAX)
-    horizon, seeds, batches, level = _check_sampling(horizon, seeds, batches, level)
-    chunk, workers = _check_execution(chunk, workers, progress)
+    horizon, seeds, batches, level = check_sampling(horizon, seeds, batches, level)
+    chunk, workers = check_execution(chunk, workers, progress)
 
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
     tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
                                                          model_aware, beta)
-    prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
-    out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
+    out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
     return dataclasses.replace(res, stretch=_freeze(stretch), model_aware=model_aware, beta=beta)
 
@@ -381,9 +246,10 @@ def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s,
     na, ns, nn = len(alphas), len(sigmas), len(nob)
     sq = np.empty((na, ns, len(seeds) * batches, nn + 1, m))
     counts = np.empty((na, ns, len(seeds) * batches))
-    for (a, b, k), part, cnt in out:
-        sq[a, b, k * batches:(k + 1) * batches] = part
-        counts[a, b, k * batches:(k + 1) * batches] = cnt
+    for r in out:
+        (a, b, k) = r.key
+        sq[a, b, k * batches:(k + 1) * batches] = r.sq
+        counts[a, b, k * batches:(k + 1) * batches] = r.counts
     ratio, low, high = (np.empty((na, ns, nn + 1, m)) for _ in range(3))
     for a in range(na):
         for b in range(ns):

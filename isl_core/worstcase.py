@@ -31,27 +31,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validate import check_int, check_real, check_reals, short
 from .adaptive import WINDOW, check_sigma_range
 from .baselines import BASELINES, baseline_filters, check_names, design_sigma, theory_ratios
 from .baselines import LABELS as BASE_LABELS
 from .filters import isl_filter
+from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model
 from .paper import FIG2_ALPHAS, a31_nu_over_beta
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
-from .sweep import (
-    BURN,
-    _check_execution,
-    _check_sampling,
-    _local,
-    _Progress,
-    _remote,
-    _Task,
-    group_length,
-    group_seed,
-    ratio_interval,
-)
+from .sweep import BURN, group_length, group_seed, ratio_interval
+from .validate import check_int, check_real, check_reals, short
 
 __all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
 
@@ -203,9 +193,9 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, bat
             T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             for k, seed in enumerate(seeds):
-                tasks.append(_Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
-                                   group_seed(seed, alpha, sigma, w, m), n))
-    tasks.sort(key=lambda t: -t.steps * (len(t.filters) + 1))
+                tasks.append(Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
+                                  group_seed(seed, alpha, sigma, w, m), n))
+    tasks.sort(key=lambda t: -t.cost)
     return nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols
 
 
@@ -228,7 +218,7 @@ def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, se
     if sigma_design is not None:
         sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
     window = check_real("window", window, lo=1.0)
-    horizon, seeds, batches, level = _check_sampling(horizon, seeds, batches, level)
+    horizon, seeds, batches, level = check_sampling(horizon, seeds, batches, level)
     sigmas = np.geomspace(lo, hi, n_sigma)
     sigmas[0], sigmas[-1] = lo, hi  # exact ends
     return alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level
@@ -264,17 +254,17 @@ def worst_case(
     alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level = _check(
         alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level)
     names = check_names(filters, "filters", FILTERS)
-    chunk, workers = _check_execution(chunk, workers, progress)
+    chunk, workers = check_execution(chunk, workers, progress)
     nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols = _plan(
         alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches)
-    prog = _Progress({t.key: t.steps * (len(t.filters) + 1) for t in tasks}, progress)
-    out = _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
+    out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     na, ns, nf = len(alphas), len(sigmas), len(names)
     sq = np.full((na, ns, len(seeds) * batches, nf, m), np.nan)  # a filter not simulated at some α stays nan
     counts = np.empty((na, ns, len(seeds) * batches))
-    for (a, b, k), part, cnt in out:
-        sq[a, b, k * batches:(k + 1) * batches][:, list(cols[a])] = part
-        counts[a, b, k * batches:(k + 1) * batches] = cnt
+    for r in out:
+        (a, b, k) = r.key
+        sq[a, b, k * batches:(k + 1) * batches][:, list(cols[a])] = r.sq
+        counts[a, b, k * batches:(k + 1) * batches] = r.counts
     ratio, low, high = (np.empty((na, ns, nf, m)) for _ in range(3))
     for a in range(na):
         for b in range(ns):

@@ -11,8 +11,9 @@ import pytest
 from scipy.linalg import solve_discrete_lyapunov
 
 from isl_core import FilterSpec, Model, isl_filter, kalman_bucy, optimal_kbf, predicted_ratios_grid, simulate_rmse
+from isl_core.jobs import Task, run_task
 from isl_core.simulate import H_RATE
-from isl_core.sweep import _run_task, _Task, group_seed, sweep
+from isl_core.sweep import group_seed, sweep
 
 ALPHAS = (0.04, 1.0, 25.0)
 SIGMAS = (2.0, 200.0)
@@ -128,7 +129,8 @@ def test_diverged_filter_is_nan_and_others_unchanged():
     wild = FilterSpec("wild", "linear gain ×50", model.alpha, 50.0 * np.array(kb.K), False)
     filters = (optimal_kbf(model, kb), wild, isl_filter(model, model.beta))
     h, n = 0.15, 4000
-    _, sq, counts = _run_task(_Task((0, 0, 0), model, filters, n * h, h, 10 * h, 4, 9, n))
+    res = run_task(Task((0, 0, 0), model, filters, n * h, h, 10 * h, 4, 9, n))
+    sq, counts = res.sq, res.counts
     assert np.all(np.isnan(sq[:, 1])) and np.all(np.isfinite(sq[:, [0, 2]]))
     alone = simulate_rmse(model, [filters[2]], T=n * h, h=h, burn=10 * h, batches=4, seed=9)
     assert np.array_equal(sq[:, 2], alone.sq[:, 0]) and np.array_equal(counts, alone.counts)
@@ -145,3 +147,24 @@ def test_bad_arguments_name_the_parameter(kw, name):
     args = dict(alphas=[1.0], sigmas=[20.0], nu_over_beta=[1.0], horizon=10.0) | kw
     with pytest.raises(ValueError, match=name):
         sweep(args.pop("alphas"), args.pop("sigmas"), args.pop("nu_over_beta"), **args)
+
+
+def test_a_failing_task_stops_the_others_and_its_own_error_propagates():
+    """The job runner (isl_core.jobs) shared by the sweep and the worst case: a progress callback that raises
+    cancels every task and its exception — not a cancellation it caused — reaches the caller."""
+    from isl_core.jobs import Task, run
+
+    model = Model(1.0, 3.0, 20.0, 2)
+    filters = (optimal_kbf(model, kalman_bucy(model)),)
+    tasks = [Task(k, model, filters, 2000 * 1e-3, 1e-3, 0.0, 2, k, 2000) for k in range(4)]
+    calls = []
+
+    def progress(fraction):
+        calls.append(fraction)
+        raise KeyboardInterrupt("the user pressed Cancel")
+
+    with pytest.raises(KeyboardInterrupt, match="pressed Cancel"):
+        run(tasks, workers=2, progress=progress)
+    assert len(calls) == 1  # no report reaches the callback after it raised
+    results = run(tasks, workers=2)
+    assert sorted(r.key for r in results) == [0, 1, 2, 3] and all(r.sq.shape == (2, 1, 2) for r in results)

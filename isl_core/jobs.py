@@ -1,0 +1,186 @@
+"""Running a grid of simulations: tasks, progress, cancellation, on local threads or any executor.
+
+The sweep (:func:`isl_core.sweep`), the worst case (:func:`isl_core.worst_case`) and through them the recommendation
+(:func:`isl_core.recommend_nu`) cut their work into :class:`Task` s — one long run of several filters on common
+noise — and hand them to :func:`run`:
+
+* ``executor=None``: a local pool of ``workers`` threads (the kernel releases the GIL); a ``concurrent.futures``
+  executor, or a ``dask.distributed.Client`` (optional extra ``isl[dask]``): tasks go out in chunks of ``chunk``.
+  A task's result depends only on the task, never on the executor, the workers or the chunking.
+* ``progress(fraction)``: the overall fraction done, weighted by each task's cost (steps × filters), called one
+  call at a time from worker threads. An exception raised from it cancels: queued tasks are dropped and running
+  ones stop at their next report (≤ one kernel chunk); the exception propagates.
+* a task that fails cancels the others and its own error propagates (not the cancellations it caused).
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import os
+import threading
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .filters import FilterSpec
+from .model import Model
+from .simulate import DivergenceError, simulate_rmse
+from .validate import check_int, check_ints, check_real, short
+
+__all__ = ["Cancelled", "Progress", "Task", "TaskResult", "check_execution", "check_sampling", "run", "run_task"]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run: ``model``, ``filters`` (the optimal one first), its grid (``T``, ``h``, ``steps``), burn-in, batches
+    and seed; ``key`` names its place in the caller's grid. Picklable for process pools and Dask."""
+
+    key: Hashable
+    model: Model
+    filters: tuple[FilterSpec, ...]
+    T: float
+    h: float
+    burn: float
+    batches: int
+    seed: int
+    steps: int
+
+    @property
+    def cost(self) -> float:
+        """Relative cost: steps × (filters + the truth)."""
+        return float(self.steps * (len(self.filters) + 1))
+
+
+@dataclass(frozen=True)
+class TaskResult:
+    """Squared-error sums ``sq`` (batches, filters, m) and steps per batch ``counts`` of the task ``key``; a filter
+    that diverged has nan sums."""
+
+    key: Hashable
+    sq: np.ndarray
+    counts: np.ndarray
+
+
+class Cancelled(RuntimeError):
+    """Raised in the other tasks once one failed or the progress callback raised."""
+
+
+def run_task(task: Task, progress: Callable[[float], None] | None = None) -> TaskResult:
+    """Run ``task``; a diverged filter gets nan (the others are rerun one by one on the same noise)."""
+    kw = {"T": task.T, "h": task.h, "burn": task.burn, "batches": task.batches, "seed": task.seed}
+    try:
+        res = simulate_rmse(task.model, task.filters, progress=progress, **kw)
+        return TaskResult(task.key, res.sq, res.counts)
+    except DivergenceError:  # the noise stream does not depend on the filter set: rerun them one by one
+        parts, counts = [], None
+        for spec in task.filters:
+            try:
+                one = simulate_rmse(task.model, [spec], **kw)
+                parts.append(one.sq[:, 0])
+                counts = one.counts
+            except DivergenceError:
+                parts.append(np.full((task.batches, task.model.m), np.nan))
+        if counts is None:  # every filter diverged: the batches are still the grid's
+            counts = np.full(task.batches, np.nan)
+        return TaskResult(task.key, np.stack(parts, axis=1), counts)
+
+
+def _run_chunk(tasks: Sequence[Task]) -> list[TaskResult]:
+    return [run_task(t) for t in tasks]
+
+
+class Progress:
+    """Thread-safe aggregation of per-task fractions into one overall fraction; also the cancel switch."""
+
+    def __init__(self, weights: dict, callback: Callable[[float], None] | None):
+        self.weights, self.callback = weights, callback
+        self.total = float(sum(weights.values()))
+        self.done = dict.fromkeys(weights, 0.0)
+        self.lock = threading.Lock()
+        self.cancelled = threading.Event()
+
+    def update(self, key, fraction: float) -> None:
+        with self.lock:
+            if self.cancelled.is_set():
+                raise Cancelled("cancelled")
+            self.done[key] = fraction
+            overall = sum(self.weights[k] * f for k, f in self.done.items()) / self.total
+            if self.callback is not None:
+                try:
+                    self.callback(overall)
+                except BaseException:
+                    self.cancelled.set()  # no further report reaches the callback
+                    raise
+
+    def stop(self, futures) -> None:
+        """Cancel queued tasks; running ones raise at their next progress report."""
+        self.cancelled.set()
+        for f in futures:
+            f.cancel()
+
+
+def _local(tasks: Sequence[Task], workers: int, prog: Progress) -> list[TaskResult]:
+    def job(task: Task) -> TaskResult:
+        return run_task(task, progress=lambda f, key=task.key: prog.update(key, f))
+
+    with cf.ThreadPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(job, t) for t in tasks]
+        try:
+            cf.wait(futures, return_when=cf.FIRST_EXCEPTION)
+        except BaseException:  # e.g. KeyboardInterrupt while waiting
+            prog.stop(futures)
+            raise
+        failed = [f.exception() for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
+        if failed:
+            prog.stop(futures)  # report the cause, not the cancellations it triggered in other tasks
+            raise next((e for e in failed if not isinstance(e, Cancelled)), failed[0])
+        return [f.result() for f in futures]
+
+
+def _remote(tasks: Sequence[Task], executor, chunk: int, prog: Progress) -> list[TaskResult]:
+    chunks = [tasks[i:i + chunk] for i in range(0, len(tasks), chunk)]
+    if isinstance(executor, cf.Executor):
+        futures = [executor.submit(_run_chunk, c) for c in chunks]
+        completed = cf.as_completed(futures)
+    else:  # a dask.distributed.Client
+        from distributed import as_completed  # optional extra isl[dask]
+
+        futures = [executor.submit(_run_chunk, c, pure=False) for c in chunks]
+        completed = as_completed(futures)
+    out: list[TaskResult] = []
+    try:
+        for fut in completed:
+            part = fut.result()
+            out.extend(part)
+            for result in part:
+                prog.update(result.key, 1.0)
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    return out
+
+
+def run(tasks: Sequence[Task], *, executor=None, workers: int = 1, chunk: int = 1,
+        progress: Callable[[float], None] | None = None) -> list[TaskResult]:
+    """Every task's result (in no particular order), on local threads or ``executor`` (module docstring)."""
+    prog = Progress({t.key: t.cost for t in tasks}, progress)
+    return _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
+
+
+def check_sampling(horizon, seeds, batches, level) -> tuple[float, tuple[int, ...], int, float]:
+    """``horizon``, ``seeds``, ``batches`` and ``level`` of a simulated grid, checked (sweep, worst case)."""
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    seeds = check_ints("seeds", seeds, lo=0)
+    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
+    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    return horizon, seeds, batches, level
+
+
+def check_execution(chunk, workers, progress) -> tuple[int, int]:
+    """``chunk`` and ``workers`` (None: the CPU count) checked, and ``progress`` a callable or None."""
+    chunk = check_int("chunk", chunk, lo=1)
+    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be a callable or None, got {short(progress)}")
+    return chunk, workers
