@@ -91,7 +91,12 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None):
             errors: list[str] = []
             page.on("pageerror", lambda error: errors.append(str(error)))
             page.goto(url)
-            page.wait_for_function(PLOT_DATA, timeout=30_000)
+            try:
+                page.wait_for_function(PLOT_DATA, timeout=30_000)
+            except sync_api.TimeoutError:
+                models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
+                raise AssertionError(f"no plot data within 30 s; page errors: {errors}; models: {models}; "
+                                     f"page text: {page.inner_text('body')[:300]!r}") from None
             yield page
         finally:
             browser.close()
