@@ -184,8 +184,8 @@ def cmd_sweep(args) -> int:
 
     meta = {"m": res.m, "w": None if res.beta is not None else res.w, "beta": res.beta,
             "horizon_over_r_min": res.horizon, "burn_in_over_r_min": BURN, "lengthened_by": res.stretch.tolist(),
-            "seeds": list(res.seeds), "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(), "sigmas": res.sigmas.tolist(),
-            "nu_over_beta": res.nu_over_beta.tolist()}
+            "seeds": list(res.seeds), "batches": res.batches, "level": res.level, "alphas": res.alphas.tolist(),
+            "sigmas": res.sigmas.tolist(), "nu_over_beta": res.nu_over_beta.tolist()}
     (out / "fig2.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1, allow_nan=False), "utf-8")
     written = [out / "fig2.csv", out / "fig2.json", fig2_html(res, out / "fig2.html")]
     if not args.no_png:

@@ -422,9 +422,9 @@ class AppState(extras.Baselines):
         — drawn by the renderer of ``isl figure3`` (:func:`app.static_figures.fig3_png`), for the download button."""
         from .static_figures import fig3_png
 
-        out = io.BytesIO()
         if self.run is None:
             raise ValueError("there is no run to draw yet")
+        out = io.BytesIO()
         ratios = "\n".join(f"{tr.label}: measured RMSE/s_i = " + ", ".join(f"{r:.3f}" for r in tr.ratio)
                             for tr in self.run.tracks[:2])
         fig3_png([self.run], out, note=f"{ratios}\n(this run, averaged over t in [0, T])")

@@ -9,7 +9,7 @@ For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_
 * Recommended ν: :func:`isl_core.sweep.recommend_nu` (minimax over σ on the theory, verified by simulation);
   it uses paper A's parametrization, so it needs α > 0 (w = β/√(2α)).
 * Simulated points: the core's sweep (:func:`isl_core.sweep` at the current β, one seed, ``BATCHES`` batches) —
-  exactly what ``isl sweep --beta β`` prints for the same inputs. For each σ **one** long run carries the optimal
+  exactly what ``isl sweep --beta β`` writes for the same inputs. For each σ **one** long run carries the optimal
   Kalman–Bucy filter and the ISL filter at every ν of the grid on the same noise (common random numbers); burn-in
   and horizon are counted in the settling time of the slowest filter of the run, and the 95 % interval of each
   ratio is the core's batch-means interval. The Kalman–Bucy column must sit at 1 within its interval: it is the
@@ -89,7 +89,7 @@ class SweepCurves:
 @dataclass(frozen=True)
 class SweepPoints:
     """Simulated ratios (S, K, m) of the ISL filter with their 95 % interval ``[low, high]``; ``kbf*`` (S, m) the
-    optimal filter's; ``result`` the core's :class:`isl_core.SweepResult` they are read from."""
+    optimal filter's — read from the core's :class:`isl_core.SweepResult` at one α."""
 
     alpha: float
     beta: float
@@ -105,7 +105,6 @@ class SweepPoints:
     horizon: float
     seed: int
     stretch: tuple[float, ...] = ()
-    result: object = field(default=None, repr=False, compare=False)
 
 
 def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, extras: Sequence[str] = (),
@@ -147,7 +146,7 @@ def simulate_points(
                 batches=BATCHES, workers=1, progress=progress)
     return SweepPoints(alpha, beta, m, tuple(float(s) for s in sigmas), res.nu_over_beta, res.ratio[0],
                        res.ratio_low[0], res.ratio_high[0], res.kbf_ratio[0], res.kbf_low[0], res.kbf_high[0],
-                       float(horizon), int(seed), tuple(float(k) for k in res.stretch[0]), res)
+                       float(horizon), int(seed), tuple(float(k) for k in res.stretch[0]))
 
 
 def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,

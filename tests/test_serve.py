@@ -307,7 +307,6 @@ def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(
     assert f"incident {incident}" in text and "Traceback (most recent call last)" in text
 
 
-
 def test_a_page_closed_mid_write_is_not_logged_as_an_error(caplog):
     """tornado's write task ends in WebSocketClosedError when a tab closes mid-write: one debug line, no traceback;
     any other unhandled error on the loop is still logged by asyncio."""

@@ -103,4 +103,3 @@ class CompareView(Viewer):
             styles={"font-size": "14px"})
         return pn.Column(intro, pn.Row(self._input, self._button), self._note, self._image, self._table,
                          sizing_mode="stretch_width")
-

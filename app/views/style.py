@@ -1,13 +1,13 @@
 """Colours and fonts shared by the plots (sized to stay readable on a projector)."""
 from __future__ import annotations
 
-from bokeh.models import BasicTickFormatter, ColumnDataSource, CustomJSTicker, GlyphRenderer, Line
+from bokeh.models import BasicTickFormatter, ColumnDataSource, CustomJSTicker, GlyphRenderer, Line, PrintfTickFormatter
 from bokeh.plotting import figure
 
 from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
 __all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "RATIO_MANTISSAS", "SIGMA_COLORS",
-           "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "line", "ratio_ticker", "styled"]
+           "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "line", "ratio_axis", "ratio_ticker", "styled"]
 
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
@@ -50,6 +50,13 @@ def line(fig: figure, source: ColumnDataSource, *, x: str = "t", y: str = "y", v
 #: (1.06 vs 1.23), which ticks at 1, 10, 100 only (or 5, 10, 15) do not let a reader see
 RATIO_MANTISSAS = ((1, 1.05, 1.1, 1.2, 1.3, 1.5, 1.7, 2, 2.5, 3, 4, 5, 7), (1, 1.1, 1.2, 1.5, 2, 3, 5, 7),
                    (1, 1.2, 1.5, 2, 3, 5), (1, 2, 5), (1, 3), (1,))
+
+
+def ratio_axis(axis) -> None:
+    """A log axis of RMSE ratios ticked 1, 1.2, 1.5, 2, … (:func:`ratio_ticker`) and labelled plainly (1.2, not
+    1.2e+0), so that 1.06 and 1.23 can be read off (the ν-sweep's and the worst case's charts)."""
+    axis.ticker = ratio_ticker()
+    axis.formatter = PrintfTickFormatter(format="%g")
 
 
 def ratio_ticker(max_ticks: int = 9) -> CustomJSTicker:

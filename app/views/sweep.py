@@ -13,7 +13,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import value
-from bokeh.models import ColumnDataSource, Legend, LegendItem, PrintfTickFormatter, Span, Whisker
+from bokeh.models import ColumnDataSource, Legend, LegendItem, Span, Whisker
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -22,7 +22,7 @@ from isl_core.baselines import LABELS
 
 from ..state import COORDINATES, AppState
 from .controls import log_slider
-from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, ratio_ticker, styled
+from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, ratio_axis, styled
 
 __all__ = ["SweepView", "parse_sigmas"]
 
@@ -75,8 +75,7 @@ class SweepView(Viewer):
                             title=f"X{k} — {COORDINATES[i]}", tools="pan,wheel_zoom,box_zoom,reset,save"))
         fig.xaxis.axis_label = "ν/β"
         fig.yaxis.axis_label = f"š{k}/s{k}  (ISL RMSE / optimal)"
-        fig.yaxis.ticker = ratio_ticker()  # 1, 1.2, 1.5, 2, … so that 1.06 and 1.23 can be read off
-        fig.yaxis.formatter = PrintfTickFormatter(format="%g")
+        ratio_axis(fig.yaxis)
         fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         mark = Span(location=1.0, dimension="height", line_color="#c00", line_width=2, line_alpha=0.7)
         fig.add_layout(mark)

@@ -15,7 +15,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import value
-from bokeh.models import ColumnDataSource, Legend, LegendItem, PrintfTickFormatter, Span, Whisker
+from bokeh.models import ColumnDataSource, Legend, LegendItem, Span, Whisker
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -24,7 +24,7 @@ from isl_core.worstcase import FILTERS, LABELS
 
 from ..state import AppState
 from .filters_panel import bind
-from .style import FILTER_COLORS, ratio_ticker, styled
+from .style import FILTER_COLORS, ratio_axis, styled
 from .sweep import parse_sigmas
 
 __all__ = ["WorstCaseView", "worst_case_html"]
@@ -93,8 +93,7 @@ class WorstCaseView(Viewer):
                             tools="pan,wheel_zoom,box_zoom,reset,save"))
         fig.xaxis.axis_label = "α"
         fig.yaxis.axis_label = "max over σ and i of RMSEᵢ / sᵢ"
-        fig.yaxis.ticker = ratio_ticker()  # 1, 1.2, 1.5, 2, … so that 1.06 and 1.23 can be read off
-        fig.yaxis.formatter = PrintfTickFormatter(format="%g")
+        ratio_axis(fig.yaxis)
         fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         items = []
         for name, src in self._sources.items():
