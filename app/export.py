@@ -22,6 +22,8 @@ import numpy as np
 from isl_core import Model, simulate
 from isl_core.runview import TUBE_THEORY
 
+from .pipeline import COORDINATES, extra_filters
+
 __all__ = ["MAX_ROWS", "run_csv"]
 
 MAX_ROWS = 20_000  #: rows of a CSV at most (every k-th step beyond; a 20 000-row CSV at m = 6 is ≈ 10 MB)
@@ -62,8 +64,6 @@ def _header(state, req, run, view, prediction: dict) -> list[str]:
 
 
 def _coordinates(m: int) -> tuple[str, ...]:
-    from .state import COORDINATES
-
     return COORDINATES[:m]
 
 
@@ -74,8 +74,6 @@ def run_csv(state) -> str:
         return "# no run to export\n"
     req = state.shown_request
     model = Model(req.alpha, req.beta, req.sigma, req.m)
-    from .state import extra_filters
-
     extra, every_spec = extra_filters(req, model)
     every = max(1, math.ceil((view.N + 1) / MAX_ROWS))
     run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every_spec,

@@ -22,9 +22,9 @@ import numpy as np
 import param
 
 from isl_core import BASELINES, Model, WorstCaseTable, baseline_filters, theory_ratios, worst_case
+from isl_core.baselines import LABELS
 from isl_core.sweep import BURN
 from isl_core.worstcase import FILTERS
-from isl_core.baselines import LABELS
 
 __all__ = ["EXTRA_NAMES", "INPUTS", "RUN_INPUTS", "WC_INPUTS", "Baselines", "check_order", "extra_specs",
            "extra_theory", "worst_case_table"]

@@ -7,101 +7,34 @@ widget, from the URL, from a script — is checked here, once: a bad value (nan,
 type, None, a string, a boolean) is refused with a message naming the input and its range, and the last
 good run stays on screen. Errors of the core (too many steps, a diverged filter) become messages too.
 
-Runs and sweeps are computed by :class:`app.jobs.Jobs`: off the event loop when the app gives it thread
-pools, inline otherwise (tests, scripts). Outputs (``run``, ``traces``, ``prediction``, ``curves``,
+Runs (:mod:`app.pipeline`) and sweeps are computed by :class:`app.jobs.Jobs`: off the event loop when the app
+gives it thread pools, inline otherwise (tests, scripts). Outputs (``run``, ``traces``, ``prediction``, ``curves``,
 ``points``, ``message`` …) are written only by the state itself.
 """
 from __future__ import annotations
 
-import dataclasses
 import io
-import logging
 import math
-from dataclasses import dataclass
 from functools import partial
 
-import numpy as np
 import param
 
-from isl_core import DivergenceError, Model, run_plan
-from isl_core.runview import RunView, simulate_view
+from isl_core.runview import RunView
+
 from . import extras, inputs, sweeps
 from .export import run_csv
 from .jobs import Jobs, Outcome
-from .longjobs import Cancelled, LongTask
+from .longjobs import LongTask
+from .pipeline import HORIZON_BOUNDS, LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from .presets import PRESETS
 
-__all__ = [
-    "ALL_INPUTS",
-    "APP_MAX_STEPS",
-    "COORDINATES",
-    "INPUTS",
-    "KINDS",
-    "LIVE_MAX_STEPS",
-    "SWEEP_INPUTS",
-    "AppState",
-    "Request",
-    "Result",
-    "Traces",
-    "compute",
-    "extra_filters",
-    "fit",
-    "input_label",
-]
+__all__ = ["ALL_INPUTS", "INPUTS", "KINDS", "SWEEP_INPUTS", "AppState", "input_label"]
 
-log = logging.getLogger(__name__)
 
-APP_MAX_STEPS = 1_000_000  #: steps per displayed run (memory ≈ 72·m bytes a step: 216 MB at m = 3)
-LIVE_MAX_STEPS = 50_000  #: runs up to this size follow a slider while it is dragged; larger ones on release
 INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "nu", "m", "seed", "horizon")
 SWEEP_INPUTS = ("sweep_sigmas", "sweep_horizon")
 ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS)
 SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
-COORDINATES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")  #: X_1 … X_6
-
-
-@dataclass(frozen=True)
-class Request:
-    """One run to compute: the model, the ISL filter's ν, the seed and the horizon in units of 1/r_min."""
-
-    alpha: float
-    beta: float
-    sigma: float
-    nu: float
-    m: int
-    seed: int
-    horizon: float
-    extras: tuple[str, ...] = ()
-    sigma_design: float = 20.0
-    sigma_range: tuple[float, float] = (2.0, 200.0)
-
-
-@dataclass(frozen=True)
-class Traces:
-    """Display copies of a run, min/max-decimated while it was simulated (:mod:`isl_core.runview`):
-    ``series[i][name] = (t, y)`` in float32.
-
-    ``name`` is ``"truth"`` (X_i), ``"kbf"`` (X̂_i), ``"isl"`` (X̌_i) or an extra filter's name (:mod:`app.extras`);
-    ``"error:" + name`` is that filter's error e_i = Z_i − X_i.
-    """
-
-    series: tuple[dict[str, tuple[np.ndarray, np.ndarray]], ...]
-
-
-@dataclass(frozen=True)
-class Result:
-    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (None if unavailable).
-
-    ``request`` is what was simulated: the asked-for one, or its nearest allowed setting (``adjusted`` says what
-    changed and why; empty if nothing did).
-    """
-
-    run: RunView
-    traces: Traces
-    prediction: np.ndarray | None
-    extra_prediction: dict | None = None
-    request: Request | None = None
-    adjusted: str = ""
 
 
 def input_label(name: str, link: bool = False) -> str:
@@ -112,87 +45,6 @@ def input_label(name: str, link: bool = False) -> str:
         return label
     return f"{name}=… in the link" if label == name else f"{label} ({name}=… in the link)"
 
-
-def traces(run: RunView) -> Traces:
-    """The float32 copies the plots receive of a decimated run: X_i, every filter's estimate and error."""
-    series = []
-    for i in range(run.model.m):
-        pairs = {"truth": run.truth[i]}
-        for tr in run.tracks:
-            pairs[tr.name] = tr.estimate[i]
-            pairs[f"error:{tr.name}"] = tr.error[i]
-        series.append({name: (p.t.astype(np.float32), p.y.astype(np.float32)) for name, p in pairs.items()})
-    return Traces(tuple(series))
-
-
-def extra_filters(req: Request, model: Model) -> tuple[list, list]:
-    """The extra filters shown, and every one a view can show (they fix the grid: showing one changes nothing)."""
-    extra = extras.extra_specs(model, req.nu, req.extras, req.sigma_design, req.sigma_range)
-    every = extras.extra_specs(model, req.nu, extras.EXTRA_NAMES, req.sigma_design, req.sigma_range)
-    return extra, every
-
-
-def _plan(req: Request):
-    """The model, the extra filters shown, every one a view can show, and the run's plan."""
-    model = Model(req.alpha, req.beta, req.sigma, req.m)
-    extra, every = extra_filters(req, model)
-    return model, extra, every, run_plan(model, req.nu, horizon=req.horizon, step_filters=every, cap=2**62)
-
-
-def _floor_sig(x: float, digits: int = 3) -> float:
-    """``x`` > 0 rounded DOWN to ``digits`` significant digits (714.28 → 714)."""
-    q = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return float(f"{math.floor(x / q) * q:.{digits}g}")
-
-
-def fit(req: Request) -> tuple[Request, str]:
-    """``req`` itself if its run fits :data:`APP_MAX_STEPS`, else the same with the longest horizon that fits and a
-    sentence saying so; ``ValueError`` if not even the shortest horizon fits (naming the inputs to change)."""
-    _, _, _, plan = _plan(req)
-    if plan.N <= APP_MAX_STEPS:
-        return req, ""
-    shortest = AppState.param.horizon.bounds[0]
-    horizon = _floor_sig(req.horizon * APP_MAX_STEPS / plan.N * 0.999)  # N ∝ horizon (h does not change)
-    if horizon < shortest:
-        raise ValueError(
-            f"this setting needs {plan.N * shortest / req.horizon:,.0f} steps even at the shortest horizon "
-            f"({shortest:g} × 1/r_min), over the dashboard's limit of {APP_MAX_STEPS:,}: the fastest filter forces a "
-            "tiny step; lower ν or raise σ")
-    return (dataclasses.replace(req, horizon=horizon),
-            f"horizon lowered from {req.horizon:g} to {horizon:g} × 1/r_min: the run needs {plan.N:,} steps, over the "
-            f"dashboard's limit of {APP_MAX_STEPS:,}")
-
-
-def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
-    """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the SPEC §4 rule over every
-    filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
-    its ratios.
-
-    Raises ``ValueError`` when the run would exceed :data:`APP_MAX_STEPS` (with ``nearest``: first lowers the
-    horizon to the longest that fits, :func:`fit`), :class:`DivergenceError` when a filter blows up.
-    """
-    adjusted = ""
-    if nearest:
-        req, adjusted = fit(req)
-    model, extra, every, plan = _plan(req)
-    if plan.N > APP_MAX_STEPS:
-        longest = req.horizon * APP_MAX_STEPS / plan.N
-        raise ValueError(
-            f"horizon = {req.horizon:g} needs {plan.N:,} steps here, over the dashboard's limit of "
-            f"{APP_MAX_STEPS:,}; choose a horizon <= {longest:.3g}"
-        )
-    run = simulate_view(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every,
-                        progress=progress)
-    theory = sweeps.theory_module()
-    prediction = None if theory is None else np.asarray(theory.predicted_ratios(model, req.nu))
-    return Result(run, traces(run), prediction, extras.extra_theory(model, extra), req, adjusted)
-
-
-def _describe(exc: BaseException) -> str:
-    if isinstance(exc, (ValueError, DivergenceError, sweeps.TheoryMissing, Cancelled)):
-        return str(exc)
-    log.error("unexpected error in a dashboard job", exc_info=exc)
-    return f"internal error ({type(exc).__name__}); details are in the server log"
 
 
 class AppState(extras.Baselines):
@@ -215,7 +67,7 @@ class AppState(extras.Baselines):
         "The ISL filter's only tuning knob (A.17); paper A studies ν/β = 2^ℓ, ℓ = −8..2."))
     m = param.Integer(3, bounds=(1, 6), label="m", doc="State dimension: X_1 and its m − 1 derivatives (A.1).")
     seed = param.Integer(1, bounds=(0, 2**31 - 1), label="seed", doc="Seed of the noise: same seed, same run.")
-    horizon = param.Number(10.0, bounds=(1.0, 1000.0), label="horizon (× 1/r_min)", doc=(
+    horizon = param.Number(10.0, bounds=HORIZON_BOUNDS, label="horizon (× 1/r_min)", doc=(
         "Simulated time T in units of the optimal filter's settling time 1/r_min (A.24); paper A, Fig. 3: 10."))
     sweep_sigmas = param.List([2.0, 20.0, 200.0], item_type=float, bounds=(1, 5), label="σ values", doc=(
         "σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."))
@@ -347,7 +199,7 @@ class AppState(extras.Baselines):
         """Compute the first run and the sweep's theory curves, as jobs (in a served session: off the event loop).
 
         With no run on screen yet, a run too long for the dashboard is replaced by its nearest allowed setting
-        (:func:`fit`: a shorter horizon, said in the message) — a page opened from any link shows a run or says why
+        (:func:`app.pipeline.fit`: a shorter horizon, said in the message) — a page opened from any link shows a run or says why
         it cannot."""
         self._started = True
         if self.alpha == 0.0 and self.beta_from_w:
@@ -387,7 +239,7 @@ class AppState(extras.Baselines):
         if outcome.error is not None:
             if not superseded:
                 kept = "The last good run is kept." if self.run is not None else "Nothing is shown until it is changed."
-                self._say(f"{_describe(outcome.error)}. {kept}", "danger")
+                self._say(f"{describe(outcome.error)}. {kept}", "danger")
             self.busy = superseded
             return
         res: Result = outcome.value
@@ -469,11 +321,11 @@ class AppState(extras.Baselines):
         if outcome.error is None:
             self.param.update(curves=outcome.value, curves_note="")
         elif not superseded:
-            self.param.update(curves=None, curves_note=f"No theory curves: {_describe(outcome.error)}.")
+            self.param.update(curves=None, curves_note=f"No theory curves: {describe(outcome.error)}.")
 
     def describe(self, error: BaseException) -> str:
         """A job's failure in words for the page (tracebacks go to the server log)."""
-        return _describe(error)
+        return describe(error)
 
     def cancel_sweep(self) -> None:
         """Stop the sweep or recommendation: dropped if it waits in the queue, else ended (see LongTask.cancel)."""

@@ -6,7 +6,7 @@ For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_
   batched Lyapunov solve per σ — instant. Extra filters (:mod:`app.extras`) add theirs: the model-aware ISL
   filter's curve over the same ν, the fixed-gain Kalman–Bucy filters' exact Lyapunov ratio (flat in ν); the
   adaptive filter has no theory and no curve.
-* Recommended ν: :func:`isl_core.sweep.recommend_nu` (minimax over σ on the theory, verified by simulation);
+* Recommended ν: :func:`isl_core.recommend_nu` (minimax over σ on the theory, verified by simulation);
   it uses paper A's parametrization, so it needs α > 0 (w = β/√(2α)).
 * Simulated points: the core's sweep (:func:`isl_core.sweep` at the current β, one seed, ``BATCHES`` batches) —
   exactly what ``isl sweep --beta β`` writes for the same inputs. For each σ **one** long run carries the optimal
@@ -17,14 +17,12 @@ For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_
 """
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from types import ModuleType
 
 import numpy as np
 
-from isl_core import Model, baseline_filters, sweep, theory_ratios
+from isl_core import Model, baseline_filters, recommend_nu, sweep, theory_ratios
 from isl_core.sweep import BURN
 from isl_core.theory import predicted_ratios_grid
 
@@ -35,39 +33,13 @@ __all__ = [
     "THEORY_LEVELS",
     "SweepCurves",
     "SweepPoints",
-    "TheoryMissing",
     "simulate_points",
-    "sweep_module",
     "theory_curves",
-    "theory_module",
 ]
 
 THEORY_LEVELS = np.linspace(-8.0, 2.0, 81)  #: ℓ of the theory curves, ν/β = 2^ℓ (paper A: ℓ = −8..2)
 SIM_LEVELS = np.arange(-8, 3).astype(float)  #: ℓ of the simulated points
 BATCHES = 10  #: batch means for the confidence intervals
-
-
-class TheoryMissing(RuntimeError):
-    """The theory module (statistical linearization) is not available in this installation."""
-
-
-def _optional(name: str) -> ModuleType | None:
-    try:
-        return importlib.import_module(name)
-    except ModuleNotFoundError as exc:
-        if exc.name != name:  # a genuine missing dependency inside the module: do not hide it
-            raise
-        return None
-
-
-def theory_module() -> ModuleType | None:
-    """:mod:`isl_core.theory`, or None when this installation has no theory module."""
-    return _optional("isl_core.theory")
-
-
-def sweep_module() -> ModuleType | None:
-    """:mod:`isl_core.sweep` (``recommend_nu``), or None when this installation has none."""
-    return _optional("isl_core.sweep")
 
 
 @dataclass(frozen=True)
@@ -114,12 +86,9 @@ def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *,
     ``extras``: names of extra filters whose curves to add (``sigma_design``, ``sigma_range`` as in
     :func:`isl_core.baseline_filters`).
     """
-    theory = theory_module()
-    if theory is None:
-        raise TheoryMissing("the statistical-linearization theory (isl_core.theory) is not installed")
     nob = 2.0 ** THEORY_LEVELS
     ratios = np.stack([
-        theory.predicted_ratios_grid(Model(alpha, beta, s, m), beta * nob) for s in sigmas
+        predicted_ratios_grid(Model(alpha, beta, s, m), beta * nob) for s in sigmas
     ])
     extra = {name: np.stack([_extra_curve(Model(alpha, beta, s, m), name, nob, sigma_design, sigma_range)
                              for s in sigmas]) for name in extras if name != "kbf_adaptive"}
@@ -151,13 +120,10 @@ def simulate_points(
 
 def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, horizon: float, seed: int,
               progress: Callable[[float], None] | None = None) -> tuple[float, str]:
-    """``(ν, summary)`` from :func:`isl_core.sweep.recommend_nu` with its simulated check (``horizon``, ``seed``)."""
-    mod = sweep_module()
-    if mod is None:
-        raise TheoryMissing("the recommendation (isl_core.sweep.recommend_nu) is not installed")
+    """``(ν, summary)`` from :func:`isl_core.recommend_nu` with its simulated check (``horizon``, ``seed``)."""
     if alpha <= 0.0:
         raise ValueError("the recommendation needs alpha > 0 (paper A's parametrization β = w√(2α))")
-    rec = mod.recommend_nu(alpha, sigmas=list(sigmas), m=m, w=beta / np.sqrt(2.0 * alpha), horizon=horizon,
+    rec = recommend_nu(alpha, sigmas=list(sigmas), m=m, w=beta / np.sqrt(2.0 * alpha), horizon=horizon,
                            seeds=(seed,), progress=progress)
     sig = ", ".join(f"{s:g}" for s in sigmas)
     text = (f"Recommended ν = {rec.nu:.4g} (ν/β = {rec.nu_over_beta:.3g}) for σ ∈ {{{sig}}}: worst-case ratio "

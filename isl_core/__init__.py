@@ -7,16 +7,20 @@ Imports numpy, scipy and numba only — never a UI library.
 from .adaptive import adaptive_kbf
 from .baselines import BASELINES, baseline_filters, theory_ratios
 from .filters import AdaptiveGain, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .grid import RunPlan, run_plan, settling_rate, step_size
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
-from .simulate import (
-    DivergenceError, RmseResult, Run, RunPlan, Track, run_plan, settling_rate, simulate, simulate_rmse, step_size,
-)
+from .rmse import RmseResult, simulate_rmse
+from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .theory import (
-    mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios, predicted_ratios_grid,
+    mismatched_kbf,
+    mismatched_kbf_ratios,
+    predicted_covariance,
+    predicted_ratios,
+    predicted_ratios_grid,
 )
 from .worstcase import WorstCaseTable, worst_case
 

@@ -24,7 +24,8 @@ import numpy as np
 
 from .filters import FilterSpec
 from .model import Model
-from .simulate import DivergenceError, simulate_rmse
+from .rmse import simulate_rmse
+from .simulate import DivergenceError
 from .validate import check_int, check_ints, check_real, short
 
 __all__ = ["Cancelled", "Progress", "Task", "TaskResult", "check_execution", "check_sampling", "run", "run_task"]

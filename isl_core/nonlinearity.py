@@ -20,9 +20,9 @@ import math
 
 import numpy as np
 
-from .validate import check_int, check_real
 from .model import M_MAX
 from .riccati import G_matrix
+from .validate import check_int, check_real
 
 __all__ = ["gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi"]
 

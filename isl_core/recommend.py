@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validate import check_int, check_real, check_reals, short
 from .model import M_MAX, Model
 from .paper import FIG2_SIGMAS
 from .sweep import sweep
 from .theory import mismatched_kbf_ratios, predicted_ratios_grid
+from .validate import check_int, check_real, check_reals, short
 
 __all__ = ["Recommendation", "WorstCase", "best_fixed_kbf", "recommend_nu", "worst_case_theory"]
 

@@ -34,8 +34,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from .validate import check_int
 from .model import M_MAX, Model, shift_matrix
+from .validate import check_int
 
 __all__ = ["A_MAX", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0"]
 

@@ -20,10 +20,11 @@ import numpy as np
 
 from .decimate import DISPLAY_POINTS, MinMax
 from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
+from .grid import check_filters, run_plan
 from .kernels import minmax_block
 from .model import Model
 from .riccati import kalman_bucy
-from .simulate import _Tracked, _check_filters, _check_progress, _check_start, _freeze, _loop, run_plan
+from .simulate import _check_progress, _check_start, _freeze, _loop, _Tracked
 from .validate import check_int
 
 __all__ = ["DISPLAY_CHUNK", "TUBE_THEORY", "RunView", "Trace", "TrackView", "simulate_view"]
@@ -125,7 +126,7 @@ def simulate_view(
     start = _check_start(start)
     _check_progress(progress)
     kb = kalman_bucy(model)
-    filters = [optimal_kbf(model, kb), *_check_filters(model, nu, extra)]
+    filters = [optimal_kbf(model, kb), *check_filters(model, nu, extra)]
     m, nf, n = model.m, len(filters), plan.N
     adaptive = [f for f, spec in enumerate(filters) if spec.kind == KIND_ADAPTIVE]
     rows = min(DISPLAY_CHUNK, n) + 1

@@ -11,7 +11,7 @@ Conventions, all documented choices:
 
 * step h of a group: the SPEC §4 rule over all filters of the group (:func:`isl_core.step_size`), so one
   grid serves every ν. Length: ``horizon`` and a burn-in of BURN = 10 are counted in units of the settling time
-  of the group's slowest filter (:func:`isl_core.simulate.settling_rate`, B.46) — 1/r_min unless a filter settles
+  of the group's slowest filter (:func:`isl_core.grid.settling_rate`, B.46) — 1/r_min unless a filter settles
   more than 10 % slower (an ISL filter at small ν: up to ≈ 6× at m = 3); then the group's run is lengthened by
   ``stretch = r_min / rate`` so that every filter has forgotten its start (by e^{-10}) and averages over the same
   number of its own settling times. ``stretch`` is reported per group.
@@ -34,11 +34,11 @@ import numpy as np
 
 from .baselines import model_aware_isl
 from .filters import isl_filter, optimal_kbf
+from .grid import MAX_STEPS, settling_rate, step_size
 from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model
 from .paper import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
 from .riccati import kalman_bucy
-from .simulate import MAX_STEPS, settling_rate, step_size
 from .theory import predicted_ratios_grid
 from .validate import check_int, check_real, check_reals, short
 
@@ -260,13 +260,3 @@ def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s,
         _freeze(ratio[:, :, 0]), _freeze(low[:, :, 0]), _freeze(high[:, :, 0]),
         _freeze(theory), _freeze(s), _freeze(r_min), _freeze(h), _frozen_int(steps),
     )
-
-
-def __getattr__(name: str):
-    """``isl_core.sweep.recommend_nu`` / ``Recommendation``: the recommendation lives in :mod:`isl_core.recommend`
-    (it is built on :func:`sweep`); resolved lazily to keep the import graph acyclic."""
-    if name in ("recommend_nu", "Recommendation"):
-        from . import recommend
-
-        return getattr(recommend, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -40,11 +40,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from .validate import check_real, check_reals, short
 from .filters import FilterSpec, isl_filter
 from .model import Model
 from .nonlinearity import gamma_abs
 from .riccati import KalmanBucy, kalman_bucy
+from .validate import check_real, check_reals, short
 
 __all__ = [
     "predicted_covariance", "predicted_ratios", "predicted_ratios_grid", "mismatched_kbf",

@@ -1,13 +1,13 @@
 """Helpers for the tests that start a real server on 127.0.0.1 (serve, Dockerfile, load, hostile, memory, origin).
 
-The websocket client and the server start/stop helpers live in ``scripts/load_test.py`` (the documented load
-script); this module loads that file as ``load_test`` and adds a context manager and a small fixture app.
+The websocket client and the server start/stop helpers live in ``scripts/session_client.py``, the load scenario in
+``scripts/load_test.py`` (the documented load script); this module imports both and adds a context manager and a
+small fixture app.
 """
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import importlib.util
 import sys
 import time
 from collections.abc import Iterator
@@ -16,17 +16,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _load_script():
-    if "load_test" in sys.modules:
-        return sys.modules["load_test"]
-    spec = importlib.util.spec_from_file_location("load_test", REPO / "scripts" / "load_test.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["load_test"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-load_test = _load_script()
+sys.path.insert(0, str(REPO / "scripts"))
+import load_test  # noqa: E402, F401  (for the tests: the load scenario)
+import session_client  # noqa: E402
 
 # A tiny Panel app with the dashboard's moving parts: a slider that redraws a plot, a button whose callback
 # fails with a message that must never reach the browser.
@@ -66,14 +58,14 @@ def fixture_app(tmp_path: Path) -> str:
 def served(tmp_path: Path, *args: str, script: str | None = None, env: dict | None = None,
            timeout: float = 180.0) -> Iterator[tuple[str, object, Path]]:
     """Run ``python -m app.serve`` on a free loopback port; yields (base URL, process, log path); always stops it."""
-    port = load_test.free_port()
+    port = session_client.free_port()
     log = tmp_path / f"server-{port}.log"
-    proc = load_test.start_server(port, log, args, env=env, script=script)
+    proc = session_client.start_server(port, log, args, env=env, script=script)
     try:
-        load_test.wait_healthy(port, timeout, proc)
+        session_client.wait_healthy(port, timeout, proc)
         yield f"http://127.0.0.1:{port}", proc, log
     finally:
-        load_test.stop_server(proc)
+        session_client.stop_server(proc)
 
 
 def run(coro, timeout: float = 600.0):

@@ -10,13 +10,14 @@ import numpy as np
 import pytest
 from _loop import ManualLoop
 
+from app import pipeline
 from app import state as state_module
-from app import sweeps
 from app.jobs import Jobs
 from app.longjobs import LongJobQueue
+from app.pipeline import APP_MAX_STEPS
 from app.presets import PRESETS
-from app.state import APP_MAX_STEPS, INPUTS, AppState
-from isl_core import DivergenceError, Model, kalman_bucy
+from app.state import INPUTS, AppState
+from isl_core import DivergenceError, Model, kalman_bucy, recommend_nu
 
 
 @pytest.fixture
@@ -138,7 +139,7 @@ def test_core_divergence_is_a_message(state, monkeypatch):
     def diverge(*args, **kwargs):
         raise DivergenceError("filter ISL diverged at t = 1")
 
-    monkeypatch.setattr(state_module, "simulate_view", diverge)
+    monkeypatch.setattr(pipeline, "simulate_view", diverge)
     run = state.run
     state.seed = 99
     assert state.run is run and "diverged" in state.message and state.message_kind == "danger"
@@ -177,7 +178,7 @@ def test_csv_holds_the_run_its_parameters_and_its_numbers(state):
     assert columns[-1] == "kbf_adaptive_X3_acceleration" and len(columns) == 1 + 3 * 4
     data = np.loadtxt(lines, delimiter=",", comments="#")
     view = state.run
-    extra, grid = state_module.extra_filters(state.shown_request, view.model)
+    extra, grid = pipeline.extra_filters(state.shown_request, view.model)
     run = simulate(view.model, view.nu, horizon=state.horizon, seed=view.seed, extra=extra, step_filters=grid)
     assert data.shape == (view.N + 1, len(columns))  # the same run, every step
     expected = np.column_stack([run.t, run.X, *(tr.estimate for tr in run.tracks)])
@@ -290,7 +291,7 @@ def test_recommendation_sets_nu(state):
     state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
     state.recommend()
     assert state.sweep_note.startswith("Recommended ν"), state.sweep_note
-    rec = sweeps.sweep_module().recommend_nu(0.5, sigmas=[2.0, 200.0], m=3, w=3.0, verify=False)
+    rec = recommend_nu(0.5, sigmas=[2.0, 200.0], m=3, w=3.0, verify=False)
     assert state.nu == pytest.approx(rec.nu, rel=1e-12)  # the core's answer, not a copy of table (A.31)
 
 

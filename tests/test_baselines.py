@@ -25,7 +25,7 @@ from isl_core.baselines import (
     theory_ratios,
 )
 from isl_core.filters import KIND_ADAPTIVE, KIND_LINEAR, KIND_POWER
-from isl_core.simulate import H_RATE
+from isl_core.grid import H_RATE
 from isl_core.sweep import ratio_interval
 from isl_core.theory import mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios_grid
 

@@ -59,6 +59,28 @@ def test_sweep_writes_csv_json_html_png(tmp_path, capsys):
     assert "<html" in html.lower() and "Bokeh" in html
 
 
+def test_the_core_command_alone_computes_and_writes_data_without_the_dashboard(tmp_path):
+    """``python -m isl_core``: the compute commands, in a process where the dashboard package cannot be imported;
+    its sweep writes the CSV and JSON only, and the dashboard's commands are not there."""
+    import subprocess
+
+    code = ("import sys; sys.modules['app'] = None; sys.modules['panel'] = None; sys.modules['bokeh'] = None\n"
+            "import runpy; runpy.run_module('isl_core', run_name='__main__')")
+    def isl_core(*args):
+        return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
+
+    out = tmp_path / "fig2"
+    done = isl_core("sweep", "--alphas", "1", "--sigmas", "20", "--ell-min", "0", "--ell-max", "0", "--horizon", "5",
+                    "--seeds", "0", "--batches", "2", "--quiet", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["fig2.csv", "fig2.json"]
+    helped = isl_core("--help")
+    assert helped.returncode == 0 and "worstcase" in helped.stdout
+    assert "figure3" not in helped.stdout and "serve" not in helped.stdout
+    refused = isl_core("figure3")
+    assert refused.returncode == 2 and "invalid choice: 'figure3'" in refused.stderr
+
+
 def test_figure3_writes_html_and_png(tmp_path, capsys):
     assert main(["figure3", "--horizon", "2", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out

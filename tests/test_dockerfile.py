@@ -20,7 +20,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
-from _serving import REPO, load_test
+from _serving import REPO, session_client
 
 DOCKERFILE = REPO / "Dockerfile"
 
@@ -161,7 +161,7 @@ def test_build_context_holds_everything_the_copies_need():
 @pytest.mark.slow
 def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property):
     stage = dict(final_stage())
-    port = load_test.free_port()
+    port = session_client.free_port()
     env = {**os.environ, **{k: v for k, v in stage_env().items() if k != "PATH"},
            "ISL_ADDRESS": "127.0.0.1", "ISL_PORT": str(port), "ISL_ALLOWED_ORIGINS": f"localhost:{port}",
            "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONPATH": str(REPO)}
@@ -195,7 +195,7 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
         assert "<html" in body.lower() and "Bokeh" in body and "Traceback" not in body
         assert f"http://localhost:{port}/" in log.read_text()        # the URL is printed on start
     finally:
-        code = load_test.stop_server(proc)
+        code = session_client.stop_server(proc)
     assert code == 0, log.read_text()[-3000:]                      # SIGTERM (docker stop) is a clean exit
 
 

@@ -1,6 +1,6 @@
 """Memory: open and close sessions of the served dashboard three times; nothing may accumulate.
 
-Each round opens the sessions (as browsers do, :class:`load_test.BokehClient`), lets them settle, closes them and
+Each round opens the sessions (as browsers do, :class:`session_client.BokehClient`), lets them settle, closes them and
 waits until the server has destroyed every one (its ``isl stats`` log line: 0 sessions, 0 pending release hooks).
 The server's resident memory after rounds 2 and 3 must stay within 10 % of its value after round 1 (round 1 pays
 for one-time allocations: imports, compiled kernels, caches; freed memory stays with the allocator and is reused

@@ -11,10 +11,10 @@ import re
 from urllib.parse import urlparse
 
 import pytest
-from _serving import load_test, run, served
+from _serving import run, served, session_client
 from tornado.httpclient import HTTPClientError
 
-MARKERS = load_test.TRACEBACK_MARKERS
+MARKERS = session_client.TRACEBACK_MARKERS
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +27,7 @@ def default_server(tmp_path_factory):
 
 def connect(url: str, origin: str, host: str | None = None):
     async def go():
-        async with await load_test.BokehClient.connect(url, origin=origin, timeout=60, host=host) as client:
+        async with await session_client.BokehClient.connect(url, origin=origin, timeout=60, host=host) as client:
             return len(client.doc.roots)
     return run(go(), 120)
 

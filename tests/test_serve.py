@@ -11,7 +11,7 @@ import sys
 import panel as pn
 import param
 import pytest
-from _serving import REPO, fixture_app, load_test, run, served, wait_for_log
+from _serving import REPO, fixture_app, run, served, session_client, wait_for_log
 from bokeh.document import Document
 from bokeh.events import ButtonClick
 from bokeh.models import Button
@@ -115,7 +115,7 @@ def test_app_script_is_found_in_the_package_without_running_it():
 
 
 def test_health_of_a_closed_port_is_failure(clean_env):
-    assert serve.main(["--health", "--port", str(load_test.free_port())]) == 1
+    assert serve.main(["--health", "--port", str(session_client.free_port())]) == 1
 
 
 # ---------------------------------------------------------------------------------------------- hardening
@@ -256,13 +256,13 @@ def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path):
     broken.write_text("import panel as pn\nraise RuntimeError('broken on purpose')\n")
     with pytest.raises(serve.AppStartupError, match="broken on purpose"):
         serve.check_app(str(broken))
-    port = load_test.free_port()
+    port = session_client.free_port()
     log = tmp_path / "broken.log"
-    proc = load_test.start_server(port, log, ["--stats-interval", "0"], script=str(broken))
+    proc = session_client.start_server(port, log, ["--stats-interval", "0"], script=str(broken))
     try:
         code = proc.wait(120)
     finally:
-        load_test.stop_server(proc)
+        session_client.stop_server(proc)
     assert code == 1
     assert "failed during warm-up" in log.read_text()
 
@@ -281,21 +281,21 @@ def test_port_in_use_is_exit_code_1(tmp_path):
     with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (url, _, _):
         port = int(url.rsplit(":", 1)[1])
         log = tmp_path / "second.log"
-        second = load_test.start_server(port, log, ["--stats-interval", "0"], script=fixture_app(tmp_path))
+        second = session_client.start_server(port, log, ["--stats-interval", "0"], script=fixture_app(tmp_path))
         try:
             assert second.wait(120) == 1
         finally:
-            load_test.stop_server(second)
+            session_client.stop_server(second)
 
 
 def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(tmp_path):
     with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (url, proc, log):
         async def click() -> list[str]:
-            async with await load_test.BokehClient.connect(url) as client:
+            async with await session_client.BokehClient.connect(url) as client:
                 button = next(m for m in client.doc.models if isinstance(m, Button))
                 await client.send_event(ButtonClick(button))
-                await client.wait_until(lambda: bool(load_test.notifications(client.doc)), 30)
-                return load_test.notifications(client.doc)
+                await client.wait_until(lambda: bool(session_client.notifications(client.doc)), 30)
+                return session_client.notifications(client.doc)
 
         messages = run(click(), 120)
         text = wait_for_log(log, "SECRET-DETAIL")

@@ -13,9 +13,20 @@ import numpy as np
 import pytest
 
 from isl_core import (
-    DivergenceError, FilterSpec, Model, isl_filter, kalman_bucy, optimal_kbf, simulate, simulate_rmse, step_size,
+    DivergenceError,
+    FilterSpec,
+    Model,
+    grid,
+    isl_filter,
+    kalman_bucy,
+    optimal_kbf,
+    simulate,
+    simulate_rmse,
+    step_size,
 )
-from isl_core.simulate import H_RATE, MAX_STORED_STEPS
+from isl_core.filters import linearized_matrix
+from isl_core.grid import H_RATE, MAX_STORED_STEPS
+from isl_core.theory import lyapunov
 
 sim = importlib.import_module("isl_core.simulate")  # the module (``isl_core.simulate`` is also the function)
 
@@ -109,7 +120,7 @@ def test_short_runs_of_the_optimal_filter_are_honest():
     horizon of 1/r_min is Δ (up to the Euler grid's bias), not the 0.04–0.26 of a start at the truth."""
     ms = np.array([simulate(FIG3, 3.0, horizon=1.0, seed=k).ratio_hat ** 2 for k in range(300)])
     mean, se = ms.mean(axis=0), ms.std(axis=0, ddof=1) / math.sqrt(len(ms))
-    assert np.all(np.abs(mean - 1.0) <= 4.0 * se + 2.0 * sim.EULER_BIAS), (mean, se)
+    assert np.all(np.abs(mean - 1.0) <= 4.0 * se + 2.0 * grid.EULER_BIAS), (mean, se)
     papers = np.array([simulate(FIG3, 3.0, horizon=1.0, seed=k, start="truth").ratio_hat ** 2 for k in range(50)])
     assert np.all(papers.mean(axis=0) < 0.75)
 
@@ -146,9 +157,9 @@ def test_the_grid_biases_the_optimal_rmse_by_at_most_one_percent(m, alpha):
     model = Model(alpha, 1.0, 20.0, m)
     kb = kalman_bucy(model)
     h = step_size(model, kb, [optimal_kbf(model, kb)])
-    assert sim.euler_bias(model, kb, h) <= sim.EULER_BIAS
+    assert grid.euler_bias(model, kb, h) <= grid.EULER_BIAS
     if m == 6 and alpha == 0.0:
-        assert sim.euler_bias(model, kb, H_RATE / np.abs(kb.eig).max()) > 2.5 * sim.EULER_BIAS
+        assert grid.euler_bias(model, kb, H_RATE / np.abs(kb.eig).max()) > 2.5 * grid.EULER_BIAS
 
 
 def test_euler_bias_is_the_simulated_excess_of_the_optimal_filter():
@@ -158,10 +169,10 @@ def test_euler_bias_is_the_simulated_excess_of_the_optimal_filter():
     h = 0.1 / np.abs(kb.eig).max()
     res = simulate_rmse(model, [optimal_kbf(model, kb)], T=4e3 / kb.r_min, h=h, batches=40, seed=3)
     ratio, se = ratio_and_se(res)
-    predicted = np.sqrt(np.diagonal(sim.lyapunov(model.A - np.outer(kb.K, model.C[0]),
+    predicted = np.sqrt(np.diagonal(lyapunov(model.A - np.outer(kb.K, model.C[0]),
                                                   model.beta**2 * (model.E @ model.E.T)
                                                   + np.outer(kb.K, kb.K) * model.sigma**2, h)) / np.diag(kb.delta))
-    assert np.max(np.abs(predicted - 1.0)) == pytest.approx(sim.euler_bias(model, kb, h))
+    assert np.max(np.abs(predicted - 1.0)) == pytest.approx(grid.euler_bias(model, kb, h))
     assert np.all(np.abs(ratio - predicted) <= 4.0 * se), (ratio, predicted, se)
     assert np.max(predicted) > 1.0 + 4.0 * np.max(se)  # the bias is real, not sampling noise
 
@@ -185,7 +196,7 @@ def test_a_slower_isl_filter_lengthens_the_run():
     fig3 = simulate(FIG3, 3.0, seed=1)
     assert fig3.stretch == 1.0 and fig3.T == pytest.approx(10.0 / kb.r_min, rel=EPS)  # paper A, Fig. 3
     slow_nu = 3.0 / 64
-    lam = np.linalg.eigvals(sim.linearized_matrix(FIG3, isl_filter(FIG3, slow_nu)))
+    lam = np.linalg.eigvals(linearized_matrix(FIG3, isl_filter(FIG3, slow_nu)))
     run = simulate(FIG3, slow_nu, seed=1, horizon=10.0)
     assert run.stretch == pytest.approx(kb.r_min / np.min(-lam.real), rel=1e-12) and run.stretch > 3.0
     assert run.T == pytest.approx(10.0 * run.stretch / kb.r_min, rel=4 * EPS)

@@ -11,8 +11,8 @@ import pytest
 from scipy.linalg import solve_discrete_lyapunov
 
 from isl_core import FilterSpec, Model, isl_filter, kalman_bucy, optimal_kbf, predicted_ratios_grid, simulate_rmse
+from isl_core.grid import H_RATE
 from isl_core.jobs import Task, run_task
-from isl_core.simulate import H_RATE
 from isl_core.sweep import group_seed, sweep
 
 ALPHAS = (0.04, 1.0, 25.0)

@@ -11,10 +11,22 @@ from scipy.linalg import solve_continuous_lyapunov
 from scipy.stats import t as student_t
 
 from isl_core import (
-    FilterSpec, Model, isl_filter, kalman_bucy, linearization, linearized_matrix, optimal_kbf, simulate_rmse,
+    FilterSpec,
+    Model,
+    isl_filter,
+    kalman_bucy,
+    linearization,
+    linearized_matrix,
+    optimal_kbf,
+    simulate_rmse,
 )
 from isl_core.theory import (
-    lyapunov, mismatched_kbf, mismatched_kbf_ratios, predicted_covariance, predicted_ratios, predicted_ratios_grid,
+    lyapunov,
+    mismatched_kbf,
+    mismatched_kbf_ratios,
+    predicted_covariance,
+    predicted_ratios,
+    predicted_ratios_grid,
 )
 
 EPS = np.finfo(float).eps

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from isl_core import Model, kalman_bucy, optimal_kbf, recommend_nu
-from isl_core.theory import predicted_covariance
 from isl_core.paper import A31_NU_OVER_BETA
+from isl_core.theory import predicted_covariance
 from isl_core.worstcase import FILTERS, LABELS, worst_case
 
 ALPHAS = (0.04, 0.2, 1.0, 5.0, 25.0)

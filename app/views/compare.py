@@ -17,7 +17,8 @@ import panel as pn
 import param
 from panel.viewable import Viewer
 
-from ..state import COORDINATES, AppState, Request, compute
+from ..pipeline import COORDINATES, Request, compute
+from ..state import AppState
 from .numbers import TABLE_CSS
 from .style import SUBSCRIPT
 

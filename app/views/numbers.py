@@ -19,7 +19,8 @@ from panel.viewable import Viewer
 
 from isl_core.runview import TUBE_THEORY
 
-from ..state import COORDINATES, AppState
+from ..pipeline import COORDINATES
+from ..state import AppState
 from .style import EXTRA_COLORS, SUBSCRIPT
 
 __all__ = ["TABLE_CSS", "NumbersView", "numbers_html"]

@@ -20,7 +20,8 @@ from panel.viewable import Viewer
 from isl_core import M_MAX
 from isl_core.baselines import LABELS
 
-from ..state import COORDINATES, AppState
+from ..pipeline import COORDINATES
+from ..state import AppState
 from .controls import log_slider
 from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, ratio_axis, styled
 

@@ -25,7 +25,8 @@ from panel.viewable import Viewer
 
 from isl_core import M_MAX
 
-from ..state import COORDINATES, AppState
+from ..pipeline import COORDINATES
+from ..state import AppState
 from .overlay import KEY_DATA, Overlay, follow
 from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled
 

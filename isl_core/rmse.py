@@ -1,0 +1,97 @@
+"""Long runs that keep only squared errors (for sweeps and worst cases): :func:`simulate_rmse` (A.30, SPEC §4).
+
+The same kernel, grid and start as :func:`isl_core.simulate`, without stored trajectories: per-batch sums of the
+squared errors after a burn-in, for batch-means confidence intervals.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .filters import KIND_ADAPTIVE, FilterSpec
+from .grid import MAX_STEPS, check_specs, grid
+from .model import Model
+from .riccati import kalman_bucy
+from .simulate import _check_progress, _check_start, _loop
+from .validate import check_int, check_real
+
+__all__ = ["RmseResult", "simulate_rmse"]
+
+
+@dataclass(frozen=True)
+class RmseResult:
+    """Squared-error sums of a long run without stored trajectories.
+
+    ``sq`` (batches, nf, m) holds per-batch sums of ``(Z_f,i − X_i)²`` over ``batch_len`` steps each
+    (the last batch takes the remainder: ``counts``); ``s`` is the optimal RMSE √diag Δ (theory).
+    ``burn`` (time) was left out before the first batch. ``sigma_hat`` (batches, nf): per-batch mean of an
+    adaptive filter's σ̂, ``sigma_hat_final`` (nf,) its value at the end; nan for the other filters.
+    """
+
+    names: tuple[str, ...]
+    sq: np.ndarray
+    counts: np.ndarray
+    s: np.ndarray
+    r_min: float
+    h: float
+    T: float
+    sigma_hat: np.ndarray | None = None
+    sigma_hat_final: np.ndarray | None = None
+    burn: float = 0.0
+
+    def ratios(self) -> np.ndarray:
+        """Whole-run ratios ``š_i/s_i`` (nf, m), (A.30)."""
+        return np.sqrt(self.sq.sum(axis=0) / self.counts.sum()) / self.s
+
+    def batch_ratios(self) -> np.ndarray:
+        """Per-batch ratios (batches, nf, m), for batch-means confidence intervals."""
+        return np.sqrt(self.sq / self.counts[:, None, None]) / self.s
+
+
+def simulate_rmse(
+    model: Model,
+    filters: Sequence[FilterSpec],
+    *,
+    T: float,
+    h: float | None = None,
+    seed: int = 0,
+    burn: float = 0.0,
+    batches: int = 1,
+    start: str = "stationary",
+    step_filters: Sequence[FilterSpec] = (),
+    progress: Callable[[float], None] | None = None,
+) -> RmseResult:
+    """Long run of ``filters`` on one truth (common random numbers), accumulating squared errors only.
+
+    The first ``burn`` time units are left out of the averages; the rest is cut into ``batches``.
+    ``step_filters``: more filters that count for the step size only (as in :func:`simulate`).
+    ``progress(fraction)`` is called between kernel chunks; raising from it cancels the run.
+    """
+    if not isinstance(model, Model):
+        raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
+    filters = check_specs("filters", model, filters, allow_empty=False)
+    grid_only = check_specs("step_filters", model, step_filters, allow_empty=True)
+    _check_progress(progress)
+    seed = check_int("seed", seed, lo=0)
+    batches = check_int("batches", batches, lo=1, hi=10_000)
+    start = _check_start(start)
+    kb = kalman_bucy(model)
+    T, h, n = grid(model, kb, [*filters, *grid_only], check_real("T", T, lo=0.0, lo_open=True), h, MAX_STEPS)
+    burn_steps = min(int(check_real("burn", burn, lo=0.0, hi=T) / h), n - batches)
+    if burn_steps < 0:
+        raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
+    dummy_x, dummy_e = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
+    adaptive = np.array([f.kind == KIND_ADAPTIVE for f in filters])
+    dummy_s = np.empty((int(adaptive.sum()), 1))
+    sq, sig_sum, sig_final = _loop(model, kb, filters, h, n, seed, start=start, burn=burn_steps, batches=batches,
+                                   X_out=dummy_x, E_out=dummy_e, S_out=dummy_s, store=False, progress=progress)
+    counts = np.full(batches, float((n - burn_steps) // batches))
+    counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
+    sigma_hat = np.full((batches, len(filters)), np.nan)
+    sigma_hat[:, adaptive] = sig_sum / counts[:, None]
+    final = np.full(len(filters), np.nan)
+    final[adaptive] = sig_final
+    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T, sigma_hat, final,
+                      burn_steps * h)

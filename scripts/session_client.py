@@ -1,0 +1,356 @@
+#!/usr/bin/env python3
+"""A scripted browser for the isl dashboard's server, and helpers to start, probe and stop one.
+
+:class:`BokehClient` opens a bokeh session over the websocket exactly as a browser does (same ``Origin`` header,
+same session token, same ``PULL-DOC`` / ``PATCH-DOC`` messages, a ``document_ready`` event after the pull), but
+without rendering: it keeps its own copy of the document, so it sees every update the server sends, and it can
+change widgets and fire events as a user would. Used by the load script (``scripts/load_test.py``), the classroom
+benchmark and the serving tests.
+"""
+from __future__ import annotations
+
+import asyncio
+import os
+import random
+import re
+import subprocess
+import sys
+import time
+import urllib.request
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Self
+from urllib.parse import urlparse
+
+import panel  # noqa: F401  (registers Panel's bokeh models, so pulled documents deserialize)
+from bokeh.core.serialization import Serialized, UnknownReferenceError
+from bokeh.document import Document
+from bokeh.document.events import MessageSentEvent, ModelChangedEvent
+from bokeh.events import DocumentReady, Event
+from bokeh.models import ColumnDataSource, Markup, Model, Slider
+from bokeh.protocol import Protocol
+from bokeh.protocol.receiver import Receiver
+from bokeh.util.token import generate_jwt_token, generate_session_id
+from tornado.httpclient import HTTPRequest
+from tornado.websocket import websocket_connect
+
+REPO = Path(__file__).resolve().parents[1]
+LOOPBACK = {"127.0.0.1", "localhost", "::1"}
+DATA_EVENTS = {"ColumnDataChanged", "ColumnsStreamed", "ColumnsPatched"}
+# A session opens in a few seconds of server CPU, one after another: a generous bound that only catches hangs.
+CONNECT_TIMEOUT_S = 300.0
+TRACEBACK_MARKERS = ("Traceback (most recent call last)", 'File "/', ".py\", line ")
+
+
+# ------------------------------------------------------------------------------------------------ protocol client
+@dataclass
+class Reply:
+    """What the server sent back after one of our messages."""
+
+    msgtype: str                       # OK or ERROR
+    text: str = ""
+    traceback: str | None = None
+
+
+@dataclass
+class BokehClient:
+    """One dashboard session over a websocket, driven from an asyncio loop (no rendering)."""
+
+    url: str
+    doc: Document
+    _socket: Any
+    _receiver: Receiver
+    _protocol: Protocol
+    replies: dict[str, Reply] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+    patches: list[tuple[float, set[str], set[str]]] = field(default_factory=list)  # (time, event kinds, models)
+    closed: bool = False
+    light: bool = False                # record what each patch touches, do not apply it (a cheap load generator)
+    _changed: asyncio.Event = field(default_factory=asyncio.Event)
+    _reader: asyncio.Task | None = None
+    _cds: set[str] | None = None
+
+    @classmethod
+    async def connect(cls, base_url: str, app_path: str = "/app", *, origin: str | None = None,
+                      timeout: float = 60.0, light: bool = False, query: str = "", host: str | None = None
+                      ) -> BokehClient:
+        """Open a session like a browser on ``base_url`` would, pull the document and announce it ready.
+
+        ``light``: apply the server's later patches to ``doc`` except plot data (those go stale; ``patches`` still
+        records every change) — one process can then drive a classroom.
+        ``query``: the page's URL query (``"sigma=200&m=6"``), as a link would carry it. ``host``: the ``Host`` header
+        (as a reverse proxy forwards the public name), default the URL's.
+        """
+        parsed = urlparse(base_url)
+        session_id = generate_session_id()
+        token = generate_jwt_token(session_id)
+        ws_url = f"ws://{parsed.netloc}{app_path}/ws" + (f"?{query.lstrip('?')}" if query else "")
+        request = HTTPRequest(ws_url, headers={"Origin": origin or f"http://{parsed.netloc}",
+                                               **({"Host": host} if host else {})},
+                              connect_timeout=timeout, request_timeout=timeout)
+        socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
+        protocol = Protocol()
+        client = cls(ws_url, Document(), socket, Receiver(protocol), protocol, light=light)
+        try:
+            await client._handshake(timeout)
+        except BaseException:
+            socket.close()
+            raise
+        return client
+
+    async def _handshake(self, timeout: float) -> None:
+        ack = await asyncio.wait_for(self._read(), timeout)
+        if ack is None or ack.msgtype != "ACK":
+            raise ConnectionError(f"expected ACK from {self.url}, got {ack!r}")
+        await self._send(self._protocol.create("PULL-DOC-REQ"))
+        early = []  # a session computes its first run off the event loop: its patches may overtake the reply
+        while True:
+            reply = await asyncio.wait_for(self._read(), timeout)
+            if reply is None or reply.msgtype not in ("PULL-DOC-REPLY", "PATCH-DOC"):
+                raise ConnectionError(f"expected PULL-DOC-REPLY from {self.url}, got {reply!r}")
+            if reply.msgtype == "PULL-DOC-REPLY":
+                break
+            early.append(reply)
+        reply.push_to_document(self.doc)  # a snapshot made after those patches: they are in it already
+        for message in early:
+            events = message.content.get("events", [])
+            self.patches.append((time.perf_counter(), {e.get("kind", "") for e in events}, set()))
+        self._reader = asyncio.ensure_future(self._read_forever())
+        await self.send_event(DocumentReady())
+
+    # -- sending
+    async def _send(self, message: Any) -> str:
+        from bokeh.client.websocket import WebSocketClientConnectionWrapper
+        await message.send(WebSocketClientConnectionWrapper(self._socket))
+        return message.header["msgid"]
+
+    async def change(self, model: Model, **attrs: Any) -> tuple[str, float]:
+        """Send one ``PATCH-DOC`` setting ``attrs`` on ``model``, unvalidated (a scripted client can send anything).
+
+        Returns the message id and the time it was sent (``time.perf_counter``).
+        """
+        events = [ModelChangedEvent(self.doc, model, attr, value) for attr, value in attrs.items()]
+        message = self._protocol.create("PATCH-DOC", events)
+        sent_at = time.perf_counter()
+        return await self._send(message), sent_at
+
+    async def send_event(self, event: Event) -> str:
+        """Send a UI event (``document_ready``, ``button_click`` …) as the browser does."""
+        message = self._protocol.create("PATCH-DOC", [MessageSentEvent(self.doc, "bokeh_event", event)])
+        return await self._send(message)
+
+    # -- receiving
+    async def _read(self) -> Any:
+        while True:
+            fragment = await self._socket.read_message()
+            if fragment is None:
+                return None
+            message = await self._receiver.consume(fragment)
+            if message is not None:
+                return message
+
+    async def _read_forever(self) -> None:
+        try:
+            while (message := await self._read()) is not None:
+                self._handle(message)
+        except Exception as exc:  # noqa: BLE001  (a broken stream is this session's error, not the runner's)
+            self.errors.append(f"reader: {exc!r}")
+        finally:
+            self.closed = True
+            self._changed.set()
+
+    def _handle(self, message: Any) -> None:
+        kind = message.msgtype
+        if kind == "PATCH-DOC":
+            events = message.content.get("events", [])
+            kinds = {e.get("kind", "") for e in events}
+            models = {str(e.get("model", {}).get("id", "")) for e in events if isinstance(e.get("model"), dict)}
+            if not self.light:
+                message.apply_to_document(self.doc, self)
+            else:  # the page's structure (deferred widgets, new panes) but not the plots' data
+                kept = [e for e in events if e.get("kind") not in DATA_EVENTS
+                        and not (e.get("kind") == "ModelChanged" and e.get("attr") == "data")]
+                if kept:
+                    payload = Serialized({**message.content, "events": kept}, message.payload.buffers)
+                    try:
+                        self.doc.apply_json_patch(payload, setter=self)
+                    except UnknownReferenceError:  # it referred to a model only a skipped data change carried
+                        pass
+                    self._cds = None  # new sources may have arrived
+            self.patches.append((time.perf_counter(), kinds, models))
+        elif kind in ("OK", "ERROR"):
+            reply = Reply(kind, message.content.get("text", ""), message.content.get("traceback"))
+            self.replies[message.header.get("reqid", "")] = reply
+            if kind == "ERROR":
+                self.errors.append(f"ERROR reply: {reply.text}")
+        self._changed.set()
+
+    async def wait_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Wait until ``predicate()`` holds (checked after every message) or ``timeout`` s pass."""
+        deadline = time.perf_counter() + timeout
+        while not predicate():
+            if self.closed:
+                return predicate()
+            remaining = deadline - time.perf_counter()
+            if remaining <= 0:
+                return False
+            self._changed.clear()
+            try:
+                await asyncio.wait_for(self._changed.wait(), remaining)
+            except TimeoutError:
+                return predicate()
+        return True
+
+    async def widgets(self, timeout: float = 120.0) -> bool:
+        """Wait until the page's controls have arrived (the dashboard builds them after the page connects)."""
+        return await self.wait_until(lambda: bool(sliders(self.doc)), timeout)
+
+    async def reply_to(self, msgid: str, timeout: float) -> Reply | None:
+        """The ``OK`` / ``ERROR`` answer to message ``msgid`` (None if none came in time)."""
+        await self.wait_until(lambda: msgid in self.replies, timeout)
+        return self.replies.get(msgid)
+
+    def data_update_after(self, t0: float) -> float | None:
+        """Time of the first plot-data change received after ``t0``."""
+        cds = self._cds_ids()
+        for t, kinds, models in self.patches:
+            if t >= t0 and (kinds & DATA_EVENTS or models & cds):
+                return t
+        return None
+
+    def _cds_ids(self) -> set[str]:
+        if self.light and self._cds is not None:
+            return self._cds
+        self._cds = {m.id for m in self.doc.models if isinstance(m, ColumnDataSource)}
+        return self._cds
+
+    async def __aenter__(self) -> Self:
+        return self
+
+    async def __aexit__(self, *exc_info: object) -> None:
+        await self.close()
+
+    async def close(self) -> None:
+        self._socket.close()
+        if self._reader is not None:
+            try:
+                await asyncio.wait_for(self._reader, 10)
+            except TimeoutError:
+                self._reader.cancel()
+
+
+# --------------------------------------------------------------------------------------------- finding widgets
+def sliders(doc: Document) -> list[Model]:
+    """Every single-value slider in the document."""
+    return [m for m in doc.models if isinstance(m, Slider)]
+
+
+def find_slider(doc: Document, pattern: str = "") -> Model:
+    """The first slider whose title or name matches the regular expression ``pattern``."""
+    regex = re.compile(pattern, re.IGNORECASE)
+    for model in sorted(sliders(doc), key=lambda m: str(m.id)):
+        if regex.search(model.title or "") or (model.name and regex.search(model.name)):
+            return model
+    titles = [getattr(m, "title", "") for m in sliders(doc)]
+    raise LookupError(f"no slider matches {pattern!r}; sliders: {titles}")
+
+
+def notifications(doc: Document) -> list[str]:
+    """Messages of Panel's notifications (toasts) in a client's copy of the document."""
+    return [m.message for m in doc.models if type(m).__name__ == "Notification"]
+
+
+def markup_texts(doc: Document) -> list[str]:
+    """Texts of the HTML/Markdown panes (status lines, tables) in a client's copy of the document."""
+    return [m.text for m in doc.models if isinstance(m, Markup)]
+
+
+def new_value(slider: Model, rng: random.Random, last: float | None = None) -> float:
+    """A value inside the slider's range, on its step grid, at least two steps from ``last`` (default: the
+    slider's value) — so that it is a real change even after the app rounds it."""
+    start, end, step = float(slider.start), float(slider.end), float(getattr(slider, "step", 0) or 0)
+    last = float(slider.value) if last is None else last
+    for _ in range(100):
+        value = rng.uniform(start, end)
+        if step > 0:
+            value = start + round((value - start) / step) * step
+        if abs(value - last) >= 2 * max(step, 1e-9 * (end - start)):
+            return type(slider.value)(value) if isinstance(slider.value, int) else value
+    return end if abs(end - last) > abs(start - last) else start
+
+
+# ------------------------------------------------------------------------------------------------ server helpers
+def check_loopback(url: str) -> None:
+    host = urlparse(url).hostname or ""
+    if host not in LOOPBACK:
+        raise SystemExit(f"load tests run against loopback only, got {url}")
+
+
+def rss_mb(pid: int) -> float:
+    """Resident memory of process ``pid`` and its descendants in MB (Linux ``/proc``; ``--num-procs`` forks)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    total, todo = 0.0, [pid]
+    while todo:
+        p = todo.pop()
+        todo += children.get(p, [])
+        try:
+            with open(f"/proc/{p}/status") as f:
+                total += next(int(line.split()[1]) for line in f if line.startswith("VmRSS:")) / 1024
+        except (OSError, StopIteration):
+            continue
+    return total
+
+
+def free_port() -> int:
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_healthy(port: int, timeout: float, proc: subprocess.Popen | None = None) -> float:
+    """Seconds until ``/liveness`` answers 200; raises if the server exits or ``timeout`` passes."""
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < timeout:
+        if proc is not None and proc.poll() is not None:
+            raise RuntimeError(f"server exited with code {proc.returncode} before it was healthy")
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/liveness", timeout=2) as r:
+                if r.status == 200:
+                    return time.perf_counter() - t0
+        except OSError:
+            pass
+        time.sleep(0.1)
+    raise TimeoutError(f"server on port {port} not healthy after {timeout} s")
+
+
+def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict | None = None,
+                 script: str | None = None, repo: Path = REPO) -> subprocess.Popen:
+    """Start ``python -m app.serve`` of checkout ``repo`` (default: this one) on 127.0.0.1:``port`` (optionally
+    serving another app ``script``)."""
+    code = ("import sys, app.serve as s\n"
+            + (f"s.app_script = lambda: {script!r}\n" if script else "")
+            + "sys.exit(s.main(sys.argv[1:]))")
+    full_env = {**os.environ, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}
+    with open(log_path, "w") as log:                       # the child keeps its own descriptor
+        return subprocess.Popen([sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
+                                stdout=log, stderr=subprocess.STDOUT, env=full_env, cwd=repo)
+
+
+def stop_server(proc: subprocess.Popen, timeout: float = 15.0) -> int:
+    """SIGTERM, then SIGKILL after ``timeout``; the exit code."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    return proc.returncode
