@@ -22,7 +22,7 @@ from collections.abc import Iterator
 import numpy as np
 import param
 import pytest
-from _serving import load_test, run, served
+from _serving import run, served, session_client
 from bokeh.models import Checkbox, ColumnDataSource, CustomJSTickFormatter, Slider, Spinner, TextInput
 
 from app import extras
@@ -30,6 +30,7 @@ from app.state import INPUTS, SWEEP_INPUTS, SWEEP_SIGMA_BOUNDS, AppState
 
 SEED = 20251122
 MIN_VALUES = 1000
+MIN_WIDGETS = 8  #: input widgets of the default page (sliders, spinners, check boxes, text inputs) at least
 STRINGS = ["", " ", "abc", "1", "20", "nan", "inf", "1e3", "0x10", "σ", "\x00", "<script>alert(1)</script>",
            "DROP TABLE runs;", "1,2,3", "None", "True", "-1", "𝟙𝟚", "x" * 5000]
 CONTAINERS = [[], [1.0], (2.0,), {"a": 1}, {1.0}, [[1.0]], range(3)]
@@ -219,10 +220,10 @@ def widget_bad_values(model, rng: np.random.Generator, n: int) -> list[dict]:
 
 
 def refusals(doc) -> str:
-    return "\n".join(t for t in load_test.markup_texts(doc) if "Refused" in t)
+    return "\n".join(t for t in session_client.markup_texts(doc) if "Refused" in t)
 
 
-notifications = load_test.notifications
+notifications = session_client.notifications
 
 
 def plot_data(doc) -> dict:
@@ -231,8 +232,16 @@ def plot_data(doc) -> dict:
             for m in doc.models if isinstance(m, ColumnDataSource)}
 
 
-async def quiet(client, seconds: float = 2.0, limit: float = 60.0) -> None:
-    """Wait until no patch has arrived for ``seconds`` (background jobs of a new session have landed)."""
+def loaded(doc) -> bool:
+    """The page is complete: every input widget is there and the first run's plot data has arrived."""
+    traj = doc.get_model_by_name("traj-1-isl")
+    return traj is not None and len(traj.data.get("y", [])) > 0 and len(input_widgets(doc)) >= MIN_WIDGETS
+
+
+async def quiet(client, seconds: float, limit: float = 60.0) -> None:
+    """Wait until no patch has arrived for ``seconds``: after the barrage, the time any late answer had to land.
+    (That nothing else arrives — no run started by a hostile value — is what the test checks: an absence, which
+    no event can signal; the wait is bounded by ``limit``.)"""
     deadline = asyncio.get_running_loop().time() + limit
     while asyncio.get_running_loop().time() < deadline:
         count = len(client.patches)
@@ -250,7 +259,7 @@ async def push(client, model, attrs: dict, key: str) -> str | None:
     if reply is None:
         return None
     if reply.msgtype == "ERROR":
-        assert reply.traceback is None and not any(m in reply.text for m in load_test.TRACEBACK_MARKERS)
+        assert reply.traceback is None and not any(m in reply.text for m in session_client.TRACEBACK_MARKERS)
         return "error reply"
 
     def answered() -> bool:
@@ -274,7 +283,7 @@ async def pipelined_errors(client, pushes: list) -> tuple[Counter, list]:
     bad = []
     for (model, attrs), reply in zip(pushes, replies, strict=True):
         if reply is None or reply.msgtype != "ERROR" or reply.traceback is not None \
-                or any(m in reply.text for m in load_test.TRACEBACK_MARKERS):
+                or any(m in reply.text for m in session_client.TRACEBACK_MARKERS):
             bad.append((type(model).__name__, repr(attrs)[:80], reply))
         else:
             kinds["error reply"] += 1
@@ -308,8 +317,8 @@ def test_raw_document_changes_are_refused_with_a_message(tmp_path):
     rng = np.random.default_rng(SEED + 1)
     with served(tmp_path, "--stats-interval", "0") as (url, proc, _):
         async def barrage():
-            async with await load_test.BokehClient.connect(url, timeout=120) as client:
-                await quiet(client)
+            async with await session_client.BokehClient.connect(url, timeout=120) as client:
+                assert await client.wait_until(lambda: loaded(client.doc), 120), "the page did not finish loading"
                 doc = client.doc
                 widgets = input_widgets(doc)
                 per_widget = -(-MIN_VALUES // len(widgets))
@@ -327,10 +336,10 @@ def test_raw_document_changes_are_refused_with_a_message(tmp_path):
         alive = proc.poll() is None
     tried = sum(kinds.values()) + len(bad)
     print(f"raw document changes: {tried} hostile values on {n_widgets} widgets; answers: {dict(kinds)}")
-    assert tried >= MIN_VALUES and n_widgets >= 8
+    assert tried >= MIN_VALUES and n_widgets >= MIN_WIDGETS
     assert bad == [], bad[:5]
     assert same_plots, "a hostile value changed the plots: the last good run must stay"
     assert not closed and alive
-    assert not any(m in texts for m in load_test.TRACEBACK_MARKERS)
+    assert not any(m in texts for m in session_client.TRACEBACK_MARKERS)
     assert unanswered == [], unanswered[:10]
 
