@@ -1,14 +1,15 @@
 """The classroom scenario: 40 students moving sliders while 4 sessions try to stall the server (issue figures).
 
     PYTHONPATH=. python benchmarks/bench_classroom.py [--students 40] [--duration 300] [--baseline 60]
+    PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before   # a worktree of the previous commit
     PYTHONPATH=. python benchmarks/bench_classroom.py --url http://127.0.0.1:5006 --server-pid PID --log LOG
 
 Starts ``python -m app.serve`` on a free loopback port (or measures a running one) and, with the scripted
-browser-like client of ``scripts/load_test.py``:
+browser-like client of ``scripts/session_client.py``:
 
 1. *idle*: the server's RSS, and how long a default page takes to be ready (connect → first run's plot data);
 2. *baseline*: ``--students`` sessions each move the σ slider every ~3 s for ``--baseline`` s (slider → plot-data
-   latency), while ``/liveness`` is probed every 0.25 s;
+   latency), while ``/liveness`` is probed every 0.25 s from a separate process;
 3. *loaded*: the same students go on for ``--duration`` s while four hostile-heavy sessions run beside them — two
    open ``HEAVY`` (m = 6, ν = 10⁴, horizon 1000, every extra filter: ≈ 10⁶ steps a run) and press "new noise"
    again as soon as a run is shown, two open the worst-case tab at its maximum (m = 6, 11 σ, horizon 2000) and
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import multiprocessing
 import os
 import random
 import re
@@ -34,10 +36,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bokeh.events import ButtonClick
-from tornado.httpclient import AsyncHTTPClient
+from bokeh.models import Markup
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-import load_test as lt  # noqa: E402  (the scripted client lives with the load script)
+import load_test as lt  # noqa: E402  (the load scenario and the scripted client live in scripts/)
+import session_client as sc  # noqa: E402
 
 HEAVY = ("alpha=1&w=1&sigma=1&m=6&nu=10000&horizon=1000"
          "&extra_filters=[\"kbf_mismatched\",\"kbf_minimax\",\"kbf_adaptive\",\"isl_model\"]")
@@ -76,7 +79,7 @@ async def page_ready(base: str, figures: Figures, query: str = "") -> float | No
     """Seconds from opening a page to its first run's plot data (a full client: it applies every patch)."""
     t0 = time.perf_counter()
     try:
-        client = await lt.BokehClient.connect(base, query=query, timeout=lt.CONNECT_TIMEOUT_S)
+        client = await sc.BokehClient.connect(base, query=query, timeout=sc.CONNECT_TIMEOUT_S)
     except Exception as exc:  # noqa: BLE001
         figures.errors.append(f"page: {exc!r}")
         return None
@@ -91,19 +94,43 @@ async def page_ready(base: str, figures: Figures, query: str = "") -> float | No
         await client.close()
 
 
-async def liveness(base: str, stop: asyncio.Event, figures: Figures, interval: float = 0.25) -> None:
-    http = AsyncHTTPClient()
+def _probe_liveness(base: str, interval: float, stop, out) -> None:
+    """In a process of its own: GET /liveness every ``interval`` s until ``stop`` is set; ``(t0, seconds or an
+    error text)`` per probe go to ``out`` at the end. (Probed from the clients' event loop, the figure included that
+    loop's own stalls — applying 44 sessions' patches in one Python process stalls it for up to 0.8 s.)"""
+    import urllib.request
+
+    results = []
     while not stop.is_set():
         t0 = time.perf_counter()
         try:
-            r = await http.fetch(f"{base}/liveness", request_timeout=30.0)
-            if r.code != 200:
-                figures.errors.append(f"liveness: HTTP {r.code}")
-            figures.liveness.append(time.perf_counter() - t0)
-            TIMELINE.append((t0, "liveness", figures.liveness[-1]))
+            with urllib.request.urlopen(f"{base}/liveness", timeout=30.0) as r:
+                results.append((t0, time.perf_counter() - t0 if r.status == 200 else f"HTTP {r.status}"))
         except Exception as exc:  # noqa: BLE001
-            figures.errors.append(f"liveness: {exc!r}")
-        await asyncio.sleep(interval)
+            results.append((t0, repr(exc)))
+        stop.wait(interval)
+    out.send(results)
+
+
+class LivenessProbe:
+    """``/liveness`` probed every 0.25 s from a separate process (:func:`_probe_liveness`)."""
+
+    def __init__(self, base: str, interval: float = 0.25) -> None:
+        ctx = multiprocessing.get_context("spawn")
+        self.stop, (self._recv, send) = ctx.Event(), ctx.Pipe(duplex=False)
+        self.process = ctx.Process(target=_probe_liveness, args=(base, interval, self.stop, send), daemon=True)
+        self.process.start()
+
+    async def finish(self, figures: Figures) -> None:
+        self.stop.set()
+        results = await asyncio.get_running_loop().run_in_executor(None, self._recv.recv)
+        self.process.join(10)
+        for t0, outcome in results:
+            if isinstance(outcome, str):
+                figures.errors.append(f"liveness: {outcome}")
+            else:
+                figures.liveness.append(outcome)
+                TIMELINE.append((t0, "liveness", outcome))
 
 
 def _button(doc, label: str):
@@ -112,7 +139,7 @@ def _button(doc, label: str):
 
 async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open HEAVY and press "new noise" each time its run is shown."""
-    client = await lt.BokehClient.connect(base, query=HEAVY, timeout=lt.CONNECT_TIMEOUT_S)
+    client = await sc.BokehClient.connect(base, query=HEAVY, timeout=sc.CONNECT_TIMEOUT_S)
     try:
         await client.widgets()
         await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]), 300.0)
@@ -133,18 +160,18 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
 
 async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open the worst-case tab at its maximum and press Compute each time a table or a refusal is shown."""
-    client = await lt.BokehClient.connect(base, query=WORST, timeout=lt.CONNECT_TIMEOUT_S)
+    client = await sc.BokehClient.connect(base, query=WORST, timeout=sc.CONNECT_TIMEOUT_S)
     try:
         tabs = next(m for m in client.doc.models if type(m).__name__ == "Tabs")
         await client.change(tabs, active=2)
         await client.wait_until(lambda: _button(client.doc, "Compute") is not None, 120.0)
         while not stop.is_set() and not client.closed:
-            notes = {m.id: m.text for m in client.doc.models if isinstance(m, lt.Markup)}
+            notes = {m.id: m.text for m in client.doc.models if isinstance(m, Markup)}
             await client.send_event(ButtonClick(_button(client.doc, "Compute")))
             TIMELINE.append((time.perf_counter(), "worst case pressed", 0.0))
 
             def answered(notes=notes) -> bool:
-                return stop.is_set() or any(isinstance(m, lt.Markup) and m.text != notes.get(m.id)
+                return stop.is_set() or any(isinstance(m, Markup) and m.text != notes.get(m.id)
                                             and DONE.search(m.text or "") for m in client.doc.models)
             if await client.wait_until(answered, 900.0) and not stop.is_set():
                 figures.worst_tables += 1
@@ -159,7 +186,7 @@ async def students(base: str, n: int, figures: Figures, phases: list[tuple[float
     """``n`` light sessions; in each phase (seconds, list to fill) each moves the σ slider every ~3 s."""
     clients = []
     for first in range(0, n, 10):
-        batch = await asyncio.gather(*(lt.BokehClient.connect(base, light=True, timeout=lt.CONNECT_TIMEOUT_S)
+        batch = await asyncio.gather(*(sc.BokehClient.connect(base, light=True, timeout=sc.CONNECT_TIMEOUT_S)
                                        for _ in range(first, min(first + 10, n))), return_exceptions=True)
         for c in batch:
             (figures.errors.append(f"student connect: {c!r}") if isinstance(c, BaseException) else clients.append(c))
@@ -172,8 +199,8 @@ async def students(base: str, n: int, figures: Figures, phases: list[tuple[float
         last = None
         await asyncio.sleep(rng.uniform(0, 3.0))
         while time.perf_counter() < until and not client.closed:
-            slider = lt.find_slider(client.doc, "σ")
-            value = last = lt.new_value(slider, rng, last)
+            slider = sc.find_slider(client.doc, "σ")
+            value = last = sc.new_value(slider, rng, last)
             _, t0 = await client.change(slider, value=value, value_throttled=value)
             if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 30.0):
                 out.append(client.data_update_after(t0) - t0)
@@ -200,12 +227,12 @@ async def students(base: str, n: int, figures: Figures, phases: list[tuple[float
 async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: float, duration: float) -> Figures:
     fig = Figures()
     await asyncio.sleep(2.0)
-    fig.rss_idle = lt.rss_mb(pid)
+    fig.rss_idle = sc.rss_mb(pid)
     for _ in range(3):
         if (t := await page_ready(base, fig)) is not None:
             fig.ready_idle.append(t)
-    stop_probe, baseline_over, stop_heavy = asyncio.Event(), asyncio.Event(), asyncio.Event()
-    probe = asyncio.ensure_future(liveness(base, stop_probe, fig))
+    baseline_over, stop_heavy = asyncio.Event(), asyncio.Event()
+    probe = LivenessProbe(base)
     crowd = asyncio.ensure_future(students(base, n, fig, [(baseline, fig.baseline), (duration, fig.loaded)],
                                            baseline_over))
     await baseline_over.wait()
@@ -214,7 +241,7 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
     t_end = time.perf_counter() + duration
     next_page = time.perf_counter() + 30.0
     while time.perf_counter() < t_end:
-        fig.rss.append(lt.rss_mb(pid))
+        fig.rss.append(sc.rss_mb(pid))
         if time.perf_counter() >= next_page:
             next_page += 30.0
             if (t := await page_ready(base, fig)) is not None:
@@ -227,9 +254,8 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
             await asyncio.wait_for(task, 60.0)
         except Exception as exc:  # noqa: BLE001
             fig.errors.append(f"heavy session: {exc!r}")
-    stop_probe.set()
-    await probe
-    fig.rss.append(lt.rss_mb(pid))
+    await probe.finish(fig)
+    fig.rss.append(sc.rss_mb(pid))
     deadline = time.perf_counter() + 120.0  # unused sessions are released 10 s after their last connection
     while time.perf_counter() < deadline:
         stats = lt.server_stats(log) if log is not None else []
@@ -237,29 +263,55 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
             break
         await asyncio.sleep(2.0)
     await asyncio.sleep(6.0)  # the memory trimmer runs every 5 s after sessions ended
-    fig.rss_closed = lt.rss_mb(pid)
+    fig.rss_closed = sc.rss_mb(pid)
     return fig
 
 
-def report(f: Figures) -> str:
+def rows(f: Figures) -> list[tuple[str, str]]:
     ms = lambda x: f"{1000 * x:.0f} ms"  # noqa: E731
     med = lambda xs: statistics.median(xs) if xs else float("nan")  # noqa: E731
-    rows = [
-        ("errors", f"{len(f.errors)}" + (f" (first: {f.errors[0][:120]})" if f.errors else "")),
+    return [
+        ("errors", f"{len(f.errors)}" + (f" (first: {f.errors[0][:60]})" if f.errors else "")),
         ("/liveness p50 / p99 / max", f"{ms(pct(f.liveness, .5))} / {ms(pct(f.liveness, .99))} / "
-                                      f"{ms(pct(f.liveness, 1.0))}  ({len(f.liveness)} probes)"),
+                                      f"{ms(pct(f.liveness, 1.0))} ({len(f.liveness)})"),
         ("students' slider → data p50 / p95, baseline", f"{ms(pct(f.baseline, .5))} / {ms(pct(f.baseline, .95))}"
-                                                        f"  ({len(f.baseline)} changes)"),
+                                                        f" ({len(f.baseline)})"),
         ("students' slider → data p50 / p95, loaded", f"{ms(pct(f.loaded, .5))} / {ms(pct(f.loaded, .95))}"
-                                                      f"  ({len(f.loaded)} changes)"),
-        ("new default page ready, idle / loaded (median)", f"{med(f.ready_idle):.2f} s / {med(f.ready_loaded):.2f} s"
-                                                            f"  (loaded max {max(f.ready_loaded, default=float('nan')):.2f} s)"),
+                                                      f" ({len(f.loaded)})"),
+        ("new default page ready, idle / loaded (median, max)",
+         f"{med(f.ready_idle):.2f} s / {med(f.ready_loaded):.2f} s, {max(f.ready_loaded, default=float('nan')):.2f} s"),
         ("server RSS idle / peak / after close", f"{f.rss_idle:.0f} / {max(f.rss, default=float('nan')):.0f} / "
                                                  f"{f.rss_closed:.0f} MB"),
         ("heavy runs shown / worst-case answers", f"{f.heavy_runs} / {f.worst_tables}"),
     ]
-    width = max(len(a) for a, _ in rows)
-    return "\n".join(f"{a:<{width}}  {b}" for a, b in rows)
+
+
+def report(columns: dict[str, Figures]) -> str:
+    """One row per figure, one column per server (``before`` / ``after`` or just this checkout)."""
+    table = [rows(f) for f in columns.values()]
+    width = max(len(name) for name, _ in table[0])
+    cells = [max(len(h), *(len(row[1]) for row in t)) for h, t in zip(columns, table)]
+    lines = [f"{'':<{width}}  " + "  ".join(f"{h:<{c}}" for h, c in zip(columns, cells))]
+    for k, (name, _) in enumerate(table[0]):
+        lines.append(f"{name:<{width}}  " + "  ".join(f"{t[k][1]:<{c}}" for t, c in zip(table, cells)))
+    return "\n".join(lines)
+
+
+def measure(opts, repo: Path) -> Figures:
+    """The scenario against a server started from checkout ``repo`` (or the running one of ``--url``)."""
+    proc = None
+    url, pid, log = opts.url, opts.server_pid, opts.log
+    if url is None:
+        port = sc.free_port()
+        log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-classroom-{port}.log"
+        proc = sc.start_server(port, log, ["--stats-interval", "1000", *opts.server_args.split()], repo=repo)
+        sc.wait_healthy(port, 180, proc)
+        url, pid = f"http://127.0.0.1:{port}", proc.pid
+    try:
+        return asyncio.run(scenario(url, pid, log, opts.students, opts.baseline, opts.duration))
+    finally:
+        if proc is not None:
+            sc.stop_server(proc)
 
 
 def main() -> int:
@@ -271,23 +323,20 @@ def main() -> int:
     p.add_argument("--server-pid", type=int)
     p.add_argument("--log", type=Path, help="the running server's log (with --stats-interval 1000)")
     p.add_argument("--server-args", default="", help="more options for the server this script starts")
+    p.add_argument("--before", type=Path, metavar="CHECKOUT",
+                   help="first measure a server started from this other checkout (e.g. a git worktree of the "
+                        "previous commit), then this one's: the table's before and after columns")
     opts = p.parse_args()
-    proc = None
-    url, pid, log = opts.url, opts.server_pid, opts.log
-    if url is None:
-        port = lt.free_port()
-        log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-classroom-{port}.log"
-        proc = lt.start_server(port, log, ["--stats-interval", "1000", *opts.server_args.split()])
-        lt.wait_healthy(port, 180, proc)
-        url, pid = f"http://127.0.0.1:{port}", proc.pid
-    try:
-        figures = asyncio.run(scenario(url, pid, log, opts.students, opts.baseline, opts.duration))
-    finally:
-        if proc is not None:
-            lt.stop_server(proc)
+    if opts.before is not None and opts.url is not None:
+        p.error("--before starts its own servers: it does not go with --url")
+    columns = {}
+    if opts.before is not None:
+        columns["before"] = measure(opts, opts.before.resolve())
+        TIMELINE.clear()
+    columns["after" if columns else "this checkout"] = figures = measure(opts, sc.REPO)
     print(f"classroom scenario: {opts.students} students, baseline {opts.baseline:g} s, loaded {opts.duration:g} s "
           f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)")
-    print(report(figures))
+    print(report(columns))
     if os.environ.get("ISL_TIMELINE"):
         t0 = min(t for t, _, _ in TIMELINE)
         with open(os.environ["ISL_TIMELINE"], "w") as f:

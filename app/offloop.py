@@ -1,0 +1,113 @@
+"""Build each session's page off the server's event loop.
+
+Bokeh creates a session on the event loop: it awaits the application's ``on_session_created`` hooks, then runs the
+app script (``initialize_document``) right there. The script builds the page's Panel objects and their bokeh models
+— ≈ 150–290 ms of Python a page (py-spy, classroom scenario) during which the loop answered nobody: not the other
+students' slider changes, not ``/liveness``. Two changes move that work to a thread:
+
+* :func:`build_pages_off_loop` runs ``initialize_document`` on one page-building thread, awaited from the
+  ``on_session_created`` hook (which bokeh awaits; the session is registered as *pending* meanwhile, so a second
+  request for it waits for the same build), and makes bokeh's own call right after it a no-op for that document.
+  Nothing else can see the document yet: it has no session, no connection and no callbacks running. Once it is
+  built, Panel's record of the document's thread is set back to the event loop's, where the session lives from then
+  on. One thread, so that no two app scripts run at once (the script runner swaps ``sys.modules`` entries and
+  bokeh's output functions while it runs).
+* :func:`prebuild` (called by :func:`app.page.deferred` on the thread that evaluates a deferred part) builds that
+  part's bokeh models before Panel attaches it: Panel reuses a component's models when it already has them for the
+  page's root, so the event loop only attaches them instead of building them.
+
+Both rely on bokeh's ``curdoc()`` being right on each thread; bokeh keeps its stack of patched documents in one
+list for the whole process, so a build on the page thread and a callback on the loop would see each other's
+document. :func:`install` makes that stack per thread.
+"""
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import weakref
+from concurrent.futures import ThreadPoolExecutor
+
+log = logging.getLogger("isl.offloop")
+
+#: the one thread that runs the app script for new sessions
+PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-page")
+
+
+class PerThreadStack(threading.local):
+    """A list-like stack with one list per thread: what bokeh's ``patch_curdoc`` pushes on one thread is what
+    ``curdoc()`` on that thread sees, whatever the others push."""
+
+    def __init__(self) -> None:
+        self.items: list = []
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __getitem__(self, index):
+        return self.items[index]
+
+    def append(self, item) -> None:
+        self.items.append(item)
+
+    def pop(self):
+        return self.items.pop()
+
+    def clear(self) -> None:
+        self.items.clear()
+
+
+def install() -> None:
+    """Make bokeh's patched-``curdoc()`` stack per thread (idempotent)."""
+    import bokeh.io.doc as bk_doc
+
+    if not isinstance(bk_doc._PATCHED_CURDOCS, PerThreadStack):
+        stack = PerThreadStack()
+        stack.items.extend(bk_doc._PATCHED_CURDOCS)
+        bk_doc._PATCHED_CURDOCS = stack
+
+
+def build_pages_off_loop(application) -> None:
+    """Make ``application`` (a bokeh/Panel ``Application``) build each new session's document on
+    :data:`PAGE_POOL` instead of the event loop (idempotent)."""
+    if getattr(application, "_isl_pages_off_loop", False):
+        return
+    install()
+    from panel.io.state import state
+
+    created, initialize = application.on_session_created, application.initialize_document
+    built: weakref.WeakSet = weakref.WeakSet()
+
+    async def on_session_created(session_context) -> None:
+        await created(session_context)
+        doc = session_context._document
+        loop_thread = threading.get_ident()
+        await asyncio.get_running_loop().run_in_executor(PAGE_POOL, initialize, doc)
+        state._thread_id_[doc] = loop_thread  # the session's document belongs to the loop from now on
+        built.add(doc)
+
+    def initialize_document(doc) -> None:
+        if doc in built:
+            built.discard(doc)
+            return
+        initialize(doc)
+
+    application.on_session_created = on_session_created
+    application.initialize_document = initialize_document
+    application._isl_pages_off_loop = True
+
+
+def prebuild(obj, container) -> None:
+    """Build ``obj``'s bokeh models for every page root ``container`` is shown in, where ``obj`` will become
+    ``container``'s child; models built here are not attached to any document until Panel swaps ``obj`` in on the
+    event loop (it then reuses them). Outside a server session there is nothing to do."""
+    from panel.io.state import state
+
+    for ref, (model, _) in list(container._models.items()):
+        view = state._views.get(ref)
+        if view is None or view[3] is not None:  # no longer shown, or a notebook comm: leave it to Panel
+            continue
+        _, root, doc, _ = view
+        if doc is None or doc.session_context is None or ref in obj._models:
+            continue
+        obj._get_model(doc, root, model, None)

@@ -1,0 +1,119 @@
+"""The event loop's share of a page: pages built on a thread, bokeh's curdoc per thread, and when the server
+collects garbage (app.offloop, app.serve.MemoryTrimmer)."""
+from __future__ import annotations
+
+import asyncio
+import gc
+import threading
+
+import panel as pn
+from bokeh.application import Application
+from bokeh.application.handlers import FunctionHandler
+from bokeh.document import Document
+from bokeh.io.doc import curdoc, patch_curdoc
+from bokeh.server.contexts import ApplicationContext
+from panel.io.state import set_curdoc, state
+
+from app import offloop
+from app.serve import QUIET_SESSIONS, MemoryTrimmer, quiet_garbage_collection
+
+
+def test_a_document_patched_on_one_thread_is_not_another_threads_curdoc():
+    offloop.install()
+    mine, theirs = Document(), Document()
+    patched, checked = threading.Event(), threading.Event()
+    seen = {}
+
+    def other() -> None:
+        with patch_curdoc(theirs):
+            patched.set()
+            checked.wait(10)
+            seen["other"] = curdoc()
+
+    worker = threading.Thread(target=other)
+    worker.start()
+    assert patched.wait(10)
+    with patch_curdoc(mine):
+        seen["main"] = curdoc()
+        checked.set()
+        worker.join(10)
+        seen["main after"] = curdoc()
+    assert seen["main"] is mine and seen["main after"] is mine and seen["other"] is theirs
+
+
+def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():
+    built_on = []
+
+    def page(doc) -> None:
+        built_on.append(threading.current_thread().name)
+        doc.add_root(pn.pane.Markdown("built").get_root(doc))
+
+    application = Application(FunctionHandler(page))
+    offloop.build_pages_off_loop(application)
+    offloop.build_pages_off_loop(application)  # idempotent: one wrapper
+
+    async def create():
+        context = ApplicationContext(application, url="/page")
+        session = await context.create_session_if_needed("a-session-id")
+        return session, threading.get_ident()
+
+    session, loop_thread = asyncio.run(create())
+    assert built_on == ["isl-page_0"]  # once, on the page thread, not on the loop
+    assert len(session.document.roots) == 1
+    assert state._thread_id_[session.document] == loop_thread
+
+
+def test_prebuilt_models_are_the_ones_panel_attaches():
+    doc = Document()
+    container = pn.Column()
+    root = container.get_root(doc)
+    state._views[root.ref["id"]] = (container, root, doc, None)
+    doc._session_context = lambda: object()  # as in a server session
+    try:
+        part = pn.Row(pn.pane.Markdown("a part"))
+        offloop.prebuild(part, container)
+        prebuilt = part._models[root.ref["id"]][0]
+        with set_curdoc(doc):  # as Panel applies it on the session's loop
+            container.objects = [part]
+        assert root.children == [prebuilt]
+    finally:
+        del state._views[root.ref["id"]]
+
+
+class _Server:
+    def __init__(self) -> None:
+        self.sessions: list = []
+
+    def get_sessions(self) -> list:
+        return self.sessions
+
+
+def test_full_collections_wait_until_the_class_has_left(monkeypatch):
+    collected = []
+    monkeypatch.setattr(gc, "collect", lambda *a: collected.append(a) or 0)
+    server = _Server()
+    trimmer = MemoryTrimmer(server)
+    server.sessions = [object()] * 40
+    trimmer()
+    server.sessions = server.sessions[:39]  # a student closed a tab: no full collection in class
+    trimmer()
+    assert collected == []
+    server.sessions = server.sessions[:QUIET_SESSIONS]
+    trimmer()
+    assert collected == [()]
+    trimmer()  # nothing ended since: nothing to do
+    assert collected == [()]
+
+
+def test_panels_collection_after_each_session_is_left_to_the_trimmer(monkeypatch):
+    import panel.io.document as panel_document
+
+    monkeypatch.setattr(panel_document, "_garbage_collect", panel_document._garbage_collect)
+    monkeypatch.setattr(gc, "freeze", lambda: None)  # this test process keeps its objects collectable
+    collected = []
+    real = gc.collect
+    monkeypatch.setattr(gc, "collect", lambda *a: collected.append(a) or real(*a))
+    quiet_garbage_collection()
+    assert collected == [()]  # once, before freezing what exists
+    panel_document._garbage_collect()
+    assert collected == [()]
