@@ -3,7 +3,8 @@
 * Fig. 2 — ratio š_i/s_i against ν/β (log axis): rows α, columns i, σ = 2 dotted, 20 dashed, 200 solid;
   simulated points with their confidence interval, the statistical-linearization theory (SPEC §6) as a thin
   long-dashed line of the same colour.
-* Fig. 3 — one trajectory per σ: X_i black, Kalman–Bucy X̂_i green, ISL X̌_i blue, X̂_i ± 3 s_i dashed green,
+* Fig. 3 — one trajectory per σ: X_i black, Kalman–Bucy X̂_i green, ISL X̌_i blue (:mod:`app.colors`, the
+  dashboard's own), X̂_i ± 3 s_i dashed green,
   every other filter of the run in its dashboard colour. The same renderer draws ``isl figure3``'s PNG and the
   dashboard's "Download figure (PNG)": all rows, the legend and every parameter in the title.
 
@@ -16,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .colors import EXTRA_COLORS
+from .colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
 __all__ = ["fig2_png", "fig2_html", "fig3_png", "fig3_html", "SIGMA_DASH", "COORD_NAMES"]
 
@@ -138,11 +139,11 @@ def _fig3_lines(view, i: int) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
     X̂ ± 3 s (one label) and each other filter's estimate. Styles are matplotlib's; ``ls`` "--" is dashed."""
     kbf, isl = view.tracks[0].estimate[i], view.tracks[1].estimate[i]
     tube = 3.0 * float(view.s[i])
-    lines = [("X (truth)", view.truth[i].t, view.truth[i].y, {"color": "black", "lw": 0.9}),
-             ("X̂ (Kalman–Bucy, knows σ)", kbf.t, kbf.y, {"color": "green", "lw": 0.9}),
-             ("X̌ (ISL, σ unknown)", isl.t, isl.y, {"color": "blue", "lw": 0.9}),
-             ("X̂ ± 3s (optimal RMSE)", kbf.t, kbf.y - tube, {"color": "green", "ls": "--", "lw": 0.7}),
-             ("", kbf.t, kbf.y + tube, {"color": "green", "ls": "--", "lw": 0.7})]
+    lines = [("X (truth)", view.truth[i].t, view.truth[i].y, {"color": TRUTH, "lw": 0.9}),
+             ("X̂ (Kalman–Bucy, knows σ)", kbf.t, kbf.y, {"color": KBF, "lw": 0.9}),
+             ("X̌ (ISL, σ unknown)", isl.t, isl.y, {"color": ISL, "lw": 0.9}),
+             ("X̂ ± 3s (optimal RMSE)", kbf.t, kbf.y - tube, {"color": KBF, "ls": "--", "lw": 0.7}),
+             ("", kbf.t, kbf.y + tube, {"color": KBF, "ls": "--", "lw": 0.7})]
     for tr in view.tracks[2:]:
         est = tr.estimate[i]
         lines.append((tr.label, est.t, est.y, {"color": EXTRA_COLORS.get(tr.name, "gray"), "lw": 0.8}))
