@@ -42,7 +42,7 @@ from .riccati import kalman_bucy
 from .theory import predicted_ratios_grid
 from .validate import check_int, check_real, check_reals, short
 
-__all__ = ["BURN", "SweepResult", "group_length", "group_seed", "ratio_interval", "sweep"]
+__all__ = ["BURN", "SweepResult", "group_length", "group_seed", "pooled_ratios", "ratio_interval", "sweep"]
 
 BURN = 10.0  #: burn-in left out of every average, in units of 1/r_min
 
@@ -53,6 +53,31 @@ def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int, *, beta:
     bits = [int(np.float64(x).view(np.uint64)) for x in (alpha, sigma, w if beta is None else beta)]
     tag = [] if beta is None else [1]
     return int(np.random.SeedSequence([seed, *bits, m, *tag]).generate_state(1, np.uint64)[0])
+
+
+def pooled_ratios(out, s: np.ndarray, level: float, n_runs: int, batches: int, nf: int, columns=None):
+    """Every group's pooled ratios and intervals, ``(ratio, low, high)`` of shape (α, σ, filter, i), from the
+    records of :func:`isl_core.jobs.run` keyed ``(a, b, k)`` (α, σ, seed index) with ``batches`` batches each.
+
+    ``s`` (α, σ, m): the optimal RMSEs; ``columns[a]``: where a record's filters go among the ``nf`` (default:
+    all of them in order; a filter not simulated at some α stays nan).
+    """
+    na, ns, m = np.shape(s)
+    sq = np.full((na, ns, n_runs * batches, nf, m), np.nan)
+    counts = np.empty((na, ns, n_runs * batches))
+    for r in out:
+        a, b, k = r.key
+        rows = slice(k * batches, (k + 1) * batches)
+        if columns is None:
+            sq[a, b, rows] = r.sq
+        else:
+            sq[a, b, rows][:, list(columns[a])] = r.sq
+        counts[a, b, rows] = r.counts
+    ratio, low, high = (np.empty((na, ns, nf, m)) for _ in range(3))
+    for a in range(na):
+        for b in range(ns):
+            ratio[a, b], low[a, b], high[a, b] = ratio_interval(sq[a, b], counts[a, b], s[a, b], level)
+    return ratio, low, high
 
 
 def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: float):
@@ -243,17 +268,7 @@ def sweep(
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
-    na, ns, nn = len(alphas), len(sigmas), len(nob)
-    sq = np.empty((na, ns, len(seeds) * batches, nn + 1, m))
-    counts = np.empty((na, ns, len(seeds) * batches))
-    for r in out:
-        (a, b, k) = r.key
-        sq[a, b, k * batches:(k + 1) * batches] = r.sq
-        counts[a, b, k * batches:(k + 1) * batches] = r.counts
-    ratio, low, high = (np.empty((na, ns, nn + 1, m)) for _ in range(3))
-    for a in range(na):
-        for b in range(ns):
-            ratio[a, b], low[a, b], high[a, b] = ratio_interval(sq[a, b], counts[a, b], s[a, b], level)
+    ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
     return SweepResult(
         _freeze(alphas), _freeze(sigmas), _freeze(nob), m, w, horizon, seeds, batches, level,
         _freeze(ratio[:, :, 1:]), _freeze(low[:, :, 1:]), _freeze(high[:, :, 1:]),

@@ -40,7 +40,7 @@ from .model import M_MAX, Model
 from .paper import FIG2_ALPHAS, a31_nu_over_beta
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
-from .sweep import BURN, group_length, group_seed, ratio_interval
+from .sweep import BURN, group_length, group_seed, pooled_ratios
 from .validate import check_int, check_real, check_reals, short
 
 __all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
@@ -258,17 +258,7 @@ def worst_case(
     nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols = _plan(
         alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches)
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
-    na, ns, nf = len(alphas), len(sigmas), len(names)
-    sq = np.full((na, ns, len(seeds) * batches, nf, m), np.nan)  # a filter not simulated at some α stays nan
-    counts = np.empty((na, ns, len(seeds) * batches))
-    for r in out:
-        (a, b, k) = r.key
-        sq[a, b, k * batches:(k + 1) * batches][:, list(cols[a])] = r.sq
-        counts[a, b, k * batches:(k + 1) * batches] = r.counts
-    ratio, low, high = (np.empty((na, ns, nf, m)) for _ in range(3))
-    for a in range(na):
-        for b in range(ns):
-            ratio[a, b], low[a, b], high[a, b] = ratio_interval(sq[a, b], counts[a, b], s[a, b], level)
+    ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
         _frozen(alphas), _frozen(sigmas), names, m, w, horizon, seeds, batches, level, _frozen(ratio),
         _frozen(low), _frozen(high), _frozen(theory), _frozen(nu), _frozen(design), _frozen(best[0]),
