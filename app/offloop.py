@@ -23,12 +23,9 @@ document. :func:`install` makes that stack per thread.
 from __future__ import annotations
 
 import asyncio
-import logging
 import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
-
-log = logging.getLogger("isl.offloop")
 
 #: the one thread that runs the app script for new sessions
 PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-page")
