@@ -99,6 +99,11 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
     parsers: dict[str, argparse.ArgumentParser] = {}
 
+    def execution(p):  # the sweep's and the worst case's batches and where their runs go
+        p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
+        p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
+        p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
+
     def common(p, *, horizon: float):
         p.add_argument("--m", type=_whole, default=3, help="state dimension 1..6 (default 3)")
         p.add_argument("--w", type=positive, default=3.0, help="stationary std of X_m: β = w√(2α) (default 3)")
@@ -125,9 +130,7 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--ell-min", type=_whole, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
     p.add_argument("--ell-max", type=_whole, default=2, help="largest ℓ (default 2)")
     p.add_argument("--seeds", type=seed_number, nargs="+", default=[0, 1])
-    p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
-    p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
-    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
+    execution(p)
     p.add_argument("--out", default="isl-fig2", help="output directory (default ./isl-fig2)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     common(p, horizon=1000.0)
@@ -160,9 +163,7 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
                    help="sigma of the mismatched KBF (default the geometric middle of the range)")
     p.add_argument("--window", type=positive, default=1000.0, help="adaptive KBF window W in steps (default 1000)")
     p.add_argument("--seeds", type=_comma(seed_number), nargs="+", default=[[0, 1]])
-    p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
-    p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
-    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
+    execution(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     common(p, horizon=1000.0)
