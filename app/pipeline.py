@@ -63,7 +63,7 @@ class Traces:
 
 @dataclass(frozen=True)
 class Result:
-    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (None if unavailable).
+    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (B.48, SPEC §6).
 
     ``request`` is what was simulated: the asked-for one, or its nearest allowed setting (``adjusted`` says what
     changed and why; empty if nothing did).
@@ -71,7 +71,7 @@ class Result:
 
     run: RunView
     traces: Traces
-    prediction: np.ndarray | None
+    prediction: np.ndarray
     extra_prediction: dict | None = None
     request: Request | None = None
     adjusted: str = ""

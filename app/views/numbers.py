@@ -74,14 +74,11 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
     rows = []
     for i in range(run.model.m):
         k = str(i + 1).translate(SUBSCRIPT)
-        pred = "n/a" if prediction is None else _fmt(prediction[i])
         rows.append(
             f"<tr><td>X{k} {html.escape(COORDINATES[i])}</td><td class='theory'>{_fmt(run.s[i])}</td>"
             f"<td>{run.ratio_hat[i]:.3f}</td><td>{run.ratio_check[i]:.3f}</td>"
-            f"<td class='theory'>{pred}</td><td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
+            f"<td class='theory'>{_fmt(prediction[i])}</td><td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
         )
-    note = ("" if prediction is not None else
-            "<p><i>Theory prediction unavailable: isl_core.theory is not installed.</i></p>")
     longer = "" if run.stretch == 1.0 else (
         f"<span class='tag'>lengthened ×{run.stretch:.3g}: the ISL filter at this ν settles that much slower than "
         "the optimal one (B.46)</span>")
@@ -94,7 +91,7 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         f"<tr><td>N (steps)</td><td>{run.N:,}</td></tr>"
         f"<tr><td>compute time (server)</td><td>{1000 * compute_seconds:.0f} ms</td></tr>"
     )
-    return (f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>{note}"
+    return (f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>"
             f"{extras_html(run, extra_prediction)}<table class='isl-numbers run'>{facts}</table>")
 
 
