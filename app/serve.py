@@ -205,11 +205,11 @@ class MemoryTrimmer:
     itself: without trimming, the RSS of a server stays at the peak of its busiest class.
 
     Why not a full collection at every session's end, as Panel schedules one: a full collection walks every object
-    of the heap while holding the interpreter lock, whichever thread runs it — with 40 sessions open it stopped the
-    event loop for 0.5–1 s each time a student closed a tab (py-spy: 27 % of the loop's time in the classroom
-    scenario was Panel's ``gc.collect``). During a class, Python's own generational collector frees closed
-    sessions' cycles (its oldest generation is collected once it has grown by 25 %); when the class has left, the
-    collection here returns the memory.
+    of the heap while holding the interpreter lock, whichever thread runs it — 146 ms for the idle server's 230 000
+    objects on this machine, and more for every open session's objects — so it stopped the event loop each time a
+    student closed a tab (py-spy, classroom scenario: 3 % of the loop's busy samples were Panel's ``gc.collect``).
+    During a class, Python's own generational collector frees closed sessions' cycles (its oldest generation is
+    collected once it has grown by 25 %); when the class has left, the collection here returns the memory.
     """
 
     def __init__(self, server) -> None:
