@@ -1,9 +1,9 @@
-# The isl dashboard as a container: `python -m app.serve` on port 5006, as a non-root user.
+# The isl dashboard as a container: `python -m app.serving` on port 5006, as a non-root user.
 #   docker build -t isl .
 #   docker run --rm -p 5006:5006 -e ISL_ALLOWED_ORIGINS=localhost:5006 isl
 # Settings by environment at `docker run` time: ISL_ALLOWED_ORIGINS (comma-separated host[:port] the browsers
 # use to reach the server), ISL_FRAME_ANCESTORS (a course page allowed to frame it), ISL_NUM_PROCS,
-# ISL_NUM_THREADS (see app/serve.py). Runs as any UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
+# ISL_NUM_THREADS (see app/serving/serve.py). Runs as any UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
 # The base image by digest: python:3.11.14-slim-bookworm (the multi-architecture index).
 ARG PYTHON_IMAGE=python:3.11.14-slim-bookworm@sha256:65a93d69fa75478d554f4ad27c85c1e69fa184956261b4301ebaf6dbb0a3543d
 
@@ -34,10 +34,10 @@ WORKDIR /home/isl
 # Compile the numba kernel into NUMBA_CACHE_DIR and run the app once: a broken app fails the build. Then the same
 # with no writable cache (as under --read-only, or a UID that may not write NUMBA_CACHE_DIR): the kernels must fall
 # back to a cache under /tmp instead of refusing to load.
-RUN python -m app.serve --check \
-    && NUMBA_CACHE_DIR=/proc/isl-read-only python -m app.serve --check \
+RUN python -m app.serving --check \
+    && NUMBA_CACHE_DIR=/proc/isl-read-only python -m app.serving --check \
     && rm -rf /tmp/isl-numba-cache-*
 EXPOSE 5006
 HEALTHCHECK --interval=30s --timeout=5s --start-period=60s --retries=3 \
-    CMD ["python", "-m", "app.serve", "--health"]
-CMD ["python", "-m", "app.serve"]
+    CMD ["python", "-m", "app.serving", "--health"]
+CMD ["python", "-m", "app.serving"]

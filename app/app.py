@@ -1,4 +1,4 @@
-"""The isl dashboard (``panel serve app/app.py``, or ``python -m app.serve`` with safe defaults).
+"""The isl dashboard (``panel serve app/app.py``, or ``python -m app.serving`` with safe defaults).
 
 The server runs this script for every session, in a fresh namespace: it only builds that session's page. Everything
 shared by the sessions lives in the module :mod:`app.page`.

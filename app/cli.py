@@ -2,7 +2,7 @@
 
     isl figure3 [--sigmas 20 200] [--alpha A] [--w W] [--nu NU] [--seed K] [--out DIR]
     isl sweep ... [--no-png]            (the core's sweep, plus fig2.html and fig2.png)
-    isl serve [options of app.serve]
+    isl serve [options of app.serving.serve]
 
 Every computation is the core's; this module only draws figures (:mod:`app.static_figures`) and serves the app.
 """
@@ -76,13 +76,13 @@ def add_commands(sub, parsers, common) -> None:
 
 
 def serve(argv: list[str]) -> int:
-    """``isl serve``: :func:`app.serve.main` with the rest of the command line."""
+    """``isl serve``: :func:`app.serving.serve.main` with the rest of the command line."""
     try:
-        module = importlib.import_module("app.serve")
+        module = importlib.import_module("app.serving.serve")
     except ModuleNotFoundError as exc:
-        if exc.name not in ("app.serve", "app"):
+        if exc.name not in ("app.serving.serve", "app.serving", "app"):
             raise
-        print("isl serve: the dashboard server (app.serve) is not installed in this checkout", file=sys.stderr)
+        print("isl serve: the dashboard server (app.serving) is not installed in this checkout", file=sys.stderr)
         return 2
     return int(module.main(argv) or 0)
 

@@ -19,7 +19,7 @@ import panel as pn
 from panel.io.resources import CDN_DIST
 from threadpoolctl import threadpool_limits
 
-from app import hardening, offloop
+from app.serving import hardening, offloop
 from app.jobs import LARGE_POOL, RUN_POOL, Jobs
 from app.longjobs import LongJobQueue
 from app.state import AppState
@@ -142,7 +142,7 @@ def deferred(build: Callable[[], object]):
     Building the plots of the three tabs costs ≈ 1 s of Python (bokeh models); done while a session is created it
     blocked the loop that answers every other session and ``/liveness``. With ``defer_load`` the page appears at
     once with a loading indicator where the content will be. The piece's bokeh models are built on that thread too
-    (:func:`app.offloop.prebuild`): left to Panel, they were built on the loop when the piece is swapped in — 6 to
+    (:func:`app.serving.offloop.prebuild`): left to Panel, they were built on the loop when the piece is swapped in — 6 to
     215 ms a piece.
     """
     def built():

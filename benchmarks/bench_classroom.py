@@ -4,7 +4,7 @@
     PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before   # a worktree of the previous commit
     PYTHONPATH=. python benchmarks/bench_classroom.py --url http://127.0.0.1:5006 --server-pid PID --log LOG
 
-Starts ``python -m app.serve`` on a free loopback port (or measures a running one) and, with the scripted
+Starts ``python -m app.serving`` on a free loopback port (or measures a running one) and, with the scripted
 browser-like client of ``scripts/session_client.py``:
 
 1. *idle*: the server's RSS, and how long a default page takes to be ready (connect → first run's plot data);

@@ -222,7 +222,7 @@ async def memory_round(base_url: str, server_pid: int, log_path: Path, sessions:
                 break
             seen = len(stats)
         await asyncio.sleep(0.2)
-    await asyncio.sleep(TRIM_INTERVAL_S + 1.0)    # the server hands freed memory back (app.serve.MemoryTrimmer)
+    await asyncio.sleep(TRIM_INTERVAL_S + 1.0)    # the server hands freed memory back (app.serving.memory.MemoryTrimmer)
     return MemoryRound(rss_before, live_open, rss_open, rss_mb(server_pid), live, pending)
 
 
@@ -249,7 +249,7 @@ def memory_report(rounds: list[MemoryRound], sessions: int) -> str:
     return "\n".join(lines)
 
 
-TRIM_INTERVAL_S = 5.0                             # app.serve.TRIM_INTERVAL_MS
+TRIM_INTERVAL_S = 5.0                             # app.serving.memory.TRIM_INTERVAL_MS
 MEMORY_SERVER_ARGS = ["--unused-session-lifetime", "1000", "--check-unused-sessions", "500", "--stats-interval", "500"]
 
 

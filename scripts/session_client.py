@@ -333,9 +333,10 @@ def wait_healthy(port: int, timeout: float, proc: subprocess.Popen | None = None
 
 def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict | None = None,
                  script: str | None = None, repo: Path = REPO) -> subprocess.Popen:
-    """Start ``python -m app.serve`` of checkout ``repo`` (default: this one) on 127.0.0.1:``port`` (optionally
+    """Start ``python -m app.serving`` of checkout ``repo`` (default: this one) on 127.0.0.1:``port`` (optionally
     serving another app ``script``)."""
-    code = ("import sys, app.serve as s\n"
+    code = ("import sys\ntry:\n    import app.serving.serve as s\n"
+            "except ModuleNotFoundError:\n    import app.serve as s\n"   # a checkout from before app/serving
             + (f"s.app_script = lambda: {script!r}\n" if script else "")
             + "sys.exit(s.main(sys.argv[1:]))")
     full_env = {**os.environ, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}

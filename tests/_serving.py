@@ -57,7 +57,7 @@ def fixture_app(tmp_path: Path) -> str:
 @contextlib.contextmanager
 def served(tmp_path: Path, *args: str, script: str | None = None, env: dict | None = None,
            timeout: float = 180.0) -> Iterator[tuple[str, object, Path]]:
-    """Run ``python -m app.serve`` on a free loopback port; yields (base URL, process, log path); always stops it."""
+    """Run ``python -m app.serving`` on a free loopback port; yields (base URL, process, log path); always stops it."""
     port = session_client.free_port()
     log = tmp_path / f"server-{port}.log"
     proc = session_client.start_server(port, log, args, env=env, script=script)

@@ -40,7 +40,7 @@ def test_sessions_share_the_servers_one_long_job_queue():
     from panel.io.session import generate_session
 
     from app.page import LONG_JOBS
-    from app.serve import app_script
+    from app.serving.serve import app_script
 
     def queue_threads() -> int:
         return sum(t.name.startswith("isl-long") for t in threading.enumerate())

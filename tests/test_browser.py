@@ -57,12 +57,12 @@ def wait_http(url: str, proc: subprocess.Popen, timeout: float = 120.0) -> None:
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    """URL of the dashboard served as users serve it (``python -m app.serve``: callbacks on its worker threads,
+    """URL of the dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads,
     long jobs in processes, the headers and the host check); the server's log file."""
     port = free_port()
     log = tmp_path_factory.mktemp("serve") / "panel.log"
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    cmd = [sys.executable, "-m", "app.serve", "--port", str(port), "--address", "127.0.0.1"]
+    cmd = [sys.executable, "-m", "app.serving", "--port", str(port), "--address", "127.0.0.1"]
     with open(log, "w") as out:
         proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
     try:

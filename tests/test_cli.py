@@ -163,9 +163,9 @@ def test_help_exits_0(capsys):
 def test_serve_delegates_or_explains(monkeypatch, capsys):
     seen = []
     fake = types.SimpleNamespace(main=lambda argv: seen.append(argv) or 0)
-    monkeypatch.setitem(sys.modules, "app.serve", fake)
+    monkeypatch.setitem(sys.modules, "app.serving.serve", fake)
     assert main(["serve", "--port", "0"]) == 0 and seen == [["--port", "0"]]
-    monkeypatch.setitem(sys.modules, "app.serve", None)  # as if the module were absent
+    monkeypatch.setitem(sys.modules, "app.serving.serve", None)  # as if the module were absent
     assert main(["serve"]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 

@@ -1,7 +1,7 @@
 """The Dockerfile: hadolint-clean, built as the issue asks, and its CMD / HEALTHCHECK work when run here.
 
 There is no Docker engine on CI machines, so the image is not built; instead the final stage's build step
-(``RUN python -m app.serve --check``), its ``CMD`` and its ``HEALTHCHECK`` are run locally with the stage's
+(``RUN python -m app.serving --check``), its ``CMD`` and its ``HEALTHCHECK`` are run locally with the stage's
 ``ENV`` — except ``ISL_ADDRESS=127.0.0.1`` (tests listen on loopback only), a free ``ISL_PORT`` and a temporary
 ``NUMBA_CACHE_DIR`` — and the stage's ``python`` is this interpreter.
 """
@@ -112,18 +112,18 @@ def test_runtime_stage_is_hardened():
     cache_dir = env["NUMBA_CACHE_DIR"]
     assert any(word == "RUN" and "chown" in rest and cache_dir.rsplit("/", 1)[0] in rest for word, rest in stage)
     # the numba cache is warmed by the non-root user, after USER, with the serve entry point's check
-    warm = [i for i, (word, rest) in enumerate(stage) if word == "RUN" and "app.serve --check" in rest]
+    warm = [i for i, (word, rest) in enumerate(stage) if word == "RUN" and "app.serving --check" in rest]
     assert warm and warm[0] > words.index("USER")
 
 
 def test_cmd_and_healthcheck_are_exec_form_without_curl():
     stage = dict(final_stage())
     cmd = exec_form(stage["CMD"])
-    assert cmd[:3] == ["python", "-m", "app.serve"]
+    assert cmd[:3] == ["python", "-m", "app.serving"]
     health = stage["HEALTHCHECK"]
     assert "curl" not in health and "wget" not in health
     probe = exec_form(health[health.index("CMD") + 3:].strip())
-    assert probe == ["python", "-m", "app.serve", "--health"]
+    assert probe == ["python", "-m", "app.serving", "--health"]
 
 
 def _dockerignored(path: str, patterns: list[str]) -> bool:
@@ -167,7 +167,7 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
            "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONPATH": str(REPO)}
     workdir = tmp_path / "home"                 # not the checkout: the image runs from its WORKDIR
     workdir.mkdir()
-    build_step = subprocess.run(local_argv(shlex.split("python -m app.serve --check")), env=env, cwd=workdir,
+    build_step = subprocess.run(local_argv(shlex.split("python -m app.serving --check")), env=env, cwd=workdir,
                                 capture_output=True, text=True, timeout=600, check=False)
     assert build_step.returncode == 0, build_step.stdout[-2000:] + build_step.stderr[-3000:]
     assert any((tmp_path / "numba").rglob("*.nbi")), "the build step must fill the numba cache"
@@ -231,7 +231,7 @@ def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_
     subprocess.run(["chmod", "-R", "g+rX", str(tree), str(cache)], check=True)
     site = next(p for p in sys.path if p.endswith("site-packages") and Path(p).is_dir())
     code = "import sys, tempfile\n" + ("" if tmp_writable else f"tempfile.tempdir = {str(cache)!r}\n") + \
-        "import app.serve as s\nsys.exit(s.main(['--check']))"
+        "import app.serving.serve as s\nsys.exit(s.main(['--check']))"
     env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "NUMBA_CACHE_DIR": str(cache), "TMPDIR": str(tmp),
            "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": f"{tree}{os.pathsep}{site}"}
     done = subprocess.run(["setpriv", "--reuid=54321", "--regid=0", "--clear-groups", python, "-c", code],

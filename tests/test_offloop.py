@@ -1,5 +1,5 @@
 """The event loop's share of a page: pages built on a thread, bokeh's curdoc per thread, and when the server
-collects garbage (app.offloop, app.serve.MemoryTrimmer)."""
+collects garbage (app.serving.offloop, app.serving.memory.MemoryTrimmer)."""
 from __future__ import annotations
 
 import asyncio
@@ -14,8 +14,8 @@ from bokeh.io.doc import curdoc, patch_curdoc
 from bokeh.server.contexts import ApplicationContext
 from panel.io.state import set_curdoc, state
 
-from app import offloop
-from app.serve import QUIET_SESSIONS, MemoryTrimmer, quiet_garbage_collection
+from app.serving import offloop
+from app.serving.memory import QUIET_SESSIONS, MemoryTrimmer, quiet_garbage_collection
 
 
 def test_a_document_patched_on_one_thread_is_not_another_threads_curdoc():

@@ -1,4 +1,4 @@
-"""Origin and host checks, security headers and error pages of the served dashboard (``python -m app.serve``).
+"""Origin and host checks, security headers and error pages of the served dashboard (``python -m app.serving``).
 
 A browser on another site must not be able to open a dashboard session (websocket ``Origin`` check); a request
 for another host name is refused (DNS rebinding); every answer carries the framing and sniffing headers; no HTTP

@@ -1,4 +1,4 @@
-"""The serve entry point (app.serve) and the server-side hardening (app.hardening)."""
+"""The serve entry point (app.serving.serve) and the server-side hardening (app.serving.hardening)."""
 from __future__ import annotations
 
 import argparse
@@ -18,7 +18,7 @@ from bokeh.models import Button
 from bokeh.protocol import Protocol
 from panel.command.serve import Serve
 
-from app import hardening, serve
+from app.serving import hardening, serve
 
 
 def panel_args(argv: list[str]) -> argparse.Namespace:
@@ -67,7 +67,7 @@ def test_panel_arguments_are_the_safe_defaults(clean_env):
     argv = serve.panel_argv(opts, "app.py", serve.allowed_origins(opts.port, None))
     args = panel_args(argv)
     assert (args.address, args.port) == (serve.DEFAULT_ADDRESS, serve.DEFAULT_PORT)
-    assert args.warm and not args.liveness  # /liveness is app.webguard's: Panel's builds a session for ?endpoint=
+    assert args.warm and not args.liveness  # /liveness is app.serving.webguard's: Panel's builds a session for ?endpoint=
     assert not args.admin and not args.dev and not args.autoreload
     assert args.allow_websocket_origin == ["localhost:5006", "127.0.0.1:5006"]
     assert args.num_threads == serve.DEFAULT_NUM_THREADS and args.num_procs == 1
@@ -268,7 +268,7 @@ def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path):
 
 
 def test_check_mode_passes_for_a_working_app(tmp_path):
-    code = ("import sys, app.serve as s\n"
+    code = ("import sys, app.serving.serve as s\n"
             f"s.app_script = lambda: {fixture_app(tmp_path)!r}\n"
             "sys.exit(s.main(['--check']))")
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=300,
@@ -315,7 +315,7 @@ def test_a_page_closed_mid_write_is_not_logged_as_an_error(caplog):
 
     from tornado.websocket import WebSocketClosedError
 
-    from app.hardening import log, quiet_closed_websockets
+    from app.serving.hardening import log, quiet_closed_websockets
 
     async def closed():
         raise WebSocketClosedError()

@@ -1,6 +1,6 @@
 """Server-side hardening shared by every dashboard session.
 
-What :func:`install` sets up (idempotent; :mod:`app.serve` calls it once in the server process before any
+What :func:`install` sets up (idempotent; :mod:`app.serving.serve` calls it once in the server process before any
 session exists, so it applies to every session; ``app/app.py`` may call it too, which makes a plain
 ``panel serve app/app.py`` just as safe):
 

@@ -1,6 +1,6 @@
 """What the dashboard's web server adds to every answer: security headers, a host check, compression, /liveness.
 
-Installed on the Tornado application of a served dashboard by :func:`install` (``app.serve`` calls it from Panel's
+Installed on the Tornado application of a served dashboard by :func:`install` (``app.serving.serve`` calls it from Panel's
 ``customize_server`` hook):
 
 * **Framing**: ``Content-Security-Policy: frame-ancestors 'self'`` and ``X-Frame-Options: SAMEORIGIN`` — no other

@@ -1,6 +1,6 @@
 """Serve the dashboard: ``panel serve app/app.py`` with safe defaults.
 
-Run as ``isl serve``, ``python -m app.serve`` or ``./scripts/serve``; ``--help`` lists the options. Every option
+Run as ``isl serve``, ``python -m app.serving`` or ``./scripts/serve``; ``--help`` lists the options. Every option
 also has an environment variable, so a container is configured at ``docker run`` time:
 
 ==============================  =======================  ====================================================
@@ -16,17 +16,18 @@ option                          environment              default
 ``--stats-interval``            —                        60000 ms between ``isl stats`` log lines
 ==============================  =======================  ====================================================
 
-Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`app.webguard`, with the security
-headers, the host check and compression), ``--warm`` (the app runs
-once before the port opens), a global exception handler and per-session release hooks (:mod:`app.hardening`).
+Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`app.serving.webguard`, with the
+security headers, the host check and compression), ``--warm`` (the app runs once before the port opens), a global
+exception handler and per-session release hooks (:mod:`app.serving.hardening`), pages built off the event loop
+(:mod:`app.serving.offloop`) and memory handed back after a class (:mod:`app.serving.memory`).
 Never on: ``--admin``, ``--dev``/``--autoreload``, a ``*`` websocket origin.
 
 Why in-process: this module builds the argument list of ``panel serve`` and runs Panel's own ``serve``
 sub-command in this process (the code path of the ``panel`` executable, so every flag means what Panel
 documents), rather than spawning ``panel serve`` as a child. That lets it
 
-* install :mod:`app.hardening` in the serving process before any session exists, so the exception handler and
-  the traceback-free websocket error replies cover every session whatever the app imports;
+* install :mod:`app.serving.hardening` in the serving process before any session exists, so the exception handler
+  and the traceback-free websocket error replies cover every session whatever the app imports;
 * make ``--warm`` strict: Panel logs a failing app script and serves an empty page anyway; here the failure of
   the warm-up run ends the process with exit code 1, so a broken image never reports healthy;
 * print the URL once the port is bound and return an exit code to ``isl serve``;
@@ -39,14 +40,14 @@ HEALTHCHECK uses it (no curl in a slim image).
 from __future__ import annotations
 
 import argparse
-import ctypes
-import gc
 import logging
 import os
 import sys
 import urllib.request
 from collections.abc import Sequence
 from importlib.util import find_spec
+
+from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, log_stats, quiet_garbage_collection
 
 log = logging.getLogger("isl.serve")
 
@@ -56,10 +57,6 @@ DEFAULT_NUM_THREADS = 4
 UNUSED_SESSION_LIFETIME_MS = 10_000
 CHECK_UNUSED_SESSIONS_MS = 2_000
 STATS_INTERVAL_MS = 60_000
-# How often to check whether sessions have ended and, if so, hand freed heap memory back to the OS.
-TRIM_INTERVAL_MS = 5_000
-#: at most this many sessions left: a full garbage collection is cheap enough to run (:class:`MemoryTrimmer`)
-QUIET_SESSIONS = 1
 # Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
 WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 LIVENESS_ENDPOINT = "liveness"
@@ -126,7 +123,7 @@ def check_counts(opts: argparse.Namespace) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``isl serve`` / ``python -m app.serve`` command line."""
+    """The ``isl serve`` / ``python -m app.serving`` command line."""
     p = argparse.ArgumentParser(prog="isl serve", description="Serve the isl dashboard with safe defaults.")
     p.add_argument("--address", default=os.environ.get(ENV["address"], DEFAULT_ADDRESS),
                    help=f"interface to listen on; 0.0.0.0 for every interface (env {ENV['address']}, "
@@ -164,7 +161,7 @@ def panel_argv(opts: argparse.Namespace, script: str, origins: Sequence[str]) ->
             "--unused-session-lifetime", str(opts.unused_session_lifetime),
             "--check-unused-sessions", str(opts.check_unused_sessions),
             "--websocket-max-message-size", str(WEBSOCKET_MAX_MESSAGE_BYTES),
-            "--log-level", opts.log_level, "--warm"]  # /liveness: app.webguard's (Panel's can build a session)
+            "--log-level", opts.log_level, "--warm"]  # /liveness: webguard's (Panel's can build a session)
     for origin in origins:
         argv += ["--allow-websocket-origin", origin]
     return argv
@@ -174,70 +171,6 @@ def browser_url(address: str, port: int) -> str:
     """The URL to open: loopback and wildcard addresses are reached as ``localhost``."""
     host = "localhost" if address in ("", "0.0.0.0", "::", "127.0.0.1", "::1", "localhost") else address
     return f"http://{host}:{port}/"
-
-
-def rss_mb() -> float:
-    """Resident memory of this process in MB (Linux ``/proc``; nan elsewhere)."""
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
-    except (OSError, ValueError, IndexError):
-        return float("nan")
-
-
-def log_stats(server) -> None:
-    """One ``isl stats`` line: live sessions, open connections, sessions whose release hooks have not run yet
-    (:func:`app.hardening.release_on_destroy`), resident memory of this process."""
-    from app import hardening
-
-    sessions = server.get_sessions()
-    connections = sum(s.connection_count for s in sessions)
-    log.info("isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f", len(sessions), connections,
-             hardening.live_release_hooks(), rss_mb())
-
-
-class MemoryTrimmer:
-    """Collect closed sessions' garbage and return freed heap memory to the OS, when it is cheap to.
-
-    Every ``TRIM_INTERVAL_MS``, if sessions have ended since the last look: with at most :data:`QUIET_SESSIONS`
-    sessions left, a full garbage collection; then glibc's ``malloc_trim`` (a no-op elsewhere). Sessions are built
-    and updated on worker threads, so their memory lives in per-thread malloc arenas that glibc does not shrink by
-    itself: without trimming, the RSS of a server stays at the peak of its busiest class.
-
-    Why not a full collection at every session's end, as Panel schedules one: a full collection walks every object
-    of the heap while holding the interpreter lock, whichever thread runs it — 146 ms for the idle server's 230 000
-    objects on this machine, and more for every open session's objects — so it stopped the event loop each time a
-    student closed a tab (py-spy, classroom scenario: 3 % of the loop's busy samples were Panel's ``gc.collect``).
-    During a class, Python's own generational collector frees closed sessions' cycles (its oldest generation is
-    collected once it has grown by 25 %); when the class has left, the collection here returns the memory.
-    """
-
-    def __init__(self, server) -> None:
-        self.server, self.sessions = server, 0
-        try:
-            self._trim = ctypes.CDLL("libc.so.6").malloc_trim
-        except (OSError, AttributeError):
-            self._trim = None
-
-    def __call__(self) -> None:
-        sessions = len(self.server.get_sessions())
-        if sessions < self.sessions:
-            if sessions <= QUIET_SESSIONS:
-                gc.collect()
-            if self._trim is not None:
-                self._trim(0)
-        self.sessions = sessions
-
-
-def quiet_garbage_collection() -> None:
-    """The collector's part of serving (see :class:`MemoryTrimmer`): what exists once the app is warm (modules,
-    the warm-up's caches: ≈ 230 000 objects, 146 ms a full collection on this machine) is frozen out of every later
-    collection, and Panel's full collection after each session's end is left to :class:`MemoryTrimmer`."""
-    import panel.io.document as panel_document
-
-    panel_document._garbage_collect = lambda: None
-    gc.collect()
-    gc.freeze()
 
 
 def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Sequence[str] = ()):
@@ -260,11 +193,11 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
             quiet_garbage_collection()
             PeriodicCallback(MemoryTrimmer(server), TRIM_INTERVAL_MS).start()
-            from app import webguard
+            from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
-            from app.hardening import quiet_closed_websockets
-            from app.offloop import build_pages_off_loop
+            from app.serving.hardening import quiet_closed_websockets
+            from app.serving.offloop import build_pages_off_loop
 
             for context in server._tornado._applications.values():
                 build_pages_off_loop(context._application)  # the app script runs on a thread, not on the loop
@@ -330,7 +263,7 @@ def health(port: int, timeout: float = 3.0) -> int:
 
 def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[str] = ()) -> int:
     """Serve until interrupted; 1 if the app fails its warm-up or the port cannot be bound."""
-    from app import hardening
+    from app.serving import hardening
 
     if os.environ.pop(BOKEH_ORIGIN_ENV, None) is not None:
         log.warning("ignoring %s; set %s instead", BOKEH_ORIGIN_ENV, ENV["origins"])
@@ -359,14 +292,14 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``isl serve`` and ``python -m app.serve``; returns the exit code."""
+    """Entry point of ``isl serve`` and ``python -m app.serving``; returns the exit code."""
     opts = build_parser().parse_args(argv)
     logging.basicConfig(format="%(asctime)s %(name)s %(levelname)s %(message)s")
     logging.getLogger("isl").setLevel(opts.log_level.upper())
     try:
         check_counts(opts)
         origins = allowed_origins(opts.port, os.environ.get(ENV["origins"]), opts.allow_websocket_origin)
-        from app.webguard import check_frame_ancestors
+        from app.serving.webguard import check_frame_ancestors
 
         ancestors = check_frame_ancestors(" ".join(filter(None, [os.environ.get(ENV["frames"]), *opts.frame_ancestors])))
     except ValueError as exc:
@@ -386,6 +319,3 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     return serve(opts, origins, ancestors)
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,12 @@
+"""Serving the dashboard to a class: everything between Panel's server and the page.
+
+* :mod:`app.serving.serve` — the ``isl serve`` / ``python -m app.serving`` command: ``panel serve app/app.py`` with
+  safe defaults, a strict warm-up, ``--check`` and ``--health``;
+* :mod:`app.serving.webguard` — security headers, the host check, compression and ``/liveness`` on every answer;
+* :mod:`app.serving.hardening` — the exception handler, traceback-free websocket errors, per-session release hooks;
+* :mod:`app.serving.offloop` — each session's page built on a thread instead of the event loop;
+* :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class.
+
+The session's own jobs (:mod:`app.jobs`) and the server's long-job queue (:mod:`app.longjobs`) belong to the
+dashboard's pipeline and stay beside it.
+"""

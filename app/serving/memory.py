@@ -1,0 +1,82 @@
+"""The served dashboard's memory: closed sessions' garbage collected when it is cheap, freed heap handed back.
+
+:mod:`app.serving.serve` starts a :class:`MemoryTrimmer` and calls :func:`quiet_garbage_collection` from Panel's
+``customize_server`` hook; :func:`log_stats` writes the periodic ``isl stats`` line.
+"""
+from __future__ import annotations
+
+import ctypes
+import gc
+import logging
+import os
+
+log = logging.getLogger("isl.serve")
+
+# How often to check whether sessions have ended and, if so, hand freed heap memory back to the OS.
+TRIM_INTERVAL_MS = 5_000
+#: at most this many sessions left: a full garbage collection is cheap enough to run (:class:`MemoryTrimmer`)
+QUIET_SESSIONS = 1
+
+
+def rss_mb() -> float:
+    """Resident memory of this process in MB (Linux ``/proc``; nan elsewhere)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+def log_stats(server) -> None:
+    """One ``isl stats`` line: live sessions, open connections, sessions whose release hooks have not run yet
+    (:func:`app.hardening.release_on_destroy`), resident memory of this process."""
+    from app.serving import hardening
+
+    sessions = server.get_sessions()
+    connections = sum(s.connection_count for s in sessions)
+    log.info("isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f", len(sessions), connections,
+             hardening.live_release_hooks(), rss_mb())
+
+
+class MemoryTrimmer:
+    """Collect closed sessions' garbage and return freed heap memory to the OS, when it is cheap to.
+
+    Every ``TRIM_INTERVAL_MS``, if sessions have ended since the last look: with at most :data:`QUIET_SESSIONS`
+    sessions left, a full garbage collection; then glibc's ``malloc_trim`` (a no-op elsewhere). Sessions are built
+    and updated on worker threads, so their memory lives in per-thread malloc arenas that glibc does not shrink by
+    itself: without trimming, the RSS of a server stays at the peak of its busiest class.
+
+    Why not a full collection at every session's end, as Panel schedules one: a full collection walks every object
+    of the heap while holding the interpreter lock, whichever thread runs it — 146 ms for the idle server's 230 000
+    objects on this machine, and more for every open session's objects — so it stopped the event loop each time a
+    student closed a tab (py-spy, classroom scenario: 3 % of the loop's busy samples were Panel's ``gc.collect``).
+    During a class, Python's own generational collector frees closed sessions' cycles (its oldest generation is
+    collected once it has grown by 25 %); when the class has left, the collection here returns the memory.
+    """
+
+    def __init__(self, server) -> None:
+        self.server, self.sessions = server, 0
+        try:
+            self._trim = ctypes.CDLL("libc.so.6").malloc_trim
+        except (OSError, AttributeError):
+            self._trim = None
+
+    def __call__(self) -> None:
+        sessions = len(self.server.get_sessions())
+        if sessions < self.sessions:
+            if sessions <= QUIET_SESSIONS:
+                gc.collect()
+            if self._trim is not None:
+                self._trim(0)
+        self.sessions = sessions
+
+
+def quiet_garbage_collection() -> None:
+    """The collector's part of serving (see :class:`MemoryTrimmer`): what exists once the app is warm (modules,
+    the warm-up's caches: ≈ 230 000 objects, 146 ms a full collection on this machine) is frozen out of every later
+    collection, and Panel's full collection after each session's end is left to :class:`MemoryTrimmer`."""
+    import panel.io.document as panel_document
+
+    panel_document._garbage_collect = lambda: None
+    gc.collect()
+    gc.freeze()
