@@ -19,9 +19,9 @@ import panel as pn
 from panel.io.resources import CDN_DIST
 from threadpoolctl import threadpool_limits
 
-from app.serving import hardening, offloop
 from app.jobs import LARGE_POOL, RUN_POOL, Jobs
 from app.longjobs import LongJobQueue
+from app.serving import hardening, offloop
 from app.state import AppState
 from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
