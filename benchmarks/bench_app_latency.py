@@ -1,6 +1,7 @@
 """Slider change → plot updated in the browser: latency of the served dashboard in headless chromium.
 
-Serves ``app/app.py`` on a free loopback port, opens it in Debian's chromium (Playwright), and changes σ
+Serves the dashboard as users do (``python -m app.serving``) on a free loopback port, opens it in Debian's chromium
+(Playwright), and changes σ
 ``--changes`` times (default 25, after 3 warm-up changes) by setting the σ slider's model value in the page,
 exactly as a drag released there does (``value`` and ``value_throttled``). Each change is timed in the page, from
 the assignment to the first animation frame after the trajectory plot's data has changed (so the browser's
@@ -16,6 +17,10 @@ Scenarios: paper A's Fig. 3 defaults (``?``; the target is p95 ≤ 150 ms) and t
 horizon (``?horizon=1000``: ≈ 10⁵ steps, min/max-decimated to ≤ 2400 points a trace before sending).
 
     PYTHONPATH=. python benchmarks/bench_app_latency.py [--changes 25] [--query "horizon=1000"]
+    PYTHONPATH=. python benchmarks/bench_app_latency.py --before ../isl-before   # a worktree of an older commit
+
+With ``--before CHECKOUT`` the same scenarios run first against a server started from that checkout, then against
+this one, in one run and one browser: each figure is printed for both.
 
 The machine's load average is printed: the figures are only comparable on an idle machine.
 """
@@ -24,17 +29,17 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import socket
-import subprocess
 import sys
-import time
-import urllib.request
+import tempfile
 from pathlib import Path
 
 import numpy as np
 from playwright.sync_api import sync_playwright
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "scripts"))
+import session_client as sc  # noqa: E402  (the scripts folder is not a package)
+
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 
@@ -81,27 +86,16 @@ READY = """() => { const d = window.Bokeh && Bokeh.documents[0];
                    const s = d && d.get_model_by_name('traj-1-isl'); return !!(s && s.data.y.length); }"""
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def serve() -> tuple[subprocess.Popen, int]:
-    port = free_port()
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    cmd = [sys.executable, "-m", "panel", "serve", "app/app.py", "--port", str(port), "--address", "127.0.0.1",
-           "--allow-websocket-origin", f"127.0.0.1:{port}"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        try:
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/app", timeout=120):
-                return proc, port
-        except OSError:
-            time.sleep(0.3)
-    proc.kill()
-    raise TimeoutError("the dashboard did not start")
+def serve(repo: Path):
+    """``python -m app.serving`` of checkout ``repo`` on a free loopback port, once it answers ``/liveness``."""
+    port = sc.free_port()
+    proc = sc.start_server(port, Path(tempfile.gettempdir()) / f"isl-latency-{port}.log", repo=repo)
+    try:
+        sc.wait_healthy(port, 180, proc)
+    except BaseException:
+        sc.stop_server(proc)
+        raise
+    return proc, port
 
 
 def compute_ms(page) -> float:
@@ -127,38 +121,54 @@ def scenario(browser, port: int, query: str, changes: int, warmup: int = 3) -> d
     return {"latency": a[:, 0], "arrived": a[:, 1], "messages": a[:, 2], "bytes": a[:, 3], "compute": np.array(comp)}
 
 
-def report(name: str, r: dict) -> None:
-    lat, arrived, comp, b = r["latency"], r["arrived"], r["compute"], r["bytes"]
-    pct = lambda x: f"p50 {np.percentile(x, 50):6.1f} ms   p95 {np.percentile(x, 95):6.1f} ms"
-    print(f"{name}: {len(lat)} changes")
-    print(f"  slider → plot redrawn (browser): {pct(lat)}   max {lat.max():6.1f} ms")
-    print(f"    until the plot's data arrived: {pct(arrived)}   (server work + transfer)")
-    print(f"    from there to the redraw:      {pct(lat - arrived)}   (browser work)")
-    print(f"  server compute per run:          {pct(comp)}")
-    print(f"  websocket received per update:   median {np.median(b) / 1024:7.1f} kB   max {b.max() / 1024:7.1f} kB"
-          f"   ({np.median(r['messages']):.0f} messages)")
+def report(name: str, results: dict[str, dict]) -> None:
+    """The figures of one scenario, one column per server (``before`` / ``after``, or this checkout only)."""
+    pct = lambda x, q: f"{np.percentile(x, q):6.1f}"  # noqa: E731
+    lines = [
+        ("slider → plot redrawn (browser), p50 ms", lambda r: pct(r["latency"], 50)),
+        ("                                 p95 ms", lambda r: pct(r["latency"], 95)),
+        ("                                 max ms", lambda r: f"{r['latency'].max():6.1f}"),
+        ("until the plot's data arrived, p50 ms", lambda r: pct(r["arrived"], 50)),
+        ("  (server work + transfer)     p95 ms", lambda r: pct(r["arrived"], 95)),
+        ("from there to the redraw,      p50 ms", lambda r: pct(r["latency"] - r["arrived"], 50)),
+        ("  (browser work)               p95 ms", lambda r: pct(r["latency"] - r["arrived"], 95)),
+        ("server compute per run,        p50 ms", lambda r: pct(r["compute"], 50)),
+        ("received per update, median kB", lambda r: f"{np.median(r['bytes']) / 1024:6.1f}"),
+        ("websocket messages per update", lambda r: f"{np.median(r['messages']):6.0f}"),
+    ]
+    first = next(iter(results.values()))
+    print(f"{name}: {len(first['latency'])} changes")
+    print(f"  {'':40s}" + "".join(f"{col:>10s}" for col in results))
+    for label, cell in lines:
+        print(f"  {label:40s}" + "".join(f"{cell(r):>10s}" for r in results.values()))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--changes", type=int, default=25)
     ap.add_argument("--query", action="append", help="URL query of a scenario (repeatable)")
+    ap.add_argument("--before", type=Path, metavar="CHECKOUT",
+                    help="first measure a server started from this other checkout (e.g. a git worktree of an "
+                         "older commit), then this one's")
     args = ap.parse_args()
     queries = args.query or ["", "horizon=1000"]
+    servers = ({"before": args.before.resolve()} if args.before else {}) | {"after" if args.before else "this": ROOT}
     print(f"load average before: {os.getloadavg()[0]:.2f} (2 cores)")
-    proc, port = serve()
-    try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-            try:
-                for q in queries:
-                    report(f"scenario ?{q or '(Fig. 3 defaults: m = 3, α = 0.5, β = ν = 3, σ ≈ 20, 10/r_min)'}",
-                           scenario(browser, port, q, args.changes))
-            finally:
-                browser.close()
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+    results: dict[str, dict[str, dict]] = {q: {} for q in queries}
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        try:
+            for column, repo in servers.items():
+                proc, port = serve(repo)
+                try:
+                    for q in queries:
+                        results[q][column] = scenario(browser, port, q, args.changes)
+                finally:
+                    sc.stop_server(proc)
+        finally:
+            browser.close()
+    for q in queries:
+        report(f"scenario ?{q or '(Fig. 3 defaults: m = 3, α = 0.5, β = ν = 3, σ ≈ 20, 10/r_min)'}", results[q])
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

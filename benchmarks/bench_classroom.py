@@ -248,6 +248,7 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
                 fig.ready_loaded.append(t)
         await asyncio.sleep(2.0)
     stop_heavy.set()
+    trims = len(lt.server_trims(log)) if log is not None else 0
     await crowd
     for task in heavy:
         try:
@@ -262,7 +263,8 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
         if stats and stats[-1][0] == 0:
             break
         await asyncio.sleep(2.0)
-    await asyncio.sleep(6.0)  # the memory trimmer runs every 5 s after sessions ended
+    if log is not None:  # the trimmer's line once nothing is left (a checkout from before it logged: 15 s)
+        await lt.all_released(log, trims, 15.0)
     fig.rss_closed = sc.rss_mb(pid)
     return fig
 

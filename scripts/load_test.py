@@ -174,9 +174,28 @@ async def run_load(base_url: str, *, sessions: int, duration: float, interval: f
 STATS = re.compile(r"isl stats: sessions=(\d+) connections=(\d+) pending_releases=(\d+) rss_mb=([\d.]+)")
 
 
+TRIMS = re.compile(r"isl trim: sessions=(\d+) pending_releases=(\d+) collected=\w+ rss_mb=([\d.]+)")
+
+
 def server_stats(log_path: Path) -> list[tuple[int, int, int, float]]:
     """Every ``isl stats`` line the server has logged so far (``--stats-interval``)."""
     return [(int(a), int(b), int(c), float(d)) for a, b, c, d in STATS.findall(log_path.read_text())]
+
+
+def server_trims(log_path: Path) -> list[tuple[int, int]]:
+    """``(sessions, pending releases)`` of every ``isl trim`` line so far (app.serving.memory.MemoryTrimmer)."""
+    return [(int(a), int(b)) for a, b, _ in TRIMS.findall(log_path.read_text())]
+
+
+async def all_released(log_path: Path, trims_before: int, timeout: float = 120.0) -> bool:
+    """Wait until the server has trimmed its memory with no session left and every release hook run (an ``isl
+    trim`` line after the first ``trims_before``); False after ``timeout`` seconds."""
+    deadline = time.perf_counter() + timeout
+    while time.perf_counter() < deadline:
+        if (0, 0) in server_trims(log_path)[trims_before:]:
+            return True
+        await asyncio.sleep(0.2)
+    return False
 
 
 @dataclass
@@ -209,6 +228,7 @@ async def memory_round(base_url: str, server_pid: int, log_path: Path, sessions:
     await asyncio.gather(*(_wait_idle(c) for c in clients))
     rss_open = rss_mb(server_pid)
     live_open = await _next_stats(log_path)
+    trims = len(server_trims(log_path))
     await asyncio.gather(*(c.close() for c in clients))
     del clients
     seen = len(server_stats(log_path))
@@ -222,7 +242,7 @@ async def memory_round(base_url: str, server_pid: int, log_path: Path, sessions:
                 break
             seen = len(stats)
         await asyncio.sleep(0.2)
-    await asyncio.sleep(TRIM_INTERVAL_S + 1.0)    # the server hands freed memory back (app.serving.memory.MemoryTrimmer)
+    await all_released(log_path, trims, max(deadline - time.perf_counter(), 0.0))  # and handed the memory back
     return MemoryRound(rss_before, live_open, rss_open, rss_mb(server_pid), live, pending)
 
 
@@ -249,8 +269,8 @@ def memory_report(rounds: list[MemoryRound], sessions: int) -> str:
     return "\n".join(lines)
 
 
-TRIM_INTERVAL_S = 5.0                             # app.serving.memory.TRIM_INTERVAL_MS
-MEMORY_SERVER_ARGS = ["--unused-session-lifetime", "1000", "--check-unused-sessions", "500", "--stats-interval", "500"]
+MEMORY_SERVER_ARGS = ["--unused-session-lifetime", "1000", "--check-unused-sessions", "500", "--stats-interval", "500",
+                      "--trim-interval", "500"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -105,6 +105,35 @@ def test_full_collections_wait_until_the_class_has_left(monkeypatch):
     assert collected == [()]
 
 
+def test_memory_is_trimmed_again_once_the_ended_sessions_release_hooks_have_run(monkeypatch, caplog):
+    from app.serving import hardening
+
+    trims = []
+    pending = [0]
+    monkeypatch.setattr(hardening, "live_release_hooks", lambda: pending[0])
+    monkeypatch.setattr(gc, "collect", lambda *a: 0)
+    server = _Server()
+    trimmer = MemoryTrimmer(server)
+    trimmer._trim = lambda pad: trims.append(pad)
+    server.sessions = [object()] * 3
+    trimmer()
+    with caplog.at_level("INFO", logger="isl.serve"):
+        server.sessions, pending[0] = [], 3  # the sessions ended; their results are not released yet: nothing freed
+        trimmer()
+        assert trims == []
+        pending[0] = 1  # two released: their memory is handed back
+        trimmer()
+        assert len(trims) == 1
+        trimmer()  # nothing changed: nothing to trim
+        assert len(trims) == 1
+        pending[0] = 0  # the last one: handed back too, and the line says nothing is left
+        trimmer()
+    assert len(trims) == 2
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("isl trim:")]
+    assert [line.split(" collected")[0] for line in lines] == ["isl trim: sessions=0 pending_releases=1",
+                                                               "isl trim: sessions=0 pending_releases=0"]
+
+
 def test_panels_collection_after_each_session_is_left_to_the_trimmer(monkeypatch):
     import panel.io.document as panel_document
 

@@ -14,6 +14,7 @@ option                          environment              default
 ``--unused-session-lifetime``   —                        10000 ms after the last connection closes
 ``--check-unused-sessions``     —                        2000 ms between sweeps for unused sessions
 ``--stats-interval``            —                        60000 ms between ``isl stats`` log lines
+``--trim-interval``             —                        5000 ms between looks for ended sessions' memory
 ==============================  =======================  ====================================================
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`app.serving.webguard`, with the
@@ -115,7 +116,7 @@ def check_counts(opts: argparse.Namespace) -> None:
     """``ValueError`` naming the option if a port, process, thread or interval count is out of range."""
     limits = {"port": (1, 65535), "num_procs": (0, 256), "num_threads": (1, 256),
               "unused_session_lifetime": (100, 10**8), "check_unused_sessions": (100, 10**8),
-              "stats_interval": (0, 10**8)}
+              "stats_interval": (0, 10**8), "trim_interval": (100, 10**8)}
     for name, (lo, hi) in limits.items():
         value = getattr(opts, name)
         if not lo <= value <= hi:
@@ -144,6 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"interval of the sweep for unused sessions (default {CHECK_UNUSED_SESSIONS_MS})")
     p.add_argument("--stats-interval", type=int, default=STATS_INTERVAL_MS, metavar="MS",
                    help=f"log live sessions, connections and RSS this often, 0 = never (default {STATS_INTERVAL_MS})")
+    p.add_argument("--trim-interval", type=int, default=TRIM_INTERVAL_MS, metavar="MS",
+                   help=f"how often to look for ended sessions and hand their memory back (default {TRIM_INTERVAL_MS})")
     p.add_argument("--frame-ancestors", action="append", default=[], metavar="SITE",
                    help=f"a site that may show the dashboard in a frame, e.g. https://lms.example.edu (repeatable; "
                         f"added to env {ENV['frames']}; default: none, only the dashboard itself)")
@@ -173,7 +176,8 @@ def browser_url(address: str, port: int) -> str:
     return f"http://{host}:{port}/"
 
 
-def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Sequence[str] = ()):
+def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Sequence[str] = (),
+                   trim_interval_ms: int = TRIM_INTERVAL_MS):
     """Panel's ``serve`` sub-command with a strict warm-up and a URL banner (imports panel lazily)."""
     from panel.command.serve import Serve
 
@@ -192,7 +196,7 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
             if stats_interval_ms > 0:
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
             quiet_garbage_collection()
-            PeriodicCallback(MemoryTrimmer(server), TRIM_INTERVAL_MS).start()
+            PeriodicCallback(MemoryTrimmer(server), trim_interval_ms).start()
             from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
@@ -277,7 +281,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     warm_long_jobs()
     argv = panel_argv(opts, app_script(), origins)
     parser = argparse.ArgumentParser(prog="panel serve")
-    command = _serve_command(origins, opts.stats_interval, ancestors)(parser=parser)
+    command = _serve_command(origins, opts.stats_interval, ancestors, opts.trim_interval)(parser=parser)
     args = parser.parse_args(argv)
     try:
         command.invoke(args)
