@@ -13,6 +13,7 @@ from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, ph
 from .recommend import Recommendation, recommend_nu
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
+from .scenario import Clairvoyant, Scenario, clairvoyant
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .theory import (
@@ -33,4 +34,5 @@ __all__ = [
     "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
     "SweepResult", "sweep", "Recommendation", "recommend_nu",
     "AdaptiveGain", "BASELINES", "adaptive_kbf", "baseline_filters", "theory_ratios", "WorstCaseTable", "worst_case",
+    "Clairvoyant", "Scenario", "clairvoyant",
 ]
