@@ -1,0 +1,121 @@
+"""The compiled time loop of a scenario run (SPEC §8–§9): σ_k per step, the noise law, the sensor interval.
+
+The same error coordinates as :func:`isl_core.kernels.advance` — e_f = Z_f − X per filter, the truth's X_m only —
+with three changes. σ_k comes from the scenario's path (``sig``, one value per step); ε_k from its law (``law``:
+0 Gaussian, 1 Student-t scaled to unit variance, 2 Gaussian with outliers); and the filters take in an
+observation only every ``q`` steps, the increment of Y over those steps. Each filter f accumulates
+
+    a_f += σ_k·ε_k − √h·e_f,1          (so that √h·a_f = ΔY − the increment its estimates predict, B.34)
+
+and at a reading (global step k with (k + 1) mod q = 0) takes in the normalized innovation u = a_f/√q, the
+innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
+
+    linear (kind 0):       e_f += √(qh)·K·u                                       (B.30)
+    power law (kind 1):    e_f += √(qh)·φ(u)                                      (A.17–A.18)
+    adaptive (kind 2):     e_f += √(qh)·K(σ̂)·u, then σ̂ takes in u                 (isl_core.adaptive)
+    clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k = ``cgain[k]``                  (isl_core.scenario.clairvoyant)
+
+Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
+power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
+factor is max(1/r, q/W) for the r-th reading: its window keeps its length in time.
+
+Draws per step from the caller's generator: v_k, then ε_k (Gaussian: one normal; Student-t: ``standard_t``;
+outliers: one normal, then one uniform that decides whether it is scaled by ``k_out``). Squared errors at t_{k+1}
+are summed into window (k // ``win``) (the last window takes the remainder), σ̂ likewise.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, _root, _table_gain
+
+__all__ = ["LAW_GAUSSIAN", "LAW_OUTLIERS", "LAW_STUDENT", "advance_scenario"]
+
+LAW_GAUSSIAN, LAW_STUDENT, LAW_OUTLIERS = 0, 1, 2
+KIND_CLAIRVOYANT = 3
+
+
+@njit(cache=CACHE, nogil=True, fastmath={"contract"})
+def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, q, damp, coef, kind, table, ad,
+                     cgain, acc, k0, win, wsq, wsig):
+    """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
+
+    ``sig`` (n,) and ``cgain`` (n, m) are this chunk's σ_k and clairvoyant gains; ``acc`` (nf,) the filters'
+    accumulated innovations carried from chunk to chunk; ``ad`` the adaptive filters' state (as in
+    :func:`isl_core.kernels.advance`). Returns the number of steps done (fewer at the first non-finite value).
+    """
+    m = x.shape[0]
+    nf = e.shape[0]
+    nw = wsq.shape[0]
+    sqh = math.sqrt(h)
+    sqq = math.sqrt(q)
+    sqqh = math.sqrt(q * h)
+    beta_sqh = beta * sqh
+    decay = 1.0 - h * alpha
+    zdecay = 1.0 - h * damp
+    couple = h * (alpha - damp)
+    gain = sqqh * coef
+    t_scale = math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
+    slot = np.zeros(nf, dtype=np.int64)
+    na = 0
+    for f in range(nf):
+        if kind[f] == 2:
+            slot[f] = na
+            na += 1
+            _table_gain(table, ad, f, gain, sqqh)
+    for j in range(n):
+        k = k0 + j
+        v = rng.standard_normal()
+        if law == LAW_STUDENT:
+            eps = t_scale * rng.standard_t(dof)
+        else:
+            eps = rng.standard_normal()
+            if law == LAW_OUTLIERS and rng.random() < p_out:
+                eps *= k_out
+        noise = sig[j] * eps
+        xm = x[m - 1]
+        shock = beta_sqh * v
+        reading = (k + 1) % q == 0
+        total = 0.0
+        w = min(k // win, nw - 1)
+        for f in range(nf):
+            acc[f] += noise - sqh * e[f, 0]
+            for i in range(m - 1):
+                e[f, i] += h * e[f, i + 1]
+            e[f, m - 1] = zdecay[f] * e[f, m - 1] + couple[f] * xm - shock
+            if reading:
+                u = acc[f] / sqq if q > 1 else acc[f]
+                if kind[f] == 1:
+                    p = np.float64(u > 0.0) - np.float64(u < 0.0)
+                    r = _root(abs(u), m)
+                    for i in range(m - 1, -1, -1):
+                        e[f, i] += gain[f, i] * p
+                        p *= r
+                elif kind[f] == 3:
+                    for i in range(m):
+                        e[f, i] += cgain[j, i] * (sqh * acc[f])
+                else:
+                    for i in range(m):
+                        e[f, i] += gain[f, i] * u
+                    if kind[f] == 2:
+                        r_k = (k + 1) // q
+                        var = ad[f, AD_VAR]
+                        var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (u * u - var)
+                        ad[f, AD_VAR] = var
+                        ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
+                        _table_gain(table, ad, f, gain, sqqh)
+                acc[f] = 0.0
+            if kind[f] == 2:
+                wsig[w, slot[f]] += ad[f, AD_SIGMA]
+            for i in range(m):
+                d = e[f, i]
+                wsq[w, f, i] += d * d
+                total += d
+        x[m - 1] = decay * xm + shock
+        total += x[m - 1]
+        if not math.isfinite(total):
+            return j + 1
+    return n

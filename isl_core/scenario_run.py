@@ -1,0 +1,161 @@
+"""Simulate a scenario (:class:`isl_core.scenario.Scenario`): every filter against the clairvoyant reference, in time.
+
+:func:`simulate_scenario` runs the truth, the clairvoyant filter (first), the Kalman–Bucy filter that is optimal
+for σ(0) (second), the ISL filter with tuning ν and any ``extra`` filters on one grid with one noise (compiled loop:
+:func:`isl_core.scenario_kernel.advance_scenario`). It keeps, per time window, each filter's mean squared error and
+the clairvoyant filter's mean exact variance P_ii, so that
+
+    ratio_f,i(window) = √(mean e_f,i² / mean P_ii)                                              (SPEC §9)
+
+is the time-resolved picture, and the same over the whole run after ``burn`` the summary. The clairvoyant filter's
+own ratio is ≈ 1 in every scenario (its P is exact on the grid): that is the check that the denominator is right.
+
+Grid: h is the smallest step :func:`isl_core.grid.run_plan` gives for the model at σ(0), at the smallest and at the
+largest σ of the path (a drop of σ speeds every filter up: the step must follow the fastest); a sensor reads every
+q = round(Δ/h) ≥ 1 steps. T = ``horizon`` in units of 1/r_min at σ(0). The start is that of
+:func:`isl_core.simulate.simulate` (``"stationary"``): every filter at X(0) − e₀, e₀ ~ N(0, Δ) at σ(0) — the
+clairvoyant filter's P_0. With the default scenario the Kalman–Bucy and ISL filters' errors are those of
+:func:`isl_core.simulate.simulate` with the same seed (same grid, same draws, same arithmetic; a test checks 1e-12).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .filters import KIND_ADAPTIVE, FilterSpec, isl_filter, optimal_kbf
+from .grid import MAX_STEPS, check_filters, run_plan
+from .model import Model
+from .riccati import kalman_bucy
+from .scenario import Scenario, clairvoyant, sigma_path
+from .scenario_kernel import KIND_CLAIRVOYANT, LAW_GAUSSIAN, LAW_OUTLIERS, LAW_STUDENT, advance_scenario
+from .simulate import CHUNK, DivergenceError, _pack, _start
+from .validate import check_int, check_real
+
+__all__ = ["ScenarioRun", "simulate_scenario"]
+
+LAWS = {"gaussian": LAW_GAUSSIAN, "student": LAW_STUDENT, "outliers": LAW_OUTLIERS}
+MAX_SCENARIO_STEPS = 20_000_000  #: the clairvoyant gains of every step are held: 8·m·N bytes (≤ 1 GB at m = 6)
+
+
+@dataclass(frozen=True)
+class ScenarioRun:
+    """Windowed figures of one scenario run. Filters in order: ``names`` / ``labels`` (clairvoyant first).
+
+    ``t`` (nw + 1,) window edges; ``mse`` (nw, nf, m) mean squared error per window; ``ref_var`` (nw, m) mean of the
+    clairvoyant P_ii per window; ``sigma`` (nw,) mean σ_k; ``sigma_hat`` (nw, na) mean σ̂ of the adaptive filters.
+    """
+
+    model: Model
+    scenario: Scenario
+    nu: float
+    seed: int
+    h: float
+    N: int
+    q: int
+    r_min: float
+    names: tuple[str, ...]
+    labels: tuple[str, ...]
+    t: np.ndarray
+    mse: np.ndarray
+    ref_var: np.ndarray
+    sigma: np.ndarray
+    sigma_hat: np.ndarray
+    steps: np.ndarray
+
+    def ratios(self) -> np.ndarray:
+        """√(mse / ref_var) per window, filter and coordinate (nw, nf, m)."""
+        return np.sqrt(self.mse / self.ref_var[:, None, :])
+
+    def overall(self, burn: float = 0.0) -> np.ndarray:
+        """The ratio over the windows that start at or after ``burn`` (units of 1/r_min at σ(0)), per filter and
+        coordinate (nf, m): RMSE over the mean clairvoyant variance, both weighted by the windows' steps."""
+        keep = self.t[:-1] * self.r_min >= burn - 1e-12
+        if not np.any(keep):
+            raise ValueError(f"burn = {burn:g} leaves no window of a run of {self.t[-1] * self.r_min:g}/r_min")
+        w = self.steps[keep].astype(float)
+        mse = np.tensordot(w, self.mse[keep], axes=1) / w.sum()
+        ref = np.tensordot(w, self.ref_var[keep], axes=1) / w.sum()
+        return np.sqrt(mse / ref[None, :])
+
+
+def _scenario_step(model: Model, nu: float, scenario: Scenario, extra, horizon: float):
+    """h (the smallest over σ(0) and the path's extremes), T and the step count."""
+    plan = run_plan(model, nu, horizon=horizon, extra=extra, cap=MAX_STEPS)
+    n_guess = max(1, math.ceil(plan.T / plan.h))
+    sig = sigma_path(scenario, model, plan.r_min, plan.h, n_guess)
+    h = plan.h
+    for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
+        other = Model(model.alpha, model.beta, s, model.m)
+        h = min(h, run_plan(other, nu, horizon=horizon, extra=extra, cap=MAX_STEPS).h)
+    n = math.ceil(plan.T / h)
+    if n > MAX_SCENARIO_STEPS:
+        raise ValueError(f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
+                         f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon or σ values closer together")
+    return plan.T / n, n, plan.r_min
+
+
+def simulate_scenario(
+    model: Model,
+    nu: float,
+    scenario: Scenario | None = None,
+    *,
+    horizon: float = 30.0,
+    windows: int = 60,
+    seed: int = 0,
+    extra: Sequence[FilterSpec] = (),
+    progress: Callable[[float], None] | None = None,
+) -> ScenarioRun:
+    """One run of ``scenario`` (default: paper A's model; module docstring): ``windows`` equal time windows over
+    ``horizon`` (units of 1/r_min at σ(0))."""
+    scenario = Scenario() if scenario is None else scenario
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    windows = check_int("windows", windows, lo=1, hi=100_000)
+    seed = check_int("seed", seed, lo=0)
+    specs = check_filters(model, nu, extra)
+    h, n, r_min = _scenario_step(model, nu, scenario, specs[1:], horizon)
+    windows = min(windows, n)
+    kb = kalman_bucy(model)
+    ref = clairvoyant(model, scenario, h, n)
+    clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
+                       np.zeros(model.m), False)
+    filters = [clair, optimal_kbf(model, kb), isl_filter(model, nu), *specs[1:]]
+    damp, coef, kind, table, ad = _pack(model, filters)
+    kind[0] = KIND_CLAIRVOYANT
+    rng = np.random.default_rng(seed)
+    x, e0 = _start(model, kb, rng, "stationary")
+    e = np.tile(e0, (len(filters), 1))
+    sig = sigma_path(scenario, model, r_min, h, n)
+    win = n // windows
+    adaptive = kind == KIND_ADAPTIVE
+    wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
+    acc = np.zeros(len(filters))
+    law = LAWS[scenario.noise]
+    k = 0
+    while k < n:
+        todo = min(CHUNK, n - k)
+        done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig[k:k + todo], law, scenario.dof,
+                                scenario.outlier_rate, scenario.outlier_scale, ref.q, damp, coef, kind, table, ad,
+                                ref.gain[k:k + todo], acc, k, win, wsq, wsig)
+        if done < todo:
+            bad = [f.label for f, row in zip(filters, e, strict=True) if not np.all(np.isfinite(row))]
+            raise DivergenceError(f"{' and '.join(bad) or 'the run'} diverged at t = {(k + done) * h:.4g} "
+                                  f"(step {k + done:,} of {n:,}, h = {h:.3g})")
+        k += done
+        if progress is not None:
+            progress(k / n)
+    edges = np.minimum(np.arange(windows + 1) * win, n)
+    edges[-1] = n
+    steps = np.diff(edges)
+    # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}
+    cum = np.concatenate([np.zeros((1, model.m)), np.cumsum(ref.var[1:], axis=0)])
+    ref_var = (cum[edges[1:]] - cum[edges[:-1]]) / steps[:, None]
+    cs = np.concatenate([[0.0], np.cumsum(sig)])
+    return ScenarioRun(model, scenario, float(nu), seed, h, n, ref.q, r_min,
+                       tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
+                       wsq / steps[:, None, None], ref_var, (cs[edges[1:]] - cs[edges[:-1]]) / steps,
+                       wsig / steps[:, None], steps)

@@ -1,0 +1,110 @@
+"""Scenario runs (isl_core.scenario_run, isl_core.scenario_kernel): an independent loop, today's runs, the reference."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from isl_core import Model, adaptive_kbf, isl_filter, kalman_bucy, optimal_kbf, simulate
+from isl_core.filters import KIND_ADAPTIVE, FilterSpec
+from isl_core.scenario import Scenario, clairvoyant, sigma_path
+from isl_core.scenario_run import simulate_scenario
+from isl_core.simulate import _pack, _start
+
+MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
+
+
+def _loop(model, filters, scenario, h, n, seed, gains, q):
+    """The scenario step written out in numpy, one filter at a time (module docstring of scenario_kernel)."""
+    kb = kalman_bucy(model)
+    rng = np.random.default_rng(seed)
+    x, e0 = _start(model, kb, rng, "stationary")
+    e = np.tile(e0, (len(filters), 1))
+    _, _, _, table, ad = _pack(model, filters)
+    sig = sigma_path(scenario, model, kb.r_min, h, n)
+    acc = np.zeros(len(filters))
+    sq = np.zeros((len(filters), model.m))
+    gain = [math.sqrt(q * h) * np.asarray(f.coef, float) for f in filters]
+    readings = 0
+    m = model.m
+    for k in range(n):
+        v = rng.standard_normal()
+        if scenario.noise == "student":
+            eps = math.sqrt((scenario.dof - 2) / scenario.dof) * rng.standard_t(scenario.dof)
+        else:
+            eps = rng.standard_normal()
+            if scenario.noise == "outliers" and rng.random() < scenario.outlier_rate:
+                eps *= scenario.outlier_scale
+        reading = (k + 1) % q == 0
+        readings += reading
+        xm = x[-1]
+        for f, spec in enumerate(filters):
+            acc[f] += sig[k] * eps - math.sqrt(h) * e[f, 0]
+            A_f = np.eye(m, k=1)
+            A_f[-1, -1] = -spec.damp
+            e[f] = e[f] + h * (A_f @ e[f])
+            e[f, -1] += h * (model.alpha - spec.damp) * xm - model.beta * math.sqrt(h) * v
+            if reading:
+                u = acc[f] / math.sqrt(q)
+                if f == 0:  # the clairvoyant filter
+                    e[f] += gains[k] * (math.sqrt(h) * acc[f])
+                elif spec.power:
+                    e[f] += gain[f] * np.sign(u) * np.abs(u) ** (1.0 - np.arange(1, m + 1) / m)
+                else:
+                    e[f] += gain[f] * u
+                    if spec.kind == KIND_ADAPTIVE:
+                        lam = max(1.0 / readings, q / spec.adaptive.window)
+                        ad[f, 3] += lam * (u * u - ad[f, 3])
+                        s_hat = math.sqrt(ad[f, 3] / (1.0 + q * h * gain[f][0] / math.sqrt(q * h)))
+                        gain[f] = math.sqrt(q * h) * spec.adaptive.gain(s_hat)
+                acc[f] = 0.0
+            sq[f] += e[f] ** 2
+        x[-1] = (1.0 - h * model.alpha) * xm + model.beta * math.sqrt(h) * v
+    return sq
+
+
+@pytest.mark.parametrize("scenario", [
+    Scenario(sigma_knots=((0.3, 2.0),), noise="student", dof=4.0),
+    Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift", noise="outliers", outlier_rate=0.05,
+             sensor_interval=0.02),
+    Scenario(sensor_interval=0.03),
+])
+def test_the_compiled_scenario_loop_equals_a_plain_loop(scenario):
+    extra = [adaptive_kbf(MODEL)]
+    run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=7, seed=5, extra=extra)
+    kb = kalman_bucy(MODEL)
+    filters = [FilterSpec("clairvoyant", "clairvoyant", MODEL.alpha, np.zeros(MODEL.m), False),
+               optimal_kbf(MODEL, kb), isl_filter(MODEL, 3.0), *extra]
+    ref = clairvoyant(MODEL, scenario, run.h, run.N)
+    sq = _loop(MODEL, filters, scenario, run.h, run.N, 5, ref.gain, run.q)
+    got = np.tensordot(run.steps.astype(float), run.mse, axes=1)
+    assert run.q == ref.q and (scenario.sensor_interval == 0) == (run.q == 1)
+    assert np.allclose(got, sq, rtol=1e-10, atol=0.0)
+
+
+def test_the_constant_gaussian_scenario_gives_todays_run():
+    run = simulate_scenario(MODEL, 3.0, Scenario(), horizon=20.0, windows=4, seed=3)
+    today = simulate(MODEL, 3.0, horizon=20.0, seed=3)
+    assert (run.h, run.N) == (today.h, len(today.t) - 1)
+    rmse = np.sqrt(np.tensordot(run.steps.astype(float), run.mse, axes=1) / run.N)
+    assert np.allclose(rmse[1], today.tracks[0].rmse, rtol=1e-12)  # Kalman–Bucy for σ(0)
+    assert np.allclose(rmse[2], today.tracks[1].rmse, rtol=1e-12)  # ISL
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", [
+    Scenario(),
+    Scenario(sigma_knots=((10.0, 2.0),)),
+    Scenario(sigma_knots=((10.0, 200.0),), noise="student", dof=3.0),
+    Scenario(noise="outliers", sensor_interval=0.1),
+])
+def test_the_clairvoyant_filters_error_matches_its_own_covariance_on_long_runs(scenario):
+    run = simulate_scenario(MODEL, 3.0, scenario, horizon=4000.0, windows=100, seed=1)
+    # per window of 40/r_min at σ(0) (many settling times, so nearly independent batches): MSE / mean P ≈ 1. (Pooled
+    # over the run, the windows of the largest σ would dominate: one window's sampling error, not a check.)
+    per_window = run.mse[:, 0, :] / run.ref_var
+    mean = per_window.mean(axis=0)
+    se = per_window.std(axis=0, ddof=1) / math.sqrt(len(per_window))
+    assert np.all(np.abs(mean - 1.0) < 4.0 * se), (mean, se)
+    assert np.all(se < 0.04)  # a check that can fail: the interval is narrow
