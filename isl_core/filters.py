@@ -8,10 +8,11 @@ with a propagation damping ``a`` (0 → A0 as in paper A's ISL filter; α → th
 linear, ``φ(u) = K u`` (then the step is the Kalman–Bucy scheme B.30), or the power law of (A.17),
 ``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18), or linear with a gain ``K(σ̂_k)`` that follows an
 online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.adaptive`, described by an
-:class:`AdaptiveGain`).
+:class:`AdaptiveGain`), or — in scenario runs only — the variational-Bayes adaptive Kalman filter of
+:mod:`isl_core.variational` (a :class:`VariationalGain`), which carries its own covariance.
 
 Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law, ``adaptive`` the σ̂-driven gain;
-``kind`` is the kernel's code for the three (:data:`KIND_LINEAR`, :data:`KIND_POWER`, :data:`KIND_ADAPTIVE`).
+``kind`` is the kernel's code (:data:`KIND_LINEAR`, :data:`KIND_POWER`, :data:`KIND_ADAPTIVE`, :data:`KIND_VB`).
 """
 from __future__ import annotations
 
@@ -24,11 +25,23 @@ from .nonlinearity import isl_exponents, isl_gains, linearization
 from .riccati import KalmanBucy
 
 __all__ = [
-    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "AdaptiveGain", "FilterSpec", "isl_filter", "linearized_matrix",
-    "optimal_kbf",
+    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "KIND_VB", "AdaptiveGain", "FilterSpec", "VariationalGain",
+    "isl_filter", "linearized_matrix", "optimal_kbf",
 ]
 
 KIND_LINEAR, KIND_POWER, KIND_ADAPTIVE = 0, 1, 2  #: the kernel's codes for φ (see :attr:`FilterSpec.kind`)
+KIND_VB = 4  #: the variational-Bayes filter (3 is the scenario kernel's clairvoyant filter)
+
+
+@dataclass(frozen=True)
+class VariationalGain:
+    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.variational`): forgetting factor ρ per
+    step, σ̂ and the inverse-gamma shape α₀ before the first reading, fixed-point iterations per reading."""
+
+    rho: float
+    sigma_init: float
+    shape0: float
+    iterations: int
 
 
 @dataclass(frozen=True)
@@ -72,10 +85,13 @@ class FilterSpec:
     coef: np.ndarray
     power: bool
     adaptive: AdaptiveGain | None = None
+    variational: VariationalGain | None = None
 
     @property
     def kind(self) -> int:
         """The kernel's code: :data:`KIND_ADAPTIVE`, :data:`KIND_POWER` or :data:`KIND_LINEAR`."""
+        if self.variational is not None:
+            return KIND_VB
         if self.adaptive is not None:
             return KIND_ADAPTIVE
         return KIND_POWER if self.power else KIND_LINEAR

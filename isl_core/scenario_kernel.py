@@ -14,6 +14,11 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
     power law (kind 1):    e_f += √(qh)·φ(u)                                      (A.17–A.18)
     adaptive (kind 2):     e_f += √(qh)·K(σ̂)·u, then σ̂ takes in u                 (isl_core.adaptive)
     clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k = ``cgain[k]``                  (isl_core.scenario.clairvoyant)
+    variational (kind 4):  e_f += F·K·u, K from a few fixed-point iterations      (isl_core.variational)
+
+The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
+its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ^q at each reading), ``vb_par[f]`` = (ρ per step,
+iterations).
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
 power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
@@ -38,9 +43,53 @@ LAW_GAUSSIAN, LAW_STUDENT, LAW_OUTLIERS = 0, 1, 2
 KIND_CLAIRVOYANT = 3
 
 
+@njit(cache=CACHE, nogil=True, inline="always")
+def _predict_cov(P, h, a, q_var):
+    """P ← F P Fᵀ + q_var·E Eᵀ, F = I + h·(A0 − a·E Eᵀ), in place (F is bidiagonal: O(m²))."""
+    m = P.shape[0]
+    for j in range(m):  # rows: F P
+        for i in range(m - 1):
+            P[i, j] += h * P[i + 1, j]
+        P[m - 1, j] *= 1.0 - h * a
+    for i in range(m):  # columns: (F P) Fᵀ
+        for j in range(m - 1):
+            P[i, j] += h * P[i, j + 1]
+        P[i, m - 1] *= 1.0 - h * a
+    P[m - 1, m - 1] += q_var
+
+
+@njit(cache=CACHE, nogil=True, inline="always")
+def _vb_update(P, ab, par, u, H, h, a_f, gvec):
+    """One reading of the variational-Bayes filter: updates P and (a, b) in place, writes F·K into ``gvec``;
+    returns σ̂ = √(b/a)."""
+    m = P.shape[0]
+    rho_q = 1.0 - (1.0 - par[0]) * (H * H / h)  # ρ per reading: 1 − q(1 − ρ), qh = H²
+    a = rho_q * ab[0] + 0.5
+    b_pr = rho_q * ab[1]
+    b = b_pr
+    p11 = P[0, 0]
+    k1 = 0.0
+    s = 1.0
+    for _ in range(int(par[1])):
+        s = H * H * p11 + b / a
+        k1 = P[0, 0] * H / s
+        resid = u * (1.0 - H * k1)
+        b = b_pr + 0.5 * resid * resid + 0.5 * H * H * (p11 - k1 * s * k1)
+    for i in range(m):
+        gvec[i] = P[i, 0] * H / s
+    for i in range(m):
+        for j in range(m):
+            P[i, j] -= gvec[i] * s * gvec[j]
+    for i in range(m - 1):  # F·K
+        gvec[i] += h * gvec[i + 1]
+    gvec[m - 1] *= 1.0 - h * a_f
+    ab[0], ab[1] = a, b
+    return np.sqrt(b / a)
+
+
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, q, damp, coef, kind, table, ad,
-                     cgain, acc, k0, win, wsq, wsig):
+                     cgain, acc, k0, win, wsq, wsig, vb_P, vb_ab, vb_par):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
     ``sig`` (n,) and ``cgain`` (n, m) are this chunk's σ_k and clairvoyant gains; ``acc`` (nf,) the filters'
@@ -60,11 +109,14 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
     gain = sqqh * coef
     t_scale = math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
     slot = np.zeros(nf, dtype=np.int64)
+    gvec = np.zeros(m)
+    q_var = h * beta * beta
     na = 0
     for f in range(nf):
-        if kind[f] == 2:
+        if kind[f] == 2 or kind[f] == 4:
             slot[f] = na
             na += 1
+        if kind[f] == 2:
             _table_gain(table, ad, f, gain, sqqh)
     for j in range(n):
         k = k0 + j
@@ -97,6 +149,10 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                 elif kind[f] == 3:
                     for i in range(m):
                         e[f, i] += cgain[j, i] * (sqh * acc[f])
+                elif kind[f] == 4:
+                    ad[f, AD_SIGMA] = _vb_update(vb_P[f], vb_ab[f], vb_par[f], u, sqqh, h, damp[f], gvec)
+                    for i in range(m):
+                        e[f, i] += gvec[i] * u
                 else:
                     for i in range(m):
                         e[f, i] += gain[f, i] * u
@@ -108,7 +164,9 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                         ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
                         _table_gain(table, ad, f, gain, sqqh)
                 acc[f] = 0.0
-            if kind[f] == 2:
+            if kind[f] == 4:
+                _predict_cov(vb_P[f], h, damp[f], q_var)
+            if kind[f] == 2 or kind[f] == 4:
                 wsig[w, slot[f]] += ad[f, AD_SIGMA]
             for i in range(m):
                 d = e[f, i]

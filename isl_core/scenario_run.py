@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import KIND_ADAPTIVE, FilterSpec, isl_filter, optimal_kbf
+from .filters import KIND_ADAPTIVE, KIND_VB, FilterSpec, isl_filter, optimal_kbf
+from .kernels import AD_SIGMA
 from .grid import MAX_STEPS, check_filters, run_plan
 from .model import Model
 from .riccati import kalman_bucy
@@ -81,6 +82,20 @@ class ScenarioRun:
         return np.sqrt(mse / ref[None, :])
 
 
+def _variational_state(model: Model, filters, ad: np.ndarray):
+    """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations)."""
+    nf, m = len(filters), model.m
+    vb_P, vb_ab, vb_par = np.zeros((nf, m, m)), np.zeros((nf, 2)), np.zeros((nf, 2))
+    for f, spec in enumerate(filters):
+        v = spec.variational
+        if v is not None:
+            vb_P[f] = kalman_bucy(Model(model.alpha, model.beta, v.sigma_init, m)).delta
+            vb_ab[f] = v.shape0, v.shape0 * v.sigma_init**2
+            vb_par[f] = v.rho, v.iterations
+            ad[f, AD_SIGMA] = v.sigma_init
+    return vb_P, vb_ab, vb_par
+
+
 def _scenario_step(model: Model, nu: float, scenario: Scenario, extra, horizon: float):
     """h (the smallest over σ(0) and the path's extremes), T and the step count."""
     plan = run_plan(model, nu, horizon=horizon, extra=extra, cap=MAX_STEPS)
@@ -124,14 +139,15 @@ def simulate_scenario(
     clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
                        np.zeros(model.m), False)
     filters = [clair, optimal_kbf(model, kb), isl_filter(model, nu), *specs[1:]]
-    damp, coef, kind, table, ad = _pack(model, filters)
+    damp, coef, kind, table, ad = _pack(model, filters, variational=True)
     kind[0] = KIND_CLAIRVOYANT
+    vb_P, vb_ab, vb_par = _variational_state(model, filters, ad)
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
     sig = sigma_path(scenario, model, r_min, h, n)
     win = n // windows
-    adaptive = kind == KIND_ADAPTIVE
+    adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB)
     wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
     acc = np.zeros(len(filters))
     law = LAWS[scenario.noise]
@@ -140,7 +156,7 @@ def simulate_scenario(
         todo = min(CHUNK, n - k)
         done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig[k:k + todo], law, scenario.dof,
                                 scenario.outlier_rate, scenario.outlier_scale, ref.q, damp, coef, kind, table, ad,
-                                ref.gain[k:k + todo], acc, k, win, wsq, wsig)
+                                ref.gain[k:k + todo], acc, k, win, wsq, wsig, vb_P, vb_ab, vb_par)
         if done < todo:
             bad = [f.label for f, row in zip(filters, e, strict=True) if not np.all(np.isfinite(row))]
             raise DivergenceError(f"{' and '.join(bad) or 'the run'} diverged at t = {(k + done) * h:.4g} "
