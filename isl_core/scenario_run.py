@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .filters import KIND_ADAPTIVE, KIND_VB, FilterSpec, isl_filter, optimal_kbf
-from .kernels import AD_SIGMA
 from .grid import MAX_STEPS, check_filters, run_plan
+from .kernels import AD_SIGMA
 from .model import Model
 from .riccati import kalman_bucy
 from .scenario import Scenario, clairvoyant, sigma_path

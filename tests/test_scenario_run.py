@@ -10,8 +10,8 @@ from isl_core import Model, adaptive_kbf, isl_filter, kalman_bucy, optimal_kbf, 
 from isl_core.filters import KIND_ADAPTIVE, FilterSpec
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
 from isl_core.scenario_run import simulate_scenario
-from isl_core.variational import variational_kbf
 from isl_core.simulate import _pack, _start
+from isl_core.variational import variational_kbf
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 
