@@ -25,12 +25,13 @@ from .nonlinearity import isl_exponents, isl_gains, linearization
 from .riccati import KalmanBucy
 
 __all__ = [
-    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "KIND_VB", "AdaptiveGain", "FilterSpec", "VariationalGain",
+    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB", "AdaptiveGain", "FilterSpec", "VariationalGain",
     "isl_filter", "linearized_matrix", "optimal_kbf",
 ]
 
 KIND_LINEAR, KIND_POWER, KIND_ADAPTIVE = 0, 1, 2  #: the kernel's codes for φ (see :attr:`FilterSpec.kind`)
 KIND_VB = 4  #: the variational-Bayes filter (3 is the scenario kernel's clairvoyant filter)
+KIND_ROBUST = 5  #: the adaptive filter with Huber-clipped innovations (:mod:`isl_core.robust`)
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,7 @@ class FilterSpec:
     power: bool
     adaptive: AdaptiveGain | None = None
     variational: VariationalGain | None = None
+    huber: float | None = None  #: with ``adaptive``: innovations clipped at ± huber·σ̂ (scenario runs only)
 
     @property
     def kind(self) -> int:
@@ -93,7 +95,7 @@ class FilterSpec:
         if self.variational is not None:
             return KIND_VB
         if self.adaptive is not None:
-            return KIND_ADAPTIVE
+            return KIND_ROBUST if self.huber is not None else KIND_ADAPTIVE
         return KIND_POWER if self.power else KIND_LINEAR
 
     def exponents(self) -> np.ndarray:

@@ -15,10 +15,11 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
     adaptive (kind 2):     e_f += √(qh)·K(σ̂)·u, then σ̂ takes in u                 (isl_core.adaptive)
     clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k = ``cgain[k]``                  (isl_core.scenario.clairvoyant)
     variational (kind 4):  e_f += F·K·u, K from a few fixed-point iterations      (isl_core.variational)
+    robust (kind 5):       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.robust)
 
 The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
 its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ^q at each reading), ``vb_par[f]`` = (ρ per step,
-iterations).
+iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
 power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
@@ -113,10 +114,10 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
     q_var = h * beta * beta
     na = 0
     for f in range(nf):
-        if kind[f] == 2 or kind[f] == 4:
+        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
             slot[f] = na
             na += 1
-        if kind[f] == 2:
+        if kind[f] == 2 or kind[f] == 5:
             _table_gain(table, ad, f, gain, sqqh)
     for j in range(n):
         k = k0 + j
@@ -154,19 +155,24 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                     for i in range(m):
                         e[f, i] += gvec[i] * u
                 else:
+                    uc, uu = u, u * u
+                    if kind[f] == 5:  # Huber: clip at ±c·σ̂ (the estimate before this reading)
+                        lim = vb_par[f, 0] * ad[f, AD_SIGMA]
+                        uc = min(max(u, -lim), lim)
+                        uu = min(uu, lim * lim) / vb_par[f, 1]
                     for i in range(m):
-                        e[f, i] += gain[f, i] * u
-                    if kind[f] == 2:
+                        e[f, i] += gain[f, i] * uc
+                    if kind[f] == 2 or kind[f] == 5:
                         r_k = (k + 1) // q
                         var = ad[f, AD_VAR]
-                        var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (u * u - var)
+                        var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uu - var)
                         ad[f, AD_VAR] = var
                         ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
                         _table_gain(table, ad, f, gain, sqqh)
                 acc[f] = 0.0
             if kind[f] == 4:
                 _predict_cov(vb_P[f], h, damp[f], q_var)
-            if kind[f] == 2 or kind[f] == 4:
+            if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
                 wsig[w, slot[f]] += ad[f, AD_SIGMA]
             for i in range(m):
                 d = e[f, i]

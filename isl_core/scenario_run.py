@@ -25,11 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import KIND_ADAPTIVE, KIND_VB, FilterSpec, isl_filter, optimal_kbf
+from .filters import KIND_ADAPTIVE, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
 from .grid import MAX_STEPS, check_filters, run_plan
 from .kernels import AD_SIGMA
 from .model import Model
 from .riccati import kalman_bucy
+from .robust import huber_kappa
 from .scenario import Scenario, clairvoyant, sigma_path
 from .scenario_kernel import KIND_CLAIRVOYANT, LAW_GAUSSIAN, LAW_OUTLIERS, LAW_STUDENT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
@@ -83,7 +84,8 @@ class ScenarioRun:
 
 
 def _variational_state(model: Model, filters, ad: np.ndarray):
-    """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations)."""
+    """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations); the
+    robust filters' (c, κ(c))."""
     nf, m = len(filters), model.m
     vb_P, vb_ab, vb_par = np.zeros((nf, m, m)), np.zeros((nf, 2)), np.zeros((nf, 2))
     for f, spec in enumerate(filters):
@@ -93,6 +95,8 @@ def _variational_state(model: Model, filters, ad: np.ndarray):
             vb_ab[f] = v.shape0, v.shape0 * v.sigma_init**2
             vb_par[f] = v.rho, v.iterations
             ad[f, AD_SIGMA] = v.sigma_init
+        if spec.huber is not None:
+            vb_par[f] = spec.huber, huber_kappa(spec.huber)
     return vb_P, vb_ab, vb_par
 
 
@@ -147,7 +151,7 @@ def simulate_scenario(
     e = np.tile(e0, (len(filters), 1))
     sig = sigma_path(scenario, model, r_min, h, n)
     win = n // windows
-    adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB)
+    adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
     wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
     acc = np.zeros(len(filters))
     law = LAWS[scenario.noise]

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from isl_core import Model, adaptive_kbf, isl_filter, kalman_bucy, optimal_kbf, simulate
-from isl_core.filters import KIND_ADAPTIVE, FilterSpec
+from isl_core.filters import FilterSpec
+from isl_core.robust import huber_kappa, robust_kbf
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
 from isl_core.scenario_run import simulate_scenario
 from isl_core.simulate import _pack, _start
@@ -16,19 +17,26 @@ from isl_core.variational import variational_kbf
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 
 
+def _kappa(c: float) -> float:
+    """E min(Z², c²) by quadrature (the module computes it in closed form)."""
+    z = np.linspace(-12.0, 12.0, 480_001)
+    return float(np.trapezoid(np.minimum(z * z, c * c) * np.exp(-0.5 * z * z), z) / math.sqrt(2.0 * math.pi))
+
+
 def _loop(model, filters, scenario, h, n, seed, gains, q):
     """The scenario step written out in numpy, one filter at a time (module docstring of scenario_kernel)."""
     kb = kalman_bucy(model)
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    _, _, _, table, ad = _pack(model, filters)
+    _, _, _, table, ad = _pack(model, filters, variational=True)
     sig = sigma_path(scenario, model, kb.r_min, h, n)
     acc = np.zeros(len(filters))
     sq = np.zeros((len(filters), model.m))
     gain = [math.sqrt(q * h) * np.asarray(f.coef, float) for f in filters]
     readings = 0
     m = model.m
+    s_hats = [f.adaptive.sigma_init if f.adaptive is not None else 0.0 for f in filters]
     for k in range(n):
         v = rng.standard_normal()
         if scenario.noise == "student":
@@ -53,12 +61,18 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
                 elif spec.power:
                     e[f] += gain[f] * np.sign(u) * np.abs(u) ** (1.0 - np.arange(1, m + 1) / m)
                 else:
-                    e[f] += gain[f] * u
-                    if spec.kind == KIND_ADAPTIVE:
+                    uc, uu = u, u * u
+                    if spec.huber is not None:  # Huber's ψ at ±c·σ̂, the clipped square made consistent
+                        lim = spec.huber * s_hats[f]
+                        uc = float(np.clip(u, -lim, lim))
+                        uu = min(u * u, lim * lim) / huber_kappa(spec.huber)  # κ: checked by quadrature below
+                    e[f] += gain[f] * uc
+                    if spec.adaptive is not None:
                         lam = max(1.0 / readings, q / spec.adaptive.window)
-                        ad[f, 3] += lam * (u * u - ad[f, 3])
+                        ad[f, 3] += lam * (uu - ad[f, 3])
                         s_hat = math.sqrt(ad[f, 3] / (1.0 + q * h * gain[f][0] / math.sqrt(q * h)))
                         gain[f] = math.sqrt(q * h) * spec.adaptive.gain(s_hat)
+                        s_hats[f] = s_hat
                 acc[f] = 0.0
             sq[f] += e[f] ** 2
         x[-1] = (1.0 - h * model.alpha) * xm + model.beta * math.sqrt(h) * v
@@ -107,6 +121,16 @@ def _vb_loop(model, spec, scenario, h, n, seed, q):
     return sq
 
 
+def test_hubers_kappa_and_the_robust_filters_sigma_on_gaussian_noise():
+    assert huber_kappa(1.345) == pytest.approx(_kappa(1.345), rel=1e-9)
+    assert huber_kappa(10.0) == pytest.approx(1.0, abs=1e-12)
+    # on Gaussian noise the clipped, κ-corrected variance estimate is consistent: σ̂ ≈ σ like the adaptive filter's
+    run = simulate_scenario(MODEL, 3.0, Scenario(), horizon=200.0, windows=10, seed=4,
+                            extra=[adaptive_kbf(MODEL), robust_kbf(MODEL)])
+    late = run.sigma_hat[2:].mean(axis=0)
+    assert late == pytest.approx([MODEL.sigma, MODEL.sigma], rel=0.02)
+
+
 @pytest.mark.parametrize("scenario", [Scenario(sigma_knots=((0.2, 2.0),)), Scenario(sensor_interval=0.03)])
 def test_the_compiled_variational_filter_equals_the_papers_algorithm(scenario):
     spec = variational_kbf(MODEL, sigma_init=60.0, window=200.0)
@@ -124,7 +148,7 @@ def test_the_compiled_variational_filter_equals_the_papers_algorithm(scenario):
     Scenario(sensor_interval=0.03),
 ])
 def test_the_compiled_scenario_loop_equals_a_plain_loop(scenario):
-    extra = [adaptive_kbf(MODEL)]
+    extra = [adaptive_kbf(MODEL), robust_kbf(MODEL, c=1.0)]
     run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=7, seed=5, extra=extra)
     kb = kalman_bucy(MODEL)
     filters = [FilterSpec("clairvoyant", "clairvoyant", MODEL.alpha, np.zeros(MODEL.m), False),
