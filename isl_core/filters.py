@@ -25,8 +25,8 @@ from .nonlinearity import isl_exponents, isl_gains, linearization
 from .riccati import KalmanBucy
 
 __all__ = [
-    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB", "AdaptiveGain", "FilterSpec", "VariationalGain",
-    "isl_filter", "linearized_matrix", "optimal_kbf",
+    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB", "AdaptiveGain", "FilterSpec",
+    "VariationalGain", "isl_filter", "linearized_matrix", "optimal_kbf",
 ]
 
 KIND_LINEAR, KIND_POWER, KIND_ADAPTIVE = 0, 1, 2  #: the kernel's codes for φ (see :attr:`FilterSpec.kind`)
