@@ -4,6 +4,7 @@
     isl sweep [--alphas ...] [--beta B] [--sigmas ...] [--ell-min L --ell-max L] [--horizon H] [--seeds ...] [--out DIR]
     isl recommend [--alphas ...] [--sigmas ...] [--horizon H] [--seeds ...] [--no-verify] [--json]
     isl worstcase [--alphas 0.04,0.2,1,5,25] [--sigma-min 2 --sigma-max 200] [--horizon H] [--seeds ...] [--json]
+    isl scenario [--alpha A] [--scenarios sigma_drop,...] [--seeds N] [--window W] [--json] [--csv FILE]
 
 These are the core's (``python -m isl_core``); the dashboard's ``isl`` console script (:mod:`app.cli`) is the same
 command with an :class:`Extension`: ``isl figure3``, ``isl serve`` and the sweep's HTML and PNG figures.
@@ -13,11 +14,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
+from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_scenario, cmd_sweep, cmd_worstcase
 
 __all__ = ["Extension", "UsageError", "build_parser", "main", "positive", "seed_number"]
 
@@ -169,6 +171,23 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     common(p, horizon=1000.0)
     p.set_defaults(func=cmd_worstcase)
     parsers["worstcase"] = p
+
+    from isl_core.scenario_table import PRESETS
+
+    p = sub.add_parser("scenario", help="beyond constant sigma: each filter's worst-case ratio to the clairvoyant "
+                       "Kalman filter, per scenario")
+    p.add_argument("--alpha", type=positive, default=1.0, help="alpha of paper A's model (default 1)")
+    p.add_argument("--scenarios", type=_comma(str), nargs="+", default=[list(PRESETS)],
+                   help=f"scenarios (default {','.join(PRESETS)})")
+    p.add_argument("--seeds", type=_whole, default=64, help="independent noises averaged (default 64)")
+    p.add_argument("--window", type=positive, default=1.0, help="time window, units of 1/r_min (default 1)")
+    p.add_argument("--burn", type=_nonneg, default=2.0, help="start left out, units of 1/r_min (default 2)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of the table")
+    p.add_argument("--csv", type=Path, default=None, help="also write the table as CSV to this file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    common(p, horizon=30.0)
+    p.set_defaults(func=cmd_scenario)
+    parsers["scenario"] = p
 
     if extension is not None and extension.add is not None:
         extension.add(sub, parsers, common)

@@ -19,6 +19,7 @@ clairvoyant filter's P_0. With the default scenario the Kalman–Bucy and ISL fi
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -142,7 +143,8 @@ def simulate_scenario(
     ref = clairvoyant(model, scenario, h, n)
     clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
                        np.zeros(model.m), False)
-    filters = [clair, optimal_kbf(model, kb), isl_filter(model, nu), *specs[1:]]
+    constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
+    filters = [clair, constant, isl_filter(model, nu), *specs[1:]]
     damp, coef, kind, table, ad = _pack(model, filters, variational=True)
     kind[0] = KIND_CLAIRVOYANT
     vb_P, vb_ab, vb_par = _variational_state(model, filters, ad)

@@ -1,0 +1,60 @@
+"""The who-wins table of scenarios (isl_core.scenario_table)."""
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from isl_core.cli import main
+from isl_core.scenario_table import PRESETS, scenario_table
+
+
+@pytest.fixture(scope="module")
+def table():
+    chosen = {k: PRESETS[k] for k in ("sigma_drop", "constant")}
+    return scenario_table(1.0, scenarios=chosen, seeds=6, horizon=16.0)
+
+
+def test_rows_columns_and_intervals(table):
+    assert table.scenarios == ("sigma_drop", "constant")
+    assert table.filters[:3] == ("clairvoyant", "kbf", "isl")
+    assert {"kbf_adaptive", "vb", "kbf_robust", "isl_minimax", "isl_model"} <= set(table.filters)
+    assert "(A.31)" in table.labels[2]  # α = 1 is in paper A's table: its ν is the first ISL row
+    assert table.worst.shape == table.low.shape == table.high.shape == (len(table.filters), 2)
+    assert np.all(table.low <= table.worst + 1e-12) and np.all(table.worst <= table.high + 1e-12)
+    assert "clairvoyant" not in table.winner and np.all(table.margin >= 1.0)
+
+
+def test_the_figures_say_what_the_scenarios_do(table):
+    drop, constant = 0, 1
+    # constant σ: the clairvoyant filter is the Kalman–Bucy filter (on the grid vs in continuous time: within 3 %)
+    c, k = table.worst[0, constant], table.worst[1, constant]
+    assert k == pytest.approx(c, rel=0.03)
+    # σ 200 → 2: the filter designed for σ = 200 is far off afterwards; the ISL filter, which needs no σ, is not
+    isl = table.worst[2, drop]
+    assert table.worst[1, drop] > 4.0 * table.worst[0, drop]
+    assert isl < 0.5 * table.worst[1, drop]
+
+
+@pytest.mark.parametrize(("kwargs", "named"), [({"seeds": 1}, "seeds"), ({"window": 0.0}, "window"),
+                                               ({"burn": 30.0}, "burn"), ({"level": 1.0}, "level")])
+def test_bad_settings_are_named(kwargs, named):
+    with pytest.raises(ValueError, match=named):
+        scenario_table(1.0, **kwargs)
+
+
+def test_the_command_prints_json_and_writes_csv_and_refuses_unknown_scenarios(tmp_path, capsys):
+    out = tmp_path / "table.csv"
+    assert main(["scenario", "--seeds", "2", "--horizon", "12", "--scenarios", "sensor,constant", "--json",
+                 "--csv", str(out)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert list(doc["meta"]["scenarios"]) == ["sensor", "constant"] and doc["meta"]["seeds"] == 2
+    assert [r["filter"] for r in doc["rows"]][:3] == ["clairvoyant", "kbf", "isl"]
+    with open(out) as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["filter"] for r in rows] == [r["filter"] for r in doc["rows"]]
+    assert float(rows[1]["constant"]) == pytest.approx(doc["rows"][1]["constant"])
+    assert main(["scenario", "--scenarios", "sigma_dorp", "--quiet"]) == 2
+    assert "unknown scenario 'sigma_dorp'" in capsys.readouterr().err
