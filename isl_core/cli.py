@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from types import MappingProxyType
 
 from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_scenario, cmd_sweep, cmd_worstcase
