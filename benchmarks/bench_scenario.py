@@ -7,7 +7,9 @@ trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scena
 same two filters plus the clairvoyant one it always carries, over the same number of steps, for the constant
 Gaussian scenario, a σ step 20 → 2, Student-t noise (d = 3), 1 % outliers × 30 and a sensor read every 0.1/r_min.
 Its time includes the clairvoyant Riccati recursion over every step. Printed: median ns/step of ``--repeats``
-interleaved runs and the ratio to today's. Timings on a shared machine are noisy: read the load average.
+interleaved runs and the ratio to today's; and the two compiled loops alone on the same two filters (today's
+kernel against the scenario kernel at σ constant, Gaussian noise, a reading every step), which is the scenario
+machinery's own cost. Timings on a shared machine are noisy: read the load average.
 """
 from __future__ import annotations
 
@@ -16,9 +18,14 @@ import os
 import statistics
 import time
 
-from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse
+import numpy as np
+
+from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, step_size
+from isl_core.kernels import advance
 from isl_core.scenario import Scenario
+from isl_core.scenario_kernel import LAW_GAUSSIAN, advance_scenario
 from isl_core.scenario_run import simulate_scenario
+from isl_core.simulate import _pack, _start
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 NU = 3.0
@@ -49,6 +56,31 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
     return (time.perf_counter() - t0) / run.N * 1e9, run.N
 
 
+def loops_ns(n: int) -> tuple[float, float]:
+    """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
+    kb = kalman_bucy(FIG3)
+    specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, NU)]
+    h = step_size(FIG3, kb, specs)
+    damp, coef, kind, table, ad = _pack(FIG3, specs)
+    out = []
+    for scenario in (False, True):
+        rng = np.random.default_rng(1)
+        x, e0 = _start(FIG3, kb, rng, "stationary")
+        e = np.tile(e0, (2, 1))
+        t0 = time.perf_counter()
+        if scenario:
+            advance_scenario(x, e, rng, n, h, FIG3.alpha, FIG3.beta, np.full(n, FIG3.sigma), LAW_GAUSSIAN, 3.0, 0.0,
+                             1.0, 1, damp, coef, kind, table, ad.copy(), np.zeros((n, 3)), np.zeros(2), 0, n // 50,
+                             np.zeros((50, 2, 3)), np.zeros((50, 0)), np.zeros((2, 3, 3)), np.zeros((2, 2)),
+                             np.zeros((2, 2)))
+        else:
+            advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, kind, table, ad.copy(), 0, 0, n,
+                    np.zeros((1, 2, 3)), np.empty((1, 0)), np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)),
+                    False, 0)
+        out.append((time.perf_counter() - t0) / n * 1e9)
+    return out[0], out[1]
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--steps", type=int, default=1_000_000)
@@ -58,9 +90,11 @@ def main() -> None:
     today(10_000)  # compile or load every kernel from the cache
     for sc in SCENARIOS.values():
         scenario_ns(sc, 1.0)
+    loops_ns(10_000)
     base, times = [], {name: [] for name in SCENARIOS}
-    steps = {}
+    steps, loops = {}, []
     for _ in range(opts.repeats):
+        loops.append(loops_ns(opts.steps))
         ns, n, horizon = today(opts.steps)
         base.append(ns)
         for name, sc in SCENARIOS.items():
@@ -71,6 +105,9 @@ def main() -> None:
     for name, ts in times.items():
         med = statistics.median(ts)
         print(f"  scenario {name:26s} {steps[name]:>10,} steps: {med:7.1f} ns/step  ({med / ref:4.2f}× today's)")
+    old, new = (statistics.median(c) for c in zip(*loops, strict=True))
+    print(f"the compiled loops alone, KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, the scenario "
+          f"loop {new:.1f} ns/step ({new / old:4.2f}×)")
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

@@ -55,6 +55,7 @@ SIGMA_BOUNDS = (1e-3, 1e6)  #: σ values a knot may take (those of the model's �
 TIME_MAX = 1e6  #: latest knot time, in units of 1/r_min
 DOF_MAX = 1e6  #: Student's t beyond this many degrees of freedom is Gaussian to float precision
 OUTLIER_SCALE_MAX = 1e4
+SETTLED = 1e-15  #: relative change below which the clairvoyant recursion has settled (see ``_riccati``)
 
 
 def _choice(name: str, value: object, choices: tuple[str, ...]) -> str:
@@ -157,35 +158,62 @@ class Clairvoyant:
 
 
 @njit(cache=CACHE, nogil=True)
-def _riccati(P0, F, h, beta2, noise, q, gain, var):
-    """The recursion of :func:`clairvoyant` on the state (X, S): ``noise[k]`` = h·σ_k²·E ε²."""
-    m = F.shape[0]
+def _riccati(P0, h, alpha, beta2, noise, q, gain, var):
+    """The recursion of :func:`clairvoyant` on the state (X, S): ``noise[k]`` = h·σ_k²·E ε².
+
+    In place, without allocating: F = I + h·A is bidiagonal (X_i += h·X_{i+1}, X_m ·= 1 − hα) and S += h·X_1, so
+    P ← F_a P F_aᵀ is a pass over the rows and one over the columns (S's first: it reads the old X_1). With a reading
+    at every step (q = 1) and σ_k unchanged, once a step changes no gain and no variance by more than
+    :data:`SETTLED` relative, the recursion has reached its fixed point in floating point: the following steps
+    repeat it until σ_k changes (the constant stretches of σ then cost a copy per step).
+    """
+    m = P0.shape[0]
     n = noise.shape[0]
     a = m + 1
     P = np.zeros((a, a))
     P[:m, :m] = P0
-    Fa = np.zeros((a, a))
-    Fa[:m, :m] = F
-    Fa[m, 0] = h  # S ← S + h·X_1
-    Fa[m, m] = 1.0
+    decay = 1.0 - h * alpha
     R = 0.0
+    settled = False
     for i in range(m):
         var[0, i] = P[i, i]
     for k in range(n):
+        if settled and noise[k] == noise[k - 1]:
+            for i in range(m):
+                gain[k, i] = gain[k - 1, i]
+                var[k + 1, i] = var[k, i]
+            continue
+        settled = False
         R += noise[k]
-        P = Fa @ P @ Fa.T
+        for j in range(a):  # rows: F_a P
+            P[m, j] += h * P[0, j]
+            for i in range(m - 1):
+                P[i, j] += h * P[i + 1, j]
+            P[m - 1, j] *= decay
+        for i in range(a):  # columns: (F_a P) F_aᵀ
+            P[i, m] += h * P[i, 0]
+            for j in range(m - 1):
+                P[i, j] += h * P[i, j + 1]
+            P[i, m - 1] *= decay
         P[m - 1, m - 1] += h * beta2
         if (k + 1) % q == 0:  # a reading: the increment of Y over the last q steps, S + noise of variance R
             s = P[m, m] + R
-            K = P[:, m] / s
             for i in range(m):
-                gain[k, i] = K[i]
-            P = P - np.outer(K, K) * s
-            P[m, :] = 0.0  # S restarts at 0, known
-            P[:, m] = 0.0
+                gain[k, i] = P[i, m] / s
+            for i in range(m):
+                for j in range(m):
+                    P[i, j] -= P[i, m] * P[j, m] / s
+            for i in range(a):  # S restarts at 0, known
+                P[m, i] = 0.0
+                P[i, m] = 0.0
             R = 0.0
+        change = 0.0
         for i in range(m):
             var[k + 1, i] = P[i, i]
+            change = max(change, abs(var[k + 1, i] - var[k, i]) / var[k, i])
+            if k > 0:
+                change = max(change, abs(gain[k, i] - gain[k - 1, i]) / max(abs(gain[k, i]), 1e-300))
+        settled = q == 1 and k > 0 and change <= SETTLED and noise[k] == noise[k - 1]
 
 
 def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoyant:
@@ -194,7 +222,6 @@ def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoya
     sigmas = sigma_path(scenario, model, kb.r_min, h, n)
     gain, var = np.zeros((n, model.m)), np.zeros((n + 1, model.m))
     q = scenario.sensor_steps(h, kb.r_min)
-    F = np.eye(model.m) + h * model.A
-    _riccati(np.array(kb.delta, dtype=float), F, float(h), model.beta**2, h * sigmas**2 * scenario.noise_variance,
-             q, gain, var)
+    _riccati(np.array(kb.delta, dtype=float), float(h), model.alpha, model.beta**2,
+             h * sigmas**2 * scenario.noise_variance, q, gain, var)
     return Clairvoyant(gain, var, q)

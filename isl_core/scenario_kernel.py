@@ -119,8 +119,14 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             na += 1
         if kind[f] == 2 or kind[f] == 5:
             _table_gain(table, ad, f, gain, sqqh)
+    w = min(k0 // win, nw - 1)  # the window of this step's errors, and the first step of the next one
+    edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
+    left = q - k0 % q  # steps until the next reading, this one included
     for j in range(n):
         k = k0 + j
+        if k == edge:
+            w += 1
+            edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
         v = rng.standard_normal()
         if law == LAW_STUDENT:
             eps = t_scale * rng.standard_t(dof)
@@ -131,9 +137,9 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
         noise = sig[j] * eps
         xm = x[m - 1]
         shock = beta_sqh * v
-        reading = (k + 1) % q == 0
+        reading = left == 1
+        left = q if reading else left - 1
         total = 0.0
-        w = min(k // win, nw - 1)
         for f in range(nf):
             acc[f] += noise - sqh * e[f, 0]
             for i in range(m - 1):

@@ -174,10 +174,9 @@ def simulate_scenario(
     edges[-1] = n
     steps = np.diff(edges)
     # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}
-    cum = np.concatenate([np.zeros((1, model.m)), np.cumsum(ref.var[1:], axis=0)])
-    ref_var = (cum[edges[1:]] - cum[edges[:-1]]) / steps[:, None]
-    cs = np.concatenate([[0.0], np.cumsum(sig)])
+    ref_var = np.add.reduceat(ref.var[1:], edges[:-1], axis=0) / steps[:, None]
+    mean_sigma = np.add.reduceat(sig, edges[:-1]) / steps
     return ScenarioRun(model, scenario, float(nu), seed, h, n, ref.q, r_min,
                        tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
-                       wsq / steps[:, None, None], ref_var, (cs[edges[1:]] - cs[edges[:-1]]) / steps,
+                       wsq / steps[:, None, None], ref_var, mean_sigma,
                        wsig / steps[:, None], steps)
