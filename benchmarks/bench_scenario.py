@@ -72,7 +72,7 @@ def loops_ns(n: int) -> tuple[float, float]:
             advance_scenario(x, e, rng, n, h, FIG3.alpha, FIG3.beta, np.full(n, FIG3.sigma), LAW_GAUSSIAN, 3.0, 0.0,
                              1.0, 1, damp, coef, kind, table, ad.copy(), np.zeros((n, 3)), np.zeros(2), 0, n // 50,
                              np.zeros((50, 2, 3)), np.zeros((50, 0)), np.zeros((2, 3, 3)), np.zeros((2, 2)),
-                             np.zeros((2, 2)))
+                             np.zeros((2, 2)), np.full(2, -1))
         else:
             advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, kind, table, ad.copy(), 0, 0, n,
                     np.zeros((1, 2, 3)), np.empty((1, 0)), np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)),

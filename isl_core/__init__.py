@@ -13,7 +13,11 @@ from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, ph
 from .recommend import Recommendation, recommend_nu
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
+from .robust import robust_kbf
 from .scenario import Clairvoyant, Scenario, clairvoyant
+from .scenario_map import WhoWinsMap, who_wins_map
+from .scenario_run import ScenarioRun, simulate_scenario
+from .scenario_table import ScenarioTable, scenario_table
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .theory import (
@@ -23,6 +27,7 @@ from .theory import (
     predicted_ratios,
     predicted_ratios_grid,
 )
+from .variational import variational_kbf
 from .worstcase import WorstCaseTable, worst_case
 
 __all__ = [
@@ -34,5 +39,6 @@ __all__ = [
     "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
     "SweepResult", "sweep", "Recommendation", "recommend_nu",
     "AdaptiveGain", "BASELINES", "adaptive_kbf", "baseline_filters", "theory_ratios", "WorstCaseTable", "worst_case",
-    "Clairvoyant", "Scenario", "clairvoyant",
+    "Clairvoyant", "Scenario", "ScenarioRun", "ScenarioTable", "WhoWinsMap", "clairvoyant", "robust_kbf",
+    "scenario_table", "simulate_scenario", "variational_kbf", "who_wins_map",
 ]

@@ -179,7 +179,12 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--alpha", type=positive, default=1.0, help="alpha of paper A's model (default 1)")
     p.add_argument("--scenarios", type=_comma(str), nargs="+", default=[list(PRESETS)],
                    help=f"scenarios (default {','.join(PRESETS)})")
-    p.add_argument("--seeds", type=_whole, default=64, help="independent noises averaged (default 64)")
+    p.add_argument("--map", choices=["sigma_step", "tails", "sensor"], default=None,
+                   help="instead of the table: who wins over sigma-step ratio x time since the step, over the noise's "
+                        "degrees of freedom, or over the sensor interval")
+    p.add_argument("--values", type=_comma(_nonneg), nargs="+", default=None,
+                   help="the map's values (default: sigma ratios 0.1..10, d = 2.5..100, intervals 0..0.5/r_min)")
+    p.add_argument("--seeds", type=_whole, default=None, help="independent noises averaged (default 64; maps 32)")
     p.add_argument("--window", type=positive, default=1.0, help="time window, units of 1/r_min (default 1)")
     p.add_argument("--burn", type=_nonneg, default=2.0, help="start left out, units of 1/r_min (default 2)")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")

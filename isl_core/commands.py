@@ -292,11 +292,14 @@ def cmd_scenario(args) -> int:
     """Worst-case ratio to the clairvoyant Kalman filter per filter (rows) and scenario (columns), simulated."""
     from isl_core.scenario_table import PRESETS, scenario_table
 
+    if args.map is not None:
+        return _scenario_map(args)
     names = _flat(args.scenarios)
     unknown = [n for n in names if n not in PRESETS]
     if unknown:
         raise UsageError(f"isl scenario: unknown scenario {unknown[0]!r}; choose from {', '.join(PRESETS)}")
-    tab = scenario_table(args.alpha, m=args.m, w=args.w, scenarios={n: PRESETS[n] for n in names}, seeds=args.seeds,
+    tab = scenario_table(args.alpha, m=args.m, w=args.w, scenarios={n: PRESETS[n] for n in names},
+                         seeds=64 if args.seeds is None else args.seeds,
                          horizon=args.horizon, window=args.window, burn=args.burn,
                          progress=progress_bar("scenario", not (args.quiet or args.json)))
     rows = [{"filter": f, "label": lab, **{f"{s}": tab.worst[i, j] for j, s in enumerate(tab.scenarios)},
@@ -329,4 +332,42 @@ def cmd_scenario(args) -> int:
                                             zip(tab.scenarios, tab.winner, tab.margin, strict=True)))
     for s, label in zip(tab.scenarios, tab.scenario_labels, strict=True):
         print(f"  {s}: {label}")
+    return 0
+
+
+def _scenario_map(args) -> int:
+    """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin."""
+    from isl_core.scenario_map import AXIS_LABELS, STEP_AT, who_wins_map
+
+    after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
+    if after < args.window:
+        raise UsageError(f"isl scenario: --horizon must be at least {STEP_AT:g} (the sigma step's time) + --window "
+                         f"for the sigma_step map, got {args.horizon:g}")
+    res = who_wins_map(args.map, args.alpha, values=None if args.values is None else _flat(args.values), m=args.m,
+                       w=args.w, seeds=32 if args.seeds is None else args.seeds, window=args.window, after=after,
+                       burn=args.burn, progress=progress_bar("scenario map", not (args.quiet or args.json)))
+    winner, margin = res.winner, res.margin
+    rows = [{"since_step_over_r_min": None if math.isnan(t) else float(t), "value": float(x),
+             "winner": res.filters[winner[r, c]], "margin": float(margin[r, c]),
+             **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)}}
+            for r, t in enumerate(res.rows) for c, x in enumerate(res.x)]
+    if args.csv is not None:
+        with open(args.csv, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    if args.json:
+        meta = {"map": res.kind, "axis": AXIS_LABELS[res.kind], "alpha": res.alpha, "seeds": res.seeds,
+                "window_over_r_min": res.window, "filters": dict(zip(res.filters, res.labels, strict=True))}
+        print(json.dumps(nan_to_none({"meta": meta, "cells": rows}), indent=1, allow_nan=False))
+        return 0
+    print(f"who wins ({res.kind}): the filter with the lowest RMSE ratio to the clairvoyant Kalman filter (max over "
+          f"coordinates, mean square over {res.seeds} seeds, windows of {res.window:g}/r_min), x its margin over the "
+          f"runner-up; alpha = {res.alpha:g}")
+    head = "since step" if res.kind == "sigma_step" else ""
+    print(f"{head:>10} | {AXIS_LABELS[res.kind]}: " + " | ".join(f"{x:>18g}" for x in res.x))
+    for r, t in enumerate(res.rows):
+        cells = [f"{res.filters[winner[r, c]]} x{margin[r, c]:.2f}" for c in range(len(res.x))]
+        label = "" if math.isnan(t) else f"{t:g}"
+        print(f"{label:>10} | " + " " * (len(AXIS_LABELS[res.kind]) + 2) + " | ".join(f"{c:>18}" for c in cells))
     return 0

@@ -90,12 +90,14 @@ def _vb_update(P, ab, par, u, H, h, a_f, gvec):
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, q, damp, coef, kind, table, ad,
-                     cgain, acc, k0, win, wsq, wsig, vb_P, vb_ab, vb_par):
+                     cgain, acc, k0, win, wsq, wsig, vb_P, vb_ab, vb_par, died):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
     ``sig`` (n,) and ``cgain`` (n, m) are this chunk's σ_k and clairvoyant gains; ``acc`` (nf,) the filters'
     accumulated innovations carried from chunk to chunk; ``ad`` the adaptive filters' state (as in
-    :func:`isl_core.kernels.advance`). Returns the number of steps done (fewer at the first non-finite value).
+    :func:`isl_core.kernels.advance`). A filter whose error leaves the finite numbers at step k is stopped there:
+    ``died[f] = k`` (−1 while it lives), its error is no longer advanced nor summed, the others go on. Returns the
+    number of steps done (fewer only if the truth itself leaves the finite numbers).
     """
     m = x.shape[0]
     nf = e.shape[0]
@@ -139,8 +141,9 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
         shock = beta_sqh * v
         reading = left == 1
         left = q if reading else left - 1
-        total = 0.0
         for f in range(nf):
+            if died[f] >= 0:
+                continue
             acc[f] += noise - sqh * e[f, 0]
             for i in range(m - 1):
                 e[f, i] += h * e[f, i + 1]
@@ -180,12 +183,16 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                 _predict_cov(vb_P[f], h, damp[f], q_var)
             if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
                 wsig[w, slot[f]] += ad[f, AD_SIGMA]
+            total = 0.0
+            for i in range(m):
+                total += e[f, i]
+            if not math.isfinite(total):
+                died[f] = k
+                continue
             for i in range(m):
                 d = e[f, i]
                 wsq[w, f, i] += d * d
-                total += d
         x[m - 1] = decay * xm + shock
-        total += x[m - 1]
-        if not math.isfinite(total):
+        if not math.isfinite(x[m - 1]):
             return j + 1
     return n

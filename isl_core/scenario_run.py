@@ -48,7 +48,9 @@ class ScenarioRun:
     """Windowed figures of one scenario run. Filters in order: ``names`` / ``labels`` (clairvoyant first).
 
     ``t`` (nw + 1,) window edges; ``mse`` (nw, nf, m) mean squared error per window; ``ref_var`` (nw, m) mean of the
-    clairvoyant P_ii per window; ``sigma`` (nw,) mean σ_k; ``sigma_hat`` (nw, na) mean σ̂ of the adaptive filters.
+    clairvoyant P_ii per window; ``sigma`` (nw,) mean σ_k; ``sigma_hat`` (nw, na) mean σ̂ of the σ-learning filters;
+    ``diverged[f]`` the time a filter's error left the finite numbers (None: it did not) — from that window on its
+    ``mse`` is inf and its σ̂ nan, and the other filters' figures are unaffected.
     """
 
     model: Model
@@ -67,6 +69,8 @@ class ScenarioRun:
     sigma: np.ndarray
     sigma_hat: np.ndarray
     steps: np.ndarray
+    diverged: tuple[float | None, ...] = ()
+
 
     def ratios(self) -> np.ndarray:
         """√(mse / ref_var) per window, filter and coordinate (nw, nf, m)."""
@@ -156,16 +160,16 @@ def simulate_scenario(
     adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
     wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
     acc = np.zeros(len(filters))
+    died = np.full(len(filters), -1, dtype=np.int64)
     law = LAWS[scenario.noise]
     k = 0
     while k < n:
         todo = min(CHUNK, n - k)
         done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig[k:k + todo], law, scenario.dof,
                                 scenario.outlier_rate, scenario.outlier_scale, ref.q, damp, coef, kind, table, ad,
-                                ref.gain[k:k + todo], acc, k, win, wsq, wsig, vb_P, vb_ab, vb_par)
+                                ref.gain[k:k + todo], acc, k, win, wsq, wsig, vb_P, vb_ab, vb_par, died)
         if done < todo:
-            bad = [f.label for f, row in zip(filters, e, strict=True) if not np.all(np.isfinite(row))]
-            raise DivergenceError(f"{' and '.join(bad) or 'the run'} diverged at t = {(k + done) * h:.4g} "
+            raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
                                   f"(step {k + done:,} of {n:,}, h = {h:.3g})")
         k += done
         if progress is not None:
@@ -173,10 +177,17 @@ def simulate_scenario(
     edges = np.minimum(np.arange(windows + 1) * win, n)
     edges[-1] = n
     steps = np.diff(edges)
+    mse, sigma_hat = wsq / steps[:, None, None], wsig / steps[:, None]
+    slots = np.cumsum(adaptive) - 1
+    for f in np.flatnonzero(died >= 0):  # from its window on, a diverged filter's error is infinite
+        w_died = min(died[f] // win, windows - 1)
+        mse[w_died:, f, :] = np.inf
+        if adaptive[f]:
+            sigma_hat[w_died:, slots[f]] = np.nan
     # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}
     ref_var = np.add.reduceat(ref.var[1:], edges[:-1], axis=0) / steps[:, None]
     mean_sigma = np.add.reduceat(sig, edges[:-1]) / steps
     return ScenarioRun(model, scenario, float(nu), seed, h, n, ref.q, r_min,
                        tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
-                       wsq / steps[:, None, None], ref_var, mean_sigma,
-                       wsig / steps[:, None], steps)
+                       mse, ref_var, mean_sigma, sigma_hat, steps,
+                       tuple(float(d * h) if d >= 0 else None for d in died))

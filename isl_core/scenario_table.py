@@ -59,9 +59,10 @@ PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
 
 @dataclass(frozen=True)
 class ScenarioTable:
-    """``worst[f, s]`` with the interval ``low``/``high`` (basic bootstrap, module docstring); rows ``filters`` (names), ``labels``; columns
-    ``scenarios`` (preset names) with ``scenario_labels``; ``winner[s]`` the filter (name) with the lowest worst case
-    but the clairvoyant one, and ``margin[s]`` the runner-up's worst case over the winner's."""
+    """``worst[f, s]`` with the interval ``low``/``high`` (basic bootstrap, module docstring); rows ``filters``
+    (names), ``labels``; columns ``scenarios`` (preset names) with ``scenario_labels``; ``winner[s]`` the filter (name)
+    with the lowest worst case but the clairvoyant one, and ``margin[s]`` the runner-up's worst case over the
+    winner's."""
 
     alpha: float
     m: int

@@ -185,3 +185,15 @@ def test_the_clairvoyant_filters_error_matches_its_own_covariance_on_long_runs(s
     se = per_window.std(axis=0, ddof=1) / math.sqrt(len(per_window))
     assert np.all(np.abs(mean - 1.0) < 4.0 * se), (mean, se)
     assert np.all(se < 0.04)  # a check that can fail: the interval is narrow
+
+
+def test_a_filter_that_diverges_is_stopped_and_marked_while_the_others_go_on():
+    # a sensor read every 3/r_min: the Kalman–Bucy gain for continuous observation, applied to one reading of
+    # 3/r_min at once, overshoots and the error grows ≈ 15-fold a reading until it leaves the float range; the
+    # clairvoyant filter is the exact Kalman filter of that coarse sensor and stays finite
+    run = simulate_scenario(MODEL, 3.0, Scenario(sensor_interval=3.0), horizon=1200.0, windows=12, seed=2)
+    kbf = run.names.index("kbf")
+    assert run.diverged[0] is None and run.diverged[kbf] is not None
+    first = int(np.argmax(np.isinf(run.mse[:, kbf, 0])))
+    assert np.all(np.isinf(run.mse[first:, kbf])) and np.all(np.isfinite(run.mse[:first, kbf]))
+    assert np.all(np.isfinite(run.mse[:, 0])) and np.all(run.ratios()[:, 0] < 3.0)

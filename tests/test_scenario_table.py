@@ -58,3 +58,28 @@ def test_the_command_prints_json_and_writes_csv_and_refuses_unknown_scenarios(tm
     assert float(rows[1]["constant"]) == pytest.approx(doc["rows"][1]["constant"])
     assert main(["scenario", "--scenarios", "sigma_dorp", "--quiet"]) == 2
     assert "unknown scenario 'sigma_dorp'" in capsys.readouterr().err
+
+
+def test_the_sigma_step_map_has_a_row_per_window_after_the_step_and_names_a_winner_per_cell():
+    from isl_core.scenario_map import who_wins_map
+
+    res = who_wins_map("sigma_step", values=(0.1, 10.0), seeds=3, after=4.0)
+    assert res.ratio.shape == (4, 2, len(res.filters)) and np.allclose(res.rows, [0.0, 1.0, 2.0, 3.0])
+    assert np.all(res.winner >= 1) and np.all(res.margin >= 1.0)
+    # right after σ drops tenfold the filter tuned for σ(0) is the worst of all (its gain is ten times too small)
+    assert np.argmax(res.ratio[0, 0, 1:]) == 0
+
+
+def test_the_one_dimensional_maps_and_the_command(capsys):
+    from isl_core.scenario_map import who_wins_map
+
+    res = who_wins_map("tails", values=(3.0, 100.0), seeds=2, after=6.0)
+    assert res.ratio.shape == (1, 2, len(res.filters)) and np.isnan(res.rows[0])
+    assert main(["scenario", "--map", "sensor", "--values", "0,0.1", "--seeds", "2", "--horizon", "6", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["meta"]["map"] == "sensor" and [c["value"] for c in doc["cells"]] == [0.0, 0.1]
+    assert all(c["winner"] in doc["meta"]["filters"] and c["winner"] != "clairvoyant" for c in doc["cells"])
+    assert main(["scenario", "--map", "sigma_step", "--horizon", "10", "--quiet"]) == 2
+    assert "--horizon must be at least 10" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="kind"):
+        who_wins_map("drift")
