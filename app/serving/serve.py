@@ -48,7 +48,7 @@ import urllib.request
 from collections.abc import Sequence
 from importlib.util import find_spec
 
-from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, log_stats, quiet_garbage_collection
+from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, log_stats, quiet_garbage_collection
 
 log = logging.getLogger("isl.serve")
 
@@ -272,6 +272,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     if os.environ.pop(BOKEH_ORIGIN_ENV, None) is not None:
         log.warning("ignoring %s; set %s instead", BOKEH_ORIGIN_ENV, ENV["origins"])
     hardening.install()
+    check_allocator()
     # The event loop's thread releases the interpreter lock at every file-system call of Panel's page building
     # (several a component) and, beside compute threads running Python, waited up to the switch interval (5 ms by
     # default) to get it back each time: a page's build stalled the loop for seconds. 0.5 ms bounds that wait
