@@ -23,8 +23,7 @@ ENV PATH=/opt/venv/bin:$PATH \
     NUMBA_CACHE_DIR=/var/cache/isl/numba \
     HOME=/tmp \
     ISL_ADDRESS=0.0.0.0 \
-    ISL_PORT=5006 \
-    PYTHONMALLOC=malloc
+    ISL_PORT=5006
 RUN useradd --create-home --uid 10001 --gid 0 isl \
     && mkdir -p /var/cache/isl/numba \
     && chown -R 10001:0 /var/cache/isl \

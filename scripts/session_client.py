@@ -339,8 +339,7 @@ def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict
             "except ModuleNotFoundError:\n    import app.serve as s\n"   # a checkout from before app/serving
             + (f"s.app_script = lambda: {script!r}\n" if script else "")
             + "sys.exit(s.main(sys.argv[1:]))")
-    full_env = {**os.environ, "PYTHONMALLOC": "malloc",  # as ./scripts/serve and the image run it
-                "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}
+    full_env = {**os.environ, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}
     with open(log_path, "w") as log:                       # the child keeps its own descriptor
         return subprocess.Popen([sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
                                 stdout=log, stderr=subprocess.STDOUT, env=full_env, cwd=repo)

@@ -20,7 +20,8 @@ DRIFT = 0.10
 
 @pytest.mark.slow
 def test_sessions_return_to_zero_and_memory_does_not_grow(tmp_path):
-    with served(tmp_path, *load_test.MEMORY_SERVER_ARGS) as (url, proc, log):
+    # with the allocator that hands memory back (opt-in, app.serving.memory.check_allocator)
+    with served(tmp_path, *load_test.MEMORY_SERVER_ARGS, env={"PYTHONMALLOC": "malloc"}) as (url, proc, log):
         rounds = [run(load_test.memory_round(url, proc.pid, log, SESSIONS), 600) for _ in range(ROUNDS)]
     print(load_test.memory_report(rounds, SESSIONS))
     for r in rounds:
@@ -30,5 +31,5 @@ def test_sessions_return_to_zero_and_memory_does_not_grow(tmp_path):
     first = rounds[0].rss_after_mb
     for r in rounds[1:]:
         assert r.rss_after_mb <= (1 + DRIFT) * first, load_test.memory_report(rounds, SESSIONS)
-    # and the memory comes back: within 20 % of the idle server's (issue 13; PYTHONMALLOC=malloc, as served)
+    # and the memory comes back: within 20 % of the idle server's (issue 13)
     assert rounds[-1].rss_after_mb <= 1.2 * rounds[0].rss_before_mb, load_test.memory_report(rounds, SESSIONS)
