@@ -19,6 +19,14 @@ class UsageError(Exception):
     """Bad command-line arguments: reported in one line, exit code 2."""
 
 
+def write_csv(path, rows: list[dict]) -> None:
+    """``rows`` (dicts with the same keys) as a UTF-8 CSV file with a header row."""
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def progress_bar(label: str, enabled: bool):
     """A text progress bar on stderr (callback for :func:`isl_core.sweep`); None when disabled."""
     if not enabled:
@@ -123,10 +131,7 @@ def cmd_sweep(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = nan_to_none(res.records())
-    with open(out / "fig2.csv", "w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(out / "fig2.csv", rows)
     from isl_core.sweep import BURN
 
     meta = {"m": res.m, "w": None if res.beta is not None else res.w, "beta": res.beta,
@@ -307,10 +312,7 @@ def cmd_scenario(args) -> int:
              **{f"{s}_high": tab.high[i, j] for j, s in enumerate(tab.scenarios)}}
             for i, (f, lab) in enumerate(zip(tab.filters, tab.labels, strict=True))]
     if args.csv is not None:
-        with open(args.csv, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_csv(args.csv, rows)
     if args.json:
         meta = {"alpha": tab.alpha, "m": tab.m, "w": tab.w, "seeds": tab.seeds, "horizon_over_r_min": tab.horizon,
                 "window_over_r_min": tab.window, "burn_over_r_min": tab.burn, "level": tab.level,
@@ -352,10 +354,7 @@ def _scenario_map(args) -> int:
              **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)}}
             for r, t in enumerate(res.rows) for c, x in enumerate(res.x)]
     if args.csv is not None:
-        with open(args.csv, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_csv(args.csv, rows)
     if args.json:
         meta = {"map": res.kind, "axis": AXIS_LABELS[res.kind], "alpha": res.alpha, "seeds": res.seeds,
                 "window_over_r_min": res.window, "filters": dict(zip(res.filters, res.labels, strict=True))}

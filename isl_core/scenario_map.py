@@ -25,8 +25,7 @@ import numpy as np
 from .model import Model
 from .paper import M, W
 from .scenario import Scenario
-from .scenario_run import simulate_scenario
-from .scenario_table import _filters
+from .scenario_table import _filters, seed_runs, table_labels
 from .validate import check_int, check_real, check_reals
 
 __all__ = ["MAPS", "WhoWinsMap", "who_wins_map"]
@@ -110,16 +109,10 @@ def who_wins_map(
     rows = np.arange(first, windows) * (horizon / windows) - STEP_AT  # has the same windows, up to a few steps)
     cells, names, labels = [], None, None
     for c, value in enumerate(values):
-        mse = []
-        for s in range(seeds):
-            run = simulate_scenario(model, nu, _scenario(kind, value), horizon=horizon, windows=windows, seed=s,
-                                    extra=extra)
-            mse.append(run.mse)
-            if progress is not None:
-                progress((c * seeds + s + 1) / (len(values) * seeds))
-        names = run.names
-        labels = (run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *run.labels[3:])
-        ratio = np.sqrt(np.mean(mse, axis=0)[first:] / run.ref_var[first:][:, None, :]).max(axis=2)  # (windows, f)
+        mse, run = seed_runs(model, nu, _scenario(kind, value), extra, horizon=horizon, windows=windows, seeds=seeds,
+                             progress=progress, done=c * seeds, total=len(values) * seeds)
+        names, labels = run.names, table_labels(run, nu_label)
+        ratio = np.sqrt(mse.mean(axis=0)[first:] / run.ref_var[first:][:, None, :]).max(axis=2)  # (windows, f)
         cells.append(ratio if kind == "sigma_step" else ratio.max(axis=0)[None, :])
     if kind != "sigma_step":
         rows = np.array([math.nan])

@@ -88,7 +88,7 @@ class ScenarioRun:
         return np.sqrt(mse / ref[None, :])
 
 
-def _variational_state(model: Model, filters, ad: np.ndarray):
+def _learning_state(model: Model, filters, ad: np.ndarray):
     """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations); the
     robust filters' (c, κ(c))."""
     nf, m = len(filters), model.m
@@ -149,9 +149,9 @@ def simulate_scenario(
                        np.zeros(model.m), False)
     constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
     filters = [clair, constant, isl_filter(model, nu), *specs[1:]]
-    damp, coef, kind, table, ad = _pack(model, filters, variational=True)
+    damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
     kind[0] = KIND_CLAIRVOYANT
-    vb_P, vb_ab, vb_par = _variational_state(model, filters, ad)
+    vb_P, vb_ab, vb_par = _learning_state(model, filters, ad)
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))

@@ -102,14 +102,30 @@ def _filters(model: Model, alpha: float, m: int, w: float):
              variational_kbf(model, sigma_init=guess),
              robust_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess)]
     if nob is not None:
-        extra.append(_renamed(isl_filter(model, minimax), "isl_minimax", f"ISL, minimax ν = {minimax:.3g}"))
+        extra.append(dataclasses.replace(isl_filter(model, minimax), name="isl_minimax",
+                                         label=f"ISL, minimax ν = {minimax:.3g}"))
     extra.append(model_aware_isl(model, aware))
     first_label = (f"ISL, table (A.31) ν = {first:.3g}" if nob is not None else f"ISL, minimax ν = {first:.3g}")
     return first, first_label, extra
 
 
-def _renamed(spec, name: str, label: str):
-    return dataclasses.replace(spec, name=name, label=label)
+def seed_runs(model: Model, nu: float, scenario: Scenario, extra, *, horizon: float, windows: int, seeds: int,
+              progress: Callable[[float], None] | None = None, done: int = 0, total: int | None = None):
+    """Runs of seeds 0 … seeds − 1: their windowed squared errors (seeds, windows, filters, m), the last run (for
+    the grid and the clairvoyant variance, the same in every seed), and the filters' labels for a table.
+    ``progress`` gets (done + runs so far)/total."""
+    mse = []
+    for s in range(seeds):
+        run = simulate_scenario(model, nu, scenario, horizon=horizon, windows=windows, seed=s, extra=extra)
+        mse.append(run.mse)
+        if progress is not None:
+            progress((done + s + 1) / (total or seeds))
+    return np.array(mse), run
+
+
+def table_labels(run, nu_label: str) -> tuple[str, ...]:
+    """Row labels: the run's, with the σ(0)-optimal filter named without its σ(0) and the first ISL row's tuning."""
+    return (run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *run.labels[3:])
 
 
 def scenario_table(
@@ -138,17 +154,12 @@ def scenario_table(
     for j, (_, sigma0, scenario) in enumerate(scenarios.values()):
         model = Model.from_w(alpha, w, sigma0, m)
         nu, nu_label, extra = _filters(model, alpha, m, w)
-        mse = []
-        for s in range(seeds):
-            run = simulate_scenario(model, nu, scenario, horizon=horizon, windows=windows, seed=s, extra=extra)
-            mse.append(run.mse)
-            if progress is not None:
-                progress((j * seeds + s + 1) / (len(scenarios) * seeds))
+        mse, run = seed_runs(model, nu, scenario, extra, horizon=horizon, windows=windows, seeds=seeds,
+                             progress=progress, done=j * seeds, total=len(scenarios) * seeds)
         if names is None:
-            names = run.names
-            labels = (run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *run.labels[3:])
+            names, labels = run.names, table_labels(run, nu_label)
         keep = run.t[:-1] * run.r_min >= burn - 1e-12
-        mse = np.array(mse)[:, keep]  # (seeds, windows, filters, m)
+        mse = mse[:, keep]  # (seeds, windows, filters, m)
         ref = run.ref_var[keep][:, None, :]
 
         def statistic(sample: np.ndarray, ref=ref) -> np.ndarray:

@@ -168,16 +168,16 @@ def _check_start(start) -> str:
     return start
 
 
-def _pack(model: Model, filters: Sequence[FilterSpec], variational: bool = False):
+def _pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False):
     """Kernel arguments of ``filters``: ``(damp, coef, kind, table, ad)`` (see :func:`isl_core.kernels.advance`).
 
     ``ad`` is the adaptive filters' fresh state (v = σ̂² = σ_init²); ``table`` is padded with its last row to
     the longest table (the same value held beyond the end) and is a 2-row dummy when no filter is adaptive.
-    A variational-Bayes or robust filter is refused unless ``variational`` (the scenario kernel's caller).
+    A variational-Bayes or robust filter is refused unless ``scenario`` (the scenario kernel's caller).
     """
     nf = len(filters)
     for f in filters:
-        if (f.variational is not None or f.huber is not None) and not variational:
+        if (f.variational is not None or f.huber is not None) and not scenario:
             raise ValueError(f"the filter {f.label!r} runs in scenario runs only "
                              "(isl_core.scenario_run.simulate_scenario)")
     damp = np.array([f.damp for f in filters], dtype=np.float64)

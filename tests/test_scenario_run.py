@@ -29,7 +29,7 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    _, _, _, table, ad = _pack(model, filters, variational=True)
+    _, _, _, table, ad = _pack(model, filters, scenario=True)
     sig = sigma_path(scenario, model, kb.r_min, h, n)
     acc = np.zeros(len(filters))
     sq = np.zeros((len(filters), model.m))
