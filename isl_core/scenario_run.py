@@ -108,8 +108,8 @@ def _learning_state(model: Model, filters, ad: np.ndarray):
 def _scenario_step(model: Model, nu: float, scenario: Scenario, extra, horizon: float):
     """h (the smallest over σ(0) and the path's extremes), T and the step count."""
     plan = run_plan(model, nu, horizon=horizon, extra=extra, cap=MAX_STEPS)
-    n_guess = max(1, math.ceil(plan.T / plan.h))
-    sig = sigma_path(scenario, model, plan.r_min, plan.h, n_guess)
+    end = plan.T * plan.r_min  # σ(t) is monotone between knots: its extremes on [0, T] are at 0, knots and T
+    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < end), end]))
     h = plan.h
     for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
         other = Model(model.alpha, model.beta, s, model.m)
