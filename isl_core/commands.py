@@ -348,9 +348,10 @@ def _scenario_map(args) -> int:
     res = who_wins_map(args.map, args.alpha, values=None if args.values is None else _flat(args.values), m=args.m,
                        w=args.w, seeds=32 if args.seeds is None else args.seeds, window=args.window, after=after,
                        burn=args.burn, progress=progress_bar("scenario map", not (args.quiet or args.json)))
-    winner, margin = res.winner, res.margin
+    winner, margin, tie = res.winner, res.margin, res.tie
     rows = [{"since_step_over_r_min": None if math.isnan(t) else float(t), "value": float(x),
              "winner": res.filters[winner[r, c]], "margin": float(margin[r, c]),
+             "margin_low95": float(res.margin_low[r, c]), "tie": bool(tie[r, c]),
              **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)}}
             for r, t in enumerate(res.rows) for c, x in enumerate(res.x)]
     if args.csv is not None:
@@ -362,11 +363,12 @@ def _scenario_map(args) -> int:
         return 0
     print(f"who wins ({res.kind}): the filter with the lowest RMSE ratio to the clairvoyant Kalman filter (max over "
           f"coordinates, mean square over {res.seeds} seeds, windows of {res.window:g}/r_min), x its margin over the "
-          f"runner-up; alpha = {res.alpha:g}")
+          f"runner-up, '~' a tie (the margin's 95 % lower bound over the seeds is <= 1); alpha = {res.alpha:g}")
     head = "since step" if res.kind == "sigma_step" else ""
     print(f"{head:>10} | {AXIS_LABELS[res.kind]}: " + " | ".join(f"{x:>18g}" for x in res.x))
     for r, t in enumerate(res.rows):
-        cells = [f"{res.filters[winner[r, c]]} x{margin[r, c]:.2f}" for c in range(len(res.x))]
+        cells = [f"{'~' if tie[r, c] else ''}{res.filters[winner[r, c]]} x{margin[r, c]:.2f}"
+                 for c in range(len(res.x))]
         label = "" if math.isnan(t) else f"{t:g}"
         print(f"{label:>10} | " + " " * (len(AXIS_LABELS[res.kind]) + 2) + " | ".join(f"{c:>18}" for c in cells))
     return 0

@@ -4,7 +4,8 @@
 :mod:`isl_core.scenario_table`, ``seeds`` independent noises per cell) and reports, per cell, every filter's ratio
 to the clairvoyant Kalman filter — √(mean over seeds of the mean squared error / the mean clairvoyant variance),
 the largest over the coordinates — the filter with the lowest one (the clairvoyant filter aside) and its margin,
-the runner-up's ratio over the winner's:
+the runner-up's ratio over the winner's, and whether the cell is a tie (the margin's paired-bootstrap lower 95 %
+bound over the seeds is ≤ 1):
 
 * ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.1 … 10): a
   two-dimensional map, ratio r × time since the step (windows of ``window``/r_min, the rows);
@@ -25,7 +26,8 @@ import numpy as np
 from .model import Model
 from .paper import M, W
 from .scenario import Scenario
-from .scenario_table import _filters, seed_runs, table_labels
+from .scenario_average import BOOTSTRAP, average_scenario
+from .scenario_table import BOOT_SEED, _filters, table_labels
 from .validate import check_int, check_real, check_reals
 
 __all__ = ["MAPS", "WhoWinsMap", "who_wins_map"]
@@ -45,7 +47,9 @@ AXIS_LABELS = {"sigma_step": "σ after / σ before", "tails": "degrees of freedo
 class WhoWinsMap:
     """``ratio[row, col, f]`` per cell and filter; ``x`` the swept values (columns); ``rows`` the times since the
     step (window starts, 1/r_min) for ``"sigma_step"``, else one row (nan); ``winner[row, col]`` the index in
-    ``filters`` of the lowest ratio but the clairvoyant filter's, ``margin`` the runner-up's ratio over it."""
+    ``filters`` of the lowest ratio but the clairvoyant filter's, ``margin`` the runner-up's ratio over it, and
+    ``margin_low`` the margin's lower 95 % bound (seeds resampled together for every filter: a paired bootstrap); a
+    cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot tell the winner from the runner-up."""
 
     kind: str
     alpha: float
@@ -56,6 +60,11 @@ class WhoWinsMap:
     ratio: np.ndarray
     seeds: int
     window: float
+    margin_low: np.ndarray
+
+    @property
+    def tie(self) -> np.ndarray:
+        return self.margin_low <= 1.0
 
     @property
     def winner(self) -> np.ndarray:
@@ -107,14 +116,28 @@ def who_wins_map(
     windows = max(1, round(horizon / window))
     first = min(round(start / (horizon / windows)), windows - 1)  # the first window counted (by index: every run
     rows = np.arange(first, windows) * (horizon / windows) - STEP_AT  # has the same windows, up to a few steps)
-    cells, names, labels = [], None, None
+    cells, lows, names, labels = [], [], None, None
+    rng = np.random.default_rng(BOOT_SEED)
     for c, value in enumerate(values):
-        mse, run = seed_runs(model, nu, _scenario(kind, value), extra, horizon=horizon, windows=windows, seeds=seeds,
-                             progress=progress, done=c * seeds, total=len(values) * seeds)
+        avg = average_scenario(model, nu, _scenario(kind, value), seeds=range(seeds), horizon=horizon,
+                               windows=windows, extra=extra, progress=progress, done=c * seeds,
+                               total=len(values) * seeds)
+        mse, run = avg.mse, avg.run
         names, labels = run.names, table_labels(run, nu_label)
-        ratio = np.sqrt(mse.mean(axis=0)[first:] / run.ref_var[first:][:, None, :]).max(axis=2)  # (windows, f)
-        cells.append(ratio if kind == "sigma_step" else ratio.max(axis=0)[None, :])
+        ref = run.ref_var[first:][:, None, :]
+
+        def cell(sample: np.ndarray, ref=ref) -> np.ndarray:  # (rows, filters)
+            ratio = np.sqrt(sample.mean(axis=0)[first:] / ref).max(axis=2)
+            return ratio if kind == "sigma_step" else ratio.max(axis=0)[None, :]
+
+        point = cell(mse)
+        ranked = np.argsort(point[:, 1:], axis=1)[:, :2] + 1  # winner and runner-up per row
+        boot = [np.take_along_axis(cell(mse[rng.integers(seeds, size=seeds)]), ranked, axis=1)
+                for _ in range(BOOTSTRAP)]
+        boot = np.array(boot)  # (resamples, rows, 2)
+        cells.append(point)
+        lows.append(np.quantile(boot[..., 1] / boot[..., 0], 0.025, axis=0))
     if kind != "sigma_step":
         rows = np.array([math.nan])
     return WhoWinsMap(kind, alpha, np.array(values, dtype=float), rows, names, labels,
-                      np.stack(cells, axis=1), seeds, window)
+                      np.stack(cells, axis=1), seeds, window, np.stack(lows, axis=1))

@@ -37,7 +37,7 @@ from .scenario_kernel import KIND_CLAIRVOYANT, LAW_GAUSSIAN, LAW_OUTLIERS, LAW_S
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
-__all__ = ["ScenarioRun", "simulate_scenario"]
+__all__ = ["MAX_SCENARIO_STEPS", "ScenarioRun", "scenario_grid", "simulate_scenario"]
 
 LAWS = {"gaussian": LAW_GAUSSIAN, "student": LAW_STUDENT, "outliers": LAW_OUTLIERS}
 MAX_SCENARIO_STEPS = 20_000_000  #: the clairvoyant gains of every step are held: 8·m·N bytes (≤ 1 GB at m = 6)
@@ -70,6 +70,7 @@ class ScenarioRun:
     sigma_hat: np.ndarray
     steps: np.ndarray
     diverged: tuple[float | None, ...] = ()
+    learning: tuple[str, ...] = ()
 
 
     def ratios(self) -> np.ndarray:
@@ -105,20 +106,24 @@ def _learning_state(model: Model, filters, ad: np.ndarray):
     return vb_P, vb_ab, vb_par
 
 
-def _scenario_step(model: Model, nu: float, scenario: Scenario, extra, horizon: float):
-    """h (the smallest over σ(0) and the path's extremes), T and the step count."""
-    plan = run_plan(model, nu, horizon=horizon, extra=extra, cap=MAX_STEPS)
-    end = plan.T * plan.r_min  # σ(t) is monotone between knots: its extremes on [0, T] are at 0, knots and T
-    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < end), end]))
+def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float):
+    """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
+    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit."""
+    r_min = kalman_bucy(model).r_min
+    T = horizon / r_min  # exactly: not lengthened for a slowly settling filter as simulate's default run is
+    plan = run_plan(model, nu, T=T, extra=extra, cap=MAX_STEPS)
+    # σ(t) is monotone between knots: its extremes on [0, T] are at 0, the knots and T
+    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < horizon),
+                                                   horizon]))
     h = plan.h
     for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
         other = Model(model.alpha, model.beta, s, model.m)
-        h = min(h, run_plan(other, nu, horizon=horizon, extra=extra, cap=MAX_STEPS).h)
+        h = min(h, run_plan(other, nu, T=T, extra=extra, cap=MAX_STEPS).h)
     n = math.ceil(plan.T / h)
     if n > MAX_SCENARIO_STEPS:
         raise ValueError(f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
                          f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon or σ values closer together")
-    return plan.T / n, n, plan.r_min
+    return T / n, n, r_min
 
 
 def simulate_scenario(
@@ -141,7 +146,7 @@ def simulate_scenario(
     windows = check_int("windows", windows, lo=1, hi=100_000)
     seed = check_int("seed", seed, lo=0)
     specs = check_filters(model, nu, extra)
-    h, n, r_min = _scenario_step(model, nu, scenario, specs[1:], horizon)
+    h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
     windows = min(windows, n)
     kb = kalman_bucy(model)
     ref = clairvoyant(model, scenario, h, n)
@@ -190,4 +195,5 @@ def simulate_scenario(
     return ScenarioRun(model, scenario, float(nu), seed, h, n, ref.q, r_min,
                        tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
                        mse, ref_var, mean_sigma, sigma_hat, steps,
-                       tuple(float(d * h) if d >= 0 else None for d in died))
+                       tuple(float(d * h) if d >= 0 else None for d in died),
+                       tuple(f.name for f, a in zip(filters, adaptive, strict=True) if a))

@@ -39,12 +39,13 @@ from .paper import M, W, a31_nu_over_beta
 from .recommend import recommend_nu
 from .robust import robust_kbf
 from .scenario import Scenario
-from .scenario_run import simulate_scenario
+from .scenario_average import average_scenario, worst_ratio
 from .validate import check_int, check_real
 from .variational import variational_kbf
 
 __all__ = ["PRESETS", "ScenarioTable", "scenario_table"]
 
+BOOT_SEED = 20261202  #: the bootstrap's resampling seed (the table is reproducible)
 SIGMA_RANGE = (2.0, 200.0)  #: the σ range the σ-learning filters' tables and the minimax ν are built for
 #: name: (label, σ(0), scenario)
 PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
@@ -109,20 +110,6 @@ def _filters(model: Model, alpha: float, m: int, w: float):
     return first, first_label, extra
 
 
-def seed_runs(model: Model, nu: float, scenario: Scenario, extra, *, horizon: float, windows: int, seeds: int,
-              progress: Callable[[float], None] | None = None, done: int = 0, total: int | None = None):
-    """Runs of seeds 0 … seeds − 1: their windowed squared errors (seeds, windows, filters, m), the last run (for
-    the grid and the clairvoyant variance, the same in every seed), and the filters' labels for a table.
-    ``progress`` gets (done + runs so far)/total."""
-    mse = []
-    for s in range(seeds):
-        run = simulate_scenario(model, nu, scenario, horizon=horizon, windows=windows, seed=s, extra=extra)
-        mse.append(run.mse)
-        if progress is not None:
-            progress((done + s + 1) / (total or seeds))
-    return np.array(mse), run
-
-
 def table_labels(run, nu_label: str) -> tuple[str, ...]:
     """Row labels: the run's, with the σ(0)-optimal filter named without its σ(0) and the first ISL row's tuning."""
     return (run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *run.labels[3:])
@@ -150,25 +137,19 @@ def scenario_table(
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     windows = max(1, round(horizon / window))
     worst, low, high, names, labels = [], [], [], None, None
-    rng = np.random.default_rng(20261202)
+    rng = np.random.default_rng(BOOT_SEED)
     for j, (_, sigma0, scenario) in enumerate(scenarios.values()):
         model = Model.from_w(alpha, w, sigma0, m)
         nu, nu_label, extra = _filters(model, alpha, m, w)
-        mse, run = seed_runs(model, nu, scenario, extra, horizon=horizon, windows=windows, seeds=seeds,
-                             progress=progress, done=j * seeds, total=len(scenarios) * seeds)
+        avg = average_scenario(model, nu, scenario, seeds=range(seeds), horizon=horizon, windows=windows, extra=extra,
+                               progress=progress, done=j * seeds, total=len(scenarios) * seeds)
+        run = avg.run
         if names is None:
             names, labels = run.names, table_labels(run, nu_label)
         keep = run.t[:-1] * run.r_min >= burn - 1e-12
-        mse = mse[:, keep]  # (seeds, windows, filters, m)
-        ref = run.ref_var[keep][:, None, :]
-
-        def statistic(sample: np.ndarray, ref=ref) -> np.ndarray:
-            return np.sqrt(sample.mean(axis=0) / ref).max(axis=(0, 2))  # per filter
-
-        point = statistic(mse)
+        point, lo, hi = worst_ratio(avg.mse[:, keep], run.ref_var[keep], level, rng)
         worst.append(point)
-        boot = np.array([statistic(mse[rng.integers(seeds, size=seeds)]) for _ in range(400)])
-        low.append(2.0 * point - np.quantile(boot, (1 + level) / 2, axis=0))
-        high.append(2.0 * point - np.quantile(boot, (1 - level) / 2, axis=0))
+        low.append(lo)
+        high.append(hi)
     return ScenarioTable(alpha, m, w, names, labels, tuple(scenarios), tuple(v[0] for v in scenarios.values()),
                          np.array(worst).T, np.array(low).T, np.array(high).T, seeds, horizon, window, burn, level)
