@@ -37,7 +37,7 @@ _NOT_FINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infin
 @dataclass(frozen=True)
 class Kind:
     """An input's kind and range: ``"number"``, ``"whole"``, ``"switch"``, ``"numbers"`` (a list of 1..``n_max``
-    numbers in [lo, hi]) or ``"names"`` (a list of distinct names from ``names``)."""
+    numbers in [lo, hi]), ``"names"`` (a list of distinct names from ``names``) or ``"choice"`` (one of ``names``)."""
 
     what: str
     lo: float = -math.inf
@@ -57,6 +57,8 @@ class Kind:
             return "on or off (true or false)"
         if self.what == "numbers":
             return f"a list of {self.n_min} to {self.n_max} numbers {span}"
+        if self.what == "choice":
+            return f"one of {', '.join(self.names)}"
         return f"a list of distinct names from {', '.join(self.names)}"
 
 
@@ -87,6 +89,8 @@ def _problem(value: object, kind: Kind) -> str:
     """Why ``value`` is not a valid ``kind`` (the part after the semicolon)."""
     if value is None or (isinstance(value, str) and not value.strip()):
         return "the box is empty"
+    if kind.what == "choice":
+        return f"{show(value)} is not one of them"
     if isinstance(value, str) and value.strip().lower() in _NOT_FINITE:
         return f"{show(value)} is not a finite number"
     if kind.what in ("number", "whole"):
@@ -128,6 +132,9 @@ def clean(label: str, value: object, kind: Kind) -> object:
             return bool(value)
     elif what == "numbers":
         return _clean_numbers(label, value, kind)
+    elif what == "choice":
+        if isinstance(value, str) and value in kind.names:
+            return value
     else:
         return _clean_names(label, value, kind)
     raise ValueError(f"{label} must be {kind.describe()}; {_problem(value, kind)}")
@@ -174,6 +181,11 @@ def parse_text(text: str, kind: Kind) -> object:
     t = text.strip()
     if kind.what in ("number", "whole"):
         return _parse_number(t, whole=kind.what == "whole")
+    if kind.what == "choice":
+        t = t.strip("\"'")
+        if not _NAME.fullmatch(t):
+            raise ValueError(f"{show(text)} is not a name")
+        return t
     if kind.what == "switch":
         word = t.lower()
         if word in ("true", "1", "on", "yes"):
@@ -223,6 +235,8 @@ def kinds_of(names: Sequence[str], params, item_bounds: dict[str, tuple[float, f
             out[name] = Kind("number", *p.bounds)
         elif isinstance(p, param.ListSelector):
             out[name] = Kind("names", names=tuple(p.objects))
+        elif isinstance(p, param.Selector):
+            out[name] = Kind("choice", names=tuple(p.objects))
         else:
             lo, hi = item_bounds[name]
             out[name] = Kind("numbers", lo, hi, p.bounds[0], p.bounds[1])

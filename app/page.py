@@ -27,6 +27,7 @@ from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
 from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
+from app.views.scenario import ScenarioView
 from app.views.worstcase import WorstCaseView
 
 __all__ = ["LONG_JOBS", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
@@ -171,6 +172,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
                    ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state))),
                    ("Worst case over σ", deferred(lambda: WorstCaseView(state=state))),
                    ("Compare σ", deferred(lambda: CompareView(state=state))),
+                   ("Scenarios: σ(t), tails, sensor", deferred(lambda: ScenarioView(state=state))),
                    sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
     return pn.template.FastListTemplate(
         title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),

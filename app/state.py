@@ -21,7 +21,7 @@ import param
 
 from isl_core.runview import RunView
 
-from . import extras, inputs, sweeps
+from . import extras, inputs, scenario, sweeps
 from .export import run_csv
 from .jobs import Jobs, Outcome
 from .longjobs import LongTask
@@ -33,7 +33,7 @@ __all__ = ["ALL_INPUTS", "INPUTS", "KINDS", "SWEEP_INPUTS", "AppState", "input_l
 
 INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "nu", "m", "seed", "horizon")
 SWEEP_INPUTS = ("sweep_sigmas", "sweep_horizon")
-ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS)
+ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS, *scenario.INPUTS)
 SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
 
 
@@ -47,10 +47,11 @@ def input_label(name: str, link: bool = False) -> str:
 
 
 
-class AppState(extras.Baselines):
+class AppState(extras.Baselines, scenario.ScenarioInputs):
     """Inputs of the dashboard, validated on assignment, and the latest results (see the module docstring).
 
-    The extra filters' and the worst-case table's inputs come from :class:`app.extras.Baselines`.
+    The extra filters' and the worst-case table's inputs come from :class:`app.extras.Baselines`, the Scenario
+    group's from :class:`app.scenario.ScenarioInputs`.
     """
 
     alpha = param.Number(0.5, bounds=(0.0, 100.0), label="α", doc=(
@@ -101,6 +102,7 @@ class AppState(extras.Baselines):
         self._sweep_task = LongTask(self, busy="sweep_busy", progress="sweep_progress", note="sweep_note")
         self._worst_task = LongTask(self, busy="worst_busy", progress="worst_progress", note="worst_note")
         self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``sweep_note`` reports on
+        self._init_scenario(LongTask)
         self.param.watch(self._on_inputs, list(INPUTS))
         self.param.watch(self._on_extra_inputs, list(extras.RUN_INPUTS))
         self.param.watch(self._on_context, ["alpha", "beta_from_w", "w", "beta", "m", "sweep_sigmas",
@@ -371,7 +373,7 @@ class AppState(extras.Baselines):
         self._jobs.close()
         with param.parameterized.discard_events(self):  # the views are going away: no redraw
             self.param.update(run=None, traces=None, prediction=None, points=None, curves=None, worst=None,
-                              extra_prediction={})
+                              extra_prediction={}, scenario=None, sc_map_result=None)
 
 
 #: kind and range of every input (:mod:`app.inputs`), from the declarations above

@@ -38,6 +38,8 @@ def _encode(value) -> str:
     if isinstance(value, float):
         text = repr(value)
         return text[:-2] if text.endswith(".0") else text
+    if isinstance(value, str):  # a choice: its name as is (sc_noise=student)
+        return value
     if isinstance(value, list | tuple):
         return "[" + ",".join(_encode(v) if not isinstance(v, str) else json.dumps(v) for v in value) + "]"
     return json.dumps(value)

@@ -14,6 +14,8 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 PLOT_DATA = """() => { const d = window.Bokeh && Bokeh.documents[0]; const s = d && d.get_model_by_name('traj-1-isl');
                        return !!(s && s.data.y.length > 0); }"""
+SCENARIO_DATA = ("js:() => { const s = Bokeh.documents[0].get_model_by_name('scenario-ratio'); "
+                 "return !!(s && s.data.t.length > 0); }")
 #: file name, window size, query, texts to click in turn, what to wait for then (a CSS selector, "js:" and a
 #: function that returns true when the page is ready, or None)
 SHOTS = [
@@ -28,6 +30,8 @@ SHOTS = [
      "js:() => Bokeh.documents[0].get_model_by_name('traj-1-truth').data.y.length === 2"),
     ("compare-1920x1080.png", (1920, 1080), "", ("Compare σ", "button:Compare"), "img"),
     ("compare-1280x720.png", (1280, 720), "", ("Compare σ", "button:Compare"), "img"),
+    ("scenario-1920x1080.png", (1920, 1080), "", ("Scenarios: σ(t), tails, sensor",), SCENARIO_DATA),
+    ("scenario-1280x720.png", (1280, 720), "", ("Scenarios: σ(t), tails, sensor",), SCENARIO_DATA),
 ]
 
 

@@ -483,3 +483,28 @@ def test_the_downloads_carry_the_run_on_screen(served):
             page.get_by_role("button", name="Download figure (PNG)").click()
         png = Path(png_download.value.path()).read_bytes()
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+
+
+SCENARIO_DATA = f"""() => {{
+    const src = ({NAMED})('scenario-ratio');
+    return !!(src && src.data.t && src.data.t.length > 0 && src.data.isl_model);
+}}"""
+
+
+def test_the_scenario_tab_draws_a_linked_scenario_and_its_map(served):
+    """A link with a scenario opens the Scenario tab on it: the rolling ratios of every filter are drawn, the map
+    is computed on request into coloured cells, and the link keeps the scenario."""
+    url, log = served
+    with dashboard(url + "?sc_noise=student&sc_runs=4&sc_map=sensor&sc_map_seeds=2") as page:
+        page.get_by_text("Scenarios: σ(t), tails, sensor").click()
+        page.wait_for_function(SCENARIO_DATA, timeout=60_000)
+        note = page.get_by_text("Simulated in", exact=False).first.inner_text()
+        page.get_by_role("button", name="Compute map").click()
+        cells = page.locator("table.isl-scn td.cell")
+        cells.first.wait_for(timeout=120_000)
+        n_cells = cells.count()
+        link = page.url
+    assert "4 runs" in note and "95 % interval over the runs" in note
+    assert n_cells == 6  # the sensor map's six intervals, one row
+    assert "sc_noise=student" in link and "sc_runs=4" in link
+    assert "Traceback" not in log.read_text()

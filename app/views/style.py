@@ -1,13 +1,14 @@
-"""Colours and fonts shared by the plots (sized to stay readable on a projector)."""
+"""Colours and fonts shared by the plots (sized to stay readable on a projector), and a long job's buttons."""
 from __future__ import annotations
 
+import panel as pn
 from bokeh.models import BasicTickFormatter, ColumnDataSource, CustomJSTicker, GlyphRenderer, Line, PrintfTickFormatter
 from bokeh.plotting import figure
 
 from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
 __all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "RATIO_MANTISSAS", "SIGMA_COLORS",
-           "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "line", "ratio_axis", "ratio_ticker", "styled"]
+           "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "job_buttons", "line", "ratio_axis", "ratio_ticker", "styled"]
 
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
@@ -81,3 +82,16 @@ def ratio_ticker(max_ticks: int = 9) -> CustomJSTicker:
         return ticks;
     """
     return CustomJSTicker(major_code=code, args={"sets": [list(m) for m in RATIO_MANTISSAS], "max_ticks": max_ticks})
+
+
+def job_buttons(busy, progress, label: str, start, cancel, *, width: int = 120, below_label: bool = True) -> tuple:
+    """A long job's start button (disabled while it runs), cancel button and progress bar (both shown while it
+    runs), over the state's ``busy`` and ``progress`` parameters; ``below_label``: aligned with labelled inputs."""
+    margin = (24, 10, 0, 10) if below_label else (5, 10)
+    run = pn.widgets.Button(label=label, color="primary", width=width, disabled=busy, margin=margin)
+    run.on_click(lambda event: start())
+    stop = pn.widgets.Button(label="Cancel", color="danger", width=90, visible=busy, margin=margin)
+    stop.on_click(lambda event: cancel())
+    bar = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), progress), max=100, width=200, visible=busy,
+                                 margin=(34, 10) if below_label else (18, 10))
+    return run, stop, bar

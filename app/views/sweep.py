@@ -23,7 +23,7 @@ from isl_core.baselines import LABELS
 from ..pipeline import COORDINATES
 from ..state import AppState
 from .controls import log_slider
-from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, ratio_axis, styled
+from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, job_buttons, ratio_axis, styled
 
 __all__ = ["SweepView", "parse_sigmas"]
 
@@ -173,13 +173,8 @@ class SweepView(Viewer):
         s.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sweep_sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
         horizon.width = 260
-        run = pn.widgets.Button(label="Simulate points", color="primary", width=150,
-                                disabled=s.param.sweep_busy)
-        run.on_click(lambda e: s.simulate_sweep())
-        cancel = pn.widgets.Button(label="Cancel", color="danger", width=90, visible=s.param.sweep_busy)
-        cancel.on_click(lambda e: s.cancel_sweep())
-        progress = pn.indicators.Progress(value=pn.bind(lambda p: round(100 * p), s.param.sweep_progress),
-                                          max=100, width=200, visible=s.param.sweep_busy, margin=(18, 10))
+        run, cancel, progress = job_buttons(s.param.sweep_busy, s.param.sweep_progress, "Simulate points",
+                                            s.simulate_sweep, s.cancel_sweep, width=150, below_label=False)
         recommend = pn.widgets.Button(label="Use recommended ν", color="success", width=180,
                                       disabled=pn.bind(lambda busy, a: busy or a == 0.0,
                                                        s.param.sweep_busy, s.param.alpha))

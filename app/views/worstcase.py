@@ -24,7 +24,7 @@ from isl_core.worstcase import FILTERS, LABELS
 
 from ..state import AppState
 from .filters_panel import bind
-from .style import FILTER_COLORS, ratio_axis, styled
+from .style import FILTER_COLORS, job_buttons, ratio_axis, styled
 from .sweep import parse_sigmas
 
 __all__ = ["WorstCaseView", "worst_case_html"]
@@ -136,14 +136,8 @@ class WorstCaseView(Viewer):
         n = bind(s, "wc_n_sigma", pn.widgets.IntInput(label=p.wc_n_sigma.label, start=2, end=11, width=110))
         horizon = bind(s, "wc_horizon", pn.widgets.FloatInput(label=p.wc_horizon.label, start=20.0, end=2000.0,
                                                               step=50.0, width=190))
-        run = pn.widgets.Button(label="Compute", color="primary", width=120, disabled=p.worst_busy,
-                                margin=(24, 10, 0, 10))
-        run.on_click(lambda e: s.compute_worst_case())
-        cancel = pn.widgets.Button(label="Cancel", color="danger", width=90, visible=p.worst_busy,
-                                   margin=(24, 10, 0, 10))
-        cancel.on_click(lambda e: s.cancel_worst_case())
-        progress = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), p.worst_progress), max=100,
-                                          width=200, visible=p.worst_busy, margin=(34, 10))
+        run, cancel, progress = job_buttons(p.worst_busy, p.worst_progress, "Compute", s.compute_worst_case,
+                                            s.cancel_worst_case)
         note = pn.pane.Markdown(p.worst_note, margin=(0, 10))
         return pn.Column(pn.FlexBox(lo, hi, n, alphas, horizon, run, cancel, progress, flex_wrap="wrap",
                                     sizing_mode="stretch_width"), note,  # wraps on a narrow screen (1280 × 720)

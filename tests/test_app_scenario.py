@@ -1,0 +1,135 @@
+"""The dashboard's Scenario group (app.scenario, app.views.scenario): inputs, the picture through the core, the map."""
+from __future__ import annotations
+
+import csv
+import html
+import io
+
+import numpy as np
+import pytest
+
+from app.scenario import PICTURE_MAX_STEPS, PRESETS, filters
+from app.state import AppState
+from app.urlsync import query_string, read_query
+from app.views.scenario import SCENARIO_COLORS, ScenarioView, map_html, worst_html
+from isl_core import Scenario, average_scenario, who_wins_map
+
+
+@pytest.fixture
+def state():
+    s = AppState()
+    s.start()
+    return s
+
+
+@pytest.mark.parametrize("name, bad, named", [
+    ("sc_change", "jump", "σ change"), ("sc_noise", "cauchy", "noise law"), ("sc_dof", 2.0, "degrees of freedom"),
+    ("sc_outlier_rate", 0.9, "outlier fraction"), ("sc_sensor", -1.0, "sensor interval"),
+    ("sc_runs", 1000, "runs averaged"), ("sc_window", 0.0, "rolling window"), ("sc_map", "space", "map over"),
+])
+def test_a_bad_scenario_input_is_refused_by_name_and_keeps_its_value(state, name, bad, named):
+    before = getattr(state, name)
+    setattr(state, name, bad)
+    assert getattr(state, name) == before
+    assert state.message_kind == "danger" and named in state.message and "must be" in state.message
+
+
+def test_the_link_carries_the_scenario_and_reports_bad_values(state):
+    state.param.update(sc_noise="student", sc_dof=4.0, sc_change="none")
+    query = query_string(state)
+    assert "sc_noise=student" in query and "sc_change=none" in query
+    values, problems = read_query(query)
+    assert values["sc_noise"] == "student" and values["sc_dof"] == 4.0 and values["sc_change"] == "none"
+    _, problems = read_query("?sc_noise=student;drop&sc_runs=abc")
+    assert set(problems) == {"sc_noise", "sc_runs"}
+    assert "sc_noise=… in the link" in problems["sc_noise"]
+
+
+def test_the_picture_is_the_cores_average_for_the_same_request(state):
+    state.param.update(sc_runs=4, sc_horizon=14.0, sc_change_at=6.0)
+    state.want_scenario()  # outside a server the job runs inline
+    pic = state.scenario
+    assert pic is not None and "Simulated in" in state.scenario_note and "4 runs" in state.scenario_note
+    req = pic.request
+    assert req.scenario == Scenario(sigma_knots=((6.0, 2.0),))
+    direct = average_scenario(req.model, state.nu, req.scenario, seeds=range(state.seed, state.seed + 4),
+                              horizon=14.0, windows=140, extra=filters(req))
+    np.testing.assert_array_equal(pic.average.mse, direct.mse)
+    roll = direct.rolling(1.0)
+    np.testing.assert_array_equal(pic.rolling.ratio, roll.ratio)
+    assert pic.average.run.names == ("clairvoyant", "kbf", "isl", "kbf_adaptive", "vb", "kbf_robust", "isl_model")
+    # an input change recomputes it (the tab is open)
+    state.sc_noise = "outliers"
+    assert state.scenario.request.scenario.noise == "outliers"
+
+
+def test_a_picture_too_long_for_the_dashboard_is_refused_with_the_setting_to_lower(state):
+    state.param.update(sc_runs=256, sc_horizon=500.0)
+    state.want_scenario()
+    assert state.scenario is None
+    assert "sc_runs" in state.scenario_note and f"{PICTURE_MAX_STEPS:,}" in state.scenario_note
+    state.param.update(sc_horizon=5.0, sc_window=8.0)
+    assert "sc_window" in state.scenario_note and "not be longer" in state.scenario_note
+
+
+def test_a_preset_sets_the_tables_column(state):
+    label = "σ 2 → 200 at 10/r_min"
+    state.apply_scenario_preset(label)
+    assert (state.alpha, state.w, state.m, state.sigma) == (1.0, 3.0, 3, 2.0)
+    assert (state.sc_change, state.sc_change_at, state.sc_sigma_after) == ("step", 10.0, 200.0)
+    assert state.nu == pytest.approx(0.849, abs=5e-4)  # β·(A.31)'s ν/β at α = 1, as the table runs it
+    assert set(PRESETS) >= {label, "Student-t noise, 3 degrees of freedom", "sensor read every 0.1/r_min"}
+    state.apply_scenario_preset("nonsense")
+    assert "Unknown scenario preset" in state.message
+
+
+def test_the_csv_holds_every_window_and_filter(state):
+    state.param.update(sc_runs=3, sc_horizon=10.0)
+    state.want_scenario()
+    text = state.scenario_csv().getvalue()
+    head = [line for line in text.splitlines() if line.startswith("#")]
+    assert any("sigma(0)=20" in line for line in head) and any("Scenario(" in line for line in head)
+    rows = list(csv.DictReader(io.StringIO("\n".join(line for line in text.splitlines() if not line.startswith("#")))))
+    assert len(rows) == len(state.scenario.rolling.t)
+    assert {"ratio_clairvoyant", "high_isl", "sigma_hat_vb", "coordinate_isl_model"} <= set(rows[0])
+
+
+def test_the_view_draws_the_picture_and_the_worst_case(state):
+    state.param.update(sc_runs=3, sc_horizon=10.0)
+    view = ScenarioView(state=state)
+    data = view._ratio_src.data
+    assert len(data["t"]) == len(state.scenario.rolling.t) and "isl_model_high" in data
+    assert set(view._sigma_src.data) == {"t", "sigma", "kbf_adaptive", "vb", "kbf_robust"}
+    assert view._change.visible and view._change.location == 10.0
+    table = worst_html(state.scenario)
+    assert table.count("<tr>") == 8 and "class=best" in table
+    state.sc_runs = 1  # one run: no interval, no worst case, said so
+    assert "needs 2 runs" in worst_html(state.scenario)
+
+
+def test_the_map_runs_as_a_long_job_and_marks_ties(state):
+    state.param.update(sc_map="sensor", sc_map_seeds=2)
+    state.compute_map()
+    res = state.sc_map_result
+    assert res is not None and res.kind == "sensor" and "Simulated in" in state.sc_map_note
+    page = map_html(res)
+    assert page.count("class='cell") == len(res.x)
+    assert page.count("≈ ") == int(res.tie.sum())
+    state.alpha = 0.0
+    state.compute_map()
+    assert "needs α > 0" in state.sc_map_note
+
+
+def test_the_map_cells_name_the_winner():
+    res = who_wins_map("tails", 1.0, values=[3.0], seeds=3)
+    winner = res.winner[0, 0]
+    assert f"title='{html.escape(res.labels[winner])}'" in map_html(res)
+    assert f"background:{SCENARIO_COLORS[res.filters[winner]]}" in map_html(res)
+
+
+def test_closing_the_session_drops_the_picture(state):
+    state.param.update(sc_runs=2, sc_horizon=8.0)
+    state.want_scenario()
+    assert state.scenario is not None
+    state.close()
+    assert state.scenario is None and state.sc_map_result is None
