@@ -15,7 +15,8 @@ largest σ of the path (a drop of σ speeds every filter up: the step must follo
 q = round(Δ/h) ≥ 1 steps. T = ``horizon`` in units of 1/r_min at σ(0). The start is that of
 :func:`isl_core.simulate.simulate` (``"stationary"``): every filter at X(0) − e₀, e₀ ~ N(0, Δ) at σ(0) — the
 clairvoyant filter's P_0. With the default scenario the Kalman–Bucy and ISL filters' errors are those of
-:func:`isl_core.simulate.simulate` with the same seed (same grid, same draws, same arithmetic; a test checks 1e-12).
+:func:`isl_core.simulate.simulate` with the same seed, bit for bit at every step (same grid, same draws, same
+arithmetic; a test compares every step's squared error with one window per step).
 """
 from __future__ import annotations
 

@@ -160,13 +160,17 @@ def test_the_compiled_scenario_loop_equals_a_plain_loop(scenario):
     assert np.allclose(got, sq, rtol=1e-10, atol=0.0)
 
 
-def test_the_constant_gaussian_scenario_gives_todays_run():
-    run = simulate_scenario(MODEL, 3.0, Scenario(), horizon=20.0, windows=4, seed=3)
+def test_the_constant_gaussian_scenario_gives_todays_run_bit_for_bit():
+    """One window per step: each window holds one step's squared error, which must be today's, bit for bit — the
+    same grid, the same draws and the same arithmetic at every step; only the RMSE's sum is grouped differently."""
     today = simulate(MODEL, 3.0, horizon=20.0, seed=3)
-    assert (run.h, run.N) == (today.h, len(today.t) - 1)
+    n = len(today.t) - 1
+    run = simulate_scenario(MODEL, 3.0, Scenario(), horizon=20.0, windows=n, seed=3)
+    assert (run.h, run.N) == (today.h, n) and np.all(run.steps == 1)
+    for f, track in ((1, today.tracks[0]), (2, today.tracks[1])):  # Kalman–Bucy for σ(0), ISL
+        np.testing.assert_array_equal(run.mse[:, f, :], track.error[1:] ** 2)
     rmse = np.sqrt(np.tensordot(run.steps.astype(float), run.mse, axes=1) / run.N)
-    assert np.allclose(rmse[1], today.tracks[0].rmse, rtol=1e-12)  # Kalman–Bucy for σ(0)
-    assert np.allclose(rmse[2], today.tracks[1].rmse, rtol=1e-12)  # ISL
+    assert np.allclose(rmse[2], today.tracks[1].rmse, rtol=1e-12)
 
 
 @pytest.mark.slow
