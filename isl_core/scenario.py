@@ -55,7 +55,7 @@ SIGMA_BOUNDS = (1e-3, 1e6)  #: σ values a knot may take (those of the model's �
 TIME_MAX = 1e6  #: latest knot time, in units of 1/r_min
 DOF_MAX = 1e6  #: Student's t beyond this many degrees of freedom is Gaussian to float precision
 OUTLIER_SCALE_MAX = 1e4
-SETTLED = 1e-15  #: relative change below which the clairvoyant recursion has settled (see ``_riccati``)
+SETTLED = 1e-15  #: relative change below which the clairvoyant recursion has settled (``clairvoyant_step``)
 
 
 def _choice(name: str, value: object, choices: tuple[str, ...]) -> str:
@@ -158,62 +158,81 @@ class Clairvoyant:
 
 
 @njit(cache=CACHE, nogil=True)
-def _riccati(P0, h, alpha, beta2, noise, q, gain, var):
-    """The recursion of :func:`clairvoyant` on the state (X, S): ``noise[k]`` = h·σ_k²·E ε².
+def clairvoyant_step(P, st, cg, cvar, h, decay, beta2, noise, k, q):
+    """Step k → k+1 of the clairvoyant recursion on the state (X, S), in place; returns whether step k is a reading.
 
-    In place, without allocating: F = I + h·A is bidiagonal (X_i += h·X_{i+1}, X_m ·= 1 − hα) and S += h·X_1, so
-    P ← F_a P F_aᵀ is a pass over the rows and one over the columns (S's first: it reads the old X_1). With a reading
-    at every step (q = 1) and σ_k unchanged, once a step changes no gain and no variance by more than
-    :data:`SETTLED` relative, the recursion has reached its fixed point in floating point: the following steps
-    repeat it until σ_k changes (the constant stretches of σ then cost a copy per step).
+    ``P`` (m+1, m+1) the covariance of (X, S); ``st`` = (R, settled, the previous step's noise), R the variance of
+    the observation noise since the last reading; ``cg`` (m,) the gain of the latest reading (its innovation
+    ``ΔY − h·Σ C·X̂`` times ``cg``); ``cvar`` (m,) the diagonal of P, at t_{k+1} on return; ``noise`` = h·σ_k²·E ε².
+
+    F_a = I + h·A_a is bidiagonal (X_i += h·X_{i+1}, X_m ·= 1 − hα) and S += h·X_1, so P ← F_a P F_aᵀ is a pass over
+    the rows and one over the columns (S's first: it reads the old X_1), without allocating. With a reading at every
+    step (q = 1) and σ_k unchanged, once a step changes no gain and no variance by more than :data:`SETTLED`
+    relative, the recursion has reached its fixed point in floating point: the following steps repeat it, at no
+    cost, until σ_k changes. The scenario loop (:mod:`isl_core.scenario_kernel`) runs this step in line, and
+    :func:`clairvoyant` over a whole run.
     """
-    m = P0.shape[0]
-    n = noise.shape[0]
+    m = cg.shape[0]
     a = m + 1
-    P = np.zeros((a, a))
-    P[:m, :m] = P0
-    decay = 1.0 - h * alpha
-    R = 0.0
-    settled = False
-    for i in range(m):
-        var[0, i] = P[i, i]
-    for k in range(n):
-        if settled and noise[k] == noise[k - 1]:
-            for i in range(m):
-                gain[k, i] = gain[k - 1, i]
-                var[k + 1, i] = var[k, i]
-            continue
-        settled = False
-        R += noise[k]
-        for j in range(a):  # rows: F_a P
-            P[m, j] += h * P[0, j]
-            for i in range(m - 1):
-                P[i, j] += h * P[i + 1, j]
-            P[m - 1, j] *= decay
-        for i in range(a):  # columns: (F_a P) F_aᵀ
-            P[i, m] += h * P[i, 0]
-            for j in range(m - 1):
-                P[i, j] += h * P[i, j + 1]
-            P[i, m - 1] *= decay
-        P[m - 1, m - 1] += h * beta2
-        if (k + 1) % q == 0:  # a reading: the increment of Y over the last q steps, S + noise of variance R
-            s = P[m, m] + R
-            for i in range(m):
-                gain[k, i] = P[i, m] / s
-            for i in range(m):
-                for j in range(m):
-                    P[i, j] -= P[i, m] * P[j, m] / s
-            for i in range(a):  # S restarts at 0, known
-                P[m, i] = 0.0
-                P[i, m] = 0.0
-            R = 0.0
-        change = 0.0
+    reading = (k + 1) % q == 0
+    prev = st[2]
+    st[2] = noise
+    if st[1] != 0.0 and noise == prev:
+        return reading
+    st[1] = 0.0
+    st[0] += noise
+    for j in range(a):  # rows: F_a P
+        P[m, j] += h * P[0, j]
+        for i in range(m - 1):
+            P[i, j] += h * P[i + 1, j]
+        P[m - 1, j] *= decay
+    for i in range(a):  # columns: (F_a P) F_aᵀ
+        P[i, m] += h * P[i, 0]
+        for j in range(m - 1):
+            P[i, j] += h * P[i, j + 1]
+        P[i, m - 1] *= decay
+    P[m - 1, m - 1] += h * beta2
+    change = 0.0
+    if reading:  # the increment of Y over the last q steps: S + noise of variance R
+        s = P[m, m] + st[0]
         for i in range(m):
-            var[k + 1, i] = P[i, i]
-            change = max(change, abs(var[k + 1, i] - var[k, i]) / var[k, i])
+            g = P[i, m] / s
             if k > 0:
-                change = max(change, abs(gain[k, i] - gain[k - 1, i]) / max(abs(gain[k, i]), 1e-300))
-        settled = q == 1 and k > 0 and change <= SETTLED and noise[k] == noise[k - 1]
+                change = max(change, abs(g - cg[i]) / max(abs(g), 1e-300))
+            cg[i] = g
+        for i in range(m):
+            for j in range(m):
+                P[i, j] -= P[i, m] * P[j, m] / s
+        for i in range(a):  # S restarts at 0, known
+            P[m, i] = 0.0
+            P[i, m] = 0.0
+        st[0] = 0.0
+    for i in range(m):
+        change = max(change, abs(P[i, i] - cvar[i]) / cvar[i])
+        cvar[i] = P[i, i]
+    if q == 1 and k > 0 and change <= SETTLED and noise == prev:
+        st[1] = 1.0
+    return reading
+
+
+def clairvoyant_state(P0: np.ndarray):
+    """The recursion's state at t_0 (:func:`clairvoyant_step`): P on (X, S), (R, settled, noise), gain, diag P."""
+    m = P0.shape[0]
+    P = np.zeros((m + 1, m + 1))
+    P[:m, :m] = P0
+    return P, np.array([0.0, 0.0, np.nan]), np.zeros(m), np.diagonal(P0).copy()
+
+
+@njit(cache=CACHE, nogil=True)
+def _riccati(P, st, cg, cvar, h, alpha, beta2, noise, q, gain, var):
+    """:func:`clairvoyant_step` over ``noise`` (n,): the gains of the readings (zero between) and diag P_k."""
+    decay = 1.0 - h * alpha
+    var[0] = cvar
+    for k in range(noise.shape[0]):
+        reading = clairvoyant_step(P, st, cg, cvar, h, decay, beta2, noise[k], k, q)
+        for i in range(cg.shape[0]):
+            gain[k, i] = cg[i] if reading else 0.0
+            var[k + 1, i] = cvar[i]
 
 
 def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoyant:
@@ -222,6 +241,6 @@ def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoya
     sigmas = sigma_path(scenario, model, kb.r_min, h, n)
     gain, var = np.zeros((n, model.m)), np.zeros((n + 1, model.m))
     q = scenario.sensor_steps(h, kb.r_min)
-    _riccati(np.array(kb.delta, dtype=float), float(h), model.alpha, model.beta**2,
+    _riccati(*clairvoyant_state(np.array(kb.delta, dtype=float)), float(h), model.alpha, model.beta**2,
              h * sigmas**2 * scenario.noise_variance, q, gain, var)
     return Clairvoyant(gain, var, q)

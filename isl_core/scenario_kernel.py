@@ -13,7 +13,7 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
     linear (kind 0):       e_f += √(qh)·K·u                                       (B.30)
     power law (kind 1):    e_f += √(qh)·φ(u)                                      (A.17–A.18)
     adaptive (kind 2):     e_f += √(qh)·K(σ̂)·u, then σ̂ takes in u                 (isl_core.adaptive)
-    clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k = ``cgain[k]``                  (isl_core.scenario.clairvoyant)
+    clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k its recursion's gain at step k  (isl_core.scenario.clairvoyant)
     variational (kind 4):  e_f += F·K·u, K from a few fixed-point iterations      (isl_core.variational)
     robust (kind 5):       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.robust)
 
@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, _root, _table_gain
+from .scenario import clairvoyant_step
 
 __all__ = ["LAW_GAUSSIAN", "LAW_OUTLIERS", "LAW_STUDENT", "advance_scenario"]
 
@@ -44,7 +45,7 @@ LAW_GAUSSIAN, LAW_STUDENT, LAW_OUTLIERS = 0, 1, 2
 KIND_CLAIRVOYANT = 3
 
 
-@njit(cache=CACHE, nogil=True, inline="always")
+@njit(cache=CACHE, nogil=True)
 def _predict_cov(P, h, a, q_var):
     """P ← F P Fᵀ + q_var·E Eᵀ, F = I + h·(A0 − a·E Eᵀ), in place (F is bidiagonal: O(m²))."""
     m = P.shape[0]
@@ -59,7 +60,7 @@ def _predict_cov(P, h, a, q_var):
     P[m - 1, m - 1] += q_var
 
 
-@njit(cache=CACHE, nogil=True, inline="always")
+@njit(cache=CACHE, nogil=True)
 def _vb_update(P, ab, par, u, H, h, a_f, gvec):
     """One reading of the variational-Bayes filter: updates P and (a, b) in place, writes F·K into ``gvec``;
     returns σ̂ = √(b/a)."""
@@ -88,14 +89,37 @@ def _vb_update(P, ab, par, u, H, h, a_f, gvec):
     return np.sqrt(b / a)
 
 
+@njit(cache=CACHE, nogil=True)
+def _pour(wref, w, cvar, s_cur, same):
+    """Add ``same`` steps of clairvoyant variance ``cvar`` and σ_k = ``s_cur`` to window ``w``."""
+    m = cvar.shape[0]
+    for i in range(m):
+        wref[w, i] += cvar[i] * same
+    wref[w, m] += s_cur * same
+
+
+@njit(cache=CACHE, nogil=True)
+def _bury(e, died, k):
+    """Mark every live filter whose error is no longer finite as dead at step ``k``."""
+    for f in range(e.shape[0]):
+        if died[f] < 0:
+            total = 0.0
+            for i in range(e.shape[1]):
+                total += e[f, i]
+            if not math.isfinite(total):
+                died[f] = k
+
+
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, q, damp, coef, kind, table, ad,
-                     cgain, acc, k0, win, wsq, wsig, vb_P, vb_ab, vb_par, died):
+                     clair, acc, k0, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
-    ``sig`` (n,) and ``cgain`` (n, m) are this chunk's σ_k and clairvoyant gains; ``acc`` (nf,) the filters'
-    accumulated innovations carried from chunk to chunk; ``ad`` the adaptive filters' state (as in
-    :func:`isl_core.kernels.advance`). A filter whose error leaves the finite numbers at step k is stopped there:
+    ``sig`` (n,) is this chunk's σ_k; ``clair`` = (P, st, cg, cvar, E ε²) the clairvoyant recursion's state
+    (:func:`isl_core.scenario.clairvoyant_step`, run here in line, once per step: its gain ``cg`` serves the
+    clairvoyant filter, kind 3), and ``wref`` (nw, m + 1) sums its diag P at t_{k+1} and σ_k per window; ``acc``
+    (nf,) the filters' accumulated innovations carried from chunk to chunk; ``ad`` the adaptive filters' state (as
+    in :func:`isl_core.kernels.advance`). A filter whose error leaves the finite numbers at step k is stopped there:
     ``died[f] = k`` (−1 while it lives), its error is no longer advanced nor summed, the others go on. Returns the
     number of steps done (fewer only if the truth itself leaves the finite numbers).
     """
@@ -121,12 +145,19 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             na += 1
         if kind[f] == 2 or kind[f] == 5:
             _table_gain(table, ad, f, gain, sqqh)
+    cP, cst, cg, cvar, nv = clair
+    beta2 = beta * beta
     w = min(k0 // win, nw - 1)  # the window of this step's errors, and the first step of the next one
     edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
     left = q - k0 % q  # steps until the next reading, this one included
+    # steps not yet summed into wref, all with the clairvoyant variance ``cvar`` and σ_k = ``s_cur``: while the
+    # recursion is settled and σ_k stays, both repeat, and are summed once, times ``same``
+    same, s_cur = 0, sig[0]
     for j in range(n):
         k = k0 + j
         if k == edge:
+            _pour(wref, w, cvar, s_cur, same)
+            same = 0
             w += 1
             edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
         v = rng.standard_normal()
@@ -137,19 +168,30 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             if law == LAW_OUTLIERS and rng.random() < p_out:
                 eps *= k_out
         noise = sig[j] * eps
+        c_noise = h * (sig[j] * sig[j]) * nv
+        if cst[1] == 0.0 or c_noise != cst[2]:  # settled while σ_k stays: nothing to do (clairvoyant_step)
+            _pour(wref, w, cvar, s_cur, same)  # the steps since the last change, then the new one
+            same, s_cur = 0, sig[j]
+            clairvoyant_step(cP, cst, cg, cvar, h, decay, beta2, c_noise, k, q)
+        same += 1
         xm = x[m - 1]
         shock = beta_sqh * v
         reading = left == 1
         left = q if reading else left - 1
+        total = 0.0
         for f in range(nf):
             if died[f] >= 0:
                 continue
-            acc[f] += noise - sqh * e[f, 0]
+            if q == 1:  # a reading at every step: the innovation of this step (as isl_core.kernels.advance)
+                u = noise - sqh * e[f, 0]
+            else:
+                acc[f] += noise - sqh * e[f, 0]
             for i in range(m - 1):
                 e[f, i] += h * e[f, i + 1]
             e[f, m - 1] = zdecay[f] * e[f, m - 1] + couple[f] * xm - shock
             if reading:
-                u = acc[f] / sqq if q > 1 else acc[f]
+                if q > 1:
+                    u = acc[f] / sqq
                 if kind[f] == 1:
                     p = np.float64(u > 0.0) - np.float64(u < 0.0)
                     r = _root(abs(u), m)
@@ -157,8 +199,9 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                         e[f, i] += gain[f, i] * p
                         p *= r
                 elif kind[f] == 3:
+                    a_f = acc[f] if q > 1 else u
                     for i in range(m):
-                        e[f, i] += cgain[j, i] * (sqh * acc[f])
+                        e[f, i] += cg[i] * (sqh * a_f)
                 elif kind[f] == 4:
                     ad[f, AD_SIGMA] = _vb_update(vb_P[f], vb_ab[f], vb_par[f], u, sqqh, h, damp[f], gvec)
                     for i in range(m):
@@ -183,16 +226,15 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                 _predict_cov(vb_P[f], h, damp[f], q_var)
             if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
                 wsig[w, slot[f]] += ad[f, AD_SIGMA]
-            total = 0.0
-            for i in range(m):
-                total += e[f, i]
-            if not math.isfinite(total):
-                died[f] = k
-                continue
-            for i in range(m):
+            for i in range(m):  # (a filter that leaves the finite numbers here: its window is set to inf after)
                 d = e[f, i]
+                total += d
                 wsq[w, f, i] += d * d
+        if not math.isfinite(total):  # some filter's error left the finite numbers at this step: stop it
+            _bury(e, died, k)
         x[m - 1] = decay * xm + shock
         if not math.isfinite(x[m - 1]):
+            _pour(wref, w, cvar, s_cur, same)
             return j + 1
+    _pour(wref, w, cvar, s_cur, same)
     return n

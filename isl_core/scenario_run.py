@@ -33,7 +33,7 @@ from .kernels import AD_SIGMA
 from .model import Model
 from .riccati import kalman_bucy
 from .robust import huber_kappa
-from .scenario import Scenario, clairvoyant, sigma_path
+from .scenario import Scenario, clairvoyant_state
 from .scenario_kernel import KIND_CLAIRVOYANT, LAW_GAUSSIAN, LAW_OUTLIERS, LAW_STUDENT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
@@ -41,7 +41,7 @@ from .validate import check_int, check_real
 __all__ = ["MAX_SCENARIO_STEPS", "ScenarioRun", "scenario_grid", "simulate_scenario"]
 
 LAWS = {"gaussian": LAW_GAUSSIAN, "student": LAW_STUDENT, "outliers": LAW_OUTLIERS}
-MAX_SCENARIO_STEPS = 20_000_000  #: the clairvoyant gains of every step are held: 8·m·N bytes (≤ 1 GB at m = 6)
+MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
 
 
 @dataclass(frozen=True)
@@ -150,7 +150,7 @@ def simulate_scenario(
     h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
     windows = min(windows, n)
     kb = kalman_bucy(model)
-    ref = clairvoyant(model, scenario, h, n)
+    q = scenario.sensor_steps(h, r_min)
     clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
                        np.zeros(model.m), False)
     constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
@@ -161,19 +161,21 @@ def simulate_scenario(
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    sig = sigma_path(scenario, model, r_min, h, n)
+    state = (*clairvoyant_state(np.array(kb.delta, dtype=float)), scenario.noise_variance)  # its P_0: Δ at σ(0)
     win = n // windows
     adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
     wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
+    wref = np.zeros((windows, model.m + 1))
     acc = np.zeros(len(filters))
     died = np.full(len(filters), -1, dtype=np.int64)
     law = LAWS[scenario.noise]
     k = 0
     while k < n:
         todo = min(CHUNK, n - k)
-        done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig[k:k + todo], law, scenario.dof,
-                                scenario.outlier_rate, scenario.outlier_scale, ref.q, damp, coef, kind, table, ad,
-                                ref.gain[k:k + todo], acc, k, win, wsq, wsig, vb_P, vb_ab, vb_par, died)
+        sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))  # σ_k = σ(t_k)
+        done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof,
+                                scenario.outlier_rate, scenario.outlier_scale, q, damp, coef, kind, table, ad,
+                                state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
         if done < todo:
             raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
                                   f"(step {k + done:,} of {n:,}, h = {h:.3g})")
@@ -190,10 +192,9 @@ def simulate_scenario(
         mse[w_died:, f, :] = np.inf
         if adaptive[f]:
             sigma_hat[w_died:, slots[f]] = np.nan
-    # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}
-    ref_var = np.add.reduceat(ref.var[1:], edges[:-1], axis=0) / steps[:, None]
-    mean_sigma = np.add.reduceat(sig, edges[:-1]) / steps
-    return ScenarioRun(model, scenario, float(nu), seed, h, n, ref.q, r_min,
+    # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}; and σ_k
+    ref_var, mean_sigma = wref[:, :-1] / steps[:, None], wref[:, -1] / steps
+    return ScenarioRun(model, scenario, float(nu), seed, h, n, q, r_min,
                        tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
                        mse, ref_var, mean_sigma, sigma_hat, steps,
                        tuple(float(d * h) if d >= 0 else None for d in died),
