@@ -1,6 +1,6 @@
 """Cost of a scenario run against today's run of the same length (issue: ≤ 1.5×).
 
-    PYTHONPATH=. python benchmarks/bench_scenario.py [--steps 1000000] [--repeats 5]
+    PYTHONPATH=. python benchmarks/bench_scenario.py [--steps 1000000] [--repeats 5] [--before CHECKOUT]
 
 "Today's run" is :func:`isl_core.simulate_rmse` of the Kalman–Bucy and ISL filters (squared errors only, no
 trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scenario_run.simulate_scenario` with the
@@ -11,25 +11,31 @@ while σ is constant and a sensor reads every step). Printed: median ns/step of 
 the ratio to today's; and the two compiled loops alone on the same two filters (today's kernel against the
 scenario kernel at σ constant, Gaussian noise, a reading every step, with its recursion), which is the scenario
 machinery's own cost. Timings on a shared machine are noisy: read the load average.
+
+``--before CHECKOUT`` (e.g. a git worktree of an older commit) measures today's and the scenario runs of that
+checkout's ``isl_core`` too, in the same run: each repeat runs both checkouts, each in a process of its own, one
+after the other, and the table shows the two ratios side by side.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, step_size
-from isl_core.kernels import advance
-from isl_core.scenario import Scenario, clairvoyant_state
-from isl_core.scenario_kernel import LAW_GAUSSIAN, advance_scenario
+from isl_core.scenario import Scenario
 from isl_core.scenario_run import simulate_scenario
-from isl_core.simulate import _pack, _start
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 NU = 3.0
+INNER = 3  #: runs of each kind per process (the first runs of a process pay for its first allocations)
 SCENARIOS = {
     "constant σ, Gaussian": Scenario(),
     "σ 20 → 2 at 10/r_min": Scenario(sigma_knots=((10.0, 2.0),)),
@@ -59,6 +65,11 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
+    from isl_core.kernels import advance
+    from isl_core.scenario import clairvoyant_state
+    from isl_core.scenario_kernel import LAW_GAUSSIAN, advance_scenario
+    from isl_core.simulate import _pack, _start
+
     kb = kalman_bucy(FIG3)
     specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, NU)]
     h = step_size(FIG3, kb, specs)
@@ -83,33 +94,65 @@ def loops_ns(n: int) -> tuple[float, float]:
     return out[0], out[1]
 
 
+def measure(steps: int) -> dict:
+    """One repeat in this process: today's ns/step and each scenario's, medians of :data:`INNER` interleaved runs."""
+    today(10_000)  # compile or load every kernel from the cache
+    for sc in SCENARIOS.values():
+        scenario_ns(sc, 1.0)
+    base, times, counts = [], {name: [] for name in SCENARIOS}, {}
+    for _ in range(INNER):  # interleaved: today's, then every scenario, again
+        ns, n, horizon = today(steps)
+        base.append(ns)
+        for name, sc in SCENARIOS.items():
+            ns, counts[name] = scenario_ns(sc, horizon)
+            times[name].append(ns)
+    return {"today": statistics.median(base), "n": n,
+            "scenarios": {name: (statistics.median(ts), counts[name]) for name, ts in times.items()}}
+
+
+def measure_in(checkout: Path, steps: int) -> dict:
+    """:func:`measure` with ``checkout``'s isl_core, in a process of its own."""
+    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    done = subprocess.run([sys.executable, __file__, "--measure", "--steps", str(steps)], env=env, cwd=checkout,
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--steps", type=int, default=1_000_000)
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--before", type=Path, metavar="CHECKOUT", help="also measure this other checkout's isl_core")
+    p.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)  # one repeat, JSON on stdout
     opts = p.parse_args()
+    if opts.measure:
+        print(json.dumps(measure(opts.steps)))
+        return
     print(f"load average before: {os.getloadavg()[0]:.2f} (2 cores)")
-    today(10_000)  # compile or load every kernel from the cache
-    for sc in SCENARIOS.values():
-        scenario_ns(sc, 1.0)
-    loops_ns(10_000)
-    base, times = [], {name: [] for name in SCENARIOS}
-    steps, loops = {}, []
+    here = Path(__file__).resolve().parent.parent
+    trees = ({"before": opts.before.resolve()} if opts.before else {}) | {"after" if opts.before else "this": here}
+    results = {label: [] for label in trees}
+    loops = []
     for _ in range(opts.repeats):
+        for label, tree in trees.items():
+            results[label].append(measure_in(tree, opts.steps))
         loops.append(loops_ns(opts.steps))
-        ns, n, horizon = today(opts.steps)
-        base.append(ns)
-        for name, sc in SCENARIOS.items():
-            ns, steps[name] = scenario_ns(sc, horizon)
-            times[name].append(ns)
-    ref = statistics.median(base)
-    print(f"today's run (simulate_rmse, KBF + ISL), {n:,} steps: {ref:7.1f} ns/step")
-    for name, ts in times.items():
-        med = statistics.median(ts)
-        print(f"  scenario {name:26s} {steps[name]:>10,} steps: {med:7.1f} ns/step  ({med / ref:4.2f}× today's)")
+    n = results[next(iter(trees))][0]["n"]
+    print(f"today's run: simulate_rmse of the Kalman–Bucy and ISL filters, {n:,} steps; median of {opts.repeats}")
+    print(f"{'':34s}" + "".join(f"{label:>30s}" for label in trees))
+    print(f"{'today (ns/step)':34s}" + "".join(
+        f"{statistics.median(r['today'] for r in res):30.1f}" for res in results.values()))
+    for name in SCENARIOS:
+        cells = []
+        for res in results.values():
+            ref = statistics.median(r["today"] for r in res)
+            med = statistics.median(r["scenarios"][name][0] for r in res)
+            cells.append(f"{med:8.1f} ns/step = {med / ref:4.2f}× today")
+        steps = results[next(iter(trees))][0]["scenarios"][name][1]
+        print(f"scenario {name:25s}" + "".join(f"{c:>30s}" for c in cells) + f"   ({steps:,} steps)")
     old, new = (statistics.median(c) for c in zip(*loops, strict=True))
-    print(f"the compiled loops alone, KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, the scenario "
-          f"loop {new:.1f} ns/step ({new / old:4.2f}×)")
+    print(f"the compiled loops alone (this checkout), KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, "
+          f"the scenario loop {new:.1f} ns/step ({new / old:4.2f}×)")
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
