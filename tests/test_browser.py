@@ -3,121 +3,26 @@
 ``panel serve app/app.py`` runs in a subprocess on a free loopback port; the test moves the σ slider with
 the keyboard and waits until the trajectory plot's data and the numbers table have both changed, and until
 the URL carries the new σ. A screenshot goes to a temporary directory (``$ISL_ARTIFACTS`` if set) — an
-artifact for CI, never committed. Others click a legend entry, run the two on-demand simulations (ν-sweep points,
-worst-case table) and list every request the page makes (none may leave the server).
+artifact for CI, never committed. Others click a legend entry, tick the other filters, open links at the limits, fit
+a projector, switch the error view, download, and list every request the page makes (none may leave the server). The
+long jobs and the framing check are in ``test_browser_jobs.py``; the shared set-up in ``_browser.py``.
 """
 from __future__ import annotations
 
-import contextlib
 import io
 import os
-import re
-import socket
-import subprocess
-import sys
-import time
-import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-CHROMIUM = Path("/usr/bin/chromium")
-ROOT = Path(__file__).resolve().parent.parent
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+from _browser import NAMED, PLOT_DATA, dashboard, launch
+from playwright.sync_api import expect
 
 pytestmark = [pytest.mark.browser]
 
 
-def _launch(p):
-    """Debian's chromium, headless: a missing browser fails the test (./scripts/test installs it), never skips it."""
-    assert CHROMIUM.exists(), "Debian's chromium is not installed at /usr/bin/chromium: run ./scripts/test"
-    return p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_http(url: str, proc: subprocess.Popen, timeout: float = 120.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise RuntimeError(f"panel serve exited with code {proc.returncode}")
-        try:
-            with urllib.request.urlopen(url, timeout=timeout) as r:
-                if r.status == 200:
-                    return
-        except OSError:
-            time.sleep(0.3)
-    raise TimeoutError(f"{url} did not answer within {timeout:g} s")
-
-
-@pytest.fixture(scope="module")
-def served(tmp_path_factory):
-    """URL of the dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads,
-    long jobs in processes, the headers and the host check); the server's log file."""
-    port = free_port()
-    log = tmp_path_factory.mktemp("serve") / "panel.log"
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    cmd = [sys.executable, "-m", "app.serving", "--port", str(port), "--address", "127.0.0.1"]
-    with open(log, "w") as out:
-        proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
-    try:
-        wait_http(f"http://127.0.0.1:{port}/app", proc)
-        yield f"http://127.0.0.1:{port}/app", log
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-
-
-@contextlib.contextmanager
-def dashboard(url: str, on_request=None, viewport: dict | None = None):
-    """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
-    every request from the start); the test fails if the page raised a script error meanwhile."""
-    from playwright import sync_api
-    with sync_api.sync_playwright() as p:
-        browser = _launch(p)
-        try:
-            page = browser.new_page(viewport=viewport or {"width": 1600, "height": 1000})
-            if on_request is not None:
-                page.on("request", lambda request: on_request(request.url))
-            errors: list[str] = []
-            page.on("pageerror", lambda error: errors.append(str(error)))
-            page.goto(url)
-            try:
-                page.wait_for_function(PLOT_DATA, timeout=30_000)
-            except sync_api.TimeoutError:
-                models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
-                raise AssertionError(f"no plot data within 30 s; page errors: {errors}; models: {models}; "
-                                     f"page text: {page.inner_text('body')[:300]!r}") from None
-            yield page
-        finally:
-            browser.close()
-    # e.g. "reference p… isn't known": the browser dropped a change of the page (parts of it then stay empty)
-    assert not errors, errors
-
-
-#: ``named(name)``: the model of that name in the page's document, or null — also while a patch is being applied, when
-#: bokeh's get_model_by_name throws on a model whose properties are not set yet ("… name is unset")
-NAMED = """(name) => { try { const d = window.Bokeh && Bokeh.documents[0]; return d ? d.get_model_by_name(name) : null; }
-                     catch (e) { return null; } }"""
-
-PLOT_DATA = f"""() => {{
-    const src = ({NAMED})('traj-1-isl');
-    if (!src || src.data.y.length === 0) return null;
-    return Array.from(src.data.y.slice(0, 50)).join(',');
-}}"""
-
-
-def test_sigma_slider_updates_plot_table_and_url(served):
-    url, log = served
+def test_sigma_slider_updates_plot_table_and_url(app_server):
+    url, log = app_server
     artifacts = Path(os.environ.get("ISL_ARTIFACTS") or log.parent)
     with dashboard(url) as page:
         before_plot = page.evaluate(PLOT_DATA)
@@ -129,9 +34,7 @@ def test_sigma_slider_updates_plot_table_and_url(served):
             handle.press("ArrowRight")
         page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
                                arg=before_plot, timeout=20_000)
-        deadline = time.monotonic() + 20
-        while table.inner_text() == before_table and time.monotonic() < deadline:
-            page.wait_for_timeout(100)
+        expect(table).not_to_have_text(before_table, timeout=20_000)  # Playwright waits for the new numbers
         after_table = table.inner_text()
         page.wait_for_url(lambda u: "sigma=" in u, timeout=20_000)
         page.screenshot(path=str(artifacts / "dashboard_after_sigma.png"), full_page=True)
@@ -153,8 +56,8 @@ ISL_LINES_VISIBLE = """() => {
 }"""
 
 
-def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(served):
-    url, _ = served
+def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(app_server):
+    url, _ = app_server
     with dashboard(url) as page:
         before = page.evaluate(ISL_LINES_VISIBLE)
         page.evaluate(HIDE_ISL_KEY)
@@ -162,9 +65,9 @@ def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(served):
     assert len(before) == 3 and all(before)  # one ISL line per plot (m = 3), all shown before the click
 
 
-def test_the_page_loads_nothing_from_other_hosts(served):
+def test_the_page_loads_nothing_from_other_hosts(app_server):
     """A classroom server may have no internet: every file the page asks for comes from the dashboard itself."""
-    url, _ = served
+    url, _ = app_server
     origin = url.rsplit("/", 1)[0]
     requested: list[str] = []
     with dashboard(url, on_request=requested.append) as page:
@@ -174,50 +77,6 @@ def test_the_page_loads_nothing_from_other_hosts(served):
     own = (origin, local, "blob:" + origin, "data:")  # blobs and data URLs are made in the page itself
     foreign = [u for u in requested if not u.startswith(own)]
     assert foreign == []
-
-
-SIM_POINTS = f"""() => {{
-    const src = ({NAMED})('sweep-sim-1-0');
-    return src !== null && src.data.y.length > 0;
-}}"""
-
-
-def test_simulated_sweep_points_and_the_worst_case_table_render(served):
-    """The two on-demand simulations, clicked in the browser, draw their results and raise no error."""
-    url, log = served
-    query = "?sweep_horizon=20&sweep_sigmas=[20]&wc_alphas=[1]&wc_n_sigma=2&wc_horizon=20"  # small: seconds
-    with dashboard(url + query) as page:
-        page.get_by_text("ν sweep (paper A, Fig. 2)").click()
-        page.get_by_role("button", name="Simulate points").click()
-        page.wait_for_function(SIM_POINTS, timeout=120_000)
-        page.get_by_text("Worst case over σ").click()
-        page.get_by_role("button", name="Compute").click()
-        table = page.locator("table.isl-worst")
-        table.wait_for(timeout=120_000)
-        rows = table.inner_text()
-        page.wait_for_timeout(500)  # an error raised while applying the results shows as a notification
-        body = page.locator("body").inner_text()
-    assert "α = 1" in rows and "ISL, minimax ν" in rows and "ISL, ν from table A.31" in rows
-    assert "Something went wrong" not in body
-    text = log.read_text()
-    assert "Traceback" not in text, text[-3000:]
-
-
-def test_the_high_order_sweep_measures_the_optimal_filter_at_one(served):
-    """m = 6, α = 0, the sweep's longest horizon (2000/r_min): the Kalman–Bucy check column sits at 1 within its
-    interval or ±3 % — it read 1126–2302 while estimates and truth were integrated separately (X₁ ~ t^5.5)."""
-    url, log = served
-    query = "?m=6&alpha=0&beta_from_w=false&beta=1&sweep_horizon=2000"
-    with dashboard(url + query) as page:
-        page.get_by_text("ν sweep (paper A, Fig. 2)").click()
-        page.get_by_role("button", name="Simulate points").click()
-        check = page.get_by_text("Check — Kalman–Bucy measured ratios")
-        check.wait_for(timeout=300_000)
-        note = check.inner_text()
-    checks = [tuple(map(float, c)) for c in re.findall(r"(\d+\.\d+) \[(\d+\.\d+), (\d+\.\d+)\]", note)]
-    assert len(checks) == 3 * 6, note  # three σ, six coordinates
-    assert all(lo <= 1.0 <= hi or abs(r - 1.0) <= 0.03 for r, lo, hi in checks), note
-    assert "Traceback" not in log.read_text()
 
 
 PLOT_BOXES = """() => Array.from(Bokeh.index.all_views())
@@ -234,7 +93,7 @@ def _pixels_near(image, color: str, tol: float = 0.12) -> int:
     return int(np.sum(np.all(np.abs(image[..., :3] - rgb) <= tol, axis=-1)))
 
 
-def test_every_ticked_filter_is_drawn_in_every_plot(served):
+def test_every_ticked_filter_is_drawn_in_every_plot(app_server):
     """Tick each of the other filters: in every plot its line is visible — checked on the rendered pixels of its
     colour inside each plot's box, not only on the legend (the lines once held data but stayed invisible)."""
     from matplotlib.image import imread
@@ -242,7 +101,7 @@ def test_every_ticked_filter_is_drawn_in_every_plot(served):
     from app.extras import EXTRA_NAMES
     from app.views.style import EXTRA_COLORS
 
-    url, log = served
+    url, log = app_server
     # at σ = 100 the filter designed for σ̄ = 20 differs from the optimal one (at σ = σ̄ it IS the optimal one)
     with dashboard(url + "?sigma=100", viewport={"width": 1600, "height": 1500}) as page:
         for name in EXTRA_NAMES:
@@ -259,10 +118,10 @@ def test_every_ticked_filter_is_drawn_in_every_plot(served):
     assert "Traceback" not in log.read_text()
 
 
-def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(served):
+def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(app_server):
     """Each value in range, together too long a run: the page shows a run at the longest horizon that fits and says
     so (it used to show empty plots, "No run yet." and sliders at values never simulated)."""
-    url, log = served
+    url, log = app_server
     with dashboard(url + "?horizon=1000&sigma=0.1&nu=10000") as page:
         page.get_by_text("Showing the nearest allowed setting").wait_for(timeout=60_000)
         status = page.get_by_text("Showing the nearest allowed setting").inner_text()
@@ -273,12 +132,12 @@ def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(served)
     assert "Traceback" not in log.read_text()
 
 
-def test_a_link_no_setting_can_serve_says_why_instead_of_empty_plots(served):
-    url, _ = served
+def test_a_link_no_setting_can_serve_says_why_instead_of_empty_plots(app_server):
+    url, _ = app_server
     hopeless = "?m=1&alpha=0&beta_from_w=false&beta=0.01&sigma=0.1&nu=10000&horizon=1000"
     from playwright import sync_api
     with sync_api.sync_playwright() as p:
-        browser = _launch(p)
+        browser = launch(p)
         try:
             page = browser.new_page(viewport={"width": 1600, "height": 1000})
             page.goto(url + hopeless)
@@ -295,10 +154,10 @@ TRUTH_DATA = """() => [1, 2, 3].map(i => Array.from(
     Bokeh.documents[0].get_model_by_name(`traj-${i}-truth`).data.y).join(','))"""
 
 
-def test_showing_another_filter_changes_neither_the_signal_nor_the_other_numbers(served):
+def test_showing_another_filter_changes_neither_the_signal_nor_the_other_numbers(app_server):
     """The grid covers every filter a view can show, so ticking one leaves the simulated signal and the optimal and
     ISL filters' numbers bit-identical (it used to shrink h: N 1089 → 1458, X₁'s ratio 1.423 → 1.340)."""
-    url, _ = served
+    url, _ = app_server
     with dashboard(url) as page:
         truth = page.evaluate(TRUTH_DATA)
         table = page.locator("table.isl-numbers.ratios").inner_text()
@@ -307,71 +166,6 @@ def test_showing_another_filter_changes_neither_the_signal_nor_the_other_numbers
         after = page.evaluate(TRUTH_DATA)
         table_after = page.locator("table.isl-numbers.ratios").inner_text()
     assert after == truth and table_after == table
-
-
-@contextlib.contextmanager
-def lms_page(app_url: str, port: int = 0):
-    """A course page on another port (another origin) that shows ``app_url`` in an iframe; yields its URL."""
-    import http.server
-    import threading
-
-    html = f'<!doctype html><title>course</title><iframe id="isl" src="{app_url}" width="1200" height="800"></iframe>'
-
-    class Page(http.server.BaseHTTPRequestHandler):
-        def do_GET(self):  # noqa: N802  (http.server's name)
-            self.send_response(200)
-            self.send_header("Content-Type", "text/html")
-            self.end_headers()
-            self.wfile.write(html.encode())
-
-        def log_message(self, *args):
-            pass
-
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Page)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    try:
-        yield f"http://127.0.0.1:{server.server_port}/"
-    finally:
-        server.shutdown()
-        server.server_close()
-
-
-def _framed(page_url: str, expect: str) -> str:
-    """Open ``page_url`` in chromium; 'blocked' if its iframe was refused, 'shown' once the dashboard draws in it.
-
-    Waits for the event that ``expect`` announces: chromium's console report of the refused frame ('blocked') or the
-    dashboard's first drawing inside the frame ('shown'); a page that gives neither fails on the timeout."""
-    from playwright import sync_api
-    with sync_api.sync_playwright() as p:
-        browser = _launch(p)
-        try:
-            page = browser.new_page()
-            frame = page.frame_locator("#isl")
-            drawn = frame.locator(".bk-Canvas, .bk-panel-models-layout-Column").first
-            if expect == "blocked":
-                with page.expect_console_message(lambda msg: "frame-ancestors" in msg.text, timeout=30_000):
-                    page.goto(page_url)
-                return "shown" if drawn.count() else "blocked"
-            page.goto(page_url)
-            drawn.wait_for(timeout=30_000)
-            return "shown"
-        finally:
-            browser.close()
-
-
-def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
-    """By default the dashboard refuses to be framed by another origin (CSP frame-ancestors 'self'); a course page
-    named in ISL_FRAME_ANCESTORS shows it."""
-    from _serving import served as serve_app
-
-    lms_port = free_port()
-    with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _):
-        with lms_page(url + "/app", lms_port) as lms:
-            assert _framed(lms, "blocked") == "blocked"
-    lms_origin = f"http://127.0.0.1:{lms_port}"
-    with serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _):
-        with lms_page(url + "/app", lms_port) as lms:
-            assert _framed(lms, "shown") == "shown"
 
 
 @pytest.mark.parametrize(("lo", "hi", "expected"), [
@@ -388,7 +182,7 @@ def test_ratio_axes_tick_the_first_digits(lo, hi, expected):
     ticker = ratio_ticker()
     from playwright import sync_api
     with sync_api.sync_playwright() as p:
-        browser = _launch(p)
+        browser = launch(p)
         try:
             page = browser.new_page()
             ticks = page.evaluate(
@@ -410,11 +204,11 @@ def _outside(page, width: int) -> list[str]:
     return out
 
 
-def test_a_projector_sized_window_shows_every_control_without_sideways_scrolling(served):
+def test_a_projector_sized_window_shows_every_control_without_sideways_scrolling(app_server):
     """At 1280 × 720 the page does not overflow sideways, every button and input of the trajectories, ν-sweep and
     worst-case tabs lies inside the window (the worst case's Compute was cut at the edge), and the plots get the
     width: the numbers table goes below them instead of squeezing them to ≈ 310 px."""
-    url, _ = served
+    url, _ = app_server
     with dashboard(url, viewport={"width": 1280, "height": 720}) as page:
         for tab in (None, "ν sweep (paper A, Fig. 2)", "Worst case over σ"):
             if tab is not None:
@@ -427,10 +221,10 @@ def test_a_projector_sized_window_shows_every_control_without_sideways_scrolling
                 assert plot is not None and plot["width"] >= 600, plot
 
 
-def test_presenter_mode_is_one_toggle_kept_in_the_link(served):
+def test_presenter_mode_is_one_toggle_kept_in_the_link(app_server):
     """The header's toggle reloads the page with ``present=1`` (sidebar folded away, larger text) and back, keeping
     every input of the link."""
-    url, _ = served
+    url, _ = app_server
     with dashboard(url + "?sigma=200") as page:
         def sidebar_width() -> float:
             return page.evaluate("() => { const s = document.querySelector('#sidebar');"
@@ -449,10 +243,10 @@ def test_presenter_mode_is_one_toggle_kept_in_the_link(served):
         assert "sigma=200" in page.url
 
 
-def test_the_error_view_switch_redraws_every_plot_without_a_server_error(served):
+def test_the_error_view_switch_redraws_every_plot_without_a_server_error(app_server):
     """The switch's callback runs on a server thread; the plots must change on the session's loop (changing bokeh
     models from the thread failed with "_pending_writes should be non-None" and left the plots as they were)."""
-    url, log = served
+    url, log = app_server
     with dashboard(url) as page:
         page.get_by_text("Errors (estimate − signal)", exact=True).click()
         page.wait_for_function(f"""() => [1, 2, 3].every(i => {{
@@ -465,10 +259,10 @@ def test_the_error_view_switch_redraws_every_plot_without_a_server_error(served)
     assert "Callback failed" not in text and "_pending_writes" not in text
 
 
-def test_the_downloads_carry_the_run_on_screen(served):
+def test_the_downloads_carry_the_run_on_screen(app_server):
     """Both exports from the browser: the CSV with every parameter, s_i, the ratios and named columns; the PNG
     figure of the whole view."""
-    url, _ = served
+    url, _ = app_server
     with dashboard(url + "?sigma=200") as page:
         with page.expect_download() as csv_download:
             page.get_by_role("button", name="Download run (CSV)").click()
@@ -485,26 +279,3 @@ def test_the_downloads_carry_the_run_on_screen(served):
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
 
 
-SCENARIO_DATA = f"""() => {{
-    const src = ({NAMED})('scenario-ratio');
-    return !!(src && src.data.t && src.data.t.length > 0 && src.data.isl_model);
-}}"""
-
-
-def test_the_scenario_tab_draws_a_linked_scenario_and_its_map(served):
-    """A link with a scenario opens the Scenario tab on it: the rolling ratios of every filter are drawn, the map
-    is computed on request into coloured cells, and the link keeps the scenario."""
-    url, log = served
-    with dashboard(url + "?sc_noise=student&sc_runs=4&sc_map=sensor&sc_map_seeds=2") as page:
-        page.get_by_text("Scenarios: σ(t), tails, sensor").click()
-        page.wait_for_function(SCENARIO_DATA, timeout=60_000)
-        note = page.get_by_text("Simulated in", exact=False).first.inner_text()
-        page.get_by_role("button", name="Compute map").click()
-        cells = page.locator("table.isl-scn td.cell")
-        cells.first.wait_for(timeout=120_000)
-        n_cells = cells.count()
-        link = page.url
-    assert "4 runs" in note and "95 % interval over the runs" in note
-    assert n_cells == 6  # the sensor map's six intervals, one row
-    assert "sc_noise=student" in link and "sc_runs=4" in link
-    assert "Traceback" not in log.read_text()

@@ -1,0 +1,84 @@
+"""Shared by the browser tests: Debian's chromium through Playwright, and the dashboard served as users serve it.
+
+``dashboard(url)`` opens a chromium page on it and waits for the first plot's data; ``NAMED`` / ``PLOT_DATA`` are
+the page-side functions the tests wait on.
+"""
+from __future__ import annotations
+
+import contextlib
+import socket
+import subprocess
+import time
+import urllib.request
+from pathlib import Path
+
+__all__ = ["ARGS", "CHROMIUM", "NAMED", "PLOT_DATA", "ROOT", "dashboard", "free_port", "launch", "wait_http"]
+
+CHROMIUM = Path("/usr/bin/chromium")
+ROOT = Path(__file__).resolve().parent.parent
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+
+
+def launch(p):
+    """Debian's chromium, headless: a missing browser fails the test (./scripts/test installs it), never skips it."""
+    assert CHROMIUM.exists(), "Debian's chromium is not installed at /usr/bin/chromium: run ./scripts/test"
+    return p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_http(url: str, proc: subprocess.Popen, timeout: float = 120.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError(f"panel serve exited with code {proc.returncode}")
+        try:
+            with urllib.request.urlopen(url, timeout=timeout) as r:
+                if r.status == 200:
+                    return
+        except OSError:
+            time.sleep(0.3)
+    raise TimeoutError(f"{url} did not answer within {timeout:g} s")
+
+
+@contextlib.contextmanager
+def dashboard(url: str, on_request=None, viewport: dict | None = None):
+    """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
+    every request from the start); the test fails if the page raised a script error meanwhile."""
+    from playwright import sync_api
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport=viewport or {"width": 1600, "height": 1000})
+            if on_request is not None:
+                page.on("request", lambda request: on_request(request.url))
+            errors: list[str] = []
+            page.on("pageerror", lambda error: errors.append(str(error)))
+            page.goto(url)
+            try:
+                page.wait_for_function(PLOT_DATA, timeout=30_000)
+            except sync_api.TimeoutError:
+                models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
+                raise AssertionError(f"no plot data within 30 s; page errors: {errors}; models: {models}; "
+                                     f"page text: {page.inner_text('body')[:300]!r}") from None
+            yield page
+        finally:
+            browser.close()
+    # e.g. "reference p… isn't known": the browser dropped a change of the page (parts of it then stay empty)
+    assert not errors, errors
+
+
+#: ``named(name)``: the model of that name in the page's document, or null — also while a patch is being applied, when
+#: bokeh's get_model_by_name throws on a model whose properties are not set yet ("… name is unset")
+NAMED = """(name) => { try { const d = window.Bokeh && Bokeh.documents[0]; return d ? d.get_model_by_name(name) : null; }
+                     catch (e) { return null; } }"""
+
+PLOT_DATA = f"""() => {{
+    const src = ({NAMED})('traj-1-isl');
+    if (!src || src.data.y.length === 0) return null;
+    return Array.from(src.data.y.slice(0, 50)).join(',');
+}}"""
