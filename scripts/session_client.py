@@ -90,6 +90,7 @@ class BokehClient:
                                                **({"Host": host} if host else {})},
                               connect_timeout=timeout, request_timeout=timeout)
         socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
+        socket.protocol.set_nodelay(True)  # as browsers do: a message's frames leave at once, not after an ACK
         protocol = Protocol()
         client = cls(ws_url, Document(), socket, Receiver(protocol), protocol, light=light)
         try:

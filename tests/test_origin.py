@@ -134,3 +134,38 @@ def test_no_http_answer_contains_a_traceback(default_server, method, path):
         assert marker not in body and marker not in headers, (method, path, response.status, body[:500])
     if path in ("/admin", "/rest/session_info"):
         assert response.status == 404                       # no admin panel, no session REST endpoint
+
+
+def test_websocket_frames_leave_without_waiting_for_an_acknowledgement():
+    """install() turns Nagle's algorithm off on every websocket connection it serves (bokeh writes a message as
+    several small frames); the handler reports its own socket's TCP_NODELAY, read after the connection opened."""
+    import asyncio
+    import socket
+
+    import tornado.httpserver
+    import tornado.web
+    import tornado.websocket
+
+    from app.serving import webguard
+
+    class Echo(tornado.websocket.WebSocketHandler):
+        def on_message(self, message):
+            sock = self.ws_connection.stream.socket
+            self.write_message(str(sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)))
+
+    async def probe() -> str:
+        app = tornado.web.Application([(r"/ws", Echo)])
+        webguard.install(app, ["127.0.0.1:*"], ["'self'"])
+        server = tornado.httpserver.HTTPServer(app)
+        port = session_client.free_port()
+        server.listen(port, "127.0.0.1")
+        try:
+            conn = await tornado.websocket.websocket_connect(f"ws://127.0.0.1:{port}/ws")
+            await conn.write_message("?")
+            answer = await asyncio.wait_for(conn.read_message(), 30)
+            conn.close()
+            return answer
+        finally:
+            server.stop()
+
+    assert run(probe(), 60) == "1"
