@@ -41,6 +41,7 @@ from isl_core import (
 )
 from isl_core.baselines import model_aware_isl
 from isl_core.paper import a31_nu_over_beta
+from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario_map import MAPS
 from isl_core.scenario_table import PRESETS as TABLE_PRESETS
 
@@ -168,7 +169,7 @@ class ScenarioInputs(param.Parameterized):
         "When σ has changed: the step's time, or the end of the drift, in units of 1/r_min at σ(0)."))
     sc_sigma_after = param.Number(2.0, bounds=(0.1, 1000.0), label="σ after", doc=(
         "σ after the change (σ before it is the σ input)."))
-    sc_noise = param.Selector(objects=["gaussian", "student", "outliers"], default="gaussian", label="noise law",
+    sc_noise = param.Selector(objects=list(NOISE_LAWS), default="gaussian", label="noise law",
                               doc="The observation noise's law per step, scaled so that σ stays its intensity.")
     sc_dof = param.Number(3.0, bounds=(2.1, 1000.0), label="Student-t degrees of freedom", doc=(
         "d of the Student-t noise (d > 2: finite variance); small d, heavy tails."))

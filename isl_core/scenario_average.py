@@ -32,6 +32,7 @@ from .validate import check_int, check_real
 __all__ = ["Rolling", "ScenarioAverage", "average_scenario", "worst_ratio"]
 
 BOOTSTRAP = 400  #: resamples of the basic bootstrap interval of :func:`worst_ratio`
+BOOT_SEED = 20261202  #: the bootstrap's resampling seed (tables, maps and worst cases are reproducible)
 
 
 def worst_ratio(mse: np.ndarray, ref: np.ndarray, level: float, rng: np.random.Generator):
@@ -96,14 +97,20 @@ class ScenarioAverage:
         k = min(len(run.steps), max(1, round(width / short)))
         return k, sliding_window_view(run.steps.astype(float), k).sum(axis=-1)
 
+    def _pooled(self, width: float):
+        """k, each sliding window's steps, and per sliding window every seed's mean squared error (S, n, f, m) and the
+        clairvoyant variance (n, m), pooled over its k short windows by steps."""
+        k, total = self._span(width)
+        mse = self._slide(self.mse, 1, k) / total[None, :, None, None]
+        ref = self._slide(self.run.ref_var, 0, k) / total[:, None]
+        return k, total, mse, ref
+
     def rolling(self, width: float = 1.0, level: float = 0.95) -> Rolling:
         """The rolling ratio over windows of ``width``/r_min (module docstring)."""
         run = self.run
         width = check_real("width (in units of 1/r_min)", width, lo=0.0, lo_open=True, hi=run.t[-1] * run.r_min)
         level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
-        k, total = self._span(width)
-        mse = self._slide(self.mse, 1, k) / total[None, :, None, None]  # (S, n, f, m)
-        ref = self._slide(run.ref_var, 0, k) / total[:, None]  # (n, m)
+        k, total, mse, ref = self._pooled(width)
         mean = mse.mean(axis=0)
         coordinate = np.argmax(mean / ref[:, None, :], axis=2)  # (n, f)
         pick = np.take_along_axis(mean, coordinate[..., None], axis=2)[..., 0]
@@ -119,23 +126,20 @@ class ScenarioAverage:
         edges = run.t * run.r_min
         centre = (edges[:-k] + edges[k:]) / 2
         return Rolling(centre, np.sqrt(pick / den), low, high, coordinate, self._slide(run.sigma, 0, k) / total,
-                       sigma_hat,
-                       float(edges[k] - edges[0]))
+                       sigma_hat, float(edges[k] - edges[0]))
 
-    def worst(self, *, width: float = 1.0, burn: float = 2.0, level: float = 0.95, rng_seed: int = 20261202):
+    def worst(self, *, width: float = 1.0, burn: float = 2.0, level: float = 0.95, rng_seed: int = BOOT_SEED):
         """Per filter, :func:`worst_ratio` over the sliding windows of ``width`` that start at or after ``burn``
         (1/r_min): (point, low, high). Needs 2 seeds or more."""
         run = self.run
         if len(self.seeds) < 2:
             raise ValueError("a worst case with an interval needs 2 seeds or more")
         burn = check_real("burn (in units of 1/r_min)", burn, lo=0.0, hi=run.t[-1] * run.r_min, hi_open=True)
-        k, total = self._span(width)
-        keep = run.t[:len(total)] * run.r_min >= burn - 1e-12
+        _, total, mse, ref = self._pooled(width)
+        keep = run.starts_after(burn)[:len(total)]
         if not np.any(keep):
             raise ValueError(f"no window of {width:g}/r_min starts after the burn-in of {burn:g}/r_min")
-        mse = self._slide(self.mse, 1, k)[:, keep] / total[None, keep, None, None]
-        ref = self._slide(run.ref_var, 0, k)[keep] / total[keep, None]
-        return worst_ratio(mse, ref, level, np.random.default_rng(rng_seed))
+        return worst_ratio(mse[:, keep], ref[keep], level, np.random.default_rng(rng_seed))
 
 
 def average_scenario(

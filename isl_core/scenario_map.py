@@ -26,8 +26,8 @@ import numpy as np
 from .model import Model
 from .paper import M, W
 from .scenario import Scenario
-from .scenario_average import BOOTSTRAP, average_scenario
-from .scenario_table import BOOT_SEED, _filters, table_labels
+from .scenario_average import BOOT_SEED, BOOTSTRAP, average_scenario
+from .scenario_table import _filters, table_labels
 from .validate import check_int, check_real, check_reals
 
 __all__ = ["MAPS", "WhoWinsMap", "who_wins_map"]

@@ -73,6 +73,9 @@ class ScenarioRun:
     diverged: tuple[float | None, ...] = ()
     learning: tuple[str, ...] = ()
 
+    def starts_after(self, burn: float) -> np.ndarray:
+        """Which windows start at or after ``burn`` (units of 1/r_min at σ(0)), per window (nw,)."""
+        return self.t[:-1] * self.r_min >= burn - 1e-12
 
     def ratios(self) -> np.ndarray:
         """√(mse / ref_var) per window, filter and coordinate (nw, nf, m)."""
@@ -81,7 +84,7 @@ class ScenarioRun:
     def overall(self, burn: float = 0.0) -> np.ndarray:
         """The ratio over the windows that start at or after ``burn`` (units of 1/r_min at σ(0)), per filter and
         coordinate (nf, m): RMSE over the mean clairvoyant variance, both weighted by the windows' steps."""
-        keep = self.t[:-1] * self.r_min >= burn - 1e-12
+        keep = self.starts_after(burn)
         if not np.any(keep):
             raise ValueError(f"burn = {burn:g} leaves no window of a run of {self.t[-1] * self.r_min:g}/r_min")
         w = self.steps[keep].astype(float)

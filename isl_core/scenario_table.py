@@ -39,13 +39,12 @@ from .paper import M, W, a31_nu_over_beta
 from .recommend import recommend_nu
 from .robust import robust_kbf
 from .scenario import Scenario
-from .scenario_average import average_scenario, worst_ratio
+from .scenario_average import BOOT_SEED, average_scenario, worst_ratio
 from .validate import check_int, check_real
 from .variational import variational_kbf
 
 __all__ = ["PRESETS", "ScenarioTable", "scenario_table"]
 
-BOOT_SEED = 20261202  #: the bootstrap's resampling seed (the table is reproducible)
 SIGMA_RANGE = (2.0, 200.0)  #: the σ range the σ-learning filters' tables and the minimax ν are built for
 #: name: (label, σ(0), scenario)
 PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
@@ -146,7 +145,7 @@ def scenario_table(
         run = avg.run
         if names is None:
             names, labels = run.names, table_labels(run, nu_label)
-        keep = run.t[:-1] * run.r_min >= burn - 1e-12
+        keep = run.starts_after(burn)
         point, lo, hi = worst_ratio(avg.mse[:, keep], run.ref_var[keep], level, rng)
         worst.append(point)
         low.append(lo)
