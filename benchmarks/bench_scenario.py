@@ -7,10 +7,12 @@ trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scena
 same two filters plus the clairvoyant one it always carries, over the same number of steps, for the constant
 Gaussian scenario, a σ step 20 → 2, Student-t noise (d = 3), 1 % outliers × 30 and a sensor read every 0.1/r_min.
 Its time includes the clairvoyant filter and its Riccati recursion, run in line at every step (settled, at no cost,
-while σ is constant and a sensor reads every step). Printed: median ns/step of ``--repeats`` interleaved runs and
-the ratio to today's; and the two compiled loops alone on the same two filters (today's kernel against the
-scenario kernel at σ constant, Gaussian noise, a reading every step, with its recursion), which is the scenario
-machinery's own cost. Timings on a shared machine are noisy: read the load average.
+while σ is constant and a sensor reads every step; with a coarse sensor its settled cycle is read back). Printed:
+median ns/step of ``--repeats`` interleaved runs and the ratio to today's; the two compiled loops alone on the same
+two filters (today's kernel against the scenario kernel at σ constant, Gaussian noise, a reading every step, with
+its recursion), which is the scenario machinery's own cost; and what the noise laws' draws alone cost (a compiled
+loop of n draws): a Student-t draw is a normal over the root of a gamma draw, the outliers' law a normal and a
+uniform. Timings on a shared machine are noisy: read the load average.
 
 ``--before CHECKOUT`` (e.g. a git worktree of an older commit) measures today's and the scenario runs of that
 checkout's ``isl_core`` too, in the same run: each repeat runs both checkouts, each in a process of its own, one
@@ -28,6 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, step_size
 from isl_core.scenario import Scenario
@@ -75,23 +78,49 @@ def loops_ns(n: int) -> tuple[float, float]:
     h = step_size(FIG3, kb, specs)
     damp, coef, kind, table, ad = _pack(FIG3, specs)
     out = []
-    for scenario in (False, True):
+    for scenario, steps in ((False, 10), (True, 10), (False, n), (True, n)):  # first load both kernels: not timed
         rng = np.random.default_rng(1)
         x, e0 = _start(FIG3, kb, rng, "stationary")
         e = np.tile(e0, (2, 1))
         t0 = time.perf_counter()
         if scenario:
-            clair = (*clairvoyant_state(np.array(kb.delta, dtype=float)), 1.0)
-            advance_scenario(x, e, rng, n, h, FIG3.alpha, FIG3.beta, np.full(n, FIG3.sigma), LAW_GAUSSIAN, 3.0, 0.0,
-                             1.0, 1, damp, coef, kind, table, ad.copy(), clair, np.zeros(2), 0, n // 50,
+            clair = (*clairvoyant_state(np.array(kb.delta, dtype=float), 1), 1.0)
+            advance_scenario(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, np.full(1, FIG3.sigma), LAW_GAUSSIAN,
+                             3.0, 0.0, 1.0, 1, damp, coef, kind, table, ad.copy(), clair, np.zeros(2), 0,
+                             max(steps // 50, 1),
                              np.zeros((50, 2, 3)), np.zeros((50, 0)), np.zeros((50, 4)), np.zeros((2, 3, 3)),
                              np.zeros((2, 2)), np.zeros((2, 2)), np.full(2, -1))
         else:
-            advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, kind, table, ad.copy(), 0, 0, n,
+            advance(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, kind, table, ad.copy(), 0, 0,
+                    steps,
                     np.zeros((1, 2, 3)), np.empty((1, 0)), np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)),
                     False, 0)
-        out.append((time.perf_counter() - t0) / n * 1e9)
-    return out[0], out[1]
+        out.append((time.perf_counter() - t0) / steps * 1e9)
+    return out[2], out[3]
+
+
+@njit
+def _draws(rng, n, law, dof):
+    total = 0.0
+    for _ in range(n):
+        if law == 1:
+            total += rng.standard_t(dof)
+        else:
+            total += rng.standard_normal()
+            if law == 2:
+                total += rng.random()
+    return total
+
+
+def draws_ns(n: int) -> dict[str, float]:
+    """ns per draw of ε_k: a normal, a Student-t (d = 3), a normal and a uniform (outliers)."""
+    out = {}
+    for name, law in (("normal", 0), ("Student-t", 1), ("outliers", 2)):
+        _draws(np.random.default_rng(1), 10, law, 3.0)
+        t0 = time.perf_counter()
+        _draws(np.random.default_rng(1), n, law, 3.0)
+        out[name] = (time.perf_counter() - t0) / n * 1e9
+    return out
 
 
 def measure(steps: int) -> dict:
@@ -132,11 +161,12 @@ def main() -> None:
     here = Path(__file__).resolve().parent.parent
     trees = ({"before": opts.before.resolve()} if opts.before else {}) | {"after" if opts.before else "this": here}
     results = {label: [] for label in trees}
-    loops = []
+    loops, draws = [], []
     for _ in range(opts.repeats):
         for label, tree in trees.items():
             results[label].append(measure_in(tree, opts.steps))
         loops.append(loops_ns(opts.steps))
+        draws.append(draws_ns(opts.steps))
     n = results[next(iter(trees))][0]["n"]
     print(f"today's run: simulate_rmse of the Kalman–Bucy and ISL filters, {n:,} steps; median of {opts.repeats}")
     print(f"{'':34s}" + "".join(f"{label:>30s}" for label in trees))
@@ -153,6 +183,9 @@ def main() -> None:
     old, new = (statistics.median(c) for c in zip(*loops, strict=True))
     print(f"the compiled loops alone (this checkout), KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, "
           f"the scenario loop {new:.1f} ns/step ({new / old:4.2f}×)")
+    med = {name: statistics.median(d[name] for d in draws) for name in draws[0]}
+    print("the noise draws alone, ns per step: " + ", ".join(f"{name} {ns:.1f}" for name, ns in med.items())
+          + f" (a Student-t draw costs {med['Student-t'] - med['normal']:.1f} ns more than a normal one)")
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

@@ -56,6 +56,7 @@ TIME_MAX = 1e6  #: latest knot time, in units of 1/r_min
 DOF_MAX = 1e6  #: Student's t beyond this many degrees of freedom is Gaussian to float precision
 OUTLIER_SCALE_MAX = 1e4
 SETTLED = 1e-15  #: relative change below which the clairvoyant recursion has settled (``clairvoyant_step``)
+CYCLE_MAX = 4096  #: longest sensor cycle (steps) whose settled covariance is kept: (m+1)² floats a step, ≤ 1.6 MB
 
 
 def _choice(name: str, value: object, choices: tuple[str, ...]) -> str:
@@ -124,6 +125,12 @@ class Scenario:
             return values[np.searchsorted(times, t, side="right") - 1]
         return np.exp(np.interp(t, times, np.log(values)))
 
+    def sigma_constant_on(self, t0: float, t1: float) -> bool:
+        """Whether σ(t) is one value for all t in [t0, t1] (units of 1/r_min)."""
+        if self.sigma_shape == "drift":
+            return not self.sigma_knots or t0 >= self.sigma_knots[-1][0]
+        return not any(t0 < t <= t1 for t, _ in self.sigma_knots)
+
     def sensor_steps(self, h: float, r_min: float) -> int:
         """q: grid steps per sensor reading (≥ 1)."""
         return max(1, round(self.sensor_interval / (r_min * h))) if self.sensor_interval > 0.0 else 1
@@ -158,28 +165,43 @@ class Clairvoyant:
 
 
 @njit(cache=CACHE, nogil=True)
-def clairvoyant_step(P, st, cg, cvar, h, decay, beta2, noise, k, q):
+def clairvoyant_step(P, st, cg, cvar, cyc, cyc_r, h, decay, beta2, noise, k, q, phase):
     """Step k → k+1 of the clairvoyant recursion on the state (X, S), in place; returns whether step k is a reading.
+    ``phase`` = k mod q (counted by the caller: no division per step), a reading when it is q − 1.
 
-    ``P`` (m+1, m+1) the covariance of (X, S); ``st`` = (R, settled, the previous step's noise), R the variance of
-    the observation noise since the last reading; ``cg`` (m,) the gain of the latest reading (its innovation
-    ``ΔY − h·Σ C·X̂`` times ``cg``); ``cvar`` (m,) the diagonal of P, at t_{k+1} on return; ``noise`` = h·σ_k²·E ε².
+    ``P`` (m+1, m+1) the covariance of (X, S); ``st`` = (R, settled, the previous step's noise, the largest change
+    in the current sensor cycle, whether the noise changed in it), R the variance of the observation noise since
+    the last reading; ``cg`` (m,) the gain of the latest reading (its innovation ``ΔY − h·Σ C·X̂`` times ``cg``);
+    ``cvar`` (m,) the diagonal of P, at t_{k+1} on return; ``noise`` = h·σ_k²·E ε²; ``cyc`` (q, m+1, m+1) and
+    ``cyc_r`` (q,) P and R after each step of the last sensor cycle (q > 1; empty otherwise: :func:`clairvoyant_state`).
 
     F_a = I + h·A_a is bidiagonal (X_i += h·X_{i+1}, X_m ·= 1 − hα) and S += h·X_1, so P ← F_a P F_aᵀ is a pass over
-    the rows and one over the columns (S's first: it reads the old X_1), without allocating. With a reading at every
-    step (q = 1) and σ_k unchanged, once a step changes no gain and no variance by more than :data:`SETTLED`
-    relative, the recursion has reached its fixed point in floating point: the following steps repeat it, at no
-    cost, until σ_k changes. The scenario loop (:mod:`isl_core.scenario_kernel`) runs this step in line, and
-    :func:`clairvoyant` over a whole run.
+    the rows and one over the columns (S's first: it reads the old X_1), without allocating. While σ_k stays, the
+    recursion reaches its fixed point in floating point: with a reading at every step (q = 1) once a step changes
+    no gain and no variance by more than :data:`SETTLED` relative; with q > 1 once a whole sensor cycle changes no
+    gain and no variance by more than that from the cycle before, the covariance then repeating with period q. Then
+    the following steps repeat it, at no cost (q > 1: the cycle's variance at this step's phase is read back), until
+    σ_k changes, and the recursion goes on from the state of the step before. The scenario loop
+    (:mod:`isl_core.scenario_kernel`) runs this step in line, and :func:`clairvoyant` over a whole run.
     """
     m = cg.shape[0]
     a = m + 1
-    reading = (k + 1) % q == 0
+    reading = phase == q - 1
+    cycle = cyc.shape[0] > 0
     prev = st[2]
     st[2] = noise
-    if st[1] != 0.0 and noise == prev:
-        return reading
-    st[1] = 0.0
+    if st[1] != 0.0:
+        if noise == prev:
+            if cycle:  # the settled cycle's variances at this step's phase
+                c = cyc[phase]
+                for i in range(m):
+                    cvar[i] = c[i, i]
+            return reading
+        st[1] = 0.0  # σ_k changed: go on from the state after the step before
+        if cycle:
+            back = phase - 1 if phase > 0 else q - 1
+            P[:, :] = cyc[back]
+            st[0] = cyc_r[back]
     st[0] += noise
     for j in range(a):  # rows: F_a P
         P[m, j] += h * P[0, j]
@@ -207,29 +229,50 @@ def clairvoyant_step(P, st, cg, cvar, h, decay, beta2, noise, k, q):
             P[m, i] = 0.0
             P[i, m] = 0.0
         st[0] = 0.0
+    if cycle:  # against the same phase of the cycle before, then kept as this cycle's
+        if phase == 0:
+            st[3], st[4] = 0.0, 0.0
+        c = cyc[phase]
+        for i in range(m):
+            change = max(change, abs(P[i, i] - c[i, i]) / P[i, i])
+        c[:, :] = P
+        cyc_r[phase] = st[0]
+        st[3] = max(st[3], change)
+        if noise != prev:
+            st[4] = 1.0
+        if reading and k + 1 >= 2 * q and st[3] <= SETTLED and st[4] == 0.0:
+            st[1] = 1.0
+    else:
+        for i in range(m):
+            change = max(change, abs(P[i, i] - cvar[i]) / cvar[i])
     for i in range(m):
-        change = max(change, abs(P[i, i] - cvar[i]) / cvar[i])
         cvar[i] = P[i, i]
     if q == 1 and k > 0 and change <= SETTLED and noise == prev:
         st[1] = 1.0
     return reading
 
 
-def clairvoyant_state(P0: np.ndarray):
-    """The recursion's state at t_0 (:func:`clairvoyant_step`): P on (X, S), (R, settled, noise), gain, diag P."""
+def clairvoyant_state(P0: np.ndarray, q: int = 1):
+    """The recursion's state at t_0 (:func:`clairvoyant_step`) for a reading every ``q`` steps: P on (X, S),
+    (R, settled, noise, cycle change, cycle noise changed), gain, diag P, and the cycle's P and R (kept for
+    1 < q ≤ :data:`CYCLE_MAX`; beyond, the recursion runs at every step)."""
     m = P0.shape[0]
     P = np.zeros((m + 1, m + 1))
     P[:m, :m] = P0
-    return P, np.array([0.0, 0.0, np.nan]), np.zeros(m), np.diagonal(P0).copy()
+    qc = q if 1 < q <= CYCLE_MAX else 0
+    return (P, np.array([0.0, 0.0, np.nan, 0.0, 0.0]), np.zeros(m), np.diagonal(P0).copy(),
+            np.zeros((qc, m + 1, m + 1)), np.zeros(qc))
 
 
 @njit(cache=CACHE, nogil=True)
-def _riccati(P, st, cg, cvar, h, alpha, beta2, noise, q, gain, var):
+def _riccati(P, st, cg, cvar, cyc, cyc_r, h, alpha, beta2, noise, q, gain, var):
     """:func:`clairvoyant_step` over ``noise`` (n,): the gains of the readings (zero between) and diag P_k."""
     decay = 1.0 - h * alpha
     var[0] = cvar
+    phase = 0
     for k in range(noise.shape[0]):
-        reading = clairvoyant_step(P, st, cg, cvar, h, decay, beta2, noise[k], k, q)
+        reading = clairvoyant_step(P, st, cg, cvar, cyc, cyc_r, h, decay, beta2, noise[k], k, q, phase)
+        phase = 0 if reading else phase + 1
         for i in range(cg.shape[0]):
             gain[k, i] = cg[i] if reading else 0.0
             var[k + 1, i] = cvar[i]
@@ -241,6 +284,6 @@ def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoya
     sigmas = sigma_path(scenario, model, kb.r_min, h, n)
     gain, var = np.zeros((n, model.m)), np.zeros((n + 1, model.m))
     q = scenario.sensor_steps(h, kb.r_min)
-    _riccati(*clairvoyant_state(np.array(kb.delta, dtype=float)), float(h), model.alpha, model.beta**2,
+    _riccati(*clairvoyant_state(np.array(kb.delta, dtype=float), q), float(h), model.alpha, model.beta**2,
              h * sigmas**2 * scenario.noise_variance, q, gain, var)
     return Clairvoyant(gain, var, q)

@@ -36,7 +36,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, _root, _table_gain
+from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
 from .scenario import clairvoyant_step
 
 __all__ = ["LAW_GAUSSIAN", "LAW_OUTLIERS", "LAW_STUDENT", "advance_scenario"]
@@ -99,6 +99,15 @@ def _pour(wref, w, cvar, s_cur, same):
 
 
 @njit(cache=CACHE, nogil=True)
+def _flush(wsq, w, sq):
+    """Add the squared errors summed since the last flush to window ``w`` and restart the sums."""
+    for f in range(sq.shape[0]):
+        for i in range(sq.shape[1]):
+            wsq[w, f, i] += sq[f, i]
+            sq[f, i] = 0.0
+
+
+@njit(cache=CACHE, nogil=True)
 def _bury(e, died, k):
     """Mark every live filter whose error is no longer finite as dead at step ``k``."""
     for f in range(e.shape[0]):
@@ -115,13 +124,16 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                      clair, acc, k0, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
-    ``sig`` (n,) is this chunk's σ_k; ``clair`` = (P, st, cg, cvar, E ε²) the clairvoyant recursion's state
-    (:func:`isl_core.scenario.clairvoyant_step`, run here in line, once per step: its gain ``cg`` serves the
-    clairvoyant filter, kind 3), and ``wref`` (nw, m + 1) sums its diag P at t_{k+1} and σ_k per window; ``acc``
-    (nf,) the filters' accumulated innovations carried from chunk to chunk; ``ad`` the adaptive filters' state (as
-    in :func:`isl_core.kernels.advance`). A filter whose error leaves the finite numbers at step k is stopped there:
-    ``died[f] = k`` (−1 while it lives), its error is no longer advanced nor summed, the others go on. Returns the
-    number of steps done (fewer only if the truth itself leaves the finite numbers).
+    ``sig`` (n,) is this chunk's σ_k, or (1,) its one σ while σ is constant; ``clair`` = (P, st, cg, cvar, cycle P,
+    cycle R, E ε²) the clairvoyant recursion's state (:func:`isl_core.scenario.clairvoyant_step`, run here in line, once
+    per step: its gain ``cg`` serves the clairvoyant filter, kind 3), and ``wref`` (nw, m + 1) sums its diag P at
+    t_{k+1} and σ_k per window; ``acc`` (nf,) the filters' accumulated innovations carried from chunk to chunk;
+    ``ad`` the adaptive filters' state (as in :func:`isl_core.kernels.advance`). A filter whose error leaves the
+    finite numbers at step k is stopped there: ``died[f] = k`` (−1 while it lives), its error is no longer advanced
+    nor summed, the others go on. The σ-learning filters take in a reading's u² after every filter has taken in its
+    innovation (their gain at a reading uses the σ̂ before it): out of the filters' loop, which stays lean for the
+    others (measured: 5-10 ns a step). Returns the number of steps done (fewer only if the truth itself leaves the
+    finite numbers).
     """
     m = x.shape[0]
     nf = e.shape[0]
@@ -136,7 +148,11 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
     gain = sqqh * coef
     t_scale = math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
     slot = np.zeros(nf, dtype=np.int64)
+    stride = 0 if sig.shape[0] == 1 else 1
+    sq = np.zeros((nf, m))  # squared errors since the last flush into wsq (FLUSH steps at most, as kernels.advance)
+    pending = 0
     gvec = np.zeros(m)
+    uus = np.zeros(nf)
     q_var = h * beta * beta
     na = 0
     for f in range(nf):
@@ -145,7 +161,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             na += 1
         if kind[f] == 2 or kind[f] == 5:
             _table_gain(table, ad, f, gain, sqqh)
-    cP, cst, cg, cvar, nv = clair
+    cP, cst, cg, cvar, cyc, cyc_r, nv = clair
     beta2 = beta * beta
     w = min(k0 // win, nw - 1)  # the window of this step's errors, and the first step of the next one
     edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
@@ -157,7 +173,8 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
         k = k0 + j
         if k == edge:
             _pour(wref, w, cvar, s_cur, same)
-            same = 0
+            _flush(wsq, w, sq)
+            same, pending = 0, 0
             w += 1
             edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
         v = rng.standard_normal()
@@ -167,13 +184,26 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             eps = rng.standard_normal()
             if law == LAW_OUTLIERS and rng.random() < p_out:
                 eps *= k_out
-        noise = sig[j] * eps
-        c_noise = h * (sig[j] * sig[j]) * nv
-        if cst[1] == 0.0 or c_noise != cst[2]:  # settled while σ_k stays: nothing to do (clairvoyant_step)
+        s_k = sig[j * stride]
+        noise = s_k * eps
+        c_noise = h * (s_k * s_k) * nv
+        # settled while σ_k stays (clairvoyant_step): with a reading every step, nothing to do; with q > 1 the
+        # variance follows the sensor cycle, and is read back here at this step's phase (a call per step, with its
+        # arrays' reference counts, cost 20-30 ns a step)
+        if cst[1] != 0.0 and c_noise == cst[2]:
+            if q > 1:
+                if same > 0:
+                    _pour(wref, w, cvar, s_cur, same)
+                    same = 0
+                for i in range(m):
+                    wref[w, i] += cyc[q - left, i, i]
+                wref[w, m] += s_k
+            else:
+                same += 1
+        else:
             _pour(wref, w, cvar, s_cur, same)  # the steps since the last change, then the new one
-            same, s_cur = 0, sig[j]
-            clairvoyant_step(cP, cst, cg, cvar, h, decay, beta2, c_noise, k, q)
-        same += 1
+            same, s_cur = 1, s_k
+            clairvoyant_step(cP, cst, cg, cvar, cyc, cyc_r, h, decay, beta2, c_noise, k, q, q - left)
         xm = x[m - 1]
         shock = beta_sqh * v
         reading = left == 1
@@ -214,27 +244,38 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
                         uu = min(uu, lim * lim) / vb_par[f, 1]
                     for i in range(m):
                         e[f, i] += gain[f, i] * uc
-                    if kind[f] == 2 or kind[f] == 5:
-                        r_k = (k + 1) // q
-                        var = ad[f, AD_VAR]
-                        var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uu - var)
-                        ad[f, AD_VAR] = var
-                        ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
-                        _table_gain(table, ad, f, gain, sqqh)
+                    uus[f] = uu
                 acc[f] = 0.0
             if kind[f] == 4:
                 _predict_cov(vb_P[f], h, damp[f], q_var)
-            if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
-                wsig[w, slot[f]] += ad[f, AD_SIGMA]
             for i in range(m):  # (a filter that leaves the finite numbers here: its window is set to inf after)
                 d = e[f, i]
                 total += d
-                wsq[w, f, i] += d * d
+                sq[f, i] += d * d
+        if na > 0:  # the σ-learning filters: σ̂ takes in this reading's u² (after their gain used the σ̂ before)
+            for f in range(nf):
+                if died[f] >= 0:
+                    continue
+                if reading and (kind[f] == 2 or kind[f] == 5):
+                    r_k = (k + 1) // q
+                    var = ad[f, AD_VAR]
+                    var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uus[f] - var)
+                    ad[f, AD_VAR] = var
+                    ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
+                    _table_gain(table, ad, f, gain, sqqh)
+                if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
+                    wsig[w, slot[f]] += ad[f, AD_SIGMA]
+        pending += 1
+        if pending == FLUSH:
+            _flush(wsq, w, sq)
+            pending = 0
         if not math.isfinite(total):  # some filter's error left the finite numbers at this step: stop it
             _bury(e, died, k)
         x[m - 1] = decay * xm + shock
         if not math.isfinite(x[m - 1]):
             _pour(wref, w, cvar, s_cur, same)
+            _flush(wsq, w, sq)
             return j + 1
     _pour(wref, w, cvar, s_cur, same)
+    _flush(wsq, w, sq)
     return n

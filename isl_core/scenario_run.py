@@ -164,7 +164,7 @@ def simulate_scenario(
     rng = np.random.default_rng(seed)
     x, e0 = _start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    state = (*clairvoyant_state(np.array(kb.delta, dtype=float)), scenario.noise_variance)  # its P_0: Δ at σ(0)
+    state = (*clairvoyant_state(np.array(kb.delta, dtype=float), q), scenario.noise_variance)  # P_0: Δ at σ(0)
     win = n // windows
     adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
     wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
@@ -175,7 +175,11 @@ def simulate_scenario(
     k = 0
     while k < n:
         todo = min(CHUNK, n - k)
-        sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))  # σ_k = σ(t_k)
+        t0, t1 = k * (h * r_min), (k + todo - 1) * (h * r_min)
+        if scenario.sigma_constant_on(t0, t1):  # σ_k = σ(t_k): one value, or one per step
+            sig = scenario.sigma_at(model.sigma, np.array([t0]))
+        else:
+            sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
         done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof,
                                 scenario.outlier_rate, scenario.outlier_scale, q, damp, coef, kind, table, ad,
                                 state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)

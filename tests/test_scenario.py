@@ -8,7 +8,7 @@ import pytest
 from scipy.linalg import solve_discrete_are
 
 from isl_core import Model, kalman_bucy
-from isl_core.scenario import Scenario, clairvoyant, sigma_path
+from isl_core.scenario import Scenario, _riccati, clairvoyant, clairvoyant_state, sigma_path
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 
@@ -128,6 +128,25 @@ def test_clairvoyant_recursion_equals_a_textbook_kalman_filter(scenario):
     assert np.allclose(c.var, var, rtol=1e-10, atol=0.0)
     if q > 1:  # no reading between sensor readings
         assert np.count_nonzero(np.any(c.gain != 0.0, axis=1)) == 300 // q
+
+
+@pytest.mark.parametrize("sensor", [0.0, 0.05])
+def test_a_settled_recursion_repeats_exactly_and_goes_on_when_sigma_changes(sensor):
+    """Once settled (q = 1: a fixed point; q > 1: a cycle of q steps) the recursion is read back instead of run; a σ
+    step restarts it from the state of the step before. Both, against the textbook recursion over the whole run."""
+    kb = kalman_bucy(MODEL)
+    h = 0.01 / kb.r_min
+    scenario = Scenario(sigma_knots=((25.0, 2.0), (35.0, 20.0)), sensor_interval=sensor)
+    n = 4500  # the steps at 2 500 and 3 500; settled from about step 2 000 (σ = 20) and 3 300 (σ = 2)
+    q = scenario.sensor_steps(h, kb.r_min)
+    state = clairvoyant_state(np.array(kb.delta, dtype=float), q)
+    noise = h * sigma_path(scenario, MODEL, kb.r_min, h, 2400) ** 2
+    _riccati(*state, h, MODEL.alpha, MODEL.beta**2, noise, q, np.zeros((2400, MODEL.m)), np.zeros((2401, MODEL.m)))
+    assert state[1][1] == 1.0  # settled before the first step
+    c = clairvoyant(MODEL, scenario, h, n)
+    gains, var, _ = _reference(MODEL, scenario, h, n)
+    np.testing.assert_allclose(c.gain, gains, rtol=1e-10, atol=0.0)
+    np.testing.assert_allclose(c.var, var, rtol=1e-10, atol=0.0)
 
 
 def test_constant_sigma_settles_at_the_grids_stationary_filter_near_the_kalman_bucy_covariance():

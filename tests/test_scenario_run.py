@@ -203,13 +203,17 @@ def test_a_filter_that_diverges_is_stopped_and_marked_while_the_others_go_on():
     assert np.all(np.isfinite(run.mse[:, 0])) and np.all(run.ratios()[:, 0] < 3.0)
 
 
-@pytest.mark.parametrize("scenario", [Scenario(sigma_knots=((0.2, 2.0), (0.4, 50.0))),
-                                      Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift"),
-                                      Scenario(sensor_interval=0.03)])
-def test_the_runs_windows_hold_the_clairvoyant_variance_and_sigma_of_their_steps(scenario):
+@pytest.mark.parametrize(("scenario", "horizon"), [
+    (Scenario(sigma_knots=((0.2, 2.0), (0.4, 50.0))), 0.8),
+    (Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift"), 0.8),
+    (Scenario(sensor_interval=0.03), 0.8),
+    (Scenario(sigma_knots=((25.0, 2.0),), sensor_interval=0.05), 30.0),  # the sensor cycle settles, then σ steps
+])
+def test_the_runs_windows_hold_the_clairvoyant_variance_and_sigma_of_their_steps(scenario, horizon):
     """The run's loop carries the clairvoyant recursion in line and sums P_ii and σ_k per window, once per stretch
-    where both repeat: the same, per window, as the whole recursion (clairvoyant) and σ path summed step by step."""
-    run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.8, windows=7, seed=2)
+    where both repeat (or reads a settled sensor cycle back): the same, per window, as the whole recursion
+    (clairvoyant) and σ path summed step by step."""
+    run = simulate_scenario(MODEL, 3.0, scenario, horizon=horizon, windows=7, seed=2)
     ref = clairvoyant(MODEL, scenario, run.h, run.N)
     edges = np.concatenate([[0], np.cumsum(run.steps)])
     var = np.add.reduceat(ref.var[1:], edges[:-1], axis=0) / run.steps[:, None]
