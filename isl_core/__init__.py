@@ -17,7 +17,7 @@ from .robust import robust_kbf
 from .scenario import Clairvoyant, Scenario, clairvoyant
 from .scenario_map import WhoWinsMap, who_wins_map
 from .scenario_average import Rolling, ScenarioAverage, average_scenario
-from .scenario_run import ScenarioRun, scenario_grid, simulate_scenario
+from .scenario_run import ScenarioPlan, ScenarioRun, plan_scenario, scenario_grid, simulate_scenario
 from .scenario_table import ScenarioTable, scenario_table
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
@@ -42,5 +42,5 @@ __all__ = [
     "AdaptiveGain", "BASELINES", "adaptive_kbf", "baseline_filters", "theory_ratios", "WorstCaseTable", "worst_case",
     "Clairvoyant", "Scenario", "ScenarioRun", "ScenarioTable", "WhoWinsMap", "clairvoyant", "robust_kbf",
     "scenario_table", "simulate_scenario", "variational_kbf", "who_wins_map",
-    "Rolling", "ScenarioAverage", "average_scenario", "scenario_grid",
+    "Rolling", "ScenarioAverage", "ScenarioPlan", "average_scenario", "plan_scenario", "scenario_grid",
 ]

@@ -26,7 +26,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from .filters import FilterSpec
 from .model import Model
 from .scenario import Scenario
-from .scenario_run import ScenarioRun, simulate_scenario
+from .scenario_run import ScenarioRun, plan_scenario
 from .validate import check_int, check_real
 
 __all__ = ["Rolling", "ScenarioAverage", "average_scenario", "worst_ratio"]
@@ -155,14 +155,15 @@ def average_scenario(
     done: int = 0,
     total: int | None = None,
 ) -> ScenarioAverage:
-    """One :func:`simulate_scenario` per seed of ``seeds`` (same arguments otherwise); ``progress`` gets
-    (done + runs so far)/total."""
+    """One :func:`isl_core.scenario_run.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
+    once: :func:`isl_core.scenario_run.plan_scenario`); ``progress`` gets (done + runs so far)/total."""
     seeds = tuple(check_int("seed", s, lo=0) for s in seeds)
     if not seeds:
         raise ValueError("seeds must name at least one seed")
+    plan = plan_scenario(model, nu, scenario, horizon=horizon, windows=windows, extra=extra)
     runs = []
     for s, seed in enumerate(seeds):
-        runs.append(simulate_scenario(model, nu, scenario, horizon=horizon, windows=windows, seed=seed, extra=extra))
+        runs.append(plan.run(seed))
         if progress is not None:
             progress((done + s + 1) / (total or len(seeds)))
     return ScenarioAverage(runs[0], seeds, np.array([r.mse for r in runs]), np.array([r.sigma_hat for r in runs]))

@@ -38,7 +38,8 @@ from .scenario_kernel import KIND_CLAIRVOYANT, LAW_GAUSSIAN, LAW_OUTLIERS, LAW_S
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
-__all__ = ["MAX_SCENARIO_STEPS", "ScenarioRun", "scenario_grid", "simulate_scenario"]
+__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "plan_scenario", "scenario_grid",
+           "simulate_scenario"]
 
 LAWS = {"gaussian": LAW_GAUSSIAN, "student": LAW_STUDENT, "outliers": LAW_OUTLIERS}
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
@@ -130,6 +131,109 @@ def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[F
     return T / n, n, r_min
 
 
+@dataclass(frozen=True)
+class ScenarioPlan:
+    """What every seed's run of one scenario shares (:func:`plan_scenario`): the grid, the filters packed for the
+    loop and their start; :meth:`run` is one seed's run. Its arrays are copied for each run, never written."""
+
+    model: Model
+    scenario: Scenario
+    nu: float
+    h: float
+    N: int
+    q: int
+    r_min: float
+    windows: int
+    filters: tuple[FilterSpec, ...]
+    packed: tuple
+    learning_state: tuple
+    delta: np.ndarray
+
+    def run(self, seed: int = 0, progress: Callable[[float], None] | None = None) -> ScenarioRun:
+        """The run with noise from ``seed`` (module docstring); ``progress`` gets the fraction of steps done."""
+        seed = check_int("seed", seed, lo=0)
+        model, scenario, h, n, r_min, windows = self.model, self.scenario, self.h, self.N, self.r_min, self.windows
+        filters, nf = self.filters, len(self.filters)
+        damp, coef, kind, table, ad = self.packed
+        ad = ad.copy()
+        vb_P, vb_ab, vb_par = (a.copy() for a in self.learning_state)
+        rng = np.random.default_rng(seed)
+        x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
+        e = np.tile(e0, (nf, 1))
+        state = (*clairvoyant_state(self.delta, self.q), scenario.noise_variance)  # its P_0: Δ at σ(0)
+        win = n // windows
+        adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
+        wsq, wsig = np.zeros((windows, nf, model.m)), np.zeros((windows, int(adaptive.sum())))
+        wref = np.zeros((windows, model.m + 1))
+        acc = np.zeros(nf)
+        died = np.full(nf, -1, dtype=np.int64)
+        law = LAWS[scenario.noise]
+        k = 0
+        while k < n:
+            todo = min(CHUNK, n - k)
+            t0, t1 = k * (h * r_min), (k + todo - 1) * (h * r_min)
+            if scenario.sigma_constant_on(t0, t1):  # σ_k = σ(t_k): one value, or one per step
+                sig = scenario.sigma_at(model.sigma, np.array([t0]))
+            else:
+                sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
+            done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof,
+                                    scenario.outlier_rate, scenario.outlier_scale, self.q, damp, coef, kind, table, ad,
+                                    state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
+            if done < todo:
+                raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
+                                      f"(step {k + done:,} of {n:,}, h = {h:.3g})")
+            k += done
+            if progress is not None:
+                progress(k / n)
+        edges = np.minimum(np.arange(windows + 1) * win, n)
+        edges[-1] = n
+        steps = np.diff(edges)
+        mse, sigma_hat = wsq / steps[:, None, None], wsig / steps[:, None]
+        slots = np.cumsum(adaptive) - 1
+        for f in np.flatnonzero(died >= 0):  # from its window on, a diverged filter's error is infinite
+            w_died = min(died[f] // win, windows - 1)
+            mse[w_died:, f, :] = np.inf
+            if adaptive[f]:
+                sigma_hat[w_died:, slots[f]] = np.nan
+        # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}; and σ_k
+        ref_var, mean_sigma = wref[:, :-1] / steps[:, None], wref[:, -1] / steps
+        return ScenarioRun(model, scenario, self.nu, seed, h, n, self.q, r_min,
+                           tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
+                           mse, ref_var, mean_sigma, sigma_hat, steps,
+                           tuple(float(d * h) if d >= 0 else None for d in died),
+                           tuple(f.name for f, a in zip(filters, adaptive, strict=True) if a))
+
+
+def plan_scenario(
+    model: Model,
+    nu: float,
+    scenario: Scenario | None = None,
+    *,
+    horizon: float = 30.0,
+    windows: int = 60,
+    extra: Sequence[FilterSpec] = (),
+) -> ScenarioPlan:
+    """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
+    over ``horizon`` (units of 1/r_min at σ(0)), checked and set up once for any number of seeds."""
+    scenario = Scenario() if scenario is None else scenario
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    windows = check_int("windows", windows, lo=1, hi=100_000)
+    specs = check_filters(model, nu, extra)
+    h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
+    kb = kalman_bucy(model)
+    clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
+                       np.zeros(model.m), False)
+    constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
+    filters = (clair, constant, isl_filter(model, nu), *specs[1:])
+    damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
+    kind[0] = KIND_CLAIRVOYANT
+    learning = _learning_state(model, filters, ad)
+    return ScenarioPlan(model, scenario, float(nu), h, n, scenario.sensor_steps(h, r_min), r_min, min(windows, n),
+                        filters, (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float))
+
+
 def simulate_scenario(
     model: Model,
     nu: float,
@@ -142,67 +246,6 @@ def simulate_scenario(
     progress: Callable[[float], None] | None = None,
 ) -> ScenarioRun:
     """One run of ``scenario`` (default: paper A's model; module docstring): ``windows`` equal time windows over
-    ``horizon`` (units of 1/r_min at σ(0))."""
-    scenario = Scenario() if scenario is None else scenario
-    if not isinstance(scenario, Scenario):
-        raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    windows = check_int("windows", windows, lo=1, hi=100_000)
+    ``horizon`` (units of 1/r_min at σ(0)). The same as ``plan_scenario(…).run(seed)``."""
     seed = check_int("seed", seed, lo=0)
-    specs = check_filters(model, nu, extra)
-    h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
-    windows = min(windows, n)
-    kb = kalman_bucy(model)
-    q = scenario.sensor_steps(h, r_min)
-    clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
-                       np.zeros(model.m), False)
-    constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
-    filters = [clair, constant, isl_filter(model, nu), *specs[1:]]
-    damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
-    kind[0] = KIND_CLAIRVOYANT
-    vb_P, vb_ab, vb_par = _learning_state(model, filters, ad)
-    rng = np.random.default_rng(seed)
-    x, e0 = _start(model, kb, rng, "stationary")
-    e = np.tile(e0, (len(filters), 1))
-    state = (*clairvoyant_state(np.array(kb.delta, dtype=float), q), scenario.noise_variance)  # P_0: Δ at σ(0)
-    win = n // windows
-    adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
-    wsq, wsig = np.zeros((windows, len(filters), model.m)), np.zeros((windows, int(adaptive.sum())))
-    wref = np.zeros((windows, model.m + 1))
-    acc = np.zeros(len(filters))
-    died = np.full(len(filters), -1, dtype=np.int64)
-    law = LAWS[scenario.noise]
-    k = 0
-    while k < n:
-        todo = min(CHUNK, n - k)
-        t0, t1 = k * (h * r_min), (k + todo - 1) * (h * r_min)
-        if scenario.sigma_constant_on(t0, t1):  # σ_k = σ(t_k): one value, or one per step
-            sig = scenario.sigma_at(model.sigma, np.array([t0]))
-        else:
-            sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
-        done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof,
-                                scenario.outlier_rate, scenario.outlier_scale, q, damp, coef, kind, table, ad,
-                                state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
-        if done < todo:
-            raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
-                                  f"(step {k + done:,} of {n:,}, h = {h:.3g})")
-        k += done
-        if progress is not None:
-            progress(k / n)
-    edges = np.minimum(np.arange(windows + 1) * win, n)
-    edges[-1] = n
-    steps = np.diff(edges)
-    mse, sigma_hat = wsq / steps[:, None, None], wsig / steps[:, None]
-    slots = np.cumsum(adaptive) - 1
-    for f in np.flatnonzero(died >= 0):  # from its window on, a diverged filter's error is infinite
-        w_died = min(died[f] // win, windows - 1)
-        mse[w_died:, f, :] = np.inf
-        if adaptive[f]:
-            sigma_hat[w_died:, slots[f]] = np.nan
-    # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}; and σ_k
-    ref_var, mean_sigma = wref[:, :-1] / steps[:, None], wref[:, -1] / steps
-    return ScenarioRun(model, scenario, float(nu), seed, h, n, q, r_min,
-                       tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
-                       mse, ref_var, mean_sigma, sigma_hat, steps,
-                       tuple(float(d * h) if d >= 0 else None for d in died),
-                       tuple(f.name for f, a in zip(filters, adaptive, strict=True) if a))
+    return plan_scenario(model, nu, scenario, horizon=horizon, windows=windows, extra=extra).run(seed, progress)

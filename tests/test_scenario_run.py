@@ -10,7 +10,7 @@ from isl_core import Model, adaptive_kbf, isl_filter, kalman_bucy, optimal_kbf, 
 from isl_core.filters import FilterSpec
 from isl_core.robust import huber_kappa, robust_kbf
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
-from isl_core.scenario_run import simulate_scenario
+from isl_core.scenario_run import plan_scenario, simulate_scenario
 from isl_core.simulate import _pack, _start
 from isl_core.variational import variational_kbf
 
@@ -220,3 +220,19 @@ def test_the_runs_windows_hold_the_clairvoyant_variance_and_sigma_of_their_steps
     sig = np.add.reduceat(sigma_path(scenario, MODEL, run.r_min, run.h, run.N), edges[:-1]) / run.steps
     np.testing.assert_allclose(run.ref_var, var, rtol=1e-12)
     np.testing.assert_allclose(run.sigma, sig, rtol=1e-12)
+
+
+@pytest.mark.parametrize("scenario", [Scenario(noise="student"),
+                                      Scenario(sigma_knots=((0.3, 2.0),), sensor_interval=0.03)])
+def test_a_plan_runs_any_seed_as_simulate_scenario_does_and_is_not_changed_by_its_runs(scenario):
+    """average_scenario sets a scenario up once (plan_scenario) and runs it per seed: every run must be the one
+    simulate_scenario gives for that seed, whichever runs came before (a run that wrote into the plan's arrays, the
+    σ-learning filters' state or the clairvoyant start, would change the next)."""
+    extra = [variational_kbf(MODEL, sigma_init=40.0), robust_kbf(MODEL, sigma_init=40.0)]
+    plan = plan_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, extra=extra)
+    for seed in (3, 1, 3):
+        run, alone = plan.run(seed), simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=seed,
+                                                      extra=extra)
+        np.testing.assert_array_equal(run.mse, alone.mse)
+        np.testing.assert_array_equal(run.sigma_hat, alone.sigma_hat)
+        np.testing.assert_array_equal(run.ref_var, alone.ref_var)
