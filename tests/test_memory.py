@@ -10,6 +10,9 @@ seconds of server CPU to open, so the test runs 3 × 6 sessions to stay within t
 """
 from __future__ import annotations
 
+import gc
+import weakref
+
 import pytest
 from _serving import load_test, run, served
 
@@ -33,3 +36,37 @@ def test_sessions_return_to_zero_and_memory_does_not_grow(tmp_path):
         assert r.rss_after_mb <= (1 + DRIFT) * first, load_test.memory_report(rounds, SESSIONS)
     # and the memory comes back: within 20 % of the idle server's (issue 13)
     assert rounds[-1].rss_after_mb <= 1.2 * rounds[0].rss_before_mb, load_test.memory_report(rounds, SESSIONS)
+
+
+def test_the_collectors_pauses_are_counted_per_generation_and_reset_when_read():
+    from app.serving.memory import PAUSES
+
+    PAUSES.take()
+    gc.collect(2)
+    gc.collect(0)
+    line = PAUSES.take()
+    counts = dict(part.split("=")[0:2] for part in line.split())
+    assert counts["gc2"].split("/")[0] == "1" and counts["gc0"].split("/")[0] == "1", line
+    assert "gc2=0/" in PAUSES.take()  # read: counted afresh
+
+
+class _Node:
+    def __init__(self) -> None:
+        self.me = self  # a reference cycle: only the collector frees it
+
+
+def test_what_has_lived_is_frozen_out_of_collections_until_a_full_one():
+    from app.serving.memory import full_collection, young_then_freeze
+
+    try:
+        node = _Node()
+        alive = weakref.ref(node)
+        young_then_freeze()
+        assert gc.get_freeze_count() > 0
+        del node
+        gc.collect()  # an ordinary full collection does not walk frozen objects: the cycle stays
+        assert alive() is not None
+        full_collection()  # unfreezes, collects, freezes what is left
+        assert alive() is None
+    finally:
+        gc.unfreeze()

@@ -9,6 +9,7 @@ import ctypes
 import gc
 import logging
 import os
+import time
 
 log = logging.getLogger("isl.serve")
 
@@ -20,6 +21,9 @@ TRIM_INTERVAL_MS = 5_000
 #: collection while one session was open lost that session's next update now and then (a browser test ticking four
 #: filters waited 60 s for data in 1 of 3 runs, and in CI; with 0, 9 of 9 runs passed) — the cause is not found.
 QUIET_SESSIONS = 0
+#: sessions ended since the last full collection after which one runs even with sessions open (frozen objects of
+#: ended sessions, in reference cycles, are only freed by a full collection; see :func:`young_then_freeze`)
+FULL_AFTER_ENDED = 40
 
 
 def rss_mb() -> float:
@@ -31,35 +35,73 @@ def rss_mb() -> float:
         return float("nan")
 
 
+class CollectorPauses:
+    """How long Python's garbage collector held the interpreter, per generation, since the last look.
+
+    A collection stops every thread, the event loop's included, for as long as it walks its generation: what a
+    ``/liveness`` probe or a slider's update waits for while one runs. Read by :func:`log_stats`."""
+
+    def __init__(self) -> None:
+        self._start = 0.0
+        self.count, self.total, self.longest = [0, 0, 0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+        gc.callbacks.append(self)
+
+    def __call__(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self._start = time.perf_counter()
+            return
+        g, took = info["generation"], time.perf_counter() - self._start
+        self.count[g] += 1
+        self.total[g] += took
+        self.longest[g] = max(self.longest[g], took)
+
+    def take(self) -> str:
+        """``gen=count/total ms/longest ms`` for each generation, then start counting afresh."""
+        text = " ".join(f"gc{g}={self.count[g]}/{self.total[g] * 1e3:.0f}/{self.longest[g] * 1e3:.0f}ms"
+                        for g in range(3))
+        self.count, self.total, self.longest = [0, 0, 0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+        return text
+
+
+PAUSES = CollectorPauses()
+
+
 def log_stats(server) -> None:
     """One ``isl stats`` line: live sessions, open connections, sessions whose release hooks have not run yet
-    (:func:`app.hardening.release_on_destroy`), resident memory of this process."""
+    (:func:`app.hardening.release_on_destroy`), resident memory of this process, and the garbage collector's
+    pauses since the last line (:class:`CollectorPauses`: collections, their total and longest time, per
+    generation)."""
     from app.serving import hardening
 
     sessions = server.get_sessions()
     connections = sum(s.connection_count for s in sessions)
-    log.info("isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f", len(sessions), connections,
-             hardening.live_release_hooks(), rss_mb())
+    log.info("isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f %s", len(sessions), connections,
+             hardening.live_release_hooks(), rss_mb(), PAUSES.take())
 
 
 class MemoryTrimmer:
     """Collect closed sessions' garbage and return freed heap memory to the OS, when it is cheap to.
 
     Every ``TRIM_INTERVAL_MS``, if sessions have ended or their release hooks have run since the last look: with
-    at most :data:`QUIET_SESSIONS` sessions left (none), a full garbage collection; then glibc's ``malloc_trim`` (a no-op elsewhere). Sessions are built
-    and updated on worker threads, so their memory lives in per-thread malloc arenas that glibc does not shrink by
-    itself: without trimming, the RSS of a server stays at the peak of its busiest class.
+    at most :data:`QUIET_SESSIONS` sessions left (none), or once :data:`FULL_AFTER_ENDED` sessions have ended since
+    the last one, a full garbage collection (:func:`full_collection`); then glibc's ``malloc_trim`` (a no-op
+    elsewhere). Sessions are built and updated on worker threads, so their memory lives in per-thread malloc arenas
+    that glibc does not shrink by itself: without trimming, the RSS of a server stays at the peak of its busiest
+    class. If no session has ended: the young generations are collected and what has lived so far is frozen
+    (:func:`young_then_freeze`).
 
-    Why not a full collection at every session's end, as Panel schedules one: a full collection walks every object
-    of the heap while holding the interpreter lock, whichever thread runs it — 146 ms for the idle server's 230 000
-    objects on this machine, and more for every open session's objects — so it stopped the event loop each time a
-    student closed a tab (py-spy, classroom scenario: 3 % of the loop's busy samples were Panel's ``gc.collect``).
-    During a class, Python's own generational collector frees closed sessions' cycles (its oldest generation is
-    collected once it has grown by 25 %); when the class has left, the collection here returns the memory.
+    Why so: a full collection walks every object of the heap while holding the interpreter lock, whichever thread
+    runs it — 146 ms for the idle server's 230 000 objects on this machine, and 0.7–1.1 s with 40 sessions open — and
+    the event loop, ``/liveness`` and every student's update wait for it. Panel schedules one after every session's
+    end (py-spy, classroom scenario: 3 % of the loop's busy samples), and Python's own collector runs one whenever
+    its oldest generation has grown by 25 %, which a class opening its pages does every 10–20 s. Frozen objects are
+    not walked, so the automatic collections walk only what is new since the last look; a closed session's objects
+    that hold each other in cycles are freed by the next full collection: when the class has left, or after
+    :data:`FULL_AFTER_ENDED` sessions have ended.
     """
 
     def __init__(self, server) -> None:
-        self.server, self.sessions = server, 0
+        self.server, self.sessions, self.ended = server, 0, 0
         try:
             self._trim = ctypes.CDLL("libc.so.6").malloc_trim
         except (OSError, AttributeError):
@@ -71,15 +113,35 @@ class MemoryTrimmer:
         sessions, pending = len(self.server.get_sessions()), hardening.live_release_hooks()
         # a session's memory is free once it has ended *and* its release hooks have run: trim after either
         if sessions + pending < self.sessions:
-            collected = sessions <= QUIET_SESSIONS
+            self.ended += self.sessions - (sessions + pending)
+            collected = sessions <= QUIET_SESSIONS or self.ended >= FULL_AFTER_ENDED
             if collected:
-                gc.collect()
+                full_collection()
+                self.ended = 0
             if self._trim is not None:
                 self._trim(0)
             # the event a memory measurement waits for (scripts/load_test.py), instead of a guess at the interval
             log.info("isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f", sessions, pending,
                      collected, rss_mb())
+        else:
+            young_then_freeze()
         self.sessions = sessions + pending
+
+
+def full_collection() -> None:
+    """Every object, frozen or not, collected; then what is left frozen out of later collections."""
+    gc.unfreeze()
+    gc.collect()
+    gc.freeze()
+
+
+def young_then_freeze() -> None:
+    """The young generations collected (their garbage: tens of ms at most), then every object that has lived so far
+    frozen out of the collector's later walks (an O(1) move), so that its oldest generation holds only what is new
+    since the last look. Without it, with 40 sessions open one automatic collection of that generation held the
+    interpreter, and with it the event loop, for 0.7-1.1 s (``isl stats``'s ``gc2``, classroom scenario)."""
+    gc.collect(1)
+    gc.freeze()
 
 
 def check_allocator() -> bool:
