@@ -9,7 +9,7 @@ checked, linked in the URL and refused in words like every other input) and comp
   (:meth:`isl_core.ScenarioAverage.rolling`), σ(t) and each σ-learning filter's σ̂(t), and each filter's worst case
   over the windows after 2/r_min with its bootstrap interval. A job on the pool of large runs, recomputed when an
   input changes while the tab is open;
-* **the who-wins map** (:func:`isl_core.who_wins_map` for paper A's model at this α, m and w): the session's long job
+* **the who-wins map** (:func:`isl_core.who_wins_map` for the page's α, β and m at σ(0) = 20): the session's long job
   (progress, cancel, place in the queue).
 
 The filters: the clairvoyant reference, the Kalman–Bucy filter optimal for constant σ = σ(0), paper A's ISL filter
@@ -263,7 +263,9 @@ class ScenarioInputs(param.Parameterized):
         if self.alpha <= 0.0:
             self.sc_map_note = "Not started: the map is for paper A's model, which needs α > 0."
             return
-        fn = partial(who_wins_map, self.sc_map, self.alpha, m=self.m, w=self.w, seeds=self.sc_map_seeds)
+        # the page's model: paper A's with w = β/√(2α) when β is an input (β = w√(2α), A.25)
+        w = self.w if self.beta_from_w else self.beta_effective / math.sqrt(2.0 * self.alpha)
+        fn = partial(who_wins_map, self.sc_map, self.alpha, m=self.m, w=w, seeds=self.sc_map_seeds)
         cells = len(MAPS[self.sc_map])
         self._map_task.start(fn, self._apply_map, f"Simulating {cells} cells × {self.sc_map_seeds} runs …")
 
@@ -280,7 +282,9 @@ class ScenarioInputs(param.Parameterized):
     def _apply_map(self, outcome) -> None:
         res: WhoWinsMap = outcome.value
         self.param.update(sc_map_result=res, sc_map_note=(
-            f"Simulated in {outcome.seconds:.2g} s: paper A's model with α = {res.alpha:g}, w = {self.w:g}, "
-            f"m = {self.m}, σ(0) = 20; {res.seeds} runs per cell, windows of {res.window:g}/r_min; the filters' ν "
+            f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
+            f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
+            f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
+            f"{res.window:g}/r_min; the filters' ν "
             "from table (A.31) and the minimax recommendation, as in `isl scenario --map`."))
 

@@ -357,7 +357,8 @@ def _scenario_map(args) -> int:
     if args.csv is not None:
         write_csv(args.csv, rows)
     if args.json:
-        meta = {"map": res.kind, "axis": AXIS_LABELS[res.kind], "alpha": res.alpha, "seeds": res.seeds,
+        meta = {"map": res.kind, "axis": AXIS_LABELS[res.kind], "alpha": res.alpha, "beta": res.model.beta,
+                "m": res.model.m, "sigma0": res.model.sigma, "seeds": res.seeds,
                 "window_over_r_min": res.window, "filters": dict(zip(res.filters, res.labels, strict=True))}
         print(json.dumps(nan_to_none({"meta": meta, "cells": rows}), indent=1, allow_nan=False))
         return 0

@@ -13,7 +13,8 @@ bound over the seeds is ≤ 1):
   σ = 20: the worst case over the windows after ``burn`` (one row);
 * ``"sensor"`` — a sensor read every Δ/r_min, for each Δ of ``values`` (default 0 … 0.5), σ = 20: likewise.
 
-Times are in units of 1/r_min of the model at σ(0) = 20.
+Times are in units of 1/r_min of the model at σ(0) = 20. Any model with α > 0 is paper A's for one w: β = w√(2α)
+(A.25), so a model given by its β is mapped with w = β/√(2α).
 """
 from __future__ import annotations
 
@@ -61,6 +62,7 @@ class WhoWinsMap:
     seeds: int
     window: float
     margin_low: np.ndarray
+    model: Model | None = None  #: the model at σ(0) (paper A's with this α, w and m)
 
     @property
     def tie(self) -> np.ndarray:
@@ -140,4 +142,4 @@ def who_wins_map(
     if kind != "sigma_step":
         rows = np.array([math.nan])
     return WhoWinsMap(kind, alpha, np.array(values, dtype=float), rows, names, labels,
-                      np.stack(cells, axis=1), seeds, window, np.stack(lows, axis=1))
+                      np.stack(cells, axis=1), seeds, window, np.stack(lows, axis=1), model)

@@ -115,6 +115,11 @@ def test_the_map_runs_as_a_long_job_and_marks_ties(state):
     page = map_html(res)
     assert page.count("class='cell") == len(res.x)
     assert page.count("≈ ") == int(res.tie.sum())
+    assert res.model.beta == pytest.approx(state.beta_effective)
+    # β as an input: the map is for that β (paper A's model with w = β/√(2α)), not for the w slider's
+    state.param.update(beta_from_w=False, beta=2.5)
+    state.compute_map()
+    assert state.sc_map_result.model.beta == pytest.approx(2.5) and "β = 2.5" in state.sc_map_note
     state.alpha = 0.0
     state.compute_map()
     assert "needs α > 0" in state.sc_map_note
