@@ -43,4 +43,15 @@ __all__ = [
     "Clairvoyant", "Scenario", "ScenarioRun", "ScenarioTable", "WhoWinsMap", "clairvoyant", "robust_kbf",
     "scenario_table", "simulate_scenario", "variational_kbf", "who_wins_map",
     "Rolling", "ScenarioAverage", "ScenarioPlan", "average_scenario", "plan_scenario", "scenario_grid",
+    "clear_caches",
 ]
+
+
+def clear_caches() -> None:
+    """Forget the core's cached solutions (normalized CAREs, Kalman–Bucy filters, adaptive gain tables, ISL
+    moments): each is recomputed when next needed. A server calls it when its sessions have ended, so that what a
+    class computed does not stay in memory (and pin the allocator's arenas it lies in)."""
+    from . import adaptive, riccati, theory
+
+    for cached in (riccati._normalized_care, adaptive._table, theory._gammas, theory._kb):
+        cached.cache_clear()

@@ -70,3 +70,30 @@ def test_what_has_lived_is_frozen_out_of_collections_until_a_full_one():
         assert alive() is None
     finally:
         gc.unfreeze()
+
+
+def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collection_runs():
+    from app.serving.memory import MemoryTrimmer
+    from isl_core import Model, kalman_bucy
+    from isl_core.riccati import _normalized_care
+    from isl_core.theory import _kb
+
+    class Server:
+        sessions: list = []
+
+        def get_sessions(self):
+            return self.sessions
+
+    server = Server()
+    trimmer = MemoryTrimmer(server)
+    try:
+        _kb(Model(0.7, 2.0, 20.0, 3))
+        kalman_bucy(Model(0.9, 2.0, 20.0, 3))
+        server.sessions = [object()]
+        trimmer()  # a session open: nothing ended, the caches stay
+        assert _normalized_care.cache_info().currsize > 0 and _kb.cache_info().currsize > 0
+        server.sessions = []
+        trimmer()  # it ended, none is left
+        assert _normalized_care.cache_info().currsize == 0 and _kb.cache_info().currsize == 0
+    finally:
+        gc.unfreeze()

@@ -11,6 +11,8 @@ import logging
 import os
 import time
 
+import isl_core
+
 log = logging.getLogger("isl.serve")
 
 #: the allocator that hands a class's memory back (opt-in, set before Python starts; see :func:`check_allocator`)
@@ -97,7 +99,9 @@ class MemoryTrimmer:
     its oldest generation has grown by 25 %, which a class opening its pages does every 10–20 s. Frozen objects are
     not walked, so the automatic collections walk only what is new since the last look; a closed session's objects
     that hold each other in cycles are freed by the next full collection: when the class has left, or after
-    :data:`FULL_AFTER_ENDED` sessions have ended.
+    :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's caches are emptied first
+    (:func:`isl_core.clear_caches`): a class of 40 left ≈ 1 000 cached solutions, and the server's RSS after it
+    closed was 531 MB, 459 MB with them emptied (against 258 MB idle; one classroom run each).
     """
 
     def __init__(self, server) -> None:
@@ -116,6 +120,8 @@ class MemoryTrimmer:
             self.ended += self.sessions - (sessions + pending)
             collected = sessions <= QUIET_SESSIONS or self.ended >= FULL_AFTER_ENDED
             if collected:
+                if sessions <= QUIET_SESSIONS:  # the class has left: what it computed goes too
+                    isl_core.clear_caches()
                 full_collection()
                 self.ended = 0
             if self._trim is not None:
