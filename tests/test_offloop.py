@@ -91,18 +91,23 @@ class _Server:
 def test_full_collections_wait_until_the_class_has_left(monkeypatch):
     collected = []
     monkeypatch.setattr(gc, "collect", lambda *a: collected.append(a) or 0)
+    monkeypatch.setattr(gc, "freeze", lambda: collected.append("freeze"))
+    monkeypatch.setattr(gc, "unfreeze", lambda: collected.append("unfreeze"))
+    full = lambda: [a for a in collected if a in ((), (2,))]  # noqa: E731
     server = _Server()
     trimmer = MemoryTrimmer(server)
     server.sessions = [object()] * 40
     trimmer()
     server.sessions = server.sessions[:39]  # a student closed a tab: no full collection in class
     trimmer()
-    assert collected == []
+    assert full() == [] and (1,) in collected and "freeze" in collected  # the young ones, then a freeze
+    collected.clear()
     server.sessions = server.sessions[:QUIET_SESSIONS]
     trimmer()
-    assert collected == [()]
-    trimmer()  # nothing ended since: nothing to do
-    assert collected == [()]
+    assert collected == ["unfreeze", (), "freeze"]  # the class has left: everything, frozen or not
+    collected.clear()
+    trimmer()  # nothing ended since: the young generations only
+    assert full() == []
 
 
 def test_memory_is_trimmed_again_once_the_ended_sessions_release_hooks_have_run(monkeypatch, caplog):

@@ -11,8 +11,6 @@ import logging
 import os
 import time
 
-import isl_core
-
 log = logging.getLogger("isl.serve")
 
 #: the allocator that hands a class's memory back (opt-in, set before Python starts; see :func:`check_allocator`)
@@ -121,6 +119,8 @@ class MemoryTrimmer:
             collected = sessions <= QUIET_SESSIONS or self.ended >= FULL_AFTER_ENDED
             if collected:
                 if sessions <= QUIET_SESSIONS:  # the class has left: what it computed goes too
+                    import isl_core  # (here: importing it configures numba's cache, after serve's logging)
+
                     isl_core.clear_caches()
                 full_collection()
                 self.ended = 0
