@@ -318,7 +318,10 @@ def cmd_scenario(args) -> int:
                 "window_over_r_min": tab.window, "burn_over_r_min": tab.burn, "level": tab.level,
                 "scenarios": dict(zip(tab.scenarios, tab.scenario_labels, strict=True)),
                 "winner": dict(zip(tab.scenarios, tab.winner, strict=True)),
-                "margin": dict(zip(tab.scenarios, tab.margin.tolist(), strict=True))}
+                "runner_up": dict(zip(tab.scenarios, tab.runner_up, strict=True)),
+                "margin": dict(zip(tab.scenarios, tab.margin.tolist(), strict=True)),
+                "margin_low95": dict(zip(tab.scenarios, tab.margin_low.tolist(), strict=True)),
+                "tie": dict(zip(tab.scenarios, tab.tie.tolist(), strict=True))}
         print(json.dumps(nan_to_none({"meta": meta, "rows": rows}), indent=1, allow_nan=False))
         return 0
     width = [max(len(s), 22) for s in tab.scenarios]
@@ -330,8 +333,12 @@ def cmd_scenario(args) -> int:
         cells = [f"{_ratio(tab.worst[i, j])} [{_ratio(tab.low[i, j])}, {_ratio(tab.high[i, j])}]"
                  for j in range(len(tab.scenarios))]
         print(f"{label[:44]:44} | " + " | ".join(f"{c:>{w}}" for c, w in zip(cells, width, strict=True)))
-    print("lowest worst case: " + "; ".join(f"{s}: {f} ({m:.2f}x ahead of the next)" for s, f, m in
-                                            zip(tab.scenarios, tab.winner, tab.margin, strict=True)))
+    print("lowest worst case (a tie where the margin's 95 % lower bound over the seeds is <= 1):")
+    for j, s in enumerate(tab.scenarios):
+        f, r, m, lo = tab.winner[j], tab.runner_up[j], tab.margin[j], tab.margin_low[j]
+        print(f"  {s}: " + (f"tie, {f} and {r} ({m:.2f}x, lower bound {lo:.2f}x)" if tab.tie[j] else
+                            f"{f}, {m:.2f}x ahead of {r} (lower bound {lo:.2f}x)"))
+    print("scenarios:")
     for s, label in zip(tab.scenarios, tab.scenario_labels, strict=True):
         print(f"  {s}: {label}")
     return 0

@@ -12,7 +12,8 @@ window's mean square, ± z·s/√S, under the square root: the central limit the
 single seed). The worst coordinate i is shown per window and filter (the interval is that coordinate's).
 
 :func:`worst_ratio` is the summary of :mod:`isl_core.scenario_table`: the largest ratio over windows and
-coordinates, with the basic bootstrap interval over seeds (see there).
+coordinates, with the basic bootstrap interval over seeds (see there); :func:`margin_low` says whether the lowest
+of them is told apart from the next one by the seeds (the tables' and the maps' "tie").
 """
 from __future__ import annotations
 
@@ -29,26 +30,43 @@ from .scenario import Scenario
 from .scenario_run import ScenarioRun, plan_scenario
 from .validate import check_int, check_real
 
-__all__ = ["Rolling", "ScenarioAverage", "average_scenario", "worst_ratio"]
+__all__ = ["Rolling", "ScenarioAverage", "average_scenario", "margin_low", "resampled", "worst_ratio"]
 
 BOOTSTRAP = 400  #: resamples of the basic bootstrap interval of :func:`worst_ratio`
 BOOT_SEED = 20261202  #: the bootstrap's resampling seed (tables, maps and worst cases are reproducible)
 
 
-def worst_ratio(mse: np.ndarray, ref: np.ndarray, level: float, rng: np.random.Generator):
+def resampled(statistic: Callable[[np.ndarray], np.ndarray], mse: np.ndarray, rng: np.random.Generator):
+    """``statistic(mse)`` and its :data:`BOOTSTRAP` resamples (stacked on a new first axis): each resample draws
+    the seeds (``mse``'s first axis) with replacement, the same seeds for every filter."""
+    seeds = mse.shape[0]
+    return statistic(mse), np.array([statistic(mse[rng.integers(seeds, size=seeds)]) for _ in range(BOOTSTRAP)])
+
+
+def margin_low(point: np.ndarray, boot: np.ndarray, level: float = 0.95) -> np.ndarray:
+    """Per cell, the lower bound at two-sided ``level`` of the runner-up's statistic over the winner's: ``point``
+    (..., filters) ranks them (the lowest wins; filter 0, the clairvoyant reference, is left out) and ``boot``
+    (resamples, ..., filters), from :func:`resampled`, gives the ratio's spread. The seeds are drawn together for
+    every filter (a paired bootstrap), so what the filters share — the same noise — cancels in the ratio. A bound
+    ≤ 1 means the seeds cannot tell the winner from the runner-up: a tie."""
+    ranked = np.argsort(point[..., 1:], axis=-1)[..., :2] + 1
+    pair = np.take_along_axis(boot, np.broadcast_to(ranked, boot.shape[:-1] + (2,)), axis=-1)
+    return np.quantile(pair[..., 1] / pair[..., 0], (1 - level) / 2, axis=0)
+
+
+def worst_ratio(mse: np.ndarray, ref: np.ndarray, level: float, rng: np.random.Generator, *, margin: bool = False):
     """Per filter: max over windows and coordinates of √(mean over seeds of ``mse`` / ``ref``), and its basic
-    bootstrap interval over the seeds at ``level``. ``mse`` (seeds, windows, filters, m); ``ref`` (windows, m)."""
+    bootstrap interval over the seeds at ``level``. ``mse`` (seeds, windows, filters, m); ``ref`` (windows, m).
+    With ``margin``, also :func:`margin_low` of the lowest worst case but the reference's, from the same resamples."""
     ref = ref[:, None, :]
 
     def statistic(sample: np.ndarray) -> np.ndarray:
         return np.sqrt(sample.mean(axis=0) / ref).max(axis=(0, 2))
 
-    point = statistic(mse)
-    seeds = mse.shape[0]
-    boot = np.array([statistic(mse[rng.integers(seeds, size=seeds)]) for _ in range(BOOTSTRAP)])
+    point, boot = resampled(statistic, mse, rng)
     low = 2.0 * point - np.quantile(boot, (1 + level) / 2, axis=0)
     high = 2.0 * point - np.quantile(boot, (1 - level) / 2, axis=0)
-    return point, low, high
+    return (point, low, high, margin_low(point, boot, level)) if margin else (point, low, high)
 
 
 @dataclass(frozen=True)

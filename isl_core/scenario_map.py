@@ -27,7 +27,7 @@ import numpy as np
 from .model import Model
 from .paper import M, W
 from .scenario import Scenario
-from .scenario_average import BOOT_SEED, BOOTSTRAP, average_scenario
+from .scenario_average import BOOT_SEED, average_scenario, margin_low, resampled
 from .scenario_table import _filters, table_labels
 from .validate import check_int, check_real, check_reals
 
@@ -132,13 +132,9 @@ def who_wins_map(
             ratio = np.sqrt(sample.mean(axis=0)[first:] / ref).max(axis=2)
             return ratio if kind == "sigma_step" else ratio.max(axis=0)[None, :]
 
-        point = cell(mse)
-        ranked = np.argsort(point[:, 1:], axis=1)[:, :2] + 1  # winner and runner-up per row
-        boot = [np.take_along_axis(cell(mse[rng.integers(seeds, size=seeds)]), ranked, axis=1)
-                for _ in range(BOOTSTRAP)]
-        boot = np.array(boot)  # (resamples, rows, 2)
+        point, boot = resampled(cell, mse, rng)
         cells.append(point)
-        lows.append(np.quantile(boot[..., 1] / boot[..., 0], 0.025, axis=0))
+        lows.append(margin_low(point, boot))
     if kind != "sigma_step":
         rows = np.array([math.nan])
     return WhoWinsMap(kind, alpha, np.array(values, dtype=float), rows, names, labels,

@@ -61,8 +61,10 @@ PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
 class ScenarioTable:
     """``worst[f, s]`` with the interval ``low``/``high`` (basic bootstrap, module docstring); rows ``filters``
     (names), ``labels``; columns ``scenarios`` (preset names) with ``scenario_labels``; ``winner[s]`` the filter (name)
-    with the lowest worst case but the clairvoyant one, and ``margin[s]`` the runner-up's worst case over the
-    winner's."""
+    with the lowest worst case but the clairvoyant one, ``margin[s]`` the runner-up's worst case over the
+    winner's, ``margin_low[s]`` its lower bound (paired bootstrap over the seeds,
+    :func:`isl_core.scenario_average.margin_low`) and ``tie[s]`` whether that bound is ≤ 1: the seeds cannot tell
+    the winner from the runner-up."""
 
     alpha: float
     m: int
@@ -79,10 +81,19 @@ class ScenarioTable:
     window: float
     burn: float
     level: float
+    margin_low: np.ndarray
 
     @property
     def winner(self) -> tuple[str, ...]:
         return tuple(self.filters[1 + int(np.argmin(col))] for col in self.worst[1:].T)
+
+    @property
+    def runner_up(self) -> tuple[str, ...]:
+        return tuple(self.filters[1 + int(np.argsort(col)[1])] for col in self.worst[1:].T)
+
+    @property
+    def tie(self) -> np.ndarray:
+        return self.margin_low <= 1.0
 
     @property
     def margin(self) -> np.ndarray:
@@ -135,7 +146,7 @@ def scenario_table(
     burn = check_real("burn", burn, lo=0.0, hi=horizon, hi_open=True)
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     windows = max(1, round(horizon / window))
-    worst, low, high, names, labels = [], [], [], None, None
+    worst, low, high, lows, names, labels = [], [], [], [], None, None
     rng = np.random.default_rng(BOOT_SEED)
     for j, (_, sigma0, scenario) in enumerate(scenarios.values()):
         model = Model.from_w(alpha, w, sigma0, m)
@@ -146,9 +157,11 @@ def scenario_table(
         if names is None:
             names, labels = run.names, table_labels(run, nu_label)
         keep = run.starts_after(burn)
-        point, lo, hi = worst_ratio(avg.mse[:, keep], run.ref_var[keep], level, rng)
+        point, lo, hi, margin = worst_ratio(avg.mse[:, keep], run.ref_var[keep], level, rng, margin=True)
         worst.append(point)
         low.append(lo)
         high.append(hi)
+        lows.append(margin)
     return ScenarioTable(alpha, m, w, names, labels, tuple(scenarios), tuple(v[0] for v in scenarios.values()),
-                         np.array(worst).T, np.array(low).T, np.array(high).T, seeds, horizon, window, burn, level)
+                         np.array(worst).T, np.array(low).T, np.array(high).T, seeds, horizon, window, burn, level,
+                         np.array(lows))

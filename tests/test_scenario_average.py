@@ -6,7 +6,7 @@ import pytest
 
 from isl_core import Model, Scenario, average_scenario, simulate_scenario, who_wins_map
 from isl_core.adaptive import adaptive_kbf
-from isl_core.scenario_average import worst_ratio
+from isl_core.scenario_average import margin_low, resampled, worst_ratio
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)
 DROP = Scenario(sigma_knots=((6.0, 2.0),))
@@ -103,3 +103,23 @@ def test_the_map_calls_a_tie_only_where_the_seeds_cannot_tell():
     assert res.margin_low.shape == res.margin.shape == (1, 2)
     assert np.all(res.margin_low <= res.margin + 1e-12)
     np.testing.assert_array_equal(res.tie, res.margin_low <= 1.0)
+
+
+def test_the_paired_margin_is_a_tie_for_equal_filters_and_not_for_a_clearly_better_one():
+    """Filters 1 and 2 see the same noise (seeds): one equal to the other is a tie whatever the seeds' spread; one
+    at half the error is told apart, although the seeds' spread (a factor 10) dwarfs the difference of their means."""
+    rng = np.random.default_rng(3)
+    common = 10.0 ** rng.uniform(-1, 0, size=(20, 1))  # per seed: the noise both filters share
+
+    def mean(a: np.ndarray) -> np.ndarray:  # (filters,): filter 0 (a reference, left out), 1 and 2
+        return a.mean(axis=0)
+
+    same = np.hstack([common, common, common])
+    point, boot = resampled(mean, same, np.random.default_rng(1))
+    assert margin_low(point, boot) <= 1.0
+    half = np.hstack([common, common, 0.5 * common])
+    point, boot = resampled(mean, half, np.random.default_rng(1))
+    assert margin_low(point, boot) == pytest.approx(2.0)
+    noisy = np.hstack([common, common * rng.uniform(0.5, 1.5, size=(20, 1)), common])
+    point, boot = resampled(mean, noisy, np.random.default_rng(1))
+    assert margin_low(point, boot) < point[1:].max() / point[1:].min()
