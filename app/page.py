@@ -103,8 +103,10 @@ class SessionGate:
         def run() -> None:
             # every model change of one outcome goes out in one message; and Panel must see the session's
             # document while the views update: without it Panel rebuilds each pane's stylesheet models on each
-            # update, and new models make the server re-walk every model of the page (≈ 15 ms a run, py-spy)
-            with set_curdoc(doc), pn.io.hold(doc):
+            # update, and new models make the server re-walk every model of the page (≈ 15 ms a run, py-spy).
+            # The session's lock: a browser event of this page may be being processed on a thread right now
+            # (hardening.serialize_session_events); it holds the lock only while its callback runs.
+            with hardening.session_lock(doc), set_curdoc(doc), pn.io.hold(doc):
                 fn()
 
         with set_curdoc(doc):

@@ -10,6 +10,8 @@ session exists, so it applies to every session; ``app/app.py`` may call it too, 
 * ``pn.config.notifications = True``, so that every session has a place to show that message.
 * models the browser has not been sent stay "new" when a browser change arrives (:func:`keep_unsent_models_new`),
   so the server's next change sends them in full instead of by id, which the browser rejects.
+* one session's browser events are processed one at a time (:func:`serialize_session_events`): Panel hands each to
+  its thread pool, and two at once corrupted param's bookkeeping so that a slider stopped moving the run.
 * websocket ``ERROR`` replies without server internals: bokeh answers a message it cannot apply (e.g. a scripted
   client setting a slider to a string) with an ``ERROR`` reply that carries the server's full traceback. The
   traceback is dropped (bokeh's protocol handler already logs it), and a reply text that is not bokeh's own
@@ -30,7 +32,9 @@ from __future__ import annotations
 
 import logging
 import re
+import threading
 import uuid
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -62,6 +66,7 @@ def install() -> None:
     if not _installed:
         quiet_error_replies()
         keep_unsent_models_new()
+        serialize_session_events()
         _installed = True
 
 
@@ -142,6 +147,57 @@ def keep_unsent_models_new() -> None:
 
     apply_keeping_unsent._isl_keeps_unsent = True
     Document.apply_json_patch = apply_keeping_unsent
+
+
+_session_locks: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_session_locks_guard = threading.Lock()
+
+
+def session_lock(doc) -> threading.RLock:
+    """The lock under which a session's state is changed: held while one of its browser events is processed (on
+    Panel's thread pool, :func:`serialize_session_events`) and while a job's outcome is applied on the event loop
+    (:class:`app.page.SessionGate`). Sessions have one lock each, so they never wait for one another."""
+    with _session_locks_guard:
+        lock = _session_locks.get(doc)
+        if lock is None:
+            lock = _session_locks[doc] = threading.RLock()
+        return lock
+
+
+def serialize_session_events() -> None:
+    """Process one session's browser events one at a time (idempotent).
+
+    With ``--num-threads`` Panel processes each browser change on its thread pool, and two changes of one page on two
+    threads at once: a slider sends ``value`` and ``value_throttled`` as two messages when it is released. Both
+    threads then update the same widget with ``param.update``, whose batch flag is saved and restored around the
+    update; interleaved, the flag stays set for good, and from then on the widget's watchers never run — the slider
+    moves, the run does not (seen in ``benchmarks/bench_app_latency.py``: after 3 to 470 changes every further change
+    of σ was lost, the page silent; the widget's ``param._BATCH_WATCH`` was True with 8 events queued). The same
+    race can hit the dashboard's state, which every callback updates. Here each session's events (widget changes
+    and UI events such as clicks) take :func:`session_lock` while they are processed: other sessions' still run in
+    parallel.
+    """
+    from panel.reactive import Syncable
+
+    if getattr(Syncable._change_event, "_isl_serialized", False):
+        return
+    change_event, bokeh_event = Syncable._change_event, Syncable._process_bokeh_event
+
+    def serialized_change_event(self, doc, *args, **kwargs):
+        if doc is None:
+            return change_event(self, doc, *args, **kwargs)
+        with session_lock(doc):
+            return change_event(self, doc, *args, **kwargs)
+
+    def serialized_bokeh_event(self, doc, *args, **kwargs):
+        if doc is None:
+            return bokeh_event(self, doc, *args, **kwargs)
+        with session_lock(doc):
+            return bokeh_event(self, doc, *args, **kwargs)
+
+    serialized_change_event._isl_serialized = serialized_bokeh_event._isl_serialized = True
+    Syncable._change_event = serialized_change_event
+    Syncable._process_bokeh_event = serialized_bokeh_event
 
 
 def release_on_destroy(target: Any) -> None:
