@@ -57,7 +57,9 @@ window.WebSocket.prototype = NativeWebSocket.prototype;
 Object.assign(window.WebSocket, NativeWebSocket);
 """
 
-#: one change: [latency, data-arrived time, messages, bytes] — all counted until the page has been quiet 150 ms
+#: one change: [latency, data-arrived time, messages, bytes] — all counted until the page has been quiet 150 ms (and
+#: at most 13 s after the change); a change whose data has not arrived within 10 s counts as missed (NaN) instead of
+#: stalling the run
 CHANGE = """async (v) => {
     const doc = Bokeh.documents[0];
     const src = doc.get_model_by_name('traj-1-isl');
@@ -65,7 +67,9 @@ CHANGE = """async (v) => {
     window.__isl_received = [];
     const t0 = performance.now();
     const redrawn = await new Promise((resolve) => {
+        const missed = setTimeout(() => { src.properties.data.change.disconnect(done); resolve([NaN, NaN]); }, 10000);
         const done = () => {
+            clearTimeout(missed);
             src.properties.data.change.disconnect(done);
             const arrived = performance.now();
             requestAnimationFrame(() => resolve([performance.now() - t0, arrived - t0]));
@@ -75,7 +79,8 @@ CHANGE = """async (v) => {
         slider.value_throttled = v;
     });
     const last = () => { const r = window.__isl_received; return r.length ? r[r.length - 1][0] : t0; };
-    while (performance.now() - Math.max(last(), t0 + redrawn[0]) < 150) {
+    const quiet = () => performance.now() - Math.max(last(), t0 + (redrawn[0] || 0));
+    while (quiet() < 150 && performance.now() - t0 < 13000) {
         await new Promise((r) => setTimeout(r, 25));
     }
     const got = window.__isl_received;
@@ -123,11 +128,12 @@ def scenario(browser, port: int, query: str, changes: int, warmup: int = 3) -> d
 
 def report(name: str, results: dict[str, dict]) -> None:
     """The figures of one scenario, one column per server (``before`` / ``after``, or this checkout only)."""
-    pct = lambda x, q: f"{np.percentile(x, q):6.1f}"  # noqa: E731
+    pct = lambda x, q: f"{np.nanpercentile(x, q):6.1f}"  # noqa: E731
     lines = [
         ("slider → plot redrawn (browser), p50 ms", lambda r: pct(r["latency"], 50)),
         ("                                 p95 ms", lambda r: pct(r["latency"], 95)),
-        ("                                 max ms", lambda r: f"{r['latency'].max():6.1f}"),
+        ("                                 max ms", lambda r: f"{np.nanmax(r['latency']):6.1f}"),
+        ("missed (no new data within 10 s)", lambda r: f"{np.isnan(r['latency']).sum():6d}"),
         ("until the plot's data arrived, p50 ms", lambda r: pct(r["arrived"], 50)),
         ("  (server work + transfer)     p95 ms", lambda r: pct(r["arrived"], 95)),
         ("from there to the redraw,      p50 ms", lambda r: pct(r["latency"] - r["arrived"], 50)),
@@ -163,6 +169,7 @@ def main() -> None:
                 try:
                     for q in queries:
                         results[q][column] = scenario(browser, port, q, args.changes)
+                        print(f"  measured: {column}, ?{q}", flush=True)
                 finally:
                     sc.stop_server(proc)
         finally:
