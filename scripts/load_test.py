@@ -5,7 +5,7 @@ Each simulated student is one bokeh session opened over the websocket exactly as
 ``Origin`` header, same session token, same ``PULL-DOC`` / ``PATCH-DOC`` messages, a ``document_ready`` event
 after the pull), but without rendering: the client keeps its own copy of the document, so it sees every update
 the server sends. Every ``--interval`` seconds (±25 % jitter) each session sets a slider to a new value (``value``
-and ``value_throttled``, as a released drag does) and measures the *update latency*: the time until the server's
+and ``value_throttled`` in two messages, as a browser sends a released drag) and measures the *update latency*: the time until the server's
 first change to plot data (a ``ColumnDataSource``) arrives. An ``ERROR`` reply, a lost connection, or no update
 within ``--update-timeout`` counts as an error.
 
@@ -118,7 +118,8 @@ async def _student(base_url: str, index: int, slider_pattern: str, duration: flo
         try:
             slider = find_slider(client.doc, slider_pattern)
             value = last = new_value(slider, rng, last)
-            _, t0 = await client.change(slider, value=value, value_throttled=value)
+            _, t0 = await client.change(slider, value=value)
+            await client.change(slider, value_throttled=value)  # a second message, as from a browser
             if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, update_timeout):
                 latencies.append(client.data_update_after(t0) - t0)
             else:
