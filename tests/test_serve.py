@@ -236,6 +236,37 @@ def test_one_pages_browser_events_are_processed_one_at_a_time(entry, inner, args
         thread.join(30)
 
 
+def test_a_change_queued_while_the_queue_is_taken_is_still_processed():
+    """The loop queues a browser change on the widget and schedules the processing only if the queue was empty; a
+    thread takes the queue. Taken between the loop's check and its addition, the change went to the fresh queue with
+    nothing to process it, and the widget never moved again. The check is paused here at that point."""
+    hardening.install()
+    doc, widget = Document(), pn.widgets.FloatSlider()
+    widget.get_root(doc)                 # links the model's changes to the guarded method (bokeh checks its signature)
+    checked, go = threading.Event(), threading.Event()
+    processed: list[dict] = []
+    widget._process_events = lambda events: processed.append(dict(events))
+
+    class Queue(dict):
+        def __bool__(self) -> bool:      # the loop's check: was a processing already scheduled?
+            checked.set()
+            assert go.wait(30)
+            return super().__len__() > 0
+
+    widget._events = Queue(value=1.0)    # a change whose processing is scheduled but has not taken the queue yet
+    loop = threading.Thread(target=widget._server_change, args=(doc, "ref", None, "value_throttled", 0.0, 1.0))
+    loop.start()
+    assert checked.wait(30)
+    taker = threading.Thread(target=widget._change_event, args=(doc,))
+    taker.start()
+    taker.join(0.3)                      # unguarded, it took the queue at once, between the check and the addition
+    go.set()
+    loop.join(30)
+    taker.join(30)
+    assert processed == [{"value": 1.0, "value_throttled": 1.0}]  # the thread took both changes
+    assert not widget._events                                        # and stranded none
+
+
 class _Payload(param.Parameterized):
     run = param.Parameter(default=None)
     traces = param.Parameter(default=None)

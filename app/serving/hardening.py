@@ -30,6 +30,7 @@ Usage inside a session (e.g. in ``create_app()``)::
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import re
 import threading
@@ -176,26 +177,38 @@ def serialize_session_events() -> None:
     race can hit the dashboard's state, which every callback updates. Here each session's events (widget changes
     and UI events such as clicks) take :func:`session_lock` while they are processed: other sessions' still run in
     parallel.
+
+    A browser change is queued on the widget (``_events``) by the event loop, which schedules the processing only if
+    the queue was empty; the thread then takes the queue and leaves an empty one. The loop's check and its addition
+    are two steps: taken between them, the change went to the fresh queue with nothing scheduled to process it, and
+    the widget was stuck the same way. Both steps now take one lock held only for them (microseconds).
     """
+    from panel.io.state import set_curdoc
     from panel.reactive import Syncable
 
     if getattr(Syncable._change_event, "_isl_serialized", False):
         return
-    change_event, bokeh_event = Syncable._change_event, Syncable._process_bokeh_event
+    server_change, bokeh_event = Syncable._server_change, Syncable._process_bokeh_event
+    queue_guard = threading.RLock()  # re-entrant: without a session Panel processes the change inside _server_change
 
-    def serialized_change_event(self, doc, *args, **kwargs):
-        if doc is None:
-            return change_event(self, doc, *args, **kwargs)
-        with session_lock(doc):
-            return change_event(self, doc, *args, **kwargs)
+    def guarded_server_change(self, doc, ref, subpath, attr, old, new):  # bokeh checks a callback's signature
+        with queue_guard:
+            return server_change(self, doc, ref, subpath, attr, old, new)
+
+    def serialized_change_event(self, doc, *args, **kwargs):  # Panel's own body, its queue taken under the guard
+        with session_lock(doc) if doc is not None else contextlib.nullcontext():
+            with queue_guard:
+                events, self._events = self._events, {}
+            with set_curdoc(doc):
+                self._process_events(events)
 
     def serialized_bokeh_event(self, doc, *args, **kwargs):
-        if doc is None:
-            return bokeh_event(self, doc, *args, **kwargs)
-        with session_lock(doc):
+        with session_lock(doc) if doc is not None else contextlib.nullcontext():
             return bokeh_event(self, doc, *args, **kwargs)
 
-    serialized_change_event._isl_serialized = serialized_bokeh_event._isl_serialized = True
+    for fn in (guarded_server_change, serialized_change_event, serialized_bokeh_event):
+        fn._isl_serialized = True
+    Syncable._server_change = guarded_server_change
     Syncable._change_event = serialized_change_event
     Syncable._process_bokeh_event = serialized_bokeh_event
 
