@@ -1,0 +1,84 @@
+"""One page's browser events are processed one at a time (app.serving.hardening.serialize_session_events).
+
+With ``--num-threads`` Panel processes each browser message on its thread pool; a released slider's two messages
+(``value``, ``value_throttled``) then ran on two threads at once, and the slider could stop moving the run for good.
+"""
+from __future__ import annotations
+
+import threading
+
+import panel as pn
+import pytest
+from bokeh.document import Document
+from bokeh.events import ButtonClick
+from bokeh.models import Button
+
+from app.serving import hardening
+
+
+@pytest.mark.parametrize("entry, inner, args", [("_change_event", "_process_events", ()),
+                                                ("_process_bokeh_event", "_process_event", (ButtonClick(Button()),))])
+def test_one_pages_browser_events_are_processed_one_at_a_time(entry, inner, args):
+    """A released slider sends ``value`` and ``value_throttled`` as two messages, which Panel processed on two threads
+    at once: param's batch flag of the widget then stayed set and the slider stopped moving the run (seen after 3 to
+    470 changes). A second event of the same page now waits until the first is processed; another page's does not."""
+    hardening.install()
+    page, other = Document(), Document()
+    release = threading.Event()
+    entered = {name: threading.Event() for name in ("first", "second", "other page")}
+
+    def widget(name: str, block: bool = False):
+        w = pn.widgets.FloatSlider()
+
+        def process(*_):
+            entered[name].set()
+            if block:
+                assert release.wait(30)
+        setattr(w, inner, process)
+        return w
+
+    def event(name: str, doc: Document, block: bool = False) -> threading.Thread:
+        thread = threading.Thread(target=getattr(widget(name, block), entry), args=(doc, *args), daemon=True)
+        thread.start()
+        return thread
+
+    threads = [event("first", page, block=True)]
+    assert entered["first"].wait(30)
+    threads += [event("second", page), event("other page", other)]
+    assert entered["other page"].wait(30)           # other sessions never wait for this one
+    assert not entered["second"].wait(0.3)          # unserialized, it ran at once beside the first
+    release.set()
+    assert entered["second"].wait(30)
+    for thread in threads:
+        thread.join(30)
+
+
+def test_a_change_queued_while_the_queue_is_taken_is_still_processed():
+    """The loop queues a browser change on the widget and schedules the processing only if the queue was empty; a
+    thread takes the queue. Taken between the loop's check and its addition, the change went to the fresh queue with
+    nothing to process it, and the widget never moved again. The check is paused here at that point."""
+    hardening.install()
+    doc, widget = Document(), pn.widgets.FloatSlider()
+    widget.get_root(doc)                 # links the model's changes to the guarded method (bokeh checks its signature)
+    checked, go = threading.Event(), threading.Event()
+    processed: list[dict] = []
+    widget._process_events = lambda events: processed.append(dict(events))
+
+    class Queue(dict):
+        def __bool__(self) -> bool:      # the loop's check: was a processing already scheduled?
+            checked.set()
+            assert go.wait(30)
+            return super().__len__() > 0
+
+    widget._events = Queue(value=1.0)    # a change whose processing is scheduled but has not taken the queue yet
+    loop = threading.Thread(target=widget._server_change, args=(doc, "ref", None, "value_throttled", 0.0, 1.0))
+    loop.start()
+    assert checked.wait(30)
+    taker = threading.Thread(target=widget._change_event, args=(doc,))
+    taker.start()
+    taker.join(0.3)                      # unguarded, it took the queue at once, between the check and the addition
+    go.set()
+    loop.join(30)
+    taker.join(30)
+    assert processed == [{"value": 1.0, "value_throttled": 1.0}]  # the thread took both changes
+    assert not widget._events                                        # and stranded none
