@@ -5,9 +5,9 @@ Each simulated student is one bokeh session opened over the websocket exactly as
 ``Origin`` header, same session token, same ``PULL-DOC`` / ``PATCH-DOC`` messages, a ``document_ready`` event
 after the pull), but without rendering: the client keeps its own copy of the document, so it sees every update
 the server sends. Every ``--interval`` seconds (±25 % jitter) each session sets a slider to a new value (``value``
-and ``value_throttled`` in two messages, as a browser sends a released drag) and measures the *update latency*: the time until the server's
-first change to plot data (a ``ColumnDataSource``) arrives. An ``ERROR`` reply, a lost connection, or no update
-within ``--update-timeout`` counts as an error.
+and ``value_throttled`` in two messages, as a browser sends a released drag) and measures the *update latency*: the
+time until the server's first change to plot data (a ``ColumnDataSource``) arrives. An ``ERROR`` reply, a lost
+connection, or no update within ``--update-timeout`` counts as an error.
 
 Usage (the long classroom run: 100 sessions for 5 minutes, against a server this script starts):
 

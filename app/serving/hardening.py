@@ -165,6 +165,11 @@ def session_lock(doc) -> threading.RLock:
         return lock
 
 
+def _locked(doc):
+    """:func:`session_lock` of ``doc``, or nothing to hold for an event outside a document (a notebook's comm)."""
+    return session_lock(doc) if doc is not None else contextlib.nullcontext()
+
+
 def serialize_session_events() -> None:
     """Process one session's browser events one at a time (idempotent).
 
@@ -196,14 +201,14 @@ def serialize_session_events() -> None:
             return server_change(self, doc, ref, subpath, attr, old, new)
 
     def serialized_change_event(self, doc, *args, **kwargs):  # Panel's own body, its queue taken under the guard
-        with session_lock(doc) if doc is not None else contextlib.nullcontext():
+        with _locked(doc):
             with queue_guard:
                 events, self._events = self._events, {}
             with set_curdoc(doc):
                 self._process_events(events)
 
     def serialized_bokeh_event(self, doc, *args, **kwargs):
-        with session_lock(doc) if doc is not None else contextlib.nullcontext():
+        with _locked(doc):
             return bokeh_event(self, doc, *args, **kwargs)
 
     for fn in (guarded_server_change, serialized_change_event, serialized_bokeh_event):
