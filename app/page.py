@@ -27,6 +27,7 @@ from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
 from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
+from app.views.paint import skip_same_stylesheet
 from app.views.scenario import ScenarioView
 from app.views.worstcase import WorstCaseView
 
@@ -165,6 +166,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         UrlSync(state, pn.state.location)  # kept alive by the watchers it registers
     state.start()
     hardening.release_on_destroy(state.close)
+    skip_same_stylesheet(pn.state.curdoc)
     trajectories = deferred(lambda: pn.FlexBox(  # the numbers beside the plots where both fit, else below them
         pn.Column(TrajectoriesView(state=state), styles={"flex": "1 1 620px", "min-width": "0"},
                   sizing_mode="stretch_width"),

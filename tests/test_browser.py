@@ -279,3 +279,28 @@ def test_the_downloads_carry_the_run_on_screen(app_server):
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
 
 
+
+
+#: in the page's BokehJS: is the skip installed, and does a stylesheet keep its text node on a rewrite with the same
+#: text but take a new one with new text (app.views.paint)
+SAME_STYLESHEET = """() => {
+    const dom = Bokeh.require("core/dom");
+    const sheet = new dom.InlineStyleSheet(":host { top: 1px; }");
+    const first = sheet.el.firstChild;
+    sheet.replace(":host { top: 1px; }");
+    const kept = sheet.el.firstChild === first;
+    sheet.replace(":host { top: 2px; }");
+    return [dom.InlineStyleSheet.prototype._update.__isl_skip_same === true, kept,
+            sheet.el.firstChild !== first && sheet.el.textContent.includes("2px")];
+}"""
+
+
+def test_a_redraw_rewrites_no_stylesheet_whose_text_stays_the_same(app_server):
+    """Each paint of a plot rewrote every renderer's position stylesheet with the same text, and each rewrite made
+    the browser recalculate the page's style (app.views.paint): the page installs the skip, and it still applies a
+    changed text. Fails if BokehJS renames what the skip replaces."""
+    url, _ = app_server
+    with dashboard(url) as page:
+        installed, kept, changed = page.evaluate(SAME_STYLESHEET)
+    assert installed, "the page did not install app.views.paint.SKIP_SAME_STYLESHEET"
+    assert kept and changed
