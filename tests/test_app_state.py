@@ -145,6 +145,26 @@ def test_core_divergence_is_a_message(state, monkeypatch):
     assert state.run is run and "diverged" in state.message and state.message_kind == "danger"
 
 
+@pytest.mark.parametrize("change", [{}, {"horizon": 1000.0}, {"m": 6, "nu": 10_000.0, "sigma": 1.0, "horizon": 5000.0}])
+def test_the_dashboards_run_is_the_cores_run_on_the_cores_own_grid(state, change):
+    """The pipeline hands its planned step to the simulation (sparing a second step-size search); the run must be the
+    one the core chooses by itself, bit for bit — also for a horizon lowered to fit the step limit, N close to 10⁶."""
+    import dataclasses
+
+    from isl_core.runview import simulate_view
+
+    result = pipeline.compute(dataclasses.replace(state.request(), **change), nearest=True)
+    req = result.request
+    model, extra, every, _ = pipeline.plan(req)
+    own = simulate_view(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every)
+    run = result.run
+    assert (run.N, run.h, run.T, run.stretch) == (own.N, own.h, own.T, own.stretch)
+    for mine, theirs in zip(run.tracks, own.tracks, strict=True):
+        assert all(np.array_equal(a.y, b.y) and np.array_equal(a.t, b.t)
+                   for a, b in zip(mine.estimate, theirs.estimate, strict=True))
+    assert ("horizon lowered" in result.adjusted) == ("horizon" in change and change["horizon"] == 5000.0)
+
+
 def test_alpha_zero_in_w_mode_switches_to_beta(state):
     state.alpha = 0.0
     assert state.beta_from_w is False and state.beta == 3.0  # β of the last run, now set directly
