@@ -21,7 +21,7 @@ from threadpoolctl import threadpool_limits
 
 from app.jobs import LARGE_POOL, RUN_POOL, Jobs
 from app.longjobs import LongJobQueue
-from app.serving import hardening, offloop
+from app.serving import fastpath, hardening, offloop
 from app.state import AppState
 from app.urlsync import UrlSync
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
@@ -62,6 +62,7 @@ def _serialize_busy_bookkeeping() -> None:
 
 _serialize_busy_bookkeeping()
 hardening.install()  # tracebacks to the log, a short message to the user; session data released on close
+fastpath.install()  # Panel asks the design for stylesheets only when they change
 
 
 class SessionGate:

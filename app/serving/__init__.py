@@ -5,7 +5,8 @@
 * :mod:`app.serving.webguard` — security headers, the host check, compression and ``/liveness`` on every answer;
 * :mod:`app.serving.hardening` — the exception handler, traceback-free websocket errors, per-session release hooks;
 * :mod:`app.serving.offloop` — each session's page built on a thread instead of the event loop;
-* :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class.
+* :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class;
+* :mod:`app.serving.fastpath` — less of Panel's Python per slider change (design stylesheets only when they change).
 
 The session's own jobs (:mod:`app.jobs`) and the server's long-job queue (:mod:`app.longjobs`) belong to the
 dashboard's pipeline and stay beside it.
