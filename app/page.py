@@ -23,7 +23,7 @@ from app.jobs import LARGE_POOL, RUN_POOL, Jobs
 from app.longjobs import LongJobQueue
 from app.serving import fastpath, hardening, offloop
 from app.state import AppState
-from app.urlsync import UrlSync
+from app.urlsync import UrlSync, after_pause
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
 from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
@@ -164,7 +164,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     if state is None:
         state = AppState(jobs=session_jobs())
     if pn.state.location is not None:
-        UrlSync(state, pn.state.location)  # kept alive by the watchers it registers
+        UrlSync(state, pn.state.location, after_pause())  # kept alive by the watchers it registers
     state.start()
     hardening.release_on_destroy(state.close)
     skip_same_stylesheet(pn.state.curdoc)

@@ -192,6 +192,10 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
         """A run is in flight (whatever its size)."""
         return self._jobs.busy("run")
 
+    def later(self, fn) -> None:
+        """Run ``fn()`` on the session's loop with its lock held (from any thread; at once outside a server)."""
+        self._jobs.later(fn)
+
     def request(self) -> Request:
         return Request(self.alpha, self.beta_effective, self.sigma, self.nu, self.m, self.seed, self.horizon,
                        tuple(self.extra_filters), self.sigma_design, self.sigma_range)

@@ -95,6 +95,34 @@ def test_the_url_is_written_with_the_run_it_started_not_before():
         pool.shutdown(wait=True)
 
 
+def test_in_a_served_session_the_url_follows_after_the_pause_and_after_a_newer_run():
+    """Served, the write waits for the pause (``defer``: here a list of what would run after it) instead of riding
+    ahead of the plots; a run in flight when the pause ends puts it off until that run is answered."""
+    loop, pool, paused = ManualLoop(), ThreadPoolExecutor(max_workers=1), []
+    try:
+        state, location = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule)), Location()
+        UrlSync(state, location, paused.append)
+        state.start()
+        loop.pump(lambda: not state.computing)
+        state.sigma = 50.0
+        loop.pump(lambda: not state.computing)
+        assert state.run.model.sigma == 50.0 and location.search == "" and len(paused) == 1
+        state.sigma = 60.0  # a newer change, in flight when the pause ends
+        paused.pop()()
+        loop.pump(lambda: not state.computing)
+        assert location.search == "" and len(paused) == 1  # its answer arms the next pause
+        paused.pop()()
+        loop.q.get_nowait()()  # the write, on the session's loop
+        assert location.search == "?sigma=60" and not paused
+        state.sweep_sigmas = [3.0, 30.0]  # starts no run: written after the pause alone
+        assert location.search == "?sigma=60" and len(paused) == 1
+        paused.pop()()
+        loop.q.get_nowait()()
+        assert location.search == "?sigma=60&sweep_sigmas=[3,30]"
+    finally:
+        pool.shutdown(wait=True)
+
+
 # ------------------------------------------------------------------------------- hostile links (hypothesis)
 HOSTILE_TEXT = st.one_of(
     st.text(max_size=40), st.sampled_from(["NaN", "nan", "-Infinity", "inf", "1e999", "٣", "１２", "𝟙", "0x10", "[]",
