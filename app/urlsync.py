@@ -8,14 +8,14 @@
   a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
   each input and its range — and keeps its previous setting; the rest of the link still applies, and the URL is
   then rewritten to what the page shows. Inputs missing from the query take their defaults.
-* **state → URL**: the query holds the inputs that differ from their defaults (``?sigma=200&nu=0.5``). It is
-  written :data:`URL_PAUSE` s after the change has been answered (the run it started applied, refused or failed),
-  or after the answer to a newer change if one is in flight by then — not with the new plots: the browser applies a patch's changes in order, and
-  the URL's came first, so its history update (and the page's report of its new address back to the server) ran
-  ahead of the plots' data and redraw. Measured in the served page (``benchmarks/bench_app_latency.py``'s changes,
-  3 × 21 each, the same server): slider → redrawn p50 94.0 → 78.1 ms, p95 120.6 → 93.3 ms without the history
-  update in that patch. While a slider is dragged the URL follows about every 0.3 s, not at every step.
-  Outside a served session (tests, scripts) it is written at once.
+* **state → URL**: the query holds the inputs that differ from their defaults (``?sigma=200&nu=0.5``). It is written
+  :data:`URL_PAUSE` s after the change has been answered (the run it started applied, refused or failed), or after the
+  answer to a newer change if one is in flight by then — not with the new plots: the browser applies a patch's changes
+  in order, and the URL's came first, so its history update (and the page's report of its new address back to the
+  server) ran ahead of the plots' data and redraw. Measured in the served page (``benchmarks/bench_app_latency.py``'s
+  changes, 3 × 21 each, the same server): slider → redrawn p50 94.0 → 78.1 ms, p95 120.6 → 93.3 ms without the history
+  update in that patch. While a slider is dragged the URL follows about every 0.3 s, not at every step. Outside a
+  served session (tests, scripts) it is written at once.
 """
 from __future__ import annotations
 
