@@ -51,8 +51,8 @@ def test_too_few_points_is_refused():
         minmax_indices(np.zeros(100), 3)
 
 
-@pytest.mark.parametrize("n, max_points", [(10, 2400), (2_401, 2400), (10_007, 1000), (123_457, 2400), (5_000, 4),
-                                           (99_999, 2400)])
+@pytest.mark.parametrize("n, max_points", [(2, 2400), (3, 2400), (10, 2400), (2_400, 2400), (2_401, 2400),
+                                           (10_007, 1000), (123_457, 2400), (5_000, 4), (5, 4), (99_999, 2400)])
 @pytest.mark.parametrize("blocks", ["one", "random", "tiny"])
 def test_block_by_block_keeps_exactly_what_the_whole_trace_keeps(n, max_points, blocks):
     rng = np.random.default_rng(n)
