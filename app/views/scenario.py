@@ -185,14 +185,14 @@ class ScenarioView(Viewer):
         def number(name: str, width: int = 150, **kw):
             bounds = p[name].bounds
             widget = (pn.widgets.IntInput if isinstance(p[name], param.Integer) else pn.widgets.FloatInput)(
-                name=p[name].label, start=bounds[0], end=bounds[1], width=width, description=p[name].doc, **kw)
+                label=p[name].label, start=bounds[0], end=bounds[1], width=width, description=p[name].doc, **kw)
             return bind(s, name, widget)
 
         def choice(name: str, width: int = 130):
-            return bind(s, name, pn.widgets.Select(name=p[name].label, options=list(p[name].objects), width=width,
+            return bind(s, name, pn.widgets.Select(label=p[name].label, options=list(p[name].objects), width=width,
                                                    description=p[name].doc))
 
-        preset = pn.widgets.Select(name="scenario preset (the table's columns)", options=["—", *PRESETS], width=260)
+        preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS], width=260)
 
         def pick(event) -> None:
             if event.new != "—":
@@ -215,8 +215,8 @@ class ScenarioView(Viewer):
     def _map_controls(self) -> pn.Column:
         s = self.state
         p = s.param
-        kind = bind(s, "sc_map", pn.widgets.Select(name=p.sc_map.label, options=list(p.sc_map.objects), width=150))
-        seeds = bind(s, "sc_map_seeds", pn.widgets.IntInput(name=p.sc_map_seeds.label, start=2, end=128, width=110))
+        kind = bind(s, "sc_map", pn.widgets.Select(label=p.sc_map.label, options=list(p.sc_map.objects), width=150))
+        seeds = bind(s, "sc_map_seeds", pn.widgets.IntInput(label=p.sc_map_seeds.label, start=2, end=128, width=110))
         run, cancel, progress = job_buttons(p.sc_map_busy, p.sc_map_progress, "Compute map", s.compute_map,
                                             s.cancel_map, width=140)
         return pn.Column(pn.FlexBox(kind, seeds, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
