@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import panel as pn
+import pytest
 import param
 from bokeh.document import Document
 from panel.reactive import Reactive
@@ -49,3 +50,50 @@ def test_install_is_idempotent():
     first = Reactive._update_properties
     fastpath.install()
     assert Reactive._update_properties is first and first._isl_fast
+
+
+def _every_part_of_the_page(doc: Document) -> None:
+    """Every view of the dashboard, built in ``doc`` (jobs inline)."""
+    from panel.io.state import set_curdoc
+
+    from app.state import AppState
+    from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
+    from app.views.compare import CompareView
+    from app.views.filters_panel import FiltersPanel
+    from app.views.scenario import ScenarioView
+    from app.views.worstcase import WorstCaseView
+
+    with set_curdoc(doc):
+        state = AppState()
+        state.start()
+        views = [TrajectoriesView, NumbersView, ControlsView, FiltersPanel, SweepView, WorstCaseView, CompareView,
+                 ScenarioView]
+        page = pn.Column(*(view(state=state) for view in views), about_card(), design=pn.theme.Fast)
+        doc.add_root(page.get_root(doc))
+
+
+def test_serialization_reads_only_what_it_sends_and_sends_what_bokeh_sends():
+    """Every model of a fully built page: the properties serialized (without defaults, with and without the unset
+    ones) are bokeh's own, and a required property left unset is still refused."""
+    from bokeh.core.has_props import HasProps
+    from bokeh.core.property.descriptors import UnsetValueError
+    from bokeh.models import Slider
+
+    fastpath.install()
+    fast = HasProps.query_properties_with_values
+    original = fast._isl_original
+    serialized = lambda prop: prop.serialized  # noqa: E731 — bokeh's query for serialization
+    doc = Document()
+    _every_part_of_the_page(doc)
+    models = list(doc.models)
+    assert len(models) > 500
+    for model in models:
+        for undefined in (False, True):
+            mine = fast(model, serialized, include_defaults=False, include_undefined=undefined)
+            bokehs = original(model, serialized, include_defaults=False, include_undefined=undefined)
+            assert list(mine) == list(bokehs), type(model).__name__
+            assert all(mine[k] is bokehs[k] or mine[k] == bokehs[k] for k in mine), type(model).__name__
+    unset = Slider(start=0.0, end=1.0, step=0.1)  # its value is required and was never set
+    for method in (fast, original):
+        with pytest.raises(UnsetValueError, match="value"):
+            method(unset, serialized, include_defaults=False)
