@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import panel as pn
-import pytest
 import param
+import pytest
 from bokeh.document import Document
 from panel.reactive import Reactive
 
