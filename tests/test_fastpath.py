@@ -1,4 +1,4 @@
-"""Panel's per-change work without the design's stylesheets (app.serving.fastpath): the same properties are sent."""
+"""Less library work per change in the server (app.serving.fastpath): the same properties are sent, less is computed."""
 from __future__ import annotations
 
 import panel as pn
