@@ -164,7 +164,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     if state is None:
         state = AppState(jobs=session_jobs())
     if pn.state.location is not None:
-        UrlSync(state, pn.state.location, after_pause())  # kept alive by the watchers it registers
+        UrlSync(state, pn.state.location, after_pause(pn.state.curdoc))  # kept alive by the watchers it registers
     state.start()
     hardening.release_on_destroy(state.close)
     skip_same_stylesheet(pn.state.curdoc)

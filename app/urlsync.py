@@ -19,7 +19,6 @@
 """
 from __future__ import annotations
 
-import asyncio
 import json
 import urllib.parse
 from collections.abc import Callable
@@ -38,14 +37,16 @@ _OUTCOMES = ["run", "message", "busy"]  #: a run was applied, refused or failed:
 URL_PAUSE = 0.3  #: seconds the inputs rest, once answered, before the URL follows them (served sessions)
 
 
-def after_pause(seconds: float = URL_PAUSE) -> Callable[[Callable[[], None]], None] | None:
-    """``defer(fn)``: call ``fn`` on the running event loop ``seconds`` from now (``defer`` may be called from any
-    thread); None when no event loop is running here (outside a served session)."""
-    try:
-        loop = asyncio.get_running_loop()
-    except RuntimeError:
+def after_pause(doc, seconds: float = URL_PAUSE) -> Callable[[Callable[[], None]], None] | None:
+    """``defer(fn)``: call ``fn`` ``seconds`` from now on the event loop that serves ``doc``'s session (``defer`` may
+    be called from any thread: the page itself is built on a thread of its own, :mod:`app.serving.offloop`); None
+    outside a served session."""
+    context = getattr(doc, "session_context", None)
+    server = getattr(context, "server_context", None)
+    loop = getattr(getattr(server, "application_context", None), "io_loop", None)
+    if loop is None:
         return None
-    return lambda fn: loop.call_soon_threadsafe(loop.call_later, seconds, fn)
+    return lambda fn: loop.add_callback(loop.call_later, seconds, fn)
 
 
 def _encode(value) -> str:
