@@ -8,18 +8,19 @@
   a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
   each input and its range — and keeps its previous setting; the rest of the link still applies, and the URL is
   then rewritten to what the page shows. Inputs missing from the query take their defaults.
-* **state → URL**: the query holds the inputs that differ from their defaults (``?sigma=200&nu=0.5``). It is written
-  :data:`URL_PAUSE` s after the change has been answered (the run it started applied, refused or failed), or after the
-  answer to a newer change if one is in flight by then — not with the new plots: the browser applies a patch's changes
-  in order, and the URL's came first, so its history update (and the page's report of its new address back to the
-  server) ran ahead of the plots' data and redraw. Measured in the served page (``benchmarks/bench_app_latency.py``'s
-  changes, 3 × 21 each, the same server): slider → redrawn p50 94.0 → 78.1 ms, p95 120.6 → 93.3 ms without the history
-  update in that patch. While a slider is dragged the URL follows about every 0.3 s, not at every step. Outside a
-  served session (tests, scripts) it is written at once.
+* **state → URL**: the query holds the inputs that differ from their defaults (``?sigma=200&nu=0.5``). In a served
+  session it is written once the inputs have rested :data:`URL_PAUSE` s and the change has been answered (the run it
+  started applied, refused or failed) — not with the new plots: the browser applies a patch's changes in order, and
+  the URL's came first, so its history update (and the page's report of its new address back to the server) ran
+  ahead of the plots' data and redraw. Measured in the served page (``benchmarks/bench_app_latency.py``'s changes,
+  3 × 21 each, the same server): slider → redrawn p50 94.0 → 78.1 ms, p95 120.6 → 93.3 ms without the history
+  update in that patch. While a slider is dragged the URL waits until the drag pauses (a write during the drag
+  would land in the middle of the next update). Outside a served session (tests, scripts) it is written at once.
 """
 from __future__ import annotations
 
 import json
+import time
 import urllib.parse
 from collections.abc import Callable
 
@@ -37,16 +38,16 @@ _OUTCOMES = ["run", "message", "busy"]  #: a run was applied, refused or failed:
 URL_PAUSE = 0.3  #: seconds the inputs rest, once answered, before the URL follows them (served sessions)
 
 
-def after_pause(doc, seconds: float = URL_PAUSE) -> Callable[[Callable[[], None]], None] | None:
-    """``defer(fn)``: call ``fn`` ``seconds`` from now on the event loop that serves ``doc``'s session (``defer`` may
-    be called from any thread: the page itself is built on a thread of its own, :mod:`app.serving.offloop`); None
-    outside a served session."""
+def after_pause(doc, seconds: float = URL_PAUSE) -> Callable[..., None] | None:
+    """``defer(fn, after=seconds)``: call ``fn`` ``after`` seconds from now on the event loop that serves ``doc``'s
+    session (``defer`` may be called from any thread: the page itself is built on a thread of its own,
+    :mod:`app.serving.offloop`); None outside a served session."""
     context = getattr(doc, "session_context", None)
     server = getattr(context, "server_context", None)
     loop = getattr(getattr(server, "application_context", None), "io_loop", None)
     if loop is None:
         return None
-    return lambda fn: loop.add_callback(loop.call_later, seconds, fn)
+    return lambda fn, after=seconds: loop.add_callback(loop.call_later, after, fn)
 
 
 def _encode(value) -> str:
@@ -104,11 +105,14 @@ def query_string(state: param.Parameterized, search: str = "") -> str:
 class UrlSync:
     """Two-way link between ``state``'s inputs and ``location`` (a Panel ``Location``), see the module doc."""
 
-    def __init__(self, state: AppState, location, defer: Callable[[Callable[[], None]], None] | None = None) -> None:
-        """``defer(fn)`` runs ``fn`` after the pause (:func:`after_pause`); without it the URL is written at once."""
+    def __init__(self, state: AppState, location, defer: Callable[..., None] | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        """``defer(fn, after=s)`` runs ``fn`` ``s`` seconds later (:func:`after_pause`); without it the URL is written
+        at once. ``clock``: seconds, for the time since the last input changed."""
         self.state, self.location = state, location
-        self._defer = defer
+        self._defer, self._clock = defer, clock
         self._armed = False  # a deferred write is on its way
+        self._moved = -float("inf")  # when an input last changed (clock)
         self._writing = False
         self._pending = False
         # The page's own copy of its URL reports the query it was opened with once, when it loads — after the server
@@ -147,6 +151,7 @@ class UrlSync:
         if self._writing:
             return
         self._pending = True
+        self._moved = self._clock()
         if not self.state.computing:  # else written once it is answered (see _on_outcome)
             self._write_soon()
 
@@ -161,7 +166,11 @@ class UrlSync:
             self._armed = True
             self._defer(self._paused)
 
-    def _paused(self) -> None:  # on the loop, after the pause: the write goes out with the session's lock held
+    def _paused(self) -> None:  # on the loop: once the inputs have rested, the write goes out with the session's lock
+        rest = self._moved + URL_PAUSE - self._clock()
+        if rest > 0:  # an input moved since the pause began: wait until it has rested as long
+            self._defer(self._paused, rest)
+            return
         self._armed = False
         self.state.later(self._write_if_settled)
 

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from app.jobs import Jobs
 from app.state import AppState, input_label
-from app.urlsync import URL_INPUTS, UrlSync, parse_query, query_string, read_query
+from app.urlsync import URL_INPUTS, URL_PAUSE, UrlSync, parse_query, query_string, read_query
 
 
 class Location(param.Parameterized):
@@ -95,30 +95,50 @@ def test_the_url_is_written_with_the_run_it_started_not_before():
         pool.shutdown(wait=True)
 
 
-def test_in_a_served_session_the_url_follows_after_the_pause_and_after_a_newer_run():
-    """Served, the write waits for the pause (``defer``: here a list of what would run after it) instead of riding
-    ahead of the plots; a run in flight when the pause ends puts it off until that run is answered."""
-    loop, pool, paused = ManualLoop(), ThreadPoolExecutor(max_workers=1), []
+def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is_answered():
+    """Served, the write waits (``defer``: here a list of what would run later, ``clock`` the test's) until the inputs
+    have rested URL_PAUSE s and their run is answered, instead of riding ahead of the plots or landing in the middle
+    of a drag's next update."""
+    loop, pool, deferred, now = ManualLoop(), ThreadPoolExecutor(max_workers=1), [], [0.0]
     try:
         state, location = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule)), Location()
-        UrlSync(state, location, paused.append)
+        UrlSync(state, location, lambda fn, after=URL_PAUSE: deferred.append((after, fn)), clock=lambda: now[0])
         state.start()
         loop.pump(lambda: not state.computing)
-        state.sigma = 50.0
+
+        state.sigma = 50.0  # at t = 0
         loop.pump(lambda: not state.computing)
-        assert state.run.model.sigma == 50.0 and location.search == "" and len(paused) == 1
-        state.sigma = 60.0  # a newer change, in flight when the pause ends
-        paused.pop()()
+        assert state.run.model.sigma == 50.0 and location.search == "" and len(deferred) == 1
+        now[0] = 0.2
+        state.sigma = 60.0  # moved while the pause runs
+        now[0] = 0.3
+        deferred.pop()[1]()
+        assert location.search == "" and deferred[0][0] == pytest.approx(0.2)  # waits until it has rested 0.3 s
         loop.pump(lambda: not state.computing)
-        assert location.search == "" and len(paused) == 1  # its answer arms the next pause
-        paused.pop()()
+        now[0] = 0.5
+        deferred.pop()[1]()
         loop.q.get_nowait()()  # the write, on the session's loop
-        assert location.search == "?sigma=60" and not paused
-        state.sweep_sigmas = [3.0, 30.0]  # starts no run: written after the pause alone
-        assert location.search == "?sigma=60" and len(paused) == 1
-        paused.pop()()
+        assert location.search == "?sigma=60" and not deferred
+
+        now[0] = 1.0
+        state.sigma = 70.0
+        loop.pump(lambda: not state.computing)
+        state.seed = 3  # a run still in flight when the pause ends: written once it is answered
+        now[0] = 1.4
+        deferred.pop()[1]()
+        assert not deferred
+        loop.pump(lambda: not state.computing and loop.q.empty())
+        assert location.search == "?sigma=60" and len(deferred) == 1  # the answer armed the next pause
+        now[0] = 1.8
+        deferred.pop()[1]()
         loop.q.get_nowait()()
-        assert location.search == "?sigma=60&sweep_sigmas=[3,30]"
+        assert location.search == "?sigma=70&seed=3"
+
+        state.sweep_sigmas = [3.0, 30.0]  # starts no run: written once it has rested
+        now[0] = 2.1
+        deferred.pop()[1]()
+        loop.q.get_nowait()()
+        assert location.search == "?sigma=70&seed=3&sweep_sigmas=[3,30]"
     finally:
         pool.shutdown(wait=True)
 
