@@ -238,7 +238,7 @@ class LongTask:
         """Run ``fn(progress=…)`` as the session's long job; ``apply(outcome)`` on success (on the session's loop)."""
         token = self._token = object()
         self.state.param.update(**{self.busy: True, self.progress: 0.0, self.note: note})
-        show = in_steps(lambda fraction: self.state._jobs.later(lambda: self._set(token, progress=min(fraction, 1.0))))
+        show = in_steps(lambda fraction: self.state.later(lambda: self._set(token, progress=min(fraction, 1.0))))
 
         def run(cancel: threading.Event):
             def progress(fraction: float) -> None:  # on the worker thread

@@ -40,16 +40,16 @@ _OUTCOMES = ["run", "message", "busy"]  #: a run was applied, refused or failed:
 URL_PAUSE = 0.3  #: seconds the inputs rest, once answered, before the URL follows them (served sessions)
 
 
-def after_pause(doc, seconds: float = URL_PAUSE) -> Callable[..., None] | None:
-    """``defer(fn, after=seconds)``: call ``fn`` ``after`` seconds from now on the event loop that serves ``doc``'s
-    session (``defer`` may be called from any thread: the page itself is built on a thread of its own,
+def after_pause(doc) -> Callable[[Callable[[], None], float], None] | None:
+    """``defer(fn, after)``: call ``fn`` ``after`` seconds from now on the event loop that serves ``doc``'s session
+    (``defer`` may be called from any thread: the page itself is built on a thread of its own,
     :mod:`app.serving.offloop`); None outside a served session."""
     context = getattr(doc, "session_context", None)
     server = getattr(context, "server_context", None)
     loop = getattr(getattr(server, "application_context", None), "io_loop", None)
     if loop is None:
         return None
-    return lambda fn, after=seconds: loop.add_callback(loop.call_later, after, fn)
+    return lambda fn, after: loop.add_callback(loop.call_later, after, fn)
 
 
 def _encode(value) -> str:
@@ -107,10 +107,10 @@ def query_string(state: param.Parameterized, search: str = "") -> str:
 class UrlSync:
     """Two-way link between ``state``'s inputs and ``location`` (a Panel ``Location``), see the module doc."""
 
-    def __init__(self, state: AppState, location, defer: Callable[..., None] | None = None,
+    def __init__(self, state: AppState, location, defer: Callable[[Callable[[], None], float], None] | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
-        """``defer(fn, after=s)`` runs ``fn`` ``s`` seconds later (:func:`after_pause`); without it the URL is written
-        at once. ``clock``: seconds, for the time since the last input changed."""
+        """``defer(fn, after)`` runs ``fn`` ``after`` seconds later (:func:`after_pause`); without it the URL is
+        written at once. ``clock``: seconds, for the time since the last input changed."""
         self.state, self.location = state, location
         self._defer, self._clock = defer, clock
         self._armed = False  # a deferred write is on its way
@@ -166,7 +166,7 @@ class UrlSync:
             self.write()
         elif not self._armed:
             self._armed = True
-            self._defer(self._paused)
+            self._defer(self._paused, URL_PAUSE)
 
     def _paused(self) -> None:  # on the loop: once the inputs have rested, the write goes out with the session's lock
         rest = self._moved + URL_PAUSE - self._clock()

@@ -102,13 +102,14 @@ def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is
     loop, pool, deferred, now = ManualLoop(), ThreadPoolExecutor(max_workers=1), [], [0.0]
     try:
         state, location = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule)), Location()
-        UrlSync(state, location, lambda fn, after=URL_PAUSE: deferred.append((after, fn)), clock=lambda: now[0])
+        UrlSync(state, location, lambda fn, after: deferred.append((after, fn)), clock=lambda: now[0])
         state.start()
         loop.pump(lambda: not state.computing)
 
         state.sigma = 50.0  # at t = 0
         loop.pump(lambda: not state.computing)
         assert state.run.model.sigma == 50.0 and location.search == "" and len(deferred) == 1
+        assert deferred[0][0] == URL_PAUSE
         now[0] = 0.2
         state.sigma = 60.0  # moved while the pause runs
         now[0] = 0.3

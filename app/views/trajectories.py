@@ -214,8 +214,8 @@ class TrajectoriesView(Viewer):
 
     def _on_mode(self, event) -> None:
         # the switch's callback may run on one of the server's threads: the bokeh models change on the session's
-        # loop, with its document locked, like every run's outcome (Jobs.later)
-        self.state._jobs.later(self._apply_mode)
+        # loop, with its document locked, like every run's outcome (AppState.later)
+        self.state.later(self._apply_mode)
 
     def _apply_mode(self) -> None:
         for name, item in self._keys.items():
