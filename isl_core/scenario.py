@@ -36,7 +36,6 @@ Kalman–Bucy Δ of (A.23): it is then today's optimal filter.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,12 +43,13 @@ from numba import njit
 
 from .kernels import CACHE
 from .model import Model
+from .noise import LAWS, fill
 from .riccati import kalman_bucy
 from .validate import check_real
 
 __all__ = ["NOISE_LAWS", "SIGMA_SHAPES", "Clairvoyant", "Scenario", "clairvoyant", "sigma_path"]
 
-NOISE_LAWS = ("gaussian", "student", "outliers")
+NOISE_LAWS = tuple(LAWS)  #: "gaussian", "student", "outliers"
 SIGMA_SHAPES = ("steps", "drift")
 SIGMA_BOUNDS = (1e-3, 1e6)  #: σ values a knot may take (those of the model's σ in the core)
 TIME_MAX = 1e6  #: latest knot time, in units of 1/r_min
@@ -136,13 +136,9 @@ class Scenario:
         return max(1, round(self.sensor_interval / (r_min * h))) if self.sensor_interval > 0.0 else 1
 
     def draw_noise(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """ε_0 … ε_{n−1} of the noise law, from ``rng``."""
-        if self.noise == "student":
-            d = self.dof
-            return math.sqrt((d - 2.0) / d) * rng.standard_t(d, n)
-        eps = rng.standard_normal(n)
-        if self.noise == "outliers":
-            eps[rng.random(n) < self.outlier_rate] *= self.outlier_scale
+        """ε_0 … ε_{n−1} of the noise law, from ``rng``, as the scenario loop draws them (:mod:`isl_core.noise`)."""
+        eps = np.empty(n)
+        fill(rng, LAWS[self.noise], self.dof, self.outlier_rate, self.outlier_scale, eps)
         return eps
 
 

@@ -25,9 +25,9 @@ Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α �
 power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
 factor is max(1/r, q/W) for the r-th reading: its window keeps its length in time.
 
-Draws per step from the caller's generator: v_k, then ε_k (Gaussian: one normal; Student-t: ``standard_t``;
-outliers: one normal, then one uniform that decides whether it is scaled by ``k_out``). Squared errors at t_{k+1}
-are summed into window (k // ``win``) (the last window takes the remainder), σ̂ likewise.
+Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
+:data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window (k // ``win``) (the last
+window takes the remainder), σ̂ likewise.
 """
 from __future__ import annotations
 
@@ -37,11 +37,11 @@ import numpy as np
 from numba import njit
 
 from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
+from .noise import DRAWS, draw_ahead
 from .scenario import clairvoyant_step
 
-__all__ = ["LAW_GAUSSIAN", "LAW_OUTLIERS", "LAW_STUDENT", "advance_scenario"]
+__all__ = ["KIND_CLAIRVOYANT", "advance_scenario"]
 
-LAW_GAUSSIAN, LAW_STUDENT, LAW_OUTLIERS = 0, 1, 2
 KIND_CLAIRVOYANT = 3
 
 
@@ -146,7 +146,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
     zdecay = 1.0 - h * damp
     couple = h * (alpha - damp)
     gain = sqqh * coef
-    t_scale = math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
+    vbuf, ebuf = np.empty(DRAWS), np.empty(DRAWS)
     slot = np.zeros(nf, dtype=np.int64)
     stride = 0 if sig.shape[0] == 1 else 1
     sq = np.zeros((nf, m))  # squared errors since the last flush into wsq (FLUSH steps at most, as kernels.advance)
@@ -177,13 +177,11 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             same, pending = 0, 0
             w += 1
             edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
-        v = rng.standard_normal()
-        if law == LAW_STUDENT:
-            eps = t_scale * rng.standard_t(dof)
-        else:
-            eps = rng.standard_normal()
-            if law == LAW_OUTLIERS and rng.random() < p_out:
-                eps *= k_out
+        b = j % DRAWS
+        if b == 0:
+            draw_ahead(rng, law, dof, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))
+        v = vbuf[b]
+        eps = ebuf[b]
         s_k = sig[j * stride]
         noise = s_k * eps
         c_noise = h * (s_k * s_k) * nv

@@ -31,17 +31,17 @@ from .filters import KIND_ADAPTIVE, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter
 from .grid import MAX_STEPS, check_filters, run_plan
 from .kernels import AD_SIGMA
 from .model import Model
+from .noise import LAWS
 from .riccati import kalman_bucy
 from .robust import huber_kappa
 from .scenario import Scenario, clairvoyant_state
-from .scenario_kernel import KIND_CLAIRVOYANT, LAW_GAUSSIAN, LAW_OUTLIERS, LAW_STUDENT, advance_scenario
+from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
 __all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "plan_scenario", "scenario_grid",
            "simulate_scenario"]
 
-LAWS = {"gaussian": LAW_GAUSSIAN, "student": LAW_STUDENT, "outliers": LAW_OUTLIERS}
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
 
 

@@ -23,6 +23,15 @@ def _kappa(c: float) -> float:
     return float(np.trapezoid(np.minimum(z * z, c * c) * np.exp(-0.5 * z * z), z) / math.sqrt(2.0 * math.pi))
 
 
+def _student(rng, d: float) -> float:
+    """T_d by Bailey's polar method (Math. Comp. 62, 1994), one uniform pair after another until one is in the disc."""
+    while True:
+        u, v = 2.0 * rng.random() - 1.0, 2.0 * rng.random() - 1.0
+        w = u * u + v * v
+        if 0.0 < w <= 1.0:
+            return u * math.sqrt(d * (w ** (-2.0 / d) - 1.0) / w)
+
+
 def _loop(model, filters, scenario, h, n, seed, gains, q):
     """The scenario step written out in numpy, one filter at a time (module docstring of scenario_kernel)."""
     kb = kalman_bucy(model)
@@ -40,7 +49,7 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     for k in range(n):
         v = rng.standard_normal()
         if scenario.noise == "student":
-            eps = math.sqrt((scenario.dof - 2) / scenario.dof) * rng.standard_t(scenario.dof)
+            eps = math.sqrt((scenario.dof - 2) / scenario.dof) * _student(rng, scenario.dof)
         else:
             eps = rng.standard_normal()
             if scenario.noise == "outliers" and rng.random() < scenario.outlier_rate:
