@@ -11,7 +11,7 @@ while σ is constant and a sensor reads every step; with a coarse sensor its set
 the fastest ns/step of ``--repeats`` × 3 interleaved runs (:func:`fastest`) and the ratio to today's; the two
 compiled loops alone on the same two filters (today's kernel against the scenario kernel at σ constant, Gaussian
 noise, a reading every step, with its recursion), which is the scenario machinery's own cost; and what the noise
-laws' draws alone cost (a compiled loop of n draws): a Student-t draw is Bailey's polar method (pairs of uniforms),
+laws' draws alone cost (a compiled loop of n draws): a Student-t draw is a ziggurat (isl_core.noise),
 NumPy's ``standard_t`` beside it, the outliers' law a normal and a uniform. Timings on a shared machine are noisy:
 read the load average.
 
@@ -76,7 +76,7 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
     from isl_core.kernels import advance
-    from isl_core.noise import LAW_GAUSSIAN
+    from isl_core.noise import LAW_GAUSSIAN, law_table
     from isl_core.scenario import clairvoyant_state
     from isl_core.scenario_kernel import advance_scenario
     from isl_core.simulate import _pack, _start
@@ -94,8 +94,8 @@ def loops_ns(n: int) -> tuple[float, float]:
         if scenario:
             clair = (*clairvoyant_state(np.array(kb.delta, dtype=float), 1), 1.0)
             advance_scenario(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, np.full(1, FIG3.sigma), LAW_GAUSSIAN,
-                             3.0, 0.0, 1.0, 1, damp, coef, kind, table, ad.copy(), clair, np.zeros(2), 0,
-                             max(steps // 50, 1),
+                             3.0, law_table("gaussian", 3.0), 0.0, 1.0, 1, damp, coef, kind, table, ad.copy(), clair,
+                             np.zeros(2), 0, max(steps // 50, 1),
                              np.zeros((50, 2, 3)), np.zeros((50, 0)), np.zeros((50, 4)), np.zeros((2, 3, 3)),
                              np.zeros((2, 2)), np.zeros((2, 2)), np.full(2, -1))
         else:
@@ -116,15 +116,17 @@ def _numpy_t(rng, n, dof):
 
 
 def draws_ns(n: int) -> dict[str, float]:
-    """ns per draw of ε_k as the loops draw them (isl_core.noise.fill): a normal, a Student-t (d = 3, Bailey's polar
-    method), a normal and a uniform (outliers); and NumPy's ``standard_t`` (a normal over the root of a gamma draw)."""
-    from isl_core.noise import LAWS, fill
+    """ns per draw of ε_k as the loops draw them (isl_core.noise.fill): a normal, a Student-t (d = 3, the ziggurat of
+    isl_core.noise), a normal and a uniform (outliers); and NumPy's ``standard_t`` (a normal over the root of a gamma
+    draw)."""
+    from isl_core.noise import LAWS, fill, law_table
 
     out, eps = {}, np.empty(n)
     for name, law in (("normal", "gaussian"), ("Student-t", "student"), ("outliers", "outliers")):
-        fill(np.random.default_rng(1), LAWS[law], 3.0, 0.01, 30.0, eps[:10])
+        tab = law_table(law, 3.0)
+        fill(np.random.default_rng(1), LAWS[law], 3.0, tab, 0.01, 30.0, eps[:10])
         t0 = time.perf_counter()
-        fill(np.random.default_rng(1), LAWS[law], 3.0, 0.01, 30.0, eps)
+        fill(np.random.default_rng(1), LAWS[law], 3.0, tab, 0.01, 30.0, eps)
         out[name] = (time.perf_counter() - t0) / n * 1e9
     _numpy_t(np.random.default_rng(1), 10, 3.0)
     t0 = time.perf_counter()

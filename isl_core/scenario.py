@@ -43,7 +43,7 @@ from numba import njit
 
 from .kernels import CACHE
 from .model import Model
-from .noise import LAWS, fill
+from .noise import LAWS, fill, law_table
 from .riccati import kalman_bucy
 from .validate import check_real
 
@@ -138,7 +138,8 @@ class Scenario:
     def draw_noise(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """ε_0 … ε_{n−1} of the noise law, from ``rng``, as the scenario loop draws them (:mod:`isl_core.noise`)."""
         eps = np.empty(n)
-        fill(rng, LAWS[self.noise], self.dof, self.outlier_rate, self.outlier_scale, eps)
+        fill(rng, LAWS[self.noise], self.dof, law_table(self.noise, self.dof), self.outlier_rate,
+             self.outlier_scale, eps)
         return eps
 
 

@@ -120,7 +120,7 @@ def _bury(e, died, k):
 
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
-def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, q, damp, coef, kind, table, ad,
+def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k_out, q, damp, coef, kind, table, ad,
                      clair, acc, k0, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
@@ -179,7 +179,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, p_out, k_out, 
             edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
         b = j % DRAWS
         if b == 0:
-            draw_ahead(rng, law, dof, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))
+            draw_ahead(rng, law, dof, ztab, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))
         v = vbuf[b]
         eps = ebuf[b]
         s_k = sig[j * stride]

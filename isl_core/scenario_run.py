@@ -31,7 +31,7 @@ from .filters import KIND_ADAPTIVE, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter
 from .grid import MAX_STEPS, check_filters, run_plan
 from .kernels import AD_SIGMA
 from .model import Model
-from .noise import LAWS
+from .noise import LAWS, law_table
 from .riccati import kalman_bucy
 from .robust import huber_kappa
 from .scenario import Scenario, clairvoyant_state
@@ -167,7 +167,7 @@ class ScenarioPlan:
         wref = np.zeros((windows, model.m + 1))
         acc = np.zeros(nf)
         died = np.full(nf, -1, dtype=np.int64)
-        law = LAWS[scenario.noise]
+        law, ztab = LAWS[scenario.noise], law_table(scenario.noise, scenario.dof)
         k = 0
         while k < n:
             todo = min(CHUNK, n - k)
@@ -176,7 +176,7 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.array([t0]))
             else:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
-            done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof,
+            done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof, ztab,
                                     scenario.outlier_rate, scenario.outlier_scale, self.q, damp, coef, kind, table, ad,
                                     state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
             if done < todo:

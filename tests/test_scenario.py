@@ -9,6 +9,7 @@ from scipy import stats
 from scipy.linalg import solve_discrete_are
 
 from isl_core import Model, kalman_bucy
+from isl_core.noise import student_table
 from isl_core.scenario import Scenario, _riccati, clairvoyant, clairvoyant_state, sigma_path
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
@@ -82,14 +83,38 @@ def test_noise_laws_have_the_documented_variance(scenario, variance):
 
 @pytest.mark.parametrize("dof", [2.1, 3.0, 7.5, 40.0])
 def test_student_noise_has_the_t_law_in_the_tails_too(dof):
-    """The polar draws against scipy's t_d: the whole law (Kolmogorov–Smirnov, 200 000 draws; a wrong exponent in
-    W^(−2/d) moves the statistic far beyond its 1e-4 quantile) and the tail beyond the 0.1 % quantile, where a
-    heavy-tailed law differs from a Gaussian of the same variance."""
+    """The ziggurat's draws against scipy's t_d: the whole law (Kolmogorov–Smirnov, 10⁶ draws; a layer's wrong edge
+    or height moves the statistic far beyond its 1e-4 quantile) and the two tails where a heavy-tailed law differs
+    from a Gaussian of the same variance: beyond the 10⁻³ quantile, and beyond the 10⁻⁴ one, past the ziggurat's
+    base edge r, drawn from its envelope there (a tail cut at the base layer's width leaves none)."""
     scale = math.sqrt((dof - 2.0) / dof)
-    t = Scenario(noise="student", dof=dof).draw_noise(np.random.default_rng(3), 200_000) / scale
+    t = Scenario(noise="student", dof=dof).draw_noise(np.random.default_rng(3), 1_000_000) / scale
     assert stats.kstest(t, stats.t(dof).cdf).pvalue > 1e-4
-    far = stats.t(dof).isf(1e-3)
-    assert np.mean(np.abs(t) > far) == pytest.approx(2e-3, rel=0.25)  # 400 expected: 5 % is 1 standard error
+    for p, tolerance in ((1e-3, 0.1), (1e-4, 0.35)):  # about 3.2 and 3.5 standard errors (2000 and 200 expected)
+        far = stats.t(dof).isf(p / 2.0)
+        assert np.mean(np.abs(t) > far) == pytest.approx(p, rel=tolerance)
+    assert stats.t(dof).isf(5e-5) > student_table(dof)[1, 0]  # the second tail is beyond r
+
+
+@pytest.mark.parametrize("dof", [2.1, 3.0, 7.5, 40.0, 1e4])
+def test_the_student_ziggurat_has_layers_of_equal_area_under_the_density(dof):
+    """Each of the 256 layers (width × height) has the base layer's area v = r·f(r) + ∫_r^∞ f, its inner edge where
+    f reaches its top, and the layers stack from f(r) to f(0) = 1 — with f = t_d's density over its value at 0,
+    the tail from scipy. A narrower layer, a raised inner edge or a wrong height each breaks one of these."""
+    tab = student_table(dof)
+    law = stats.t(dof)
+
+    def f(x):
+        return law.pdf(x) / law.pdf(0.0)
+
+    width, inner, low, high = tab
+    r = inner[0]
+    v = r * f(r) + law.sf(r) / law.pdf(0.0)
+    assert width[0] * high[0] == pytest.approx(v, rel=1e-12) and high[0] == pytest.approx(f(r), rel=1e-12)
+    assert np.allclose(width[1:] * (high[1:] - low[1:]), v, rtol=1e-9, atol=0.0)
+    assert width[1] == r and np.array_equal(width[2:], inner[1:-1]) and np.array_equal(low[1:], high[:-1])
+    assert np.allclose(f(inner[1:-1]), high[1:-1], rtol=1e-12, atol=0.0)
+    assert inner[-1] == 0.0 and high[-1] == 1.0 and np.all(np.diff(inner[:-1]) < 0.0)
 
 
 def _reference(model: Model, scenario: Scenario, h: float, n: int):
