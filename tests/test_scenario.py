@@ -96,6 +96,22 @@ def test_student_noise_has_the_t_law_in_the_tails_too(dof):
     assert stats.t(dof).isf(5e-5) > student_table(dof)[1, 0]  # the second tail is beyond r
 
 
+@pytest.mark.parametrize("rate", [0.3, 0.01])
+def test_outliers_fall_on_independent_steps_at_the_rate(rate):
+    """Each step is an outlier with probability p, independently (isl_core.noise): the rate, the rate of two in a
+    row (p²) and the first step's rate over many runs — each within 4 standard errors."""
+    scenario = Scenario(noise="outliers", outlier_rate=rate, outlier_scale=1e4)
+    hit = np.abs(scenario.draw_noise(np.random.default_rng(5), 400_000)) > 100.0  # |N(0,1)| > 100 never: outliers only
+    n = hit.size
+
+    def close(x, p, m):
+        return abs(x - p) < 4.0 * math.sqrt(p * (1.0 - p) / m)
+
+    assert close(hit.mean(), rate, n) and close(np.mean(hit[1:] & hit[:-1]), rate * rate, n)
+    first = [abs(scenario.draw_noise(np.random.default_rng(seed), 1)[0]) > 100.0 for seed in range(4000)]
+    assert close(np.mean(first), rate, 4000)
+
+
 @pytest.mark.parametrize("dof", [2.1, 3.0, 7.5, 40.0, 1e4])
 def test_the_student_ziggurat_has_layers_of_equal_area_under_the_density(dof):
     """Each of the 256 layers (width × height) has the base layer's area v = r·f(r) + ∫_r^∞ f, its inner edge where
