@@ -39,13 +39,6 @@ from isl_core.scenario_run import simulate_scenario
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 NU = 3.0
 INNER = 3  #: runs of each kind per process (the first runs of a process pay for its first allocations)
-
-
-def fastest(times) -> float:
-    """The fastest of repeated timings: on this shared 2-core machine the same run's time varied by 1.5× from run to
-    run (medians of 5 processes contradicted a 60-run A/B of the kernels), and a run is only ever slowed by its
-    neighbours, so the minimum is what the code costs."""
-    return min(times)
 SCENARIOS = {
     "constant σ, Gaussian": Scenario(),
     "σ 20 → 2 at 10/r_min": Scenario(sigma_knots=((10.0, 2.0),)),
@@ -53,6 +46,13 @@ SCENARIOS = {
     "1 % outliers × 30": Scenario(noise="outliers"),
     "sensor every 0.1/r_min": Scenario(sensor_interval=0.1),
 }
+
+
+def fastest(times) -> float:
+    """The fastest of repeated timings: on this shared 2-core machine the same run's time varied by 1.5× from run to
+    run (medians of 5 processes contradicted a 60-run A/B of the kernels), and a run is only ever slowed by its
+    neighbours, so the minimum is what the code costs."""
+    return min(times)
 
 
 def today(n_target: int) -> tuple[float, int, float]:
@@ -189,16 +189,16 @@ def main() -> None:
         cells = []
         for res in results.values():
             ref = fastest(r["today"] for r in res)
-            med = fastest(r["scenarios"][name][0] for r in res)
-            cells.append(f"{med:8.1f} ns/step = {med / ref:4.2f}× today")
+            best = fastest(r["scenarios"][name][0] for r in res)
+            cells.append(f"{best:8.1f} ns/step = {best / ref:4.2f}× today")
         steps = results[next(iter(trees))][0]["scenarios"][name][1]
         print(f"scenario {name:25s}" + "".join(f"{c:>30s}" for c in cells) + f"   ({steps:,} steps)")
     old, new = (fastest(c) for c in zip(*loops, strict=True))
     print(f"the compiled loops alone (this checkout), KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, "
           f"the scenario loop {new:.1f} ns/step ({new / old:4.2f}×)")
-    med = {name: fastest(d[name] for d in draws) for name in draws[0]}
-    print("the noise draws alone, ns per step: " + ", ".join(f"{name} {ns:.1f}" for name, ns in med.items())
-          + f" (a Student-t draw costs {med['Student-t'] - med['normal']:.1f} ns more than a normal one)")
+    best = {name: fastest(d[name] for d in draws) for name in draws[0]}
+    print("the noise draws alone, ns per step: " + ", ".join(f"{name} {ns:.1f}" for name, ns in best.items())
+          + f" (a Student-t draw costs {best['Student-t'] - best['normal']:.1f} ns more than a normal one)")
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

@@ -11,11 +11,13 @@ f(x) = (1 + x²/d)^{−(d+1)/2} (the base layer with the tail beyond r), so that
 for the sign, 44 for the position in the layer — gives T_d in ≈ 98 % of draws. The rest fall in a layer's wedge
 (accepted when a second uniform under the layer's height is under f) or, below 0.2 %, in the tail beyond r, drawn
 from a Pareto envelope tangent to f in log–log coordinates (log f is concave in log x: the tangent is above it),
-accepted with f/envelope. Exact but for the 2⁻⁴⁴ grid of positions in a layer. Measured (fastest of 8, d = 3):
-12.5 ns a draw, a normal 4.6 ns, NumPy's ``standard_t`` 36 ns (a normal over the root of a gamma draw), Bailey's polar
-method 29 ns (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log and an exp a draw); the
-scenario loop at the Fig. 3 defaults (10⁵ steps, fastest of 60): 50.7 ns a step with Student-t noise, 73.9 with
-Bailey's method, 91.8 with ``standard_t``, 45.8 with Gaussian noise.
+accepted with f/envelope. Exact but for the 2⁻⁴⁴ grid of positions in a layer; tables for d from 2 + 10⁻⁹ to
+10⁶ build in 10–20 ms. Measured, d = 3 (``benchmarks/bench_scenario.py``, fastest of 8): 12.5 ns a draw, a normal
+4.6 ns, NumPy's ``standard_t`` 36 ns (a normal over the root of a gamma draw); in an earlier run of it, Bailey's polar
+method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log and an exp a draw) 29 ns against
+``standard_t``'s 42. In the scenario loop at the Fig. 3 defaults (10⁵ steps, fastest of 60), Student-t noise cost
+50.7 ns a step against 45.8 with Gaussian noise; in an earlier run, Bailey's method 73.9 against ``standard_t``'s
+91.8 (Gaussian noise 46.1).
 
 The scenario loop draws its noise :data:`DRAWS` steps ahead, in a tight loop of its own (:func:`draw_ahead`), in the
 stream's order v_0, ε_0, v_1, ε_1, … — the order in which it used to draw them at each step, so its runs are the same
@@ -28,7 +30,6 @@ from functools import lru_cache
 
 import numpy as np
 from numba import njit
-from scipy import special, stats
 
 from .kernels import CACHE
 
@@ -48,6 +49,8 @@ def _f(x: float, d: float) -> float:
 def _climb(r: float, d: float):
     """The layers' edges X (decreasing from r) and heights Y = f(X) for a base edge r, and how far the last layer's
     top overshoots f(0) = 1 (> 0: r is too small; None when a layer already passed 1)."""
+    from scipy import special, stats  # here, not at import: only a Student-t run needs it (≈ 0.9 s to load)
+
     y0 = _f(r, d)
     if y0 == 0.0:
         return -1.0, 0.0, [r], [y0]
@@ -130,6 +133,12 @@ def _student(rng, tab, d):
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
+def _scale(law, dof):
+    """√((d − 2)/d) for Student's t (unit variance), 1 for the other laws."""
+    return math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
+
+
+@njit(cache=CACHE, nogil=True, inline="always")
 def _epsilon(rng, law, dof, tab, scale, p_out, k_out):
     """One ε_k of ``law``; ``scale`` = √((d − 2)/d) for Student's t (module docstring)."""
     if law == LAW_STUDENT:
@@ -143,7 +152,7 @@ def _epsilon(rng, law, dof, tab, scale, p_out, k_out):
 @njit(cache=CACHE, nogil=True)
 def draw_ahead(rng, law, dof, tab, p_out, k_out, vs, eps, count):
     """The next ``count`` steps' v_k (a normal) and ε_k into ``vs`` and ``eps``, drawn v_0, ε_0, v_1, ε_1, …"""
-    scale = math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
+    scale = _scale(law, dof)
     for j in range(count):
         vs[j] = rng.standard_normal()
         eps[j] = _epsilon(rng, law, dof, tab, scale, p_out, k_out)
@@ -152,6 +161,6 @@ def draw_ahead(rng, law, dof, tab, p_out, k_out, vs, eps, count):
 @njit(cache=CACHE, nogil=True)
 def fill(rng, law, dof, tab, p_out, k_out, eps):
     """``eps`` filled with ε_k of ``law`` alone (:meth:`isl_core.scenario.Scenario.draw_noise`)."""
-    scale = math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
+    scale = _scale(law, dof)
     for j in range(eps.shape[0]):
         eps[j] = _epsilon(rng, law, dof, tab, scale, p_out, k_out)
