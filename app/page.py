@@ -62,6 +62,7 @@ def _serialize_busy_bookkeeping() -> None:
 
 _serialize_busy_bookkeeping()
 hardening.install()  # tracebacks to the log, a short message to the user; session data released on close
+offloop.install()  # parts built on threads (deferred) may register links while the loop attaches others
 fastpath.install()  # Panel asks the design for stylesheets only when they change
 
 

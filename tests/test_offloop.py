@@ -5,8 +5,10 @@ from __future__ import annotations
 import asyncio
 import gc
 import threading
+import weakref
 
 import panel as pn
+import pytest
 from bokeh.application import Application
 from bokeh.application.handlers import FunctionHandler
 from bokeh.document import Document
@@ -39,6 +41,42 @@ def test_a_document_patched_on_one_thread_is_not_another_threads_curdoc():
         worker.join(10)
         seen["main after"] = curdoc()
     assert seen["main"] is mine and seen["main after"] is mine and seen["other"] is theirs
+
+
+def test_links_registered_while_the_loop_walks_the_registry_do_not_break_the_walk():
+    """A part built on a thread registers its links (a button's ``js_on_click``) while the loop, attaching another
+    page's part, walks Panel's link registry (``Link._process_callbacks``): the walk must finish. Interleaved here
+    by hand: the walk is paused after its first entry while the registration happens."""
+    from panel.links import Callback
+
+    def register() -> pn.widgets.Button:
+        button = pn.widgets.Button(label="b")
+        button.js_on_click(code="1")
+        return button
+
+    plain = weakref.WeakKeyDictionary()
+    kept = [register(), register()]
+    offloop.install()
+    assert isinstance(Callback.registry, offloop.SnapshotRegistry)
+    for registry in (plain, Callback.registry):
+        if registry is plain:  # the dictionary Panel ships: the same interleaving breaks its walk
+            plain.update(Callback.registry)
+        walk = iter(registry.values())
+        next(walk)
+        kept.append(register())
+        if registry is plain:
+            plain[kept[-1]] = []
+            with pytest.raises(RuntimeError, match="changed size during iteration"):
+                list(walk)
+        else:
+            rest = list(walk)
+            assert len(rest) >= 1 and all(isinstance(links, list) for links in rest)
+    assert all(b in Callback.registry for b in kept)  # every registration is kept ...
+    gone = register()
+    count = len(Callback.registry)
+    del gone
+    gc.collect()
+    assert len(Callback.registry) == count - 1 and len(list(Callback.registry.items())) == count - 1  # ... weakly
 
 
 def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():

@@ -19,6 +19,13 @@ students' slider changes, not ``/liveness``. Two changes move that work to a thr
 Both rely on bokeh's ``curdoc()`` being right on each thread; bokeh keeps its stack of patched documents in one
 list for the whole process, so a build on the page thread and a callback on the loop would see each other's
 document. :func:`install` makes that stack per thread.
+
+Builds on threads also register Panel's links (``jslink``, a widget's ``js_on_click``) in ``Callback.registry``, one
+dictionary for the whole process, which the event loop iterates whenever it attaches a part to a page. A
+registration in the middle of that iteration raised "dictionary changed size during iteration" and the part was
+never attached: a page kept its loading spinner where its controls should be (1 page of 20 in a CI load run, and
+in 1 round of 25 here with 20 pages opening under CPU load). :func:`install` makes that registry iterate over a
+snapshot.
 """
 from __future__ import annotations
 
@@ -54,14 +61,41 @@ class PerThreadStack(threading.local):
         self.items.clear()
 
 
+class SnapshotRegistry(weakref.WeakKeyDictionary):
+    """A ``WeakKeyDictionary`` whose iteration walks a copy: another thread may add a key meanwhile.
+
+    The copy is one C-level ``dict.copy`` of the weak references (no Python code and no garbage collection runs in
+    it, so no thread switch and no weak-reference callback can change the dictionary halfway through)."""
+
+    def items(self):
+        for ref, value in self.data.copy().items():
+            key = ref()
+            if key is not None:
+                yield key, value
+
+    def keys(self):
+        for key, _ in self.items():
+            yield key
+
+    __iter__ = keys
+
+    def values(self):
+        for _, value in self.items():
+            yield value
+
+
 def install() -> None:
-    """Make bokeh's patched-``curdoc()`` stack per thread (idempotent)."""
+    """Make bokeh's patched-``curdoc()`` stack per thread and Panel's link registry safe to iterate while other
+    threads add to it (idempotent)."""
     import bokeh.io.doc as bk_doc
+    from panel.links import Callback
 
     if not isinstance(bk_doc._PATCHED_CURDOCS, PerThreadStack):
         stack = PerThreadStack()
         stack.items.extend(bk_doc._PATCHED_CURDOCS)
         bk_doc._PATCHED_CURDOCS = stack
+    if not isinstance(Callback.registry, SnapshotRegistry):
+        Callback.registry = SnapshotRegistry(Callback.registry)
 
 
 def build_pages_off_loop(application) -> None:
