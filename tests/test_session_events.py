@@ -82,3 +82,37 @@ def test_a_change_queued_while_the_queue_is_taken_is_still_processed():
     taker.join(30)
     assert processed == [{"value": 1.0, "value_throttled": 1.0}]  # the thread took both changes
     assert not widget._events                                        # and stranded none
+
+
+def test_two_sessions_sliders_released_at_once_both_apply():
+    """Two students release a slider at the same moment; Panel applies each change on a worker thread with the
+    slider's read-only and constant flags lifted. Interleaved here by hand: the first thread has lifted them and
+    restores them while the second is applying its change. On the class's shared parameter objects the second
+    change failed ("Constant parameter 'value_throttled' cannot be modified")."""
+    from panel import reactive
+
+    def interleave(edit) -> None:
+        first, second = pn.widgets.FloatSlider(), pn.widgets.FloatSlider()
+        first_edit, second_edit = edit(first), edit(second)
+        first_edit.__enter__()
+        with second_edit:
+            first_edit.__exit__(None, None, None)
+            second.param.update(value=2.0, value_throttled=2.0)
+        assert second.value_throttled == 2.0
+        for slider in (first, second):   # and the flags are back where they were
+            with pytest.raises(TypeError, match="Constant parameter"):
+                slider.value_throttled = 3.0
+
+    original = reactive.edit_readonly
+    if getattr(original, "_isl_per_instance", False):
+        original = original.__closure__[0].cell_contents
+    shared = pn.widgets.FloatSlider.param["value_throttled"]
+    try:
+        with pytest.raises(TypeError, match="Constant parameter 'value_throttled' cannot be modified"):
+            interleave(original)  # Panel's own: the first restores the class's flag while the second is inside
+        assert not shared.constant  # ... and the second's exit left it lifted for every slider made from now on
+    finally:
+        shared.constant = True
+    hardening.install()
+    assert reactive.edit_readonly is not original
+    interleave(reactive.edit_readonly)

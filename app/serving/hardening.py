@@ -12,6 +12,8 @@ session exists, so it applies to every session; ``app/app.py`` may call it too, 
   so the server's next change sends them in full instead of by id, which the browser rejects.
 * one session's browser events are processed one at a time (:func:`serialize_session_events`): Panel hands each to
   its thread pool, and two at once corrupted param's bookkeeping so that a slider stopped moving the run.
+* Panel lifts a widget's read-only and constant flags on that widget's own parameter objects while it applies a
+  browser change (:func:`per_instance_readonly_edits`), not on the class's, which every session's widgets share.
 * websocket ``ERROR`` replies without server internals: bokeh answers a message it cannot apply (e.g. a scripted
   client setting a slider to a string) with an ``ERROR`` reply that carries the server's full traceback. The
   traceback is dropped (bokeh's protocol handler already logs it), and a reply text that is not bokeh's own
@@ -68,6 +70,7 @@ def install() -> None:
         quiet_error_replies()
         keep_unsent_models_new()
         serialize_session_events()
+        per_instance_readonly_edits()
         _installed = True
 
 
@@ -216,6 +219,37 @@ def serialize_session_events() -> None:
     Syncable._server_change = guarded_server_change
     Syncable._change_event = serialized_change_event
     Syncable._process_bokeh_event = serialized_bokeh_event
+
+
+def per_instance_readonly_edits() -> None:
+    """Make Panel's ``edit_readonly`` lift the flags of the object's own parameters only (idempotent).
+
+    To apply a browser change Panel sets every parameter of the widget to not read-only and not constant, and then
+    back (``panel.util.parameters.edit_readonly``). A parameter the widget never copied is the class's object,
+    shared by every session's widget of that class: two sessions' slider changes on two worker threads interleave
+    there, the first restores ``constant`` while the second is setting ``value_throttled``, and the second fails with
+    "Constant parameter 'value_throttled' cannot be modified" — that student's change is lost, with an incident
+    notice (2 of 20 pages in one round of the load test under CPU load). Here the object's read-only and constant
+    parameters are copied to the instance first (param's own per-instance copy), so the flags that move are its own.
+    """
+    import sys
+
+    from panel.util import parameters
+
+    original = parameters.edit_readonly
+    if getattr(original, "_isl_per_instance", False):
+        return
+
+    def edit_own_readonly(parameterized):
+        for name, parameter in parameterized.param.objects("existing").items():
+            if parameter.readonly or parameter.constant:
+                parameterized.param[name]  # noqa: B018  (param copies the parameter to the instance on access)
+        return original(parameterized)
+
+    edit_own_readonly._isl_per_instance = True
+    for name, module in list(sys.modules.items()):  # the modules that imported it by name, and later importers
+        if (name == "panel" or name.startswith("panel.")) and getattr(module, "edit_readonly", None) is original:
+            module.edit_readonly = edit_own_readonly
 
 
 def release_on_destroy(target: Any) -> None:
