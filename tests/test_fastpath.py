@@ -97,3 +97,55 @@ def test_serialization_reads_only_what_it_sends_and_sends_what_bokeh_sends():
     for method in (fast, original):
         with pytest.raises(UnsetValueError, match="value"):
             method(unset, serialized, include_defaults=False)
+
+
+def test_patch_messages_are_bokehs_own_with_refs_made_on_demand(monkeypatch):
+    """A change that names old models (by id) and attaches new ones (in full), on a fully built page: the message,
+    its buffers and which models count as sent afterwards are the same with bokeh's serializer."""
+    import json
+
+    import numpy as np
+    from bokeh.core.serialization import Buffer, Serializer
+    from bokeh.models import ColumnDataSource, Div, Row, Slider
+    from bokeh.protocol import Protocol
+
+    fastpath.install()
+    lazy, original = Serializer.__init__, Serializer.__init__._isl_original
+    doc = Document()
+    _every_part_of_the_page(doc)
+    doc.to_json()                       # the browser has every model now
+    events = []
+    doc.on_change(lambda event: events.append(event))
+    old = [m for m in doc.models if isinstance(m, Slider)][:3]
+    source = next(m for m in doc.models if isinstance(m, ColumnDataSource))
+    root = doc.roots[0]
+    root.children = [*root.children, Row(children=[*old, Div(text="new")])]
+    source.data = {name: np.arange(50, dtype=np.float32) for name in source.data} or {"x": np.arange(3.0)}
+    assert len(events) == 2 and len(old) == 3
+    unsent = set(doc.models._new_models)
+    assert unsent
+    made = {}
+    for name, init in (("bokeh", original), ("lazy", lazy)):
+        doc.models._new_models = set(unsent)
+        monkeypatch.setattr(Serializer, "__init__", init)
+        message = Protocol().create("PATCH-DOC", events)
+        made[name] = (message.content, [b.to_bytes() for b in message.buffers], set(doc.models._new_models))
+    assert made["lazy"][1:] == made["bokeh"][1:]
+    as_json = lambda o: "buffer" if isinstance(o, Buffer) else f"not JSON: {o!r}"  # noqa: E731 (ids: per message)
+    same = lambda content: json.dumps(content, default=as_json)  # noqa: E731
+    assert same(made["lazy"][0]) == same(made["bokeh"][0])
+    assert {"id": old[0].id} in _refs(made["lazy"][0])  # an old model by id, the new ones in full
+    assert not made["lazy"][2]
+
+
+def _refs(content) -> list:
+    """Every dict inside ``content``."""
+    found, todo = [], [content]
+    while todo:
+        item = todo.pop()
+        if isinstance(item, dict):
+            found.append(item)
+            todo.extend(item.values())
+        elif isinstance(item, list | tuple):
+            todo.extend(item)
+    return found

@@ -21,13 +21,20 @@ default pages opened one after another, two runs each, before → after: loop ti
 parts swapped in) 2269 and 2071 → 1508 and 1182 ms; ``/liveness`` probed every 10 ms meanwhile, answers over 100 ms
 16 and 11 → 5 and 2.
 
+**References of the models the browser has.** Every ``PATCH-DOC`` message starts with a ``Serializer`` told which
+models the browser already has, so that it names them by id: bokeh 3.9 builds ``{id(model): model.ref}`` for every
+model of the page (≈ 2000 on the dashboard's page) although a message names a few dozen. In a profile of the event
+loop while σ moved, that comprehension was 205 of the ≈ 3000 busy samples (as much as encoding the messages).
+:func:`lazy_serializer_references` keeps ``{id(model): model}`` and makes the ref only of a model a message names; a
+test compares whole messages made both ways.
+
 :func:`install` is idempotent; :mod:`app.page` calls it when the dashboard is imported.
 """
 from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["install", "serialize_set_properties_only", "skip_unused_design_params"]
+__all__ = ["install", "lazy_serializer_references", "serialize_set_properties_only", "skip_unused_design_params"]
 
 
 def skip_unused_design_params() -> None:
@@ -97,6 +104,37 @@ def serialize_set_properties_only() -> None:
     HasProps.query_properties_with_values = query_properties_with_values
 
 
+class _Refs(dict):
+    """``id(model) -> model.ref`` for the models the browser has, each ref made when it is first asked for (the
+    entries bokeh adds itself are refs already)."""
+
+    def get(self, key, default=None):
+        value = dict.get(self, key, default)
+        return value if value is default or isinstance(value, dict) else value.ref
+
+    def __getitem__(self, key):
+        value = dict.__getitem__(self, key)
+        return value if isinstance(value, dict) else value.ref
+
+
+def lazy_serializer_references() -> None:
+    """Make ``Serializer(references=...)`` keep the models and make their refs on demand."""
+    from bokeh.core.serialization import Serializer
+
+    original = Serializer.__init__
+    if getattr(original, "_isl_fast", False):
+        return
+
+    def __init__(self, *, references=frozenset(), deferred: bool = True, check_circular: bool = False) -> None:
+        original(self, deferred=deferred, check_circular=check_circular)
+        self._references = _Refs({id(model): model for model in references})
+
+    __init__._isl_fast = True
+    __init__._isl_original = original
+    Serializer.__init__ = __init__
+
+
 def install() -> None:
     skip_unused_design_params()
     serialize_set_properties_only()
+    lazy_serializer_references()
