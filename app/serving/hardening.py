@@ -229,7 +229,8 @@ def per_instance_readonly_edits() -> None:
     shared by every session's widget of that class: two sessions' slider changes on two worker threads interleave
     there, the first restores ``constant`` while the second is setting ``value_throttled``, and the second fails with
     "Constant parameter 'value_throttled' cannot be modified" — that student's change is lost, with an incident
-    notice (2 of 20 pages in one round of the load test under CPU load). Here the object's read-only and constant
+    notice (one change in one round of 20 pages under CPU load; the server log holds Panel's own traceback of it
+    and the incident's). Here the object's read-only and constant
     parameters are copied to the instance first (param's own per-instance copy), so the flags that move are its own.
     """
     import sys
