@@ -103,9 +103,7 @@ def test_two_sessions_sliders_released_at_once_both_apply():
             with pytest.raises(TypeError, match="Constant parameter"):
                 slider.value_throttled = 3.0
 
-    original = reactive.edit_readonly
-    if getattr(original, "_isl_per_instance", False):
-        original = original.__closure__[0].cell_contents
+    original = getattr(reactive.edit_readonly, "_isl_original", reactive.edit_readonly)  # Panel's own
     shared = pn.widgets.FloatSlider.param["value_throttled"]
     try:
         with pytest.raises(TypeError, match="Constant parameter 'value_throttled' cannot be modified"):

@@ -248,6 +248,7 @@ def per_instance_readonly_edits() -> None:
         return original(parameterized)
 
     edit_own_readonly._isl_per_instance = True
+    edit_own_readonly._isl_original = original
     for name, module in list(sys.modules.items()):  # the modules that imported it by name, and later importers
         if (name == "panel" or name.startswith("panel.")) and getattr(module, "edit_readonly", None) is original:
             module.edit_readonly = edit_own_readonly

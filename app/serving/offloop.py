@@ -24,7 +24,7 @@ Builds on threads also register Panel's links (``jslink``, a widget's ``js_on_cl
 dictionary for the whole process, which the event loop iterates whenever it attaches a part to a page. A
 registration in the middle of that iteration raised "dictionary changed size during iteration" and the part was
 never attached: a page kept its loading spinner where its controls should be (1 page of 20 in a CI load run, and
-in 1 round of 25 here with 20 pages opening under CPU load). :func:`install` makes that registry iterate over a
+in 1 round of 21 here with 20 pages opening under CPU load). :func:`install` makes that registry iterate over a
 snapshot.
 """
 from __future__ import annotations
