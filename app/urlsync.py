@@ -29,6 +29,7 @@ from collections.abc import Callable
 import param
 
 from . import inputs
+from .serving.offloop import session_loop
 from .state import ALL_INPUTS, KINDS, AppState, input_label
 
 __all__ = ["URL_INPUTS", "URL_PAUSE", "UrlSync", "after_pause", "parse_query", "query_string", "read_query"]
@@ -44,9 +45,7 @@ def after_pause(doc) -> Callable[[Callable[[], None], float], None] | None:
     """``defer(fn, after)``: call ``fn`` ``after`` seconds from now on the event loop that serves ``doc``'s session
     (``defer`` may be called from any thread: the page itself is built on a thread of its own,
     :mod:`app.serving.offloop`); None outside a served session."""
-    context = getattr(doc, "session_context", None)
-    server = getattr(context, "server_context", None)
-    loop = getattr(getattr(server, "application_context", None), "io_loop", None)
+    loop = session_loop(doc)
     if loop is None:
         return None
     return lambda fn, after: loop.add_callback(loop.call_later, after, fn)

@@ -6,15 +6,18 @@ import asyncio
 import gc
 import threading
 import weakref
+from types import SimpleNamespace
 
 import panel as pn
 import pytest
 from bokeh.application import Application
 from bokeh.application.handlers import FunctionHandler
 from bokeh.document import Document
+from bokeh.document.events import DocumentChangedEvent, SessionCallbackAdded
 from bokeh.io.doc import curdoc, patch_curdoc
 from bokeh.server.contexts import ApplicationContext
 from panel.io.state import set_curdoc, state
+from tornado.ioloop import IOLoop
 
 from app.serving import offloop
 from app.serving.memory import QUIET_SESSIONS, MemoryTrimmer, quiet_garbage_collection
@@ -75,6 +78,72 @@ def test_links_registered_while_the_loop_walks_the_registry_do_not_break_the_wal
     del gone
     gc.collect()
     assert len(Callback.registry) == count - 1 and len(list(Callback.registry.items())) == count - 1  # ... weakly
+
+
+class _Pausing(DocumentChangedEvent):
+    """A held document event whose ``combine`` (bokeh asks every held event whether it absorbs a new one) pauses
+    until released: a thread adding an event to the hold can be stopped halfway."""
+
+    def __init__(self, doc) -> None:
+        super().__init__(doc)
+        self.entered, self.release = threading.Event(), threading.Event()
+
+    def combine(self, event) -> bool:
+        self.entered.set()
+        self.release.wait(10)
+        return False
+
+
+def _served(doc, loop) -> None:
+    """Give ``doc`` a session context as a server's, as far as scheduling looks (the loop that serves it)."""
+    context = SimpleNamespace(server_context=SimpleNamespace(application_context=SimpleNamespace(io_loop=loop)))
+    doc._session_context = lambda: context
+
+
+def test_a_callback_scheduled_from_a_thread_is_registered_by_the_loop_and_never_lost():
+    """A worker thread schedules a callback (a job's outcome) while the loop holds the document and then unholds it.
+    Panel's ``execute`` registers it from the thread, into the hold: paused there while the loop unholds, the
+    registration lands in the hold's old queue and is lost. After install, the thread only hands it to the loop."""
+    offloop.install()
+    panels_execute = type(state).execute._isl_original
+    registered = []  # (event, thread) of every callback registration the document announces
+
+    async def main() -> None:
+        doc = Document()
+        doc.on_change(lambda e: registered.append((e, threading.get_ident()))
+                      if isinstance(e, SessionCallbackAdded) else None)
+        _served(doc, IOLoop.current())
+
+        def schedule(execute, pausing=None) -> threading.Thread:
+            doc.hold("combine")
+            if pausing is not None:
+                doc.callbacks._held_events.append(pausing)
+
+            def work() -> None:
+                with set_curdoc(doc):
+                    execute(state, lambda: None, schedule=True)
+            worker = threading.Thread(target=work)
+            worker.start()
+            return worker
+
+        pausing = _Pausing(doc)  # Panel's execute: the thread pauses inside the hold, the loop unholds meanwhile
+        worker = schedule(panels_execute, pausing)
+        assert pausing.entered.wait(10)
+        doc.unhold()
+        pausing.release.set()
+        worker.join(10)
+        assert registered == [] and doc.callbacks._held_events == []  # lost: nothing will ever run it
+
+        pausing = _Pausing(doc)  # after install: the thread does not touch the document
+        schedule(type(state).execute, pausing).join(10)
+        assert not pausing.entered.is_set() and doc.callbacks._held_events == [pausing]
+        pausing.release.set()
+        await asyncio.sleep(0.05)  # the loop registers it: in the hold, as any loop-side registration
+        assert [type(e) for e in doc.callbacks._held_events] == [_Pausing, SessionCallbackAdded]
+        doc.unhold()
+        assert [thread for _, thread in registered] == [threading.get_ident()]  # announced, on the loop's thread
+
+    asyncio.run(main())
 
 
 def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():

@@ -26,13 +26,27 @@ registration in the middle of that iteration raised "dictionary changed size dur
 never attached: a page kept its loading spinner where its controls should be (1 page of 20 in a CI load run, and
 in 1 round of 21 here with 20 pages opening under CPU load). :func:`install` makes that registry iterate over a
 snapshot.
+
+Work done on a thread reaches the page through a callback on the session's loop: a job's outcome
+(:class:`app.page.SessionGate`) and Panel's own model updates both call ``pn.state.execute(..., schedule=True)``,
+which registers the callback with the document right there, on the worker thread. The registration is a document
+event, and while the loop holds the document (it does so around every outcome it applies) the event is queued in
+the hold; the loop's ``unhold`` takes that queue and leaves a fresh one, in two steps that a worker thread can fall
+between, and then the registration went into a queue nobody reads: the callback never ran. For a job's outcome
+that meant the session's run stayed "in flight" for good, every later slider change waited behind it, and the page
+stopped following its sliders (CI's load run: one session of 20 got no plot update within 30 s; a stress run of
+the same steps lost 1 registration in 20 000). :func:`install` makes ``execute`` hand such a callback to the
+session's loop first (tornado's thread-safe ``add_callback``), which registers it there.
 """
 from __future__ import annotations
 
 import asyncio
+import logging
 import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
+
+log = logging.getLogger(__name__)
 
 #: the one thread that runs the app script for new sessions
 PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-page")
@@ -85,9 +99,10 @@ class SnapshotRegistry(weakref.WeakKeyDictionary):
 
 
 def install() -> None:
-    """Make bokeh's patched-``curdoc()`` stack per thread and Panel's link registry safe to iterate while other
-    threads add to it (idempotent)."""
+    """Make bokeh's patched-``curdoc()`` stack per thread, Panel's link registry safe to iterate while other
+    threads add to it, and callbacks scheduled from a thread registered by the session's loop (idempotent)."""
     import bokeh.io.doc as bk_doc
+    from panel.io.state import _state
     from panel.links import Callback
 
     if not isinstance(bk_doc._PATCHED_CURDOCS, PerThreadStack):
@@ -96,6 +111,48 @@ def install() -> None:
         bk_doc._PATCHED_CURDOCS = stack
     if not isinstance(Callback.registry, SnapshotRegistry):
         Callback.registry = SnapshotRegistry(Callback.registry)
+    if not hasattr(_state.execute, "_isl_original"):
+        _state.execute = _execute_via_loop(_state.execute)
+
+
+def session_loop(doc):
+    """The tornado ``IOLoop`` serving ``doc``'s session; None outside a served session."""
+    context = getattr(doc, "session_context", None)
+    server = getattr(context, "server_context", None)
+    return getattr(getattr(server, "application_context", None), "io_loop", None)
+
+
+def _on_loop(loop) -> bool:
+    try:
+        return asyncio.get_running_loop() is loop.asyncio_loop
+    except RuntimeError:  # no loop runs on this thread: a worker thread
+        return False
+
+
+def _execute_via_loop(execute):
+    """Panel's ``state.execute``, except that a callback it would schedule on a served session's loop from another
+    thread is handed to that loop first, which registers it with the document (see the module's docstring)."""
+    from param.parameterized import iscoroutinefunction
+
+    def execute_via_loop(self, callback, schedule="auto"):
+        doc = self.curdoc
+        loop = session_loop(doc) if schedule is True or schedule == "auto" else None
+        if (loop is not None and not _on_loop(loop) and not iscoroutinefunction(callback)
+                and (schedule is True or not self._unblocked(doc))):   # Panel would call add_next_tick_callback
+            loop.add_callback(_register, doc, self._handle_exception_wrapper(callback, doc))
+            return None
+        return execute(self, callback, schedule)
+
+    execute_via_loop._isl_original = execute
+    return execute_via_loop
+
+
+def _register(doc, callback) -> None:
+    """On the session's loop: run ``callback`` on its next tick, with the document locked (bokeh's session callback)."""
+    try:
+        doc.add_next_tick_callback(callback)
+    except RuntimeError:  # the session was destroyed meanwhile: nobody is left to see the outcome
+        log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 
 def build_pages_off_loop(application) -> None:
