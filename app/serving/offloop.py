@@ -136,9 +136,9 @@ def _execute_via_loop(execute):
 
     def execute_via_loop(self, callback, schedule="auto"):
         doc = self.curdoc
-        loop = session_loop(doc) if schedule is True or schedule == "auto" else None
-        if (loop is not None and not _on_loop(loop) and not iscoroutinefunction(callback)
-                and (schedule is True or not self._unblocked(doc))):   # Panel would call add_next_tick_callback
+        loop = session_loop(doc)
+        if (loop is not None and (schedule is True or (schedule == "auto" and not self._unblocked(doc)))
+                and not iscoroutinefunction(callback) and not _on_loop(loop)):  # Panel: add_next_tick_callback
             loop.add_callback(_register, doc, self._handle_exception_wrapper(callback, doc))
             return None
         return execute(self, callback, schedule)
