@@ -4,9 +4,8 @@ A slider drag fires dozens of changes a second; only the newest matters. :class:
 kind (``"run"``, ``"sweep"``, …), at most one computation in flight and at most one waiting: a new request
 replaces the waiting one. Computations run on a thread pool (the compiled kernel releases the GIL, so two
 sessions' runs proceed in parallel and no session's event loop waits for another's sweep); their outcome is
-handed back through ``schedule`` — in a served app, a callback that the session's event loop has applied on an apply
-thread with the session's document locked (:mod:`app.serving.offloop`) — so the state and the plots are only ever
-touched by one thread at a time, with the document locked.
+handed back through ``schedule`` — in a served app, a callback on the session's own event loop with the
+document lock held — so the state and the plots are only ever touched from that loop.
 
 Without an executor (tests, scripts) a job runs inline and its outcome is applied at once.
 """
@@ -145,7 +144,7 @@ class Jobs:
         future.add_done_callback(lambda f: self._deliver(partial(self._finish, kind, done, f.result())))
 
     def later(self, fn: Callable[[], None]) -> None:
-        """Apply ``fn`` to the session (from any thread, as ``schedule`` does); dropped once the session has closed."""
+        """Run ``fn`` on the session's loop (callable from any thread); dropped once the session has closed."""
         if not self.closed:
             self._deliver(fn)
 

@@ -67,8 +67,8 @@ fastpath.install()  # Panel asks the design for stylesheets only when they chang
 
 
 class SessionGate:
-    """``schedule(fn)``: apply ``fn`` with ``doc`` locked (callable from any thread; on an apply thread, see
-    :mod:`app.serving.offloop`) — but only once the browser has the page.
+    """``schedule(fn)``: run ``fn`` on ``doc``'s event loop with its lock held (callable from any thread) — but only
+    once the browser has the page.
 
     Panel drops the changes made to a document before its session counts as connected, because the document is
     "serialized in full once the session connects"; yet the browser may already have pulled it. A job that

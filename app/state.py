@@ -193,7 +193,7 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
         return self._jobs.busy("run")
 
     def later(self, fn) -> None:
-        """Apply ``fn()`` with the session's document locked (from any thread; at once outside a server)."""
+        """Run ``fn()`` on the session's loop with its lock held (from any thread; at once outside a server)."""
         self._jobs.later(fn)
 
     def request(self) -> Request:

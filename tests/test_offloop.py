@@ -13,7 +13,7 @@ import pytest
 from bokeh.application import Application
 from bokeh.application.handlers import FunctionHandler
 from bokeh.document import Document
-from bokeh.document.events import DocumentChangedEvent, DocumentPatchedEvent, SessionCallbackAdded
+from bokeh.document.events import DocumentChangedEvent, SessionCallbackAdded
 from bokeh.io.doc import curdoc, patch_curdoc
 from bokeh.server.contexts import ApplicationContext
 from panel.io.state import set_curdoc, state
@@ -94,10 +94,6 @@ class _Pausing(DocumentChangedEvent):
         return False
 
 
-class _Marker(DocumentChangedEvent):
-    """A document event nobody handles."""
-
-
 def _served(doc, loop) -> None:
     """Give ``doc`` a session context as a server's, as far as scheduling looks (the loop that serves it)."""
     context = SimpleNamespace(server_context=SimpleNamespace(application_context=SimpleNamespace(io_loop=loop)))
@@ -146,113 +142,6 @@ def test_a_callback_scheduled_from_a_thread_is_registered_by_the_loop_and_never_
         assert [type(e) for e in doc.callbacks._held_events] == [_Pausing, SessionCallbackAdded]
         doc.unhold()
         assert [thread for _, thread in registered] == [threading.get_ident()]  # announced, on the loop's thread
-
-    asyncio.run(main())
-
-
-class _Socket:
-    """A websocket as the session's connection sees it: records each message written, and on which thread."""
-
-    def __init__(self) -> None:
-        self.ws_connection = SimpleNamespace(is_closing=lambda: False)
-        self.written: list = []
-
-    async def send_message(self, message) -> None:
-        self.written.append((message, threading.get_ident()))
-
-
-async def _session_with(root_of):
-    """A real bokeh session whose document shows ``root_of(doc)``, one connection to a recording socket."""
-    from bokeh.protocol import Protocol
-    from bokeh.server.connection import ServerConnection
-
-    application = Application(FunctionHandler(lambda doc: doc.add_root(root_of(doc))))
-    context = ApplicationContext(application, url="/page", io_loop=IOLoop.current())
-    session = await context.create_session_if_needed("an-applied-session")
-    socket = _Socket()
-    ServerConnection(Protocol(), socket, context, session)
-    state._connected[session.document] = True
-    state._thread_id_[session.document] = threading.get_ident()
-    return session, socket
-
-
-def test_a_part_changed_on_a_thread_is_applied_on_an_apply_thread_with_the_document_locked_and_written_by_the_loop():
-    """A worker thread changes a component of the page (as a part swapped in does): Panel schedules the model update
-    (``execute``); it runs on an apply thread, never on the loop, with the session's document locked, and the
-    message it makes is written by the loop."""
-    offloop.install()
-    page = pn.Column(pn.pane.Markdown("before"))
-    seen = []
-
-    async def main() -> None:
-        session, socket = await _session_with(page.get_root)
-        doc, loop_thread = session.document, threading.get_ident()
-        doc.on_change(lambda event: seen.append((threading.current_thread().name, session._pending_writes is not None))
-                      if isinstance(event, DocumentPatchedEvent) else None)
-
-        def work() -> None:
-            part = pn.pane.Markdown("after")
-            with set_curdoc(doc):
-                page[:] = [part]
-
-        written = asyncio.get_running_loop().create_future()
-        socket.send_message = _recording(socket, written)
-        threading.Thread(target=work).start()
-        message, thread = await asyncio.wait_for(written, 10)
-        assert seen and all(name.startswith("isl-apply") and locked for name, locked in seen)
-        assert thread == loop_thread and message.msgtype == "PATCH-DOC"
-        assert "after" in message.content_json and not offloop._APPLYING
-        assert state._thread_id_[doc] == loop_thread  # the document belongs to the loop again
-
-    asyncio.run(main())
-
-
-def _recording(socket: _Socket, written: asyncio.Future):
-    async def send_message(message) -> None:
-        socket.written.append((message, threading.get_ident()))
-        if not written.done():
-            written.set_result(socket.written[-1])
-    return send_message
-
-
-def test_what_the_loop_registers_while_an_apply_thread_holds_the_document_waits_for_that_thread():
-    """The loop registers a callback with a document (an event) while an apply thread holds that document's events.
-    Bokeh's own method puts the event in the thread's hold, whose ``unhold`` takes the queue in two steps the loop may
-    fall between; after install the event waits until the thread is done, and the callback then runs."""
-    offloop.install()
-    pane = pn.pane.Markdown("x")
-    held, release, recorded = threading.Event(), threading.Event(), threading.Event()
-    during = {}
-
-    async def main() -> None:
-        session, _ = await _session_with(pane.get_root)
-        doc = session.document
-
-        def holding() -> None:
-            doc.hold("combine")
-            held.set()
-            release.wait(10)
-            during["held"] = [type(e).__name__ for e in doc.callbacks._held_events]
-            recorded.set()
-            doc.unhold()
-
-        offloop._register(doc, holding, off_loop=True)
-        loop = asyncio.get_running_loop()
-        assert await loop.run_in_executor(None, held.wait, 10)
-        ran = loop.create_future()
-        doc.add_next_tick_callback(lambda: ran.set_result(threading.get_ident()))
-        release.set()
-        assert await asyncio.wait_for(ran, 10) == threading.get_ident()  # registered after the thread, and ran
-        assert during["held"] == []  # never in the apply thread's hold
-
-        trigger = type(doc.callbacks).trigger_on_change._isl_original  # bokeh's own: into the thread's hold
-        held.clear(), release.clear(), recorded.clear()
-        offloop._register(doc, holding, off_loop=True)
-        assert await loop.run_in_executor(None, held.wait, 10)
-        trigger(doc.callbacks, _Marker(doc))
-        release.set()
-        assert await loop.run_in_executor(None, recorded.wait, 10)
-        assert during["held"] == ["_Marker"]
 
     asyncio.run(main())
 

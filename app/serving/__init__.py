@@ -4,9 +4,8 @@
   safe defaults, a strict warm-up, ``--check`` and ``--health``;
 * :mod:`app.serving.webguard` — security headers, the host check, compression and ``/liveness`` on every answer;
 * :mod:`app.serving.hardening` — the exception handler, traceback-free websocket errors, per-session release hooks;
-* :mod:`app.serving.offloop` — each session's page built on a thread instead of the event loop, what threads hand
-  back to a page (a run's outcome, a part swapped in) applied on an apply thread with the session's document locked,
-  and what they share with the loop (callbacks, link registrations, connections) made safe to hand over;
+* :mod:`app.serving.offloop` — each session's page built on a thread instead of the event loop, and what threads
+  hand back to the loop (callbacks, link registrations) made safe to hand over;
 * :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class;
 * :mod:`app.serving.fastpath` — less of Panel's Python per slider change (design stylesheets only when they change).
 

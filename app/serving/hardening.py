@@ -159,7 +159,7 @@ _session_locks_guard = threading.Lock()
 
 def session_lock(doc) -> threading.RLock:
     """The lock under which a session's state is changed: held while one of its browser events is processed (on
-    Panel's thread pool, :func:`serialize_session_events`) and while a job's outcome is applied on an apply thread
+    Panel's thread pool, :func:`serialize_session_events`) and while a job's outcome is applied on the event loop
     (:class:`app.page.SessionGate`). Sessions have one lock each, so they never wait for one another."""
     with _session_locks_guard:
         lock = _session_locks.get(doc)

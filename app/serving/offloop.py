@@ -28,28 +28,15 @@ in 1 round of 21 here with 20 pages opening under CPU load). :func:`install` mak
 snapshot.
 
 Work done on a thread reaches the page through a callback on the session's loop: a job's outcome
-(:class:`app.page.SessionGate`) and Panel's own model updates both call ``pn.state.execute(..., schedule=True)``.
-Panel registers the callback with the document right there, on the worker thread, as a document event; while the
-loop holds the document the event is queued in the hold, and the loop's ``unhold`` takes that queue and leaves a
-fresh one in two steps a worker thread can fall between: the registration then went into a queue nobody reads and
-the callback never ran (a job's outcome: the session's run stayed "in flight" for good and the page stopped
-following its sliders; CI's load run, 1 session of 20; a stress run of the same steps lost 1 registration in
-20 000). :func:`install` makes ``execute`` hand such a callback to the session's loop (tornado's thread-safe
-``add_callback``), which registers it there.
-
-**Applied off the loop.** Applying such a callback — swapping a part into the page, a run's outcome into the
-plots — makes bokeh walk the document's models and serialize the new ones and the changed data into messages:
-30–110 ms of Python a part on an idle server, over a second under a class's load, during which the loop answered
-nobody. Bokeh runs a session callback with the session's document locked (an asyncio lock: the session's browser
-messages and other callbacks wait for it) and, if the callback returns an awaitable, awaits it before it unlocks
-the document and writes the messages the changes made. The loop's callback now only returns the future of the
-work on an apply thread (:data:`APPLY_POOL`): the document is locked for that thread the whole time, the thread is
-Panel's thread of the document meanwhile (so that Panel applies model changes made there at once, as on the loop),
-and the messages are made there and written by the loop once it is done. Two things keep the loop off a document
-an apply thread works on: an event the loop would add to it (registering another callback) waits until the thread
-is done — the thread may hold the document's events and its ``unhold`` would lose it as above; and a session's
-connections are iterated over a copy, since the loop adds and drops them. Opening three default pages one after
-another, the loop's time in callbacks over 2 ms went from 1 102 to 184 ms.
+(:class:`app.page.SessionGate`) and Panel's own model updates both call ``pn.state.execute(..., schedule=True)``,
+which registers the callback with the document right there, on the worker thread. The registration is a document
+event, and while the loop holds the document (it does so around every outcome it applies) the event is queued in
+the hold; the loop's ``unhold`` takes that queue and leaves a fresh one, in two steps that a worker thread can fall
+between, and then the registration went into a queue nobody reads: the callback never ran. For a job's outcome
+that meant the session's run stayed "in flight" for good, every later slider change waited behind it, and the page
+stopped following its sliders (CI's load run: one session of 20 got no plot update within 30 s; a stress run of
+the same steps lost 1 registration in 20 000). :func:`install` makes ``execute`` hand such a callback to the
+session's loop first (tornado's thread-safe ``add_callback``), which registers it there.
 """
 from __future__ import annotations
 
@@ -58,15 +45,11 @@ import logging
 import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
-from functools import partial
 
 log = logging.getLogger(__name__)
 
 #: the one thread that runs the app script for new sessions
 PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-page")
-#: the threads that apply work done on other threads to a page (a job's outcome, a part swapped in), each with the
-#: session's document locked for it
-APPLY_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-apply")
 
 
 class PerThreadStack(threading.local):
@@ -117,11 +100,8 @@ class SnapshotRegistry(weakref.WeakKeyDictionary):
 
 def install() -> None:
     """Make bokeh's patched-``curdoc()`` stack per thread, Panel's link registry safe to iterate while other
-    threads add to it, and callbacks scheduled on a session's loop applied on an apply thread (idempotent)."""
+    threads add to it, and callbacks scheduled from a thread registered by the session's loop (idempotent)."""
     import bokeh.io.doc as bk_doc
-    import panel.io.document as pn_document
-    from bokeh.document.callbacks import DocumentCallbackManager
-    from bokeh.server.session import ServerSession
     from panel.io.state import _state
     from panel.links import Callback
 
@@ -133,22 +113,6 @@ def install() -> None:
         Callback.registry = SnapshotRegistry(Callback.registry)
     if not hasattr(_state.execute, "_isl_original"):
         _state.execute = _execute_via_loop(_state.execute)
-    if not hasattr(DocumentCallbackManager.trigger_on_change, "_isl_original"):
-        DocumentCallbackManager.trigger_on_change = _defer_while_applying(DocumentCallbackManager.trigger_on_change)
-    for name in ("write_events", "schedule_write_events"):
-        if not hasattr(getattr(pn_document, name), "_isl_original"):
-            setattr(pn_document, name, _writes_after_apply(getattr(pn_document, name)))
-    if not hasattr(ServerSession.__init__, "_isl_original"):
-        ServerSession.__init__ = _snapshot_connections(ServerSession.__init__)
-
-
-def _snapshot_connections(init):
-    def __init__(self, *args, **kwargs) -> None:
-        init(self, *args, **kwargs)
-        self._subscribed_connections = SnapshotSet(self._subscribed_connections)
-
-    __init__._isl_original = init
-    return __init__
 
 
 def session_loop(doc):
@@ -159,8 +123,6 @@ def session_loop(doc):
 
 
 def _on_loop(loop) -> bool:
-    if loop is None:
-        return False
     try:
         return asyncio.get_running_loop() is loop.asyncio_loop
     except RuntimeError:  # no loop runs on this thread: a worker thread
@@ -168,22 +130,16 @@ def _on_loop(loop) -> bool:
 
 
 def _execute_via_loop(execute):
-    """Panel's ``state.execute``, except that a callback it would schedule on a served session's loop is registered by
-    that loop (handed to it first, from a thread), and Panel's model updates made on a thread (a part swapped into the
-    page) are applied on an apply thread with the document locked (see the module's docstring)."""
+    """Panel's ``state.execute``, except that a callback it would schedule on a served session's loop from another
+    thread is handed to that loop first, which registers it with the document (see the module's docstring)."""
     from param.parameterized import iscoroutinefunction
 
     def execute_via_loop(self, callback, schedule="auto"):
         doc = self.curdoc
         loop = session_loop(doc)
         if (loop is not None and (schedule is True or (schedule == "auto" and not self._unblocked(doc)))
-                and not iscoroutinefunction(callback)):  # Panel: add_next_tick_callback
-            wrapped = self._handle_exception_wrapper(callback, doc)
-            off_loop = getattr(getattr(callback, "func", None), "__name__", "") == "_scheduled_update_model"
-            if _on_loop(loop):
-                _register(doc, wrapped, off_loop)
-            else:
-                loop.add_callback(_register, doc, wrapped, off_loop)
+                and not iscoroutinefunction(callback) and not _on_loop(loop)):  # Panel: add_next_tick_callback
+            loop.add_callback(_register, doc, self._handle_exception_wrapper(callback, doc))
             return None
         return execute(self, callback, schedule)
 
@@ -191,113 +147,12 @@ def _execute_via_loop(execute):
     return execute_via_loop
 
 
-def _register(doc, callback, off_loop: bool = False) -> None:
-    """On the session's loop: run ``callback`` on its next tick with the document locked — ``off_loop``, on an apply
-    thread."""
+def _register(doc, callback) -> None:
+    """On the session's loop: run ``callback`` on its next tick, with the document locked (bokeh's session callback)."""
     try:
-        doc.add_next_tick_callback(partial(_apply_locked, doc, callback) if off_loop else callback)
+        doc.add_next_tick_callback(callback)
     except RuntimeError:  # the session was destroyed meanwhile: nobody is left to see the outcome
         log.debug("dropped a callback of a destroyed session", exc_info=True)
-
-
-class _Applying:
-    """A document an apply thread works on: that thread (once it runs), and what the loop left for after it."""
-
-    __slots__ = ("deferred", "thread")
-
-    def __init__(self) -> None:
-        self.thread: int | None = None
-        self.deferred: list = []
-
-
-#: documents an apply thread works on now (each locked for it by bokeh)
-_APPLYING: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _apply_locked(doc, callback):
-    """Bokeh runs this on the loop with the session's document locked: it hands ``callback`` to an apply thread and
-    returns the future that bokeh awaits, still locked, before it writes the messages the callback's changes made."""
-    applying = _APPLYING[doc] = _Applying()
-    future = asyncio.get_running_loop().run_in_executor(APPLY_POOL, _apply, doc, callback, applying)
-    future.add_done_callback(lambda _: _release(doc, applying))
-    return future
-
-
-def _apply(doc, callback, applying: _Applying) -> None:
-    """On an apply thread: ``callback`` with ``doc`` as this thread's document (bokeh's ``curdoc``, Panel's thread of
-    the document, so that Panel applies the model changes made here at once, as it does on the loop)."""
-    from bokeh.io.doc import patch_curdoc
-    from panel.io.state import state
-
-    applying.thread = threading.get_ident()
-    owner = state._thread_id_.get(doc)
-    state._thread_id_[doc] = applying.thread
-    try:
-        with patch_curdoc(doc):
-            callback()
-    finally:
-        if owner is None:
-            state._thread_id_.pop(doc, None)
-        else:
-            state._thread_id_[doc] = owner
-
-
-def _release(doc, applying: _Applying) -> None:
-    """On the loop, once the apply thread is done with ``doc``: what the loop left for after it, in order."""
-    if _APPLYING.get(doc) is applying:
-        del _APPLYING[doc]
-    for deferred in applying.deferred:
-        deferred()
-
-
-def _defer_while_applying(trigger):
-    """Bokeh's ``DocumentCallbackManager.trigger_on_change``, except on the loop for a document an apply thread works
-    on: the event (a callback registered with the document) is triggered once that thread is done. The thread may
-    hold the document's events, and its ``unhold`` takes them in two steps: an event the loop queued between them
-    would be lost. Other threads are left as Panel has them (its threaded ``hold`` lifts the hold around the
-    registration it makes, so that the event is dispatched at once, and needs it then)."""
-
-    def trigger_on_change(self, event) -> None:
-        doc = self._document()
-        applying = _APPLYING.get(doc) if doc is not None else None
-        if applying is not None and applying.thread != threading.get_ident() and _on_loop(session_loop(doc)):
-            applying.deferred.append(partial(trigger_on_change, self, event))
-            return None
-        return trigger(self, event)
-
-    trigger_on_change._isl_original = trigger
-    return trigger_on_change
-
-
-def _writes_after_apply(write):
-    """Panel's ``write_events`` (or ``schedule_write_events``), except on an apply thread: there the messages are
-    made at once and written by the loop after the callback, in order with bokeh's own (the session's pending
-    writes, which bokeh awaits before it unlocks the document) — a websocket is written from its loop only."""
-
-    def write_events(doc, connections, events):
-        applying = _APPLYING.get(doc)
-        session = getattr(getattr(doc, "session_context", None), "session", None)
-        pending = getattr(session, "_pending_writes", None)
-        if applying is None or applying.thread != threading.get_ident() or pending is None:
-            return write(doc, connections, events)
-        for connection in list(connections):
-            socket = getattr(connection, "_socket", None)
-            closing = getattr(socket, "ws_connection", None)
-            if closing is None or closing.is_closing():
-                continue
-            pending.append(socket.send_message(connection.protocol.create("PATCH-DOC", events)))
-        return None
-
-    write_events._isl_original = write
-    return write_events
-
-
-class SnapshotSet(set):
-    """A set whose iteration walks a copy (one C-level copy): the loop may add or drop a connection of a session
-    while an apply thread sends to the others."""
-
-    def __iter__(self):
-        return iter(set.copy(self))
 
 
 def build_pages_off_loop(application) -> None:
