@@ -146,6 +146,20 @@ def test_a_callback_scheduled_from_a_thread_is_registered_by_the_loop_and_never_
     asyncio.run(main())
 
 
+class _Receiver:
+    """Receives a document's events, as a server session does."""
+
+
+def test_a_callback_for_a_session_destroyed_meanwhile_is_dropped_quietly():
+    """An outcome on its way when its session ends reaches the loop after bokeh destroyed the document (and its
+    callback manager): it is dropped, with no traceback in the server log (seen when a classroom run closed its
+    sessions: "'DocumentCallbackManager' object has no attribute '_change_callbacks'")."""
+    doc, session = Document(), _Receiver()
+    doc.on_change_dispatch_to(session)
+    doc.destroy(session)
+    offloop._register(doc, lambda: None)
+
+
 def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():
     built_on = []
 

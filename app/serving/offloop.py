@@ -151,7 +151,8 @@ def _register(doc, callback) -> None:
     """On the session's loop: run ``callback`` on its next tick, with the document locked (bokeh's session callback)."""
     try:
         doc.add_next_tick_callback(callback)
-    except RuntimeError:  # the session was destroyed meanwhile: nobody is left to see the outcome
+    except (RuntimeError, AttributeError):  # the session was destroyed meanwhile (its document's callbacks with it):
+        # nobody is left to see the outcome
         log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 
