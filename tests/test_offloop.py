@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import gc
+import logging
 import threading
 import weakref
 from types import SimpleNamespace
@@ -138,7 +139,9 @@ def test_a_callback_scheduled_from_a_thread_is_registered_by_the_loop_and_never_
         schedule(type(state).execute, pausing).join(10)
         assert not pausing.entered.is_set() and doc.callbacks._held_events == [pausing]
         pausing.release.set()
-        await asyncio.sleep(0.05)  # the loop registers it: in the hold, as any loop-side registration
+        handed = asyncio.Event()  # the loop runs its callbacks in order: the thread's hand-over came before this one
+        IOLoop.current().add_callback(handed.set)
+        await handed.wait()  # the loop has registered it: in the hold, as any loop-side registration
         assert [type(e) for e in doc.callbacks._held_events] == [_Pausing, SessionCallbackAdded]
         doc.unhold()
         assert [thread for _, thread in registered] == [threading.get_ident()]  # announced, on the loop's thread
@@ -150,14 +153,16 @@ class _Receiver:
     """Receives a document's events, as a server session does."""
 
 
-def test_a_callback_for_a_session_destroyed_meanwhile_is_dropped_quietly():
+def test_a_callback_for_a_session_destroyed_meanwhile_is_dropped_quietly(caplog):
     """An outcome on its way when its session ends reaches the loop after bokeh destroyed the document (and its
     callback manager): it is dropped, with no traceback in the server log (seen when a classroom run closed its
     sessions: "'DocumentCallbackManager' object has no attribute '_change_callbacks'")."""
     doc, session = Document(), _Receiver()
     doc.on_change_dispatch_to(session)
     doc.destroy(session)
-    offloop._register(doc, lambda: None)
+    with caplog.at_level(logging.DEBUG, logger=offloop.log.name):
+        offloop._register(doc, lambda: None)
+    assert [r.getMessage() for r in caplog.records] == ["dropped a callback of a destroyed session"]
 
 
 def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():

@@ -151,8 +151,8 @@ def _register(doc, callback) -> None:
     """On the session's loop: run ``callback`` on its next tick, with the document locked (bokeh's session callback)."""
     try:
         doc.add_next_tick_callback(callback)
-    except (RuntimeError, AttributeError):  # the session was destroyed meanwhile (its document's callbacks with it):
-        # nobody is left to see the outcome
+    except (RuntimeError, AttributeError):
+        # the session was destroyed meanwhile (bokeh's document without its callback manager): nobody sees the outcome
         log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 
