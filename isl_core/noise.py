@@ -3,7 +3,8 @@
 ``law`` is an int for the loops: :data:`LAW_GAUSSIAN` ε_k ~ N(0, 1); :data:`LAW_STUDENT` √((d − 2)/d)·T_d, Student's t
 with d > 2 degrees of freedom scaled to unit variance; :data:`LAW_OUTLIERS` N(0, 1), times k with probability p.
 From the caller's ``numpy.random.Generator``, per ε_k: one normal (Gaussian); one uniform, rarely more (Student-t,
-below); one normal, then one uniform that decides whether it is scaled by k (outliers).
+below); one normal (outliers), and one uniform per outlier (the steps between two outliers are geometric: one
+uniform a step, deciding each step, cost 5 ns a step in the scenario loop).
 
 Student's t is drawn by a ziggurat (G. Marsaglia & W. W. Tsang, "The ziggurat method for generating random
 variables", J. Stat. Softw. 5(8), 2000) built for d by :func:`student_table`: 256 layers of equal area under
@@ -12,16 +13,17 @@ for the sign, 44 for the position in the layer — gives T_d in ≈ 98 % of draw
 (accepted when a second uniform under the layer's height is under f) or, below 0.2 %, in the tail beyond r, drawn
 from a Pareto envelope tangent to f in log–log coordinates (log f is concave in log x: the tangent is above it),
 accepted with f/envelope. Exact but for the 2⁻⁴⁴ grid of positions in a layer; tables for d from 2 + 10⁻⁹ to
-10⁶ build in 10–20 ms. Measured, d = 3 (``benchmarks/bench_scenario.py``, fastest of 8): 12.5 ns a draw, a normal
-4.6 ns, NumPy's ``standard_t`` 36 ns (a normal over the root of a gamma draw); in an earlier run of it, Bailey's polar
+10⁶ build in 10–20 ms. Measured, d = 3 (``benchmarks/bench_scenario.py``, fastest of 4 × 3): 5.0 ns a draw, a normal
+3.7 ns, NumPy's ``standard_t`` 33 ns (a normal over the root of a gamma draw); in an earlier run, Bailey's polar
 method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log and an exp a draw) 29 ns against
-``standard_t``'s 42. In the scenario loop at the Fig. 3 defaults (10⁵ steps, fastest of 60), Student-t noise cost
-50.7 ns a step against 45.8 with Gaussian noise; in an earlier run, Bailey's method 73.9 against ``standard_t``'s
-91.8 (Gaussian noise 46.1).
+``standard_t``'s 42. The scenario run at the Fig. 3 defaults (10⁶ steps, the same benchmark): Student-t noise
+45.4 ns a step, Gaussian 43.7, outliers 44.5 (before the draws were loops of their own per law and the outliers
+geometric: 49.7, 45.9, 48.4).
 
 The scenario loop draws its noise :data:`DRAWS` steps ahead, in a tight loop of its own (:func:`draw_ahead`), in the
-stream's order v_0, ε_0, v_1, ε_1, … — the order in which it used to draw them at each step, so its runs are the same
-bit for bit — and its time loop is 4–5 ns a step faster (Gaussian noise: 50.5 → 46.1 ns, fastest of 60).
+stream's order v_0, ε_0, v_1, ε_1, … (and the outliers' uniforms where they fall) — the order in which it used to
+draw them at each step, so its runs with Gaussian and Student-t noise are the same bit for bit — and its time loop
+is 4–5 ns a step faster (Gaussian noise: 50.5 → 46.1 ns, fastest of 60).
 """
 from __future__ import annotations
 
@@ -117,50 +119,74 @@ def _student_slow(rng, tab, d, i, x):
     return -1.0
 
 
-@njit(cache=CACHE, nogil=True, inline="always")
-def _student(rng, tab, d):
-    """T_d from the ziggurat ``tab`` (:func:`student_table`)."""
+@njit(cache=CACHE, nogil=True)
+def _student_retry(rng, tab, d, i, x, bits):
+    """T_d after a draw ``x`` of layer ``i`` fell outside its inner part: the slow path, then new draws until one is
+    accepted (each as in :func:`_draw`)."""
     while True:
-        j = rng.random() * (2.0 * LAYERS)
-        bits = int(j)
+        x = _student_slow(rng, tab, d, i, x)
+        if x >= 0.0:
+            return x if bits & 1 else -x
+        y = rng.random() * (2.0 * LAYERS)
+        bits = int(y)
         i = bits >> 1
-        x = (j - bits) * tab[0, i]
-        if x >= tab[1, i]:
-            x = _student_slow(rng, tab, d, i, x)
-            if x < 0.0:
-                continue
-        return x if bits & 1 else -x
+        x = (y - bits) * tab[0, i]
+        if x < tab[1, i]:
+            return x if bits & 1 else -x
 
 
-@njit(cache=CACHE, nogil=True, inline="always")
-def _scale(law, dof):
-    """√((d − 2)/d) for Student's t (unit variance), 1 for the other laws."""
-    return math.sqrt((dof - 2.0) / dof) if law == LAW_STUDENT else 1.0
+@njit(cache=CACHE, nogil=True)
+def _gap(rng, p, cap):
+    """Steps before the next outlier, P(G ≥ g) = (1 − p)^g: ⌊log U / log(1 − p)⌋ with U uniform on (0, 1]; at most
+    ``cap`` (p = 0: ``cap``)."""
+    if not p > 0.0:
+        return cap
+    return int(min(math.log(1.0 - rng.random()) / math.log1p(-p), float(cap)))
 
 
-@njit(cache=CACHE, nogil=True, inline="always")
-def _epsilon(rng, law, dof, tab, scale, p_out, k_out):
-    """One ε_k of ``law``; ``scale`` = √((d − 2)/d) for Student's t (module docstring)."""
+@njit(cache=CACHE, nogil=True)
+def _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, with_v):
+    """The next ``count`` ε_k of ``law`` into ``eps``; if ``with_v``, each after a normal v_k into ``vs``.
+
+    A Student-t draw: one uniform gives the layer (8 bits), the sign (1) and the position in the layer; inside the
+    layer's inner part (≈ 98 % of draws) that is T_d, the rest goes to :func:`_student_retry`, out of line. One loop
+    per law, written out: the same draws through an inlined draw function with the retry loop in it cost 10.5–11.5 ns
+    a draw against 5–7 ns (loops of 5·10⁶)."""
     if law == LAW_STUDENT:
-        return scale * _student(rng, tab, dof)
-    eps = rng.standard_normal()
-    if law == LAW_OUTLIERS and rng.random() < p_out:
-        eps *= k_out
-    return eps
+        scale = math.sqrt((dof - 2.0) / dof)  # unit variance
+        for j in range(count):
+            if with_v:
+                vs[j] = rng.standard_normal()
+            y = rng.random() * (2.0 * LAYERS)
+            bits = int(y)
+            i = bits >> 1
+            x = (y - bits) * tab[0, i]
+            if x >= tab[1, i]:
+                x = _student_retry(rng, tab, dof, i, x, bits)
+            elif not bits & 1:
+                x = -x
+            eps[j] = scale * x
+        return
+    # outliers: the steps between two are geometric, drawn once an outlier (a uniform a step cost 5 ns a step in the
+    # scenario loop); from this call's first step on, afresh: the steps are independent, so the law is the same
+    nxt = _gap(rng, p_out, count) if law == LAW_OUTLIERS else count
+    for j in range(count):
+        if with_v:
+            vs[j] = rng.standard_normal()
+        z = rng.standard_normal()
+        if j == nxt:
+            z *= k_out
+            nxt += 1 + _gap(rng, p_out, count)
+        eps[j] = z
 
 
 @njit(cache=CACHE, nogil=True)
 def draw_ahead(rng, law, dof, tab, p_out, k_out, vs, eps, count):
     """The next ``count`` steps' v_k (a normal) and ε_k into ``vs`` and ``eps``, drawn v_0, ε_0, v_1, ε_1, …"""
-    scale = _scale(law, dof)
-    for j in range(count):
-        vs[j] = rng.standard_normal()
-        eps[j] = _epsilon(rng, law, dof, tab, scale, p_out, k_out)
+    _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, True)
 
 
 @njit(cache=CACHE, nogil=True)
 def fill(rng, law, dof, tab, p_out, k_out, eps):
     """``eps`` filled with ε_k of ``law`` alone (:meth:`isl_core.scenario.Scenario.draw_noise`)."""
-    scale = _scale(law, dof)
-    for j in range(eps.shape[0]):
-        eps[j] = _epsilon(rng, law, dof, tab, scale, p_out, k_out)
+    _draw(rng, law, dof, tab, p_out, k_out, eps, eps, eps.shape[0], False)

@@ -100,15 +100,22 @@ def test_student_noise_has_the_t_law_in_the_tails_too(dof):
 def test_outliers_fall_on_independent_steps_at_the_rate(rate):
     """Each step is an outlier with probability p, independently (isl_core.noise): the rate, the rate of two in a
     row (p²) and the first step's rate over many runs — each within 4 standard errors."""
-    scenario = Scenario(noise="outliers", outlier_rate=rate, outlier_scale=1e4)
-    hit = np.abs(scenario.draw_noise(np.random.default_rng(5), 400_000)) > 100.0  # |N(0,1)| > 100 never: outliers only
+    scenario = Scenario(noise="outliers", outlier_rate=rate, outlier_scale=3.0)
+    unscaled = Scenario(noise="outliers", outlier_rate=rate, outlier_scale=1.0)  # the same draws, k = 1
+
+    def outliers(seed, n):  # exactly the steps scaled by k: which ones does not depend on k
+        drawn, plain = (s.draw_noise(np.random.default_rng(seed), n) for s in (scenario, unscaled))
+        assert np.all((drawn == plain) | (drawn == 3.0 * plain))  # every ε is N(0,1) or k times it
+        return drawn != plain
+
+    hit = outliers(5, 400_000)
     n = hit.size
 
     def close(x, p, m):
         return abs(x - p) < 4.0 * math.sqrt(p * (1.0 - p) / m)
 
     assert close(hit.mean(), rate, n) and close(np.mean(hit[1:] & hit[:-1]), rate * rate, n)
-    first = [abs(scenario.draw_noise(np.random.default_rng(seed), 1)[0]) > 100.0 for seed in range(4000)]
+    first = [outliers(seed, 1)[0] for seed in range(4000)]
     assert close(np.mean(first), rate, 4000)
 
 

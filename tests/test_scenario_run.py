@@ -8,7 +8,7 @@ import pytest
 
 from isl_core import Model, adaptive_kbf, isl_filter, kalman_bucy, optimal_kbf, simulate
 from isl_core.filters import FilterSpec
-from isl_core.noise import LAWS, fill, student_table
+from isl_core.noise import DRAWS, LAWS, draw_ahead, law_table
 from isl_core.robust import huber_kappa, robust_kbf
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
 from isl_core.scenario_run import plan_scenario, simulate_scenario
@@ -24,12 +24,14 @@ def _kappa(c: float) -> float:
     return float(np.trapezoid(np.minimum(z * z, c * c) * np.exp(-0.5 * z * z), z) / math.sqrt(2.0 * math.pi))
 
 
-def _student(rng, d: float) -> float:
-    """One ε_k of the Student-t law from the core's ziggurat (isl_core.noise; its law is tested in test_scenario):
-    the filters are what this loop checks, with the same stream."""
-    eps = np.empty(1)
-    fill(rng, LAWS["student"], d, student_table(d), 0.0, 1.0, eps)
-    return float(eps[0])
+def _draws(rng, scenario: Scenario, n: int):
+    """v_k and ε_k of n steps as the loop draws them: the core's draws of the noise law (isl_core.noise; its laws
+    are tested in test_scenario), in its blocks of DRAWS steps — the filters are what this loop checks."""
+    v, eps = np.empty(n), np.empty(n)
+    for k in range(0, n, DRAWS):
+        draw_ahead(rng, LAWS[scenario.noise], scenario.dof, law_table(scenario.noise, scenario.dof),
+                   scenario.outlier_rate, scenario.outlier_scale, v[k:], eps[k:], min(DRAWS, n - k))
+    return v, eps
 
 
 def _loop(model, filters, scenario, h, n, seed, gains, q):
@@ -46,14 +48,9 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     readings = 0
     m = model.m
     s_hats = [f.adaptive.sigma_init if f.adaptive is not None else 0.0 for f in filters]
+    vs, epss = _draws(rng, scenario, n)
     for k in range(n):
-        v = rng.standard_normal()
-        if scenario.noise == "student":
-            eps = _student(rng, scenario.dof)
-        else:
-            eps = rng.standard_normal()
-            if scenario.noise == "outliers" and rng.random() < scenario.outlier_rate:
-                eps *= scenario.outlier_scale
+        v, eps = vs[k], epss[k]
         reading = (k + 1) % q == 0
         readings += reading
         xm = x[-1]
