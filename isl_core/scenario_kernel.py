@@ -25,6 +25,13 @@ Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α �
 power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
 factor is max(1/r, q/W) for the r-th reading: its window keeps its length in time.
 
+Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of
+the reading (:func:`_pr`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for the
+clairvoyant filter, ψ(u) for the robust one) for the others. So the filters run in lanes of :data:`LANES` side by
+side, the same arithmetic in the same order for each filter (runs equal those of the loop over the filters bit for
+bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters cost 34.5 ns a step against 42.4
+(``benchmarks/bench_scenario.py``).
+
 Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
 :data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window (k // ``win``) (the last
 window takes the remainder), σ̂ likewise.
@@ -43,6 +50,8 @@ from .scenario import clairvoyant_step
 __all__ = ["KIND_CLAIRVOYANT", "advance_scenario"]
 
 KIND_CLAIRVOYANT = 3
+LANES = 4  #: filters advanced side by side (:func:`advance_scenario`)
+IDLE = -1  #: the kind of a lane without a filter, or whose filter died
 
 
 @njit(cache=CACHE, nogil=True)
@@ -100,23 +109,44 @@ def _pour(wref, w, cvar, s_cur, same):
 
 @njit(cache=CACHE, nogil=True)
 def _flush(wsq, w, sq):
-    """Add the squared errors summed since the last flush to window ``w`` and restart the sums."""
-    for f in range(sq.shape[0]):
-        for i in range(sq.shape[1]):
-            wsq[w, f, i] += sq[f, i]
-            sq[f, i] = 0.0
+    """Add the squared errors summed since the last flush, ``sq`` (m, lanes), to window ``w`` of each filter and
+    restart the sums (the padding lanes' are dropped)."""
+    for f in range(wsq.shape[1]):
+        for i in range(sq.shape[0]):
+            wsq[w, f, i] += sq[i, f]
+    sq[:, :] = 0.0
 
 
 @njit(cache=CACHE, nogil=True)
-def _bury(e, died, k):
-    """Mark every live filter whose error is no longer finite as dead at step ``k``."""
-    for f in range(e.shape[0]):
+def _bury(e, died, lane, k):
+    """Mark every live filter whose error (a column of ``e``, (m, lanes)) is no longer finite as dead at step ``k``:
+    its lane goes idle (no update) from a zero error, which nothing reads (its windows from then on are inf)."""
+    for f in range(died.shape[0]):
         if died[f] < 0:
             total = 0.0
-            for i in range(e.shape[1]):
-                total += e[f, i]
+            for i in range(e.shape[0]):
+                total += e[i, f]
             if not math.isfinite(total):
                 died[f] = k
+                lane[f] = IDLE
+                e[:, f] = 0.0
+
+
+@njit(cache=CACHE, nogil=True, inline="always")
+def _pr(kind, u, raw, sqh, own, lim, m):
+    """(p, r) of a lane's update at a reading, e_i += G_i·p·r^(m−i) for i = m … 1 (module docstring); ``raw`` the
+    innovation before its normalization by √q, ``own`` the learning filters' u (taken before the lanes' pass)."""
+    if kind == 1:
+        return np.float64(u > 0.0) - np.float64(u < 0.0), _root(abs(u), m)
+    if kind == 0:
+        return u, 1.0
+    if kind == 3:
+        return sqh * raw, 1.0
+    if kind == 5:
+        return min(max(own, -lim), lim), 1.0
+    if kind == IDLE:
+        return 0.0, 1.0
+    return own, 1.0
 
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
@@ -130,38 +160,56 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     t_{k+1} and σ_k per window; ``acc`` (nf,) the filters' accumulated innovations carried from chunk to chunk;
     ``ad`` the adaptive filters' state (as in :func:`isl_core.kernels.advance`). A filter whose error leaves the
     finite numbers at step k is stopped there: ``died[f] = k`` (−1 while it lives), its error is no longer advanced
-    nor summed, the others go on. The σ-learning filters take in a reading's u² after every filter has taken in its
-    innovation (their gain at a reading uses the σ̂ before it): out of the filters' loop, which stays lean for the
-    others (measured: 5-10 ns a step). Returns the number of steps done (fewer only if the truth itself leaves the
+    nor summed, the others go on. Returns the number of steps done (fewer only if the truth itself leaves the
     finite numbers).
+
+    The filters run in lanes of four (the last ones padded with idle lanes): errors ``el`` (m, lanes),
+    gains ``G`` (m, lanes: √(qh)·K, the power law's coefficients, the clairvoyant gain, the variational filter's
+    F·K). The σ-learning filters take their reading's u before the lanes' pass (the variational filter's gain of
+    this reading needs it) and take in u² after it (their gain at a reading uses the σ̂ before it).
     """
     m = x.shape[0]
     nf = e.shape[0]
     nw = wsq.shape[0]
+    nl = LANES * ((nf + LANES - 1) // LANES)
     sqh = math.sqrt(h)
     sqq = math.sqrt(q)
     sqqh = math.sqrt(q * h)
     beta_sqh = beta * sqh
     decay = 1.0 - h * alpha
-    zdecay = 1.0 - h * damp
-    couple = h * (alpha - damp)
     gain = sqqh * coef
     vbuf, ebuf = np.empty(DRAWS), np.empty(DRAWS)
-    slot = np.zeros(nf, dtype=np.int64)
-    stride = 0 if sig.shape[0] == 1 else 1
-    sq = np.zeros((nf, m))  # squared errors since the last flush into wsq (FLUSH steps at most, as kernels.advance)
-    pending = 0
-    gvec = np.zeros(m)
-    uus = np.zeros(nf)
-    q_var = h * beta * beta
-    na = 0
+    el, G, sq = np.zeros((m, nl)), np.zeros((m, nl)), np.zeros((m, nl))
+    zd, cp = np.full(nl, decay), np.zeros(nl)  # idle lanes: the truth's own decay, e = −X from 0
+    lane = np.full(nl, IDLE, dtype=np.int64)
+    accl, own, lim = np.zeros(nl), np.zeros(nl), np.zeros(nl)
+    learn = np.zeros(nf, dtype=np.int64)  # the σ-learning filters, in order: slot a is learn[a]
+    clairs = np.zeros(nf, dtype=np.int64)
+    na, nc = 0, 0
     for f in range(nf):
-        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
-            slot[f] = na
-            na += 1
+        zd[f], cp[f] = 1.0 - h * damp[f], h * (alpha - damp[f])
+        accl[f] = acc[f]
+        if died[f] >= 0:
+            continue
+        lane[f] = kind[f]
+        for i in range(m):
+            el[i, f] = e[f, i]
         if kind[f] == 2 or kind[f] == 5:
             _table_gain(table, ad, f, gain, sqqh)
+        if kind[f] == 3:
+            clairs[nc] = f
+            nc += 1
+        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
+            learn[na] = f
+            na += 1
+        G[:, f] = gain[f]
     cP, cst, cg, cvar, cyc, cyc_r, nv = clair
+    for c in range(nc):
+        G[:, clairs[c]] = cg
+    gvec = np.zeros(m)
+    q_var = h * beta * beta
+    stride = 0 if sig.shape[0] == 1 else 1
+    pending = 0
     beta2 = beta * beta
     w = min(k0 // win, nw - 1)  # the window of this step's errors, and the first step of the next one
     edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
@@ -169,6 +217,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     # steps not yet summed into wref, all with the clairvoyant variance ``cvar`` and σ_k = ``s_cur``: while the
     # recursion is settled and σ_k stays, both repeat, and are summed once, times ``same``
     same, s_cur = 0, sig[0]
+    done = n
     for j in range(n):
         k = k0 + j
         if k == edge:
@@ -180,10 +229,8 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         b = j % DRAWS
         if b == 0:
             draw_ahead(rng, law, dof, ztab, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))
-        v = vbuf[b]
-        eps = ebuf[b]
         s_k = sig[j * stride]
-        noise = s_k * eps
+        noise = s_k * ebuf[b]
         c_noise = h * (s_k * s_k) * nv
         # settled while σ_k stays (clairvoyant_step): with a reading every step, nothing to do; with q > 1 the
         # variance follows the sensor cycle, and is read back here at this step's phase (a call per step, with its
@@ -202,78 +249,120 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
             _pour(wref, w, cvar, s_cur, same)  # the steps since the last change, then the new one
             same, s_cur = 1, s_k
             clairvoyant_step(cP, cst, cg, cvar, cyc, cyc_r, h, decay, beta2, c_noise, k, q, q - left)
+            for c in range(nc):
+                G[:, clairs[c]] = cg
         xm = x[m - 1]
-        shock = beta_sqh * v
+        shock = beta_sqh * vbuf[b]
         reading = left == 1
         left = q if reading else left - 1
-        total = 0.0
-        for f in range(nf):
-            if died[f] >= 0:
-                continue
-            if q == 1:  # a reading at every step: the innovation of this step (as isl_core.kernels.advance)
-                u = noise - sqh * e[f, 0]
-            else:
-                acc[f] += noise - sqh * e[f, 0]
-            for i in range(m - 1):
-                e[f, i] += h * e[f, i + 1]
-            e[f, m - 1] = zdecay[f] * e[f, m - 1] + couple[f] * xm - shock
-            if reading:
+        if reading:  # the σ-learning filters' u, before the lanes move: the variational filter's gain needs it
+            for a in range(na):
+                f = learn[a]
+                if lane[f] == IDLE:
+                    continue
+                u = noise - sqh * el[0, f]
                 if q > 1:
-                    u = acc[f] / sqq
-                if kind[f] == 1:
-                    p = np.float64(u > 0.0) - np.float64(u < 0.0)
-                    r = _root(abs(u), m)
-                    for i in range(m - 1, -1, -1):
-                        e[f, i] += gain[f, i] * p
-                        p *= r
-                elif kind[f] == 3:
-                    a_f = acc[f] if q > 1 else u
-                    for i in range(m):
-                        e[f, i] += cg[i] * (sqh * a_f)
-                elif kind[f] == 4:
+                    u = (accl[f] + u) / sqq
+                own[f] = u
+                if kind[f] == 4:
                     ad[f, AD_SIGMA] = _vb_update(vb_P[f], vb_ab[f], vb_par[f], u, sqqh, h, damp[f], gvec)
-                    for i in range(m):
-                        e[f, i] += gvec[i] * u
-                else:
-                    uc, uu = u, u * u
-                    if kind[f] == 5:  # Huber: clip at ±c·σ̂ (the estimate before this reading)
-                        lim = vb_par[f, 0] * ad[f, AD_SIGMA]
-                        uc = min(max(u, -lim), lim)
-                        uu = min(uu, lim * lim) / vb_par[f, 1]
-                    for i in range(m):
-                        e[f, i] += gain[f, i] * uc
-                    uus[f] = uu
-                acc[f] = 0.0
+                    G[:, f] = gvec
+                elif kind[f] == 5:  # Huber: clip at ±c·σ̂ (the estimate before this reading)
+                    lim[f] = vb_par[f, 0] * ad[f, AD_SIGMA]
+        total = 0.0
+        # four lanes side by side, written out lane by lane: four independent chains of arithmetic in registers,
+        # which the processor overlaps (one filter after another, with the branches and reloads of a loop over the
+        # filters, cost 10 ns a step more; the same code in an inlined function 25 ns more, and a loop over
+        # range(0, nl, LANES) instead of over the groups 6 ns more: benchmarks/bench_scenario.py)
+        for g in range(nl // LANES):
+            l0 = LANES * g
+            l1, l2, l3 = l0 + 1, l0 + 2, l0 + 3
+            if q == 1:
+                u0 = noise - sqh * el[0, l0]
+                u1 = noise - sqh * el[0, l1]
+                u2 = noise - sqh * el[0, l2]
+                u3 = noise - sqh * el[0, l3]
+                w0, w1, w2, w3 = u0, u1, u2, u3
+            else:
+                accl[l0] += noise - sqh * el[0, l0]
+                accl[l1] += noise - sqh * el[0, l1]
+                accl[l2] += noise - sqh * el[0, l2]
+                accl[l3] += noise - sqh * el[0, l3]
+                w0, w1, w2, w3 = accl[l0], accl[l1], accl[l2], accl[l3]
+                u0, u1, u2, u3 = w0 / sqq, w1 / sqq, w2 / sqq, w3 / sqq
+            for i in range(m - 1):  # (I + h·A0) e: ascending, each row reads the old next one
+                el[i, l0] += h * el[i + 1, l0]
+                el[i, l1] += h * el[i + 1, l1]
+                el[i, l2] += h * el[i + 1, l2]
+                el[i, l3] += h * el[i + 1, l3]
+            el[m - 1, l0] = zd[l0] * el[m - 1, l0] + cp[l0] * xm - shock
+            el[m - 1, l1] = zd[l1] * el[m - 1, l1] + cp[l1] * xm - shock
+            el[m - 1, l2] = zd[l2] * el[m - 1, l2] + cp[l2] * xm - shock
+            el[m - 1, l3] = zd[l3] * el[m - 1, l3] + cp[l3] * xm - shock
+            if reading:
+                p0, r0 = _pr(lane[l0], u0, w0, sqh, own[l0], lim[l0], m)
+                p1, r1 = _pr(lane[l1], u1, w1, sqh, own[l1], lim[l1], m)
+                p2, r2 = _pr(lane[l2], u2, w2, sqh, own[l2], lim[l2], m)
+                p3, r3 = _pr(lane[l3], u3, w3, sqh, own[l3], lim[l3], m)
+                if q > 1:
+                    accl[l0], accl[l1], accl[l2], accl[l3] = 0.0, 0.0, 0.0, 0.0
+                for i in range(m - 1, -1, -1):
+                    e0 = el[i, l0] + G[i, l0] * p0
+                    e1 = el[i, l1] + G[i, l1] * p1
+                    e2 = el[i, l2] + G[i, l2] * p2
+                    e3 = el[i, l3] + G[i, l3] * p3
+                    el[i, l0], el[i, l1], el[i, l2], el[i, l3] = e0, e1, e2, e3
+                    p0 *= r0
+                    p1 *= r1
+                    p2 *= r2
+                    p3 *= r3
+                    total += (e0 + e1) + (e2 + e3)
+                    sq[i, l0] += e0 * e0
+                    sq[i, l1] += e1 * e1
+                    sq[i, l2] += e2 * e2
+                    sq[i, l3] += e3 * e3
+            else:
+                for i in range(m):
+                    e0, e1, e2, e3 = el[i, l0], el[i, l1], el[i, l2], el[i, l3]
+                    total += (e0 + e1) + (e2 + e3)
+                    sq[i, l0] += e0 * e0
+                    sq[i, l1] += e1 * e1
+                    sq[i, l2] += e2 * e2
+                    sq[i, l3] += e3 * e3
+        for a in range(na):  # σ̂ takes in this reading's u² (after their gain used the σ̂ before)
+            f = learn[a]
+            if lane[f] == IDLE:
+                continue
             if kind[f] == 4:
                 _predict_cov(vb_P[f], h, damp[f], q_var)
-            for i in range(m):  # (a filter that leaves the finite numbers here: its window is set to inf after)
-                d = e[f, i]
-                total += d
-                sq[f, i] += d * d
-        if na > 0:  # the σ-learning filters: σ̂ takes in this reading's u² (after their gain used the σ̂ before)
-            for f in range(nf):
-                if died[f] >= 0:
-                    continue
-                if reading and (kind[f] == 2 or kind[f] == 5):
-                    r_k = (k + 1) // q
-                    var = ad[f, AD_VAR]
-                    var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uus[f] - var)
-                    ad[f, AD_VAR] = var
-                    ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
-                    _table_gain(table, ad, f, gain, sqqh)
-                if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
-                    wsig[w, slot[f]] += ad[f, AD_SIGMA]
+            elif reading:
+                u = own[f]
+                uu = u * u
+                if kind[f] == 5:
+                    uu = min(uu, lim[f] * lim[f]) / vb_par[f, 1]
+                r_k = (k + 1) // q
+                var = ad[f, AD_VAR]
+                var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uu - var)
+                ad[f, AD_VAR] = var
+                ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
+                _table_gain(table, ad, f, gain, sqqh)
+                G[:, f] = gain[f]
+            wsig[w, a] += ad[f, AD_SIGMA]
         pending += 1
         if pending == FLUSH:
             _flush(wsq, w, sq)
             pending = 0
         if not math.isfinite(total):  # some filter's error left the finite numbers at this step: stop it
-            _bury(e, died, k)
+            _bury(el, died, lane, k)
         x[m - 1] = decay * xm + shock
         if not math.isfinite(x[m - 1]):
-            _pour(wref, w, cvar, s_cur, same)
-            _flush(wsq, w, sq)
-            return j + 1
+            done = j + 1
+            break
     _pour(wref, w, cvar, s_cur, same)
     _flush(wsq, w, sq)
-    return n
+    for f in range(nf):
+        acc[f] = accl[f]
+        if died[f] < 0:
+            for i in range(m):
+                e[f, i] = el[i, f]
+    return done
