@@ -137,14 +137,16 @@ def test_hubers_kappa_and_the_robust_filters_sigma_on_gaussian_noise():
     assert late == pytest.approx([MODEL.sigma, MODEL.sigma], rel=0.02)
 
 
+@pytest.mark.parametrize("before", [0, 2])  # the filters run in lanes of four: the VB filter in the first or second
 @pytest.mark.parametrize("scenario", [Scenario(sigma_knots=((0.2, 2.0),)), Scenario(sensor_interval=0.03)])
-def test_the_compiled_variational_filter_equals_the_papers_algorithm(scenario):
+def test_the_compiled_variational_filter_equals_the_papers_algorithm(scenario, before):
     spec = variational_kbf(MODEL, sigma_init=60.0, window=200.0)
-    run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=9, extra=[spec])
+    extra = [adaptive_kbf(MODEL), robust_kbf(MODEL)][:before] + [spec]
+    run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=9, extra=extra)
     sq = _vb_loop(MODEL, spec, scenario, run.h, run.N, 9, run.q)
-    got = np.tensordot(run.steps.astype(float), run.mse, axes=1)[3]
+    got = np.tensordot(run.steps.astype(float), run.mse, axes=1)[3 + before]
     assert np.allclose(got, sq, rtol=1e-10, atol=0.0)  # agrees to ≈ 1e-15 (measured)
-    assert run.sigma_hat.shape == (5, 1) and np.all(np.isfinite(run.sigma_hat))
+    assert run.sigma_hat.shape == (5, 1 + before) and np.all(np.isfinite(run.sigma_hat))
 
 
 @pytest.mark.parametrize("scenario", [
