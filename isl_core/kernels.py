@@ -34,12 +34,16 @@ Squared errors e_f,i² are summed per batch: into a per-call accumulator that is
 ≈ (FLUSH + n/FLUSH)·eps relative (≈ 6e-12 for 2·10⁸ steps), not n·eps. The kernel trusts its inputs (validated
 in :mod:`isl_core.simulate`).
 
-Caching: the kernels are compiled once and cached on disk (numba's ``cache=True``) — in ``NUMBA_CACHE_DIR``, or
-beside this file, or the user's cache directory. A container may allow none of them (an arbitrary UID in group 0, a
-read-only root file system): numba would then refuse to load this module ("cannot cache function …: no locator
-available"). :func:`_cache_flag` checks that first; if no place is writable it points numba at a directory under the
-system's temporary directory (``/tmp``, a tmpfs in such containers), and if even that fails it compiles without a
-cache (each process then compiles once, ≈ 10 s). Either fallback is said in one log line (logger ``isl_core``).
+Caching: the kernels are compiled once and cached on disk (numba's ``cache=True``), in a directory named by a
+digest of this package's sources, ``isl-<digest>`` under ``NUMBA_CACHE_DIR`` or else under this package's
+``__pycache__``. numba keys a cached kernel by its own file only, yet compiles into it the functions it calls from
+other files: after a change to one of those alone (``noise.py`` under the scenario loop, say) it would run the old
+code; a new digest compiles afresh. (Each set of sources keeps its directory: a few MB each.) A container may allow
+no writable place (an arbitrary UID in group 0, a read-only root file system): numba would then refuse to load this
+module ("cannot cache function …: no locator available"). :func:`_cache_flag` checks that first; if the place is
+not writable it points numba at a directory under the system's temporary directory (``/tmp``, a tmpfs in such
+containers), and if even that fails it compiles without a cache (each process then compiles once, ≈ 10 s). Either
+fallback is said in one log line (logger ``isl_core``).
 
 ``fastmath={"contract"}`` only lets LLVM fuse ``a*b + c`` into one FMA (one rounding instead of two); it
 keeps IEEE nan/inf semantics, so a diverging filter still shows up as non-finite. Results are bit-identical
@@ -47,6 +51,7 @@ from run to run on one machine.
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 import os
@@ -58,7 +63,7 @@ from numba import njit
 
 __all__ = [
     "AD_INV_STEP", "AD_INV_WINDOW", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "advance", "fast_cbrt",
-    "minmax_block",
+    "minmax_block", "sources_digest",
 ]
 
 #: steps between flushes of the squared-error accumulator into the batch sums (see the module docstring)
@@ -77,27 +82,49 @@ def _probe() -> None:  # a function of this file, to ask numba whether it can ca
     pass
 
 
-def _cache_flag() -> bool:
-    """Whether the kernels can be cached on disk — after falling back to a temporary directory if need be."""
+def sources_digest(folder: str | None = None) -> str:
+    """A digest of the ``*.py`` files of ``folder`` (default: this package), names and contents."""
+    folder = folder or os.path.dirname(os.path.abspath(__file__))
+    digest = hashlib.sha256()
+    for name in sorted(n for n in os.listdir(folder) if n.endswith(".py")):
+        with open(os.path.join(folder, name), "rb") as source:
+            digest.update(name.encode() + b"\0" + source.read() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def _writable(path: str) -> bool:
     try:
-        njit(cache=True)(_probe)
+        os.makedirs(path, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
         return True
-    except RuntimeError as exc:  # "cannot cache function …: no locator available"
-        reason = str(exc)
-    fallback = os.path.join(tempfile.gettempdir(), f"isl-numba-cache-{os.getuid() if hasattr(os, 'getuid') else 0}")
-    try:
-        os.makedirs(fallback, exist_ok=True)
-        tempfile.TemporaryFile(dir=fallback).close()
-        numba.config.CACHE_DIR = fallback
-        njit(cache=True)(_probe)
-    except (OSError, RuntimeError):
-        logging.getLogger("isl_core").warning(
-            "numba: no writable cache directory (%s; %s neither): the kernels are compiled in each process", reason,
-            fallback)
+    except OSError:
         return False
-    logging.getLogger("isl_core").warning("numba: the configured cache is not writable (%s); caching in %s",
-                                          reason, fallback)
-    return True
+
+
+def _cache_flag() -> bool:
+    """Whether the kernels can be cached on disk, and where (module docstring) — after falling back to a temporary
+    directory if need be."""
+    here = f"isl-{sources_digest()}"
+    place = os.path.join(numba.config.CACHE_DIR or os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                                "__pycache__"), here)
+    fallback = os.path.join(tempfile.gettempdir(), f"isl-numba-cache-{os.getuid() if hasattr(os, 'getuid') else 0}",
+                            here)
+    for where in (place, fallback):
+        if _writable(where):
+            numba.config.CACHE_DIR = where
+            try:
+                njit(cache=True)(_probe)
+            except RuntimeError:  # "cannot cache function …: no locator available"
+                continue
+            if where == fallback:
+                logging.getLogger("isl_core").warning("numba: the cache directory is not writable (%s); caching in %s",
+                                                      place, fallback)
+            return True
+    numba.config.CACHE_DIR = ""
+    logging.getLogger("isl_core").warning(
+        "numba: no writable cache directory (%s; %s neither): the kernels are compiled in each process", place,
+        fallback)
+    return False
 
 
 CACHE = _cache_flag()  #: whether the compiled kernels are cached on disk (see the module docstring)

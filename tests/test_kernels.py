@@ -3,11 +3,17 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, optimal_kbf, simulate
+import isl_core
+from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, kernels, optimal_kbf, simulate
 from isl_core.adaptive import adaptive_kbf
 from isl_core.kernels import FLUSH, _root, advance, fast_cbrt
 from isl_core.reference import reference_sigma_hat
@@ -162,3 +168,29 @@ def test_kernel_stops_at_the_first_non_finite_step():
                    0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_e, dummy_s, False, 0)
     assert 0 < done < 100_000
     assert not (np.all(np.isfinite(e)) and np.all(np.isfinite(x[-1])))
+
+
+def test_the_kernel_cache_follows_every_source_file_of_the_package(tmp_path):
+    """numba keys a cached kernel by its own file, yet compiles into it what it calls from other files (the scenario
+    loop inlines noise.py's draws): after an edit of noise.py alone it ran the old draws. The cache directory is
+    named by a digest of all the package's sources: an edit anywhere in it moves the cache, nothing else does."""
+    tree = tmp_path / "tree"
+    shutil.copytree(Path(isl_core.__file__).parent, tree / "isl_core", ignore=shutil.ignore_patterns("__pycache__"))
+    code = "import numba, isl_core.kernels as k; print(k.CACHE, numba.config.CACHE_DIR)"
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def cache_dir() -> str:
+        done = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
+                              check=True)
+        flag, where = done.stdout.split()
+        assert flag == "True" and Path(where).parent == tmp_path / "cache"
+        return where
+
+    first = cache_dir()
+    assert cache_dir() == first  # the same sources: the same cache
+    noise = tree / "isl_core" / "noise.py"
+    source = noise.read_text()
+    assert "DRAWS = 256" in source
+    noise.write_text(source.replace("DRAWS = 256", "DRAWS = 128"))
+    assert cache_dir() != first
+    assert kernels.sources_digest(str(tree / "isl_core")) in cache_dir()
