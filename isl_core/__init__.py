@@ -51,7 +51,7 @@ def clear_caches() -> None:
     """Forget the core's cached solutions (normalized CAREs, Kalman–Bucy filters, adaptive gain tables, ISL
     moments): each is recomputed when next needed. A server calls it when its sessions have ended, so that what a
     class computed does not stay in memory (and pin the allocator's arenas it lies in)."""
-    from . import adaptive, riccati, theory
+    from . import adaptive, nonlinearity, riccati
 
-    for cached in (riccati._normalized_care, adaptive._table, theory._gammas, theory._kb):
+    for cached in (riccati._normalized_care, riccati._solved, adaptive._table, nonlinearity.gamma_moments):
         cached.cache_clear()

@@ -17,6 +17,7 @@ Symbols: ``coef`` = c, ``q`` = exponents, ``L`` (m,), ``Phi`` (m, m).
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from .model import M_MAX
 from .riccati import G_matrix
 from .validate import check_int, check_real
 
-__all__ = ["gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi"]
+__all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "linearization", "phi"]
 
 
 def gamma_abs(p: float) -> float:
@@ -64,8 +65,18 @@ def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.nda
     sigma = check_real("sigma", sigma, lo=0.0, lo_open=True)
     coef = np.asarray(coef, dtype=float)
     q = np.asarray(q, dtype=float)
-    L = coef * np.array([gamma_abs(1.0 + qi) for qi in q]) * sigma ** (1.0 + q)  # (B.40)
+    g1, g2 = gamma_moments(tuple(float(x) for x in q))
+    L = coef * g1 * sigma ** (1.0 + q)  # (B.40)
     qq = q[:, None] + q[None, :]
-    gam = np.vectorize(gamma_abs)(qq)
-    Phi = np.outer(coef, coef) * gam * sigma**qq  # (B.43)
+    Phi = np.outer(coef, coef) * g2 * sigma**qq  # (B.43)
     return L, Phi
+
+
+@lru_cache(maxsize=64)
+def gamma_moments(q: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """``γ_{1+q_i}`` (m,) and ``γ_{q_i+q_j}`` (m, m) for the exponents ``q`` (read-only; cached: a dashboard run
+    linearizes eight filters, 0.5 ms of Γ function calls uncached). ``isl_core.clear_caches`` empties the cache."""
+    g1 = np.array([gamma_abs(1.0 + qi) for qi in q])
+    g2 = np.array([[gamma_abs(qi + qj) for qj in q] for qi in q])
+    g1.flags.writeable = g2.flags.writeable = False
+    return g1, g2

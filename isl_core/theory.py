@@ -36,14 +36,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from functools import lru_cache
 
 import numpy as np
 
 from .filters import FilterSpec, isl_filter
 from .model import Model
-from .nonlinearity import gamma_abs
-from .riccati import KalmanBucy, kalman_bucy
+from .nonlinearity import gamma_moments
+from .riccati import kalman_bucy
 from .validate import check_real, check_reals, short
 
 __all__ = [
@@ -71,23 +70,9 @@ def lyapunov(M: np.ndarray, Q: np.ndarray, h: float = 0.0) -> np.ndarray:
     return 0.5 * (P + np.swapaxes(P, -1, -2))
 
 
-@lru_cache(maxsize=64)
-def _gammas(q: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """``γ_{1+q_i}`` (m,) and ``γ_{q_i+q_j}`` (m, m) for the exponents ``q``."""
-    g1 = np.array([gamma_abs(1.0 + qi) for qi in q])
-    g2 = np.array([[gamma_abs(qi + qj) for qj in q] for qi in q])
-    return g1, g2
-
-
-@lru_cache(maxsize=1024)
-def _kb(model: Model) -> KalmanBucy:
-    """The stationary Kalman–Bucy filter (A.23), cached per (frozen, hashable) model; its arrays are read-only."""
-    return kalman_bucy(model)
-
-
 def _optimal_s(model: Model) -> np.ndarray:
     """Optimal RMSE ``s_i = √Δ_ii`` (A.29–A.30)."""
-    return _kb(model).s
+    return kalman_bucy(model).s
 
 
 def _moments(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +80,7 @@ def _moments(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray,
 
     ``coef`` (..., m) shares the exponents ``q`` (m,).
     """
-    g1, g2 = _gammas(tuple(float(x) for x in q))
+    g1, g2 = gamma_moments(tuple(float(x) for x in q))
     qq = q[:, None] + q[None, :]
     L = coef * g1 * sigma ** (1.0 + q)  # (B.40)
     Phi = coef[..., :, None] * coef[..., None, :] * g2 * sigma**qq  # (B.43)
@@ -194,7 +179,7 @@ def mismatched_kbf(model: Model, sigma_design: float) -> FilterSpec:
     """Kalman–Bucy filter whose gain K̄ solves the CARE (A.23) for σ̄ = ``sigma_design`` instead of σ."""
     sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
     design = Model(model.alpha, model.beta, sigma_design, model.m)
-    K = np.array(_kb(design).K, dtype=float)
+    K = np.array(kalman_bucy(design).K, dtype=float)
     return FilterSpec("kbf_mismatched", f"Kalman–Bucy designed for σ̄ = {sigma_design:.4g}", model.alpha, K, False)
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import gc
 import weakref
 
+import numpy as np
 import pytest
 from _serving import load_test, run, served
 
@@ -75,8 +76,8 @@ def test_what_has_lived_is_frozen_out_of_collections_until_a_full_one():
 def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collection_runs():
     from app.serving.memory import MemoryTrimmer
     from isl_core import Model, kalman_bucy
-    from isl_core.riccati import _normalized_care
-    from isl_core.theory import _kb
+    from isl_core.nonlinearity import gamma_moments, linearization
+    from isl_core.riccati import _normalized_care, _solved
 
     class Server:
         sessions: list = []
@@ -87,13 +88,14 @@ def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collect
     server = Server()
     trimmer = MemoryTrimmer(server)
     try:
-        _kb(Model(0.7, 2.0, 20.0, 3))
         kalman_bucy(Model(0.9, 2.0, 20.0, 3))
+        linearization(np.ones(3), np.array([0.5, 0.25, 0.0]), 2.0)
+        caches = (_normalized_care, _solved, gamma_moments)
         server.sessions = [object()]
         trimmer()  # a session open: nothing ended, the caches stay
-        assert _normalized_care.cache_info().currsize > 0 and _kb.cache_info().currsize > 0
+        assert all(cached.cache_info().currsize > 0 for cached in caches)
         server.sessions = []
         trimmer()  # it ended, none is left
-        assert _normalized_care.cache_info().currsize == 0 and _kb.cache_info().currsize == 0
+        assert all(cached.cache_info().currsize == 0 for cached in caches)
     finally:
         gc.unfreeze()
