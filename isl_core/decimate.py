@@ -128,6 +128,9 @@ class MinMax:
             raise ValueError(f"only {self.seen} of {self.n} samples were added")
         if self.n == 1:
             return np.zeros(1, np.int64), self._ends[0, trace:trace + 1].copy()
+        if self.whole and np.array_equal(self._lo_i[:, trace], np.arange(1, self.n - 1)):  # every sample, in order
+            return np.arange(self.n), np.concatenate([self._ends[:1, trace], self._lo_v[:, trace],
+                                                      self._ends[1:, trace]])
         idx = np.concatenate([[0], self._lo_i[:, trace], self._hi_i[:, trace], [self.n - 1]])
         val = np.concatenate([[self._ends[0, trace]], self._lo_v[:, trace], self._hi_v[:, trace],
                               [self._ends[1, trace]]])

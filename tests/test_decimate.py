@@ -72,6 +72,19 @@ def test_block_by_block_keeps_exactly_what_the_whole_trace_keeps(n, max_points, 
         np.testing.assert_array_equal(val, Y[expected, j])
 
 
+def test_a_short_trace_comes_back_whole_but_for_a_nan_sample():
+    """A trace of at most max_points samples is kept whole (each bucket one sample); a nan sample is neither below
+    nor above anything, so its bucket keeps no sample and it is left out, never shown as the bucket's ±inf."""
+    red = MinMax(5, 2)
+    red.add(np.array([[0.0, 0.0], [1.0, 1.0], [np.nan, 2.0], [3.0, 3.0], [4.0, 4.0]]))
+    idx, val = red.result(0)
+    np.testing.assert_array_equal(idx, [0, 1, 3, 4])
+    np.testing.assert_array_equal(val, [0.0, 1.0, 3.0, 4.0])
+    idx, val = red.result(1)
+    np.testing.assert_array_equal(idx, np.arange(5))
+    np.testing.assert_array_equal(val, np.arange(5.0))
+
+
 def test_block_reducer_refuses_misuse():
     red = MinMax(10_000, 2, 100)
     with pytest.raises(ValueError, match="only 0 of 10000 samples"):
