@@ -16,9 +16,9 @@ accepted with f/envelope. Exact but for the 2⁻⁴⁴ grid of positions in a la
 10⁶ build in 10–20 ms. Measured, d = 3 (``benchmarks/bench_scenario.py``, fastest of 4 × 3): 5.0 ns a draw, a normal
 3.7 ns, NumPy's ``standard_t`` 33 ns (a normal over the root of a gamma draw); in an earlier run, Bailey's polar
 method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log and an exp a draw) 29 ns against
-``standard_t``'s 42. The scenario run at the Fig. 3 defaults (10⁶ steps, the same benchmark): Student-t noise
-45.4 ns a step, Gaussian 43.7, outliers 44.5 (before the draws were loops of their own per law and the outliers
-geometric: 49.7, 45.9, 48.4).
+``standard_t``'s 42. The scenario run at the Fig. 3 defaults (10⁶ steps, the same benchmark, before its filters ran
+in lanes): Student-t noise 45.4 ns a step, Gaussian 43.7, outliers 44.5 (before the draws were loops of their own per
+law and the outliers geometric: 49.7, 45.9, 48.4); with the lanes, 37.1, 35.2 and 35.4.
 
 The scenario loop draws its noise :data:`DRAWS` steps ahead, in a tight loop of its own (:func:`draw_ahead`), in the
 stream's order v_0, ε_0, v_1, ε_1, … (and the outliers' uniforms where they fall) — the order in which it used to
