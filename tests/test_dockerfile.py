@@ -171,6 +171,9 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
                                 capture_output=True, text=True, timeout=600, check=False)
     assert build_step.returncode == 0, build_step.stdout[-2000:] + build_step.stderr[-3000:]
     assert any((tmp_path / "numba").rglob("*.nbi")), "the build step must fill the numba cache"
+    # every kernel a session calls, the scenario loop included (else the first Scenario tab compiled it: 14 s)
+    assert any((tmp_path / "numba").rglob("scenario_kernel.advance_scenario-*.nbi"))
+    assert any((tmp_path / "numba").rglob("kernels.minmax_block-*.nbi"))
 
     health = stage["HEALTHCHECK"]
     probe = local_argv(exec_form(health[health.index("CMD") + 3:].strip()))

@@ -221,10 +221,16 @@ def _raise_if_failed(applications) -> None:
 
 
 def warm_core() -> None:
-    """Compile (or load from the numba cache) the simulation kernel with one short run."""
-    from isl_core import Model, simulate
+    """Compile (or load from the numba cache) every kernel a session calls, each with one short run: the display
+    run's (the simulation and its min/max fold) and the scenario loop's. Left to the first session that opened the
+    Scenario tab, the scenario loop compiled there: its picture came after 14 s, and while numba compiled (holding
+    the interpreter lock most of the time) the event loop's thread waited up to 166 ms for it."""
+    from isl_core import Model, Scenario
+    from isl_core.runview import simulate_view
+    from isl_core.scenario_run import simulate_scenario
     model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
-    simulate(model, nu=3.0, seed=0, T=1.0)
+    simulate_view(model, 3.0, seed=0, horizon=1.0)
+    simulate_scenario(model, 3.0, Scenario(), horizon=1.0, windows=1)
 
 
 def warm_long_jobs() -> None:
