@@ -160,8 +160,8 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     t_{k+1} and σ_k per window; ``acc`` (nf,) the filters' accumulated innovations carried from chunk to chunk;
     ``ad`` the adaptive filters' state (as in :func:`isl_core.kernels.advance`). A filter whose error leaves the
     finite numbers at step k is stopped there: ``died[f] = k`` (−1 while it lives), its lane goes idle (what it sums
-    from then on lands in windows the run sets to inf), the others go on. Returns the number of steps done (fewer only if the truth itself leaves the
-    finite numbers).
+    from then on lands in windows the run sets to inf), the others go on. Returns the number of steps done (fewer
+    only if the truth itself leaves the finite numbers).
 
     The filters run in lanes of four (the last ones padded with idle lanes): errors ``el`` (m, lanes),
     gains ``G`` (m, lanes: √(qh)·K, the power law's coefficients, the clairvoyant gain, the variational filter's
