@@ -12,8 +12,11 @@ if not __package__:  # run as a script (`panel serve app/app.py`): make `app` th
 import panel as pn
 
 from app.page import LONG_JOBS, TITLE, LocalFast, SessionGate, create_app, deferred, session_jobs
+from app.serving import fastpath
 
 __all__ = ["LONG_JOBS", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 if pn.state.served:
-    create_app().servable(title="isl — Kalman–Bucy vs ISL")
+    with pn.state.curdoc.models.freeze():  # one walk of the page's models at the end, not one per root added
+        create_app().servable(title="isl — Kalman–Bucy vs ISL")
+        fastpath.settle_markup_stylesheets(pn.state.curdoc)

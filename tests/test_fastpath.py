@@ -149,3 +149,40 @@ def _refs(content) -> list:
         elif isinstance(item, list | tuple):
             todo.extend(item)
     return found
+
+
+def _page_with_html(doc: Document) -> pn.pane.HTML:
+    """An HTML pane in the dashboard's template and design, built in ``doc``."""
+    from app.page import LocalFast
+
+    pane = pn.pane.HTML("<b>first</b>")
+    pn.template.FastListTemplate(title="t", main=[pn.Column(pane)], design=LocalFast).server_doc(doc)
+    return pane
+
+
+def test_a_settled_markup_panes_first_update_does_not_re_walk_the_page(monkeypatch):
+    """Panel builds a markup pane's model with other stylesheets than its updates send: unsettled, the first update
+    of the pane's text re-walks every model of the page (bokeh's ``recompute``); settled, none does, and the model
+    has what an update would have given it."""
+    from bokeh.document.models import DocumentModelManager
+    from panel.io.state import set_curdoc
+
+    walks: list = []
+    recompute = DocumentModelManager.recompute
+    monkeypatch.setattr(DocumentModelManager, "recompute", lambda self: walks.append(self) or recompute(self))
+    plain, settled = Document(), Document()
+    with set_curdoc(plain):
+        pane = _page_with_html(plain)
+        walks.clear()
+        pane.object = "<b>second</b>"
+        assert len(walks) == 1  # why the settling exists (if Panel stops doing this, it can go)
+    with set_curdoc(settled):
+        pane = _page_with_html(settled)
+        walks.clear()
+        fastpath.settle_markup_stylesheets(settled)
+        assert len(walks) <= 1  # every pane settled in one walk
+        model = next(iter(pane._models.values()))[0]
+        assert model.stylesheets == pane._get_properties(settled)["stylesheets"]
+        walks.clear()
+        pane.object = "<b>second</b>"
+        assert walks == [] and "second" in model.text
