@@ -26,7 +26,8 @@ def test_plots_show_the_run_and_the_tube_is_three_s_around_the_kalman_bucy_estim
         assert band.source is view._sources[i]["kbf"]
         assert band.upper.transform.value == pytest.approx(3 * run.s[i])
         assert band.lower.transform.value == pytest.approx(-3 * run.s[i])
-    assert [p.object for p in view._column.objects[2:]] == view._figures[:run.model.m]
+    assert [p.visible for p in view._column.objects] == [False, False, True]  # no indicator, no reason: the plots
+    assert [p.object for p in view._plots.objects[2:]] == view._figures[:run.model.m]  # (after the mode, the legend)
     assert [f.xaxis[0].visible for f in view._figures[:3]] == [False, False, True]  # one time axis, at the bottom
 
 
