@@ -98,6 +98,21 @@ class SessionGate:
         for fn in pending:
             self._execute(fn)
 
+    def apply_here(self) -> None:
+        """On the thread building the page (before the browser can have it): apply the outcomes that arrived
+        meanwhile right here, so that the page goes out with them — usually the first run, computed while the page
+        was built. Applied later on the loop, its plots replaced the progress indicator there: the server re-walked
+        every model of the page, ≈ 30 ms of the event loop's time a page (140 ms under a class's load)."""
+        from panel.io.state import set_curdoc
+
+        with self._lock:
+            if self._open:
+                return
+            pending, self._pending = self._pending, []
+        with set_curdoc(self.doc):
+            for fn in pending:
+                fn()
+
     def _execute(self, fn: Callable[[], None]) -> None:
         from panel.io.state import set_curdoc
 
@@ -116,13 +131,15 @@ class SessionGate:
             pn.state.execute(run, schedule=True)
 
 
-def session_jobs() -> Jobs:
-    """Thread-pool jobs bound to the current server session, or inline jobs outside a server."""
+def session_jobs(gate: SessionGate | None = None) -> Jobs:
+    """Thread-pool jobs bound to the current server session (their outcomes through ``gate``, by default a new
+    one), or inline jobs outside a server."""
     doc = pn.state.curdoc
     if doc is None or doc.session_context is None:
         return Jobs()
     pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL}
-    gate = SessionGate(doc)
+    if gate is None:
+        gate = SessionGate(doc)
     pn.state.onload(gate.opened)
     return Jobs(pools, schedule=gate.schedule, long_queue=LONG_JOBS)
 
@@ -141,16 +158,24 @@ class LocalFast(pn.theme.Fast):
     _resources["js_modules"] = {**_resources["js_modules"], "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"}
 
 
-def deferred(build: Callable[[], object]):
-    """``build()``'s result, built after the page is connected — on Panel's thread pool when the server has one
-    (``--num-threads``), never while the session is being created on the event loop.
+def deferred(build: Callable[[], object], shown: bool = True):
+    """``build()``'s result: built with the page when the server builds pages on its page thread
+    (:func:`app.serving.offloop.build_pages_off_loop`) and the part is ``shown`` at once; otherwise built after the
+    page is connected — on Panel's thread pool when the server has one (``--num-threads``), never while the session
+    is being created on the event loop.
 
-    Building the plots of the three tabs costs ≈ 1 s of Python (bokeh models); done while a session is created it
-    blocked the loop that answers every other session and ``/liveness``. With ``defer_load`` the page appears at
-    once with a loading indicator where the content will be. The piece's bokeh models are built on that thread too
-    (:func:`app.serving.offloop.prebuild`): left to Panel, they were built on the loop when the piece is swapped in — 6 to
-    215 ms a piece.
+    A part swapped into a connected page costs the event loop a walk of every model of the page (bokeh's
+    ``recompute``), the serialization of the part's models and Panel's search of the page for links: with four such
+    parts a page, 200 swaps took 15.8 s of the loop in a classroom run (max 436 ms each), and ``/liveness`` p99 was
+    0.9–1.0 s. Built with the page instead (off the loop, one walk), the browser pulls the whole page at once; the
+    classroom scenario's ``/liveness`` p99 went to 134–144 ms (before/after in one run each). The hidden tabs'
+    parts (``shown=False``) are still deferred: most pages never open them. Their models are built on the thread
+    too (:func:`app.serving.offloop.prebuild`): left to Panel, they were built on the loop when the piece is
+    swapped in — 6 to 215 ms a piece.
     """
+    if shown and offloop.building_page():
+        return pn.panel(build())
+
     def built():
         obj = pn.panel(build())
         offloop.prebuild(obj, pane._inner_layout)
@@ -162,8 +187,10 @@ def deferred(build: Callable[[], object]):
 
 def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     """A new dashboard page over ``state`` (a fresh :class:`AppState` by default), URL-synced when served."""
+    doc = pn.state.curdoc
+    gate = SessionGate(doc) if state is None and doc is not None and doc.session_context is not None else None
     if state is None:
-        state = AppState(jobs=session_jobs())
+        state = AppState(jobs=session_jobs(gate))
     if pn.state.location is not None:
         UrlSync(state, pn.state.location, after_pause(pn.state.curdoc))  # kept alive by the watchers it registers
     state.start()
@@ -175,18 +202,21 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         NumbersView(state=state), flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"))
     present = presenter_mode()
     tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories),
-                   ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state))),
-                   ("Worst case over σ", deferred(lambda: WorstCaseView(state=state))),
-                   ("Compare σ", deferred(lambda: CompareView(state=state))),
-                   ("Scenarios: σ(t), tails, sensor", deferred(lambda: ScenarioView(state=state))),
+                   ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state), shown=False)),
+                   ("Worst case over σ", deferred(lambda: WorstCaseView(state=state), shown=False)),
+                   ("Compare σ", deferred(lambda: CompareView(state=state), shown=False)),
+                   ("Scenarios: σ(t), tails, sensor", deferred(lambda: ScenarioView(state=state), shown=False)),
                    sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
-    return pn.template.FastListTemplate(
+    page = pn.template.FastListTemplate(
         title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),
                               deferred(about_card)], main=[tabs],
         sidebar_width=340, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
         main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
         header=[presenter_toggle(present)], collapsed_sidebar=present, raw_css=[PRESENTER_CSS] if present else [],
     )
+    if gate is not None and offloop.building_page():
+        gate.apply_here()
+    return page
 
 
 #: presenter mode: larger text everywhere (the plots' own fonts are already sized for a projector)

@@ -187,6 +187,60 @@ def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the
     assert state._thread_id_[session.document] == loop_thread
 
 
+def test_the_dashboards_shown_parts_are_built_with_the_page_not_swapped_in_on_the_loop(monkeypatch):
+    """The dashboard's page, built off the loop as the server builds it: its controls and the trajectories' plots
+    are in the document the browser pulls (not placeholders that the loop fills in later, re-walking every model of
+    the page for each part), and the hidden tabs are left for when they are opened."""
+    from bokeh.command.util import build_single_handler_application
+    from bokeh.document.models import DocumentModelManager
+    from bokeh.models import ColumnDataSource, Slider
+
+    from app.serving.serve import app_script
+
+    walks: list[str] = []  # the thread of every walk of a document's models
+    recompute = DocumentModelManager.recompute
+    monkeypatch.setattr(DocumentModelManager, "recompute",
+                        lambda self: walks.append(threading.current_thread().name) or recompute(self))
+    application = build_single_handler_application(app_script())
+    offloop.build_pages_off_loop(application)
+
+    async def create():
+        from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
+
+        request = HTTPServerRequest(start_line=RequestStartLine("GET", "/app", "HTTP/1.1"),
+                                    headers=HTTPHeaders({"Host": "127.0.0.1"}))  # a browser's request, with no query
+        session = await ApplicationContext(application, url="/app").create_session_if_needed("a-page", request)
+        return session.document, threading.current_thread().name
+
+    doc, loop_thread = asyncio.run(create())
+    sliders = [m.title for m in doc.models if isinstance(m, Slider)]
+    assert any("σ" in title for title in sliders), sliders  # the controls
+    assert doc.get_model_by_name("traj-1-isl") is not None  # the plots of Fig. 3
+    assert doc.get_model_by_name("traj-1-isl").__class__ is ColumnDataSource
+    assert walks and loop_thread not in walks  # the page's models were walked on the page thread only
+    assert not any(m.name and m.name.startswith("sweep-") for m in doc.models)  # a hidden tab: not built yet
+
+
+def test_outcomes_that_arrive_while_the_page_is_built_go_out_with_it(monkeypatch):
+    """A job's outcome (the first run) that arrives while the page is built is applied on the building thread by
+    ``apply_here``, before any browser has the page; once the page is connected, ``apply_here`` does nothing."""
+    from app.page import SessionGate
+
+    sent: list = []
+    monkeypatch.setattr(pn.state, "execute", lambda fn, schedule=False: sent.append(fn))
+    doc, applied = Document(), []
+    gate = SessionGate(doc)
+    worker = threading.Thread(target=gate.schedule, args=(lambda: applied.append((1, state.curdoc)),))
+    worker.start()
+    worker.join()
+    gate.apply_here()
+    assert applied == [(1, doc)] and sent == []  # applied here, with the page's document current
+    gate.opened()
+    gate.schedule(lambda: applied.append(2))
+    gate.apply_here()
+    assert [a for a, *_ in applied] == [1] and len(sent) == 1  # later outcomes go to the loop, as before
+
+
 def test_prebuilt_models_are_the_ones_panel_attaches():
     doc = Document()
     container = pn.Column()

@@ -156,6 +156,11 @@ def _register(doc, callback) -> None:
         log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 
+def building_page() -> bool:
+    """This thread is :data:`PAGE_POOL`'s, building a new session's page (see :func:`build_pages_off_loop`)."""
+    return threading.current_thread().name.startswith("isl-page")
+
+
 def build_pages_off_loop(application) -> None:
     """Make ``application`` (a bokeh/Panel ``Application``) build each new session's document on
     :data:`PAGE_POOL` instead of the event loop (idempotent)."""
