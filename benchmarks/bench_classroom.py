@@ -2,6 +2,7 @@
 
     PYTHONPATH=. python benchmarks/bench_classroom.py [--students 40] [--duration 300] [--baseline 60]
     PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before   # a worktree of the previous commit
+    PYTHONPATH=. python benchmarks/bench_classroom.py --before . --env PYTHONMALLOC=malloc   # a setting's effect
     PYTHONPATH=. python benchmarks/bench_classroom.py --url http://127.0.0.1:5006 --server-pid PID --log LOG
 
 Starts ``python -m app.serving`` on a free loopback port (or measures a running one) and, with the scripted
@@ -299,14 +300,16 @@ def report(columns: dict[str, Figures]) -> str:
     return "\n".join(lines)
 
 
-def measure(opts, repo: Path) -> Figures:
-    """The scenario against a server started from checkout ``repo`` (or the running one of ``--url``)."""
+def measure(opts, repo: Path, env: list[str]) -> Figures:
+    """The scenario against a server started from checkout ``repo`` with more environment ``env`` (``NAME=VALUE``
+    items), or against the running one of ``--url``."""
     proc = None
     url, pid, log = opts.url, opts.server_pid, opts.log
     if url is None:
         port = sc.free_port()
         log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-classroom-{port}.log"
-        proc = sc.start_server(port, log, ["--stats-interval", "1000", *opts.server_args.split()], repo=repo)
+        proc = sc.start_server(port, log, ["--stats-interval", "1000", *opts.server_args.split()], repo=repo,
+                               env=dict(item.split("=", 1) for item in env))
         sc.wait_healthy(port, 180, proc)
         url, pid = f"http://127.0.0.1:{port}", proc.pid
     try:
@@ -328,14 +331,21 @@ def main() -> int:
     p.add_argument("--before", type=Path, metavar="CHECKOUT",
                    help="first measure a server started from this other checkout (e.g. a git worktree of the "
                         "previous commit), then this one's: the table's before and after columns")
+    p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
+                   help="environment of the server this script starts (repeatable), e.g. PYTHONMALLOC=malloc")
+    p.add_argument("--before-env", action="append", default=[], metavar="NAME=VALUE",
+                   help="environment of the --before server (repeatable); with --before . one checkout is measured "
+                        "twice, e.g. with and without an allocator setting")
     opts = p.parse_args()
+    if any("=" not in item for item in opts.env + opts.before_env):
+        p.error("--env and --before-env take NAME=VALUE")
     if opts.before is not None and opts.url is not None:
         p.error("--before starts its own servers: it does not go with --url")
     columns = {}
     if opts.before is not None:
-        columns["before"] = measure(opts, opts.before.resolve())
+        columns["before"] = measure(opts, opts.before.resolve(), opts.before_env)
         TIMELINE.clear()
-    columns["after" if columns else "this checkout"] = figures = measure(opts, sc.REPO)
+    columns["after" if columns else "this checkout"] = figures = measure(opts, sc.REPO, opts.env)
     print(f"classroom scenario: {opts.students} students, baseline {opts.baseline:g} s, loaded {opts.duration:g} s "
           f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)")
     print(report(columns))

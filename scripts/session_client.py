@@ -336,8 +336,10 @@ def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict
                  script: str | None = None, repo: Path = REPO) -> subprocess.Popen:
     """Start ``python -m app.serving`` of checkout ``repo`` (default: this one) on 127.0.0.1:``port`` (optionally
     serving another app ``script``)."""
-    code = ("import sys\ntry:\n    import app.serving.serve as s\n"
-            "except ModuleNotFoundError:\n    import app.serve as s\n"   # a checkout from before app/serving
+    # a checkout from before app/serving has app/serve.py (chosen by the tree: the editable install of this one
+    # would supply a missing app.serving from here)
+    module = "app.serving.serve" if (repo / "app" / "serving").is_dir() else "app.serve"
+    code = (f"import sys\nimport {module} as s\n"
             + (f"s.app_script = lambda: {script!r}\n" if script else "")
             + "sys.exit(s.main(sys.argv[1:]))")
     full_env = {**os.environ, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}
