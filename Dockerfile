@@ -3,7 +3,8 @@
 #   docker run --rm -p 5006:5006 -e ISL_ALLOWED_ORIGINS=localhost:5006 isl
 # Settings by environment at `docker run` time: ISL_ALLOWED_ORIGINS (comma-separated host[:port] the browsers
 # use to reach the server), ISL_FRAME_ANCESTORS (a course page allowed to frame it), ISL_NUM_PROCS,
-# ISL_NUM_THREADS (see app/serving/serve.py). Runs as any UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
+# ISL_NUM_THREADS (see app/serving/serve.py). The image sets PYTHONMALLOC=malloc: a class's memory goes back to the
+# OS when it ends (app/serving/memory.py). Runs as any UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
 # The base image by digest: python:3.11.14-slim-bookworm (the multi-architecture index).
 ARG PYTHON_IMAGE=python:3.11.14-slim-bookworm@sha256:65a93d69fa75478d554f4ad27c85c1e69fa184956261b4301ebaf6dbb0a3543d
 
@@ -20,6 +21,7 @@ FROM ${PYTHON_IMAGE}
 ENV PATH=/opt/venv/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONMALLOC=malloc \
     NUMBA_CACHE_DIR=/var/cache/isl/numba \
     HOME=/tmp \
     ISL_ADDRESS=0.0.0.0 \

@@ -2,7 +2,7 @@
 
     PYTHONPATH=. python benchmarks/bench_classroom.py [--students 40] [--duration 300] [--baseline 60]
     PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before   # a worktree of the previous commit
-    PYTHONPATH=. python benchmarks/bench_classroom.py --before . --env PYTHONMALLOC=malloc   # a setting's effect
+    PYTHONPATH=. python benchmarks/bench_classroom.py --before . --before-env PYTHONMALLOC=pymalloc  # a setting
     PYTHONPATH=. python benchmarks/bench_classroom.py --url http://127.0.0.1:5006 --server-pid PID --log LOG
 
 Starts ``python -m app.serving`` on a free loopback port (or measures a running one) and, with the scripted
@@ -332,7 +332,8 @@ def main() -> int:
                    help="first measure a server started from this other checkout (e.g. a git worktree of the "
                         "previous commit), then this one's: the table's before and after columns")
     p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
-                   help="environment of the server this script starts (repeatable), e.g. PYTHONMALLOC=malloc")
+                   help="environment of the server this script starts (repeatable; this checkout's is served as "
+                        "scripts/serve serves it), e.g. PYTHONMALLOC=pymalloc")
     p.add_argument("--before-env", action="append", default=[], metavar="NAME=VALUE",
                    help="environment of the --before server (repeatable); with --before . one checkout is measured "
                         "twice, e.g. with and without an allocator setting")

@@ -36,6 +36,8 @@ from tornado.httpclient import HTTPRequest
 from tornado.websocket import websocket_connect
 
 REPO = Path(__file__).resolve().parents[1]
+#: the environment ./scripts/serve and the image give the server (the allocator: app/serving/memory.py)
+SERVE_ENV = {"PYTHONMALLOC": "malloc"}
 LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 DATA_EVENTS = {"ColumnDataChanged", "ColumnsStreamed", "ColumnsPatched"}
 # A session opens in a few seconds of server CPU, one after another: a generous bound that only catches hangs.
@@ -342,7 +344,10 @@ def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict
     code = (f"import sys\nimport {module} as s\n"
             + (f"s.app_script = lambda: {script!r}\n" if script else "")
             + "sys.exit(s.main(sys.argv[1:]))")
-    full_env = {**os.environ, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", **(env or {})}
+    # this checkout served as scripts/serve serves it; an older checkout as it was (its scripts/serve set nothing)
+    served_as = SERVE_ENV if repo.resolve() == REPO else {}
+    full_env = {**os.environ, **served_as, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
+                **(env or {})}
     with open(log_path, "w") as log:                       # the child keeps its own descriptor
         return subprocess.Popen([sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
                                 stdout=log, stderr=subprocess.STDOUT, env=full_env, cwd=repo)

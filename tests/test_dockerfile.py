@@ -197,6 +197,8 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
             assert page.status == 200 and page.url.endswith("/app")
         assert "<html" in body.lower() and "Bokeh" in body and "Traceback" not in body
         assert f"http://localhost:{port}/" in log.read_text()        # the URL is printed on start
+        # the image's ENV gives the allocator that hands a class's memory back (app.serving.memory.check_allocator)
+        assert "memory: glibc's allocator" in log.read_text()
     finally:
         code = session_client.stop_server(proc)
     assert code == 0, log.read_text()[-3000:]                      # SIGTERM (docker stop) is a clean exit

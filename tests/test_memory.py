@@ -24,7 +24,7 @@ DRIFT = 0.10
 
 @pytest.mark.slow
 def test_sessions_return_to_zero_and_memory_does_not_grow(tmp_path):
-    # with the allocator that hands memory back (opt-in, app.serving.memory.check_allocator)
+    # with the allocator that hands memory back (as scripts/serve and the image serve it; app.serving.memory)
     with served(tmp_path, *load_test.MEMORY_SERVER_ARGS, env={"PYTHONMALLOC": "malloc"}) as (url, proc, log):
         rounds = [run(load_test.memory_round(url, proc.pid, log, SESSIONS), 600) for _ in range(ROUNDS)]
     print(load_test.memory_report(rounds, SESSIONS))

@@ -13,7 +13,7 @@ import time
 
 log = logging.getLogger("isl.serve")
 
-#: the allocator that hands a class's memory back (opt-in, set before Python starts; see :func:`check_allocator`)
+#: the allocator that hands a class's memory back (set by scripts/serve and the image; see :func:`check_allocator`)
 ALLOCATOR_ENV = ("PYTHONMALLOC", "malloc")
 # How often to check whether sessions have ended and, if so, hand freed heap memory back to the OS.
 TRIM_INTERVAL_MS = 5_000
@@ -151,24 +151,26 @@ def young_then_freeze() -> None:
 
 
 def check_allocator() -> bool:
-    """Whether Python's small objects come from the C allocator (``PYTHONMALLOC=malloc``); one log line if not.
+    """Whether Python's small objects come from the C allocator (``PYTHONMALLOC=malloc``); one log line says which.
 
     Python's own small-object allocator takes memory in 1 MiB arenas and returns an arena only when every object in
     it is gone. A class leaves a few hundred long-lived objects (caches filled by the first sessions, interned names)
     scattered over the arenas its sessions used, and those pin them: with 40 sessions opened and closed, the server's
     RSS stayed at 475–517 MB against 346 MB idle (no Python object of the sessions was left, and ``malloc_trim`` ran).
     With ``PYTHONMALLOC=malloc`` the same objects come from glibc, whose freed pages ``malloc_trim`` returns: 364–365
-    MB after each of two rounds, against 353 MB idle. The price is the event loop's time: glibc's allocator is slower
-    for Python's small objects (serializing the page 97–113 → 131–136 ms, re-walking its models 23–29 → 30–35 ms;
-    in the classroom scenario, one run each, ``/liveness`` p99 0.93 → 1.71 s and RSS after close 1.77 → 1.18 × idle).
-    A class's responsiveness comes first, so it is opt-in (read when Python starts: set it in the environment); what
-    stays without it is a plateau — a second and third class do not add to it — not a leak. One log line says which.
+    MB after each of two rounds, against 353 MB idle. glibc's allocator is slower for Python's small objects
+    (serializing a page 97–113 → 131–136 ms), which once cost the classroom scenario's ``/liveness`` p99 0.93 → 1.71 s;
+    since pages are built off the event loop the price is small (classroom scenario, one run each, Python's → glibc's:
+    ``/liveness`` p99 37 → 49 ms, students' p95 beside the heavy sessions 52 → 68 ms, RSS after close 1.40 → 1.08 ×
+    idle: each within the classroom aims). So ``./scripts/serve`` and the image set it (Python reads it at start: an
+    environment setting); ``PYTHONMALLOC=pymalloc`` keeps Python's allocator (memory then stays at a plateau for the
+    next class: not a leak).
     """
     name, value = ALLOCATOR_ENV
     chosen = os.environ.get(name) == value
     log.info("memory: %s (%s=%s %s)", "glibc's allocator: closed sessions' memory goes back" if chosen else
              "Python's allocator: the memory a class used stays for the next one", name, value,
-             "set" if chosen else "hands it back, for a slower event loop")
+             "set" if chosen else "hands it back (scripts/serve and the image set it)")
     return chosen
 
 
