@@ -17,6 +17,11 @@ the memory run (open and close 50 sessions three times; the server's RSS after e
 
     PYTHONPATH=. python scripts/load_test.py --memory 3 --sessions 50
 
+the classroom scenario with four hostile-heavy sessions beside 40 students, ``/liveness`` probed and new pages
+opened, before/after two checkouts (README, "What one replica holds"; built on this script's client):
+
+    PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before
+
 or against a running server (``./scripts/serve`` or the container)::
 
     python scripts/load_test.py --url http://127.0.0.1:5006 --server-pid <pid> --sessions 100 --duration 300
