@@ -112,3 +112,18 @@ def test_filters_ticked_on_a_live_page_rewalk_its_models_once(monkeypatch):
     view.state.extra_filters = ["kbf_minimax", "kbf_adaptive"]
     assert sum(len(fig.renderers) for fig in view._figures) == count + 2 * 3  # a line per filter and plot
     assert len(walks) == 1
+
+
+def test_a_run_that_adds_no_line_does_not_rewalk_the_page(monkeypatch):
+    from bokeh.document import Document
+
+    view = TrajectoriesView(state=AppState(m=3, extra_filters=["kbf_minimax"]))
+    view.state.start()
+    doc = Document()
+    for fig in [view._key_figure, *view._figures]:
+        doc.add_root(fig)
+    walks = []
+    real = doc.models.recompute
+    monkeypatch.setattr(doc.models, "recompute", lambda: walks.append(1) or real())
+    view.state.sigma = 30.0  # a new run: data only
+    assert view.state.run.model.sigma == 30.0 and walks == []
