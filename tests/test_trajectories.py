@@ -97,10 +97,11 @@ def test_a_links_extra_filters_are_drawn_by_lines_built_with_the_page():
             assert len(lines) == 1 and lines[0].visible and len(lines[0].data_source.data["y"]) > 0
 
 
-def test_filters_ticked_on_a_live_page_rewalk_its_models_once(monkeypatch):
+def _live_page_walks(view: TrajectoriesView, monkeypatch) -> list:
+    """Start ``view``'s run, put its plots in a document, and count that document's re-walks of its models (one
+    entry a walk) from then on."""
     from bokeh.document import Document
 
-    view = TrajectoriesView(state=AppState(m=3))
     view.state.start()
     doc = Document()
     for fig in [view._key_figure, *view._figures]:
@@ -108,6 +109,12 @@ def test_filters_ticked_on_a_live_page_rewalk_its_models_once(monkeypatch):
     walks = []
     real = doc.models.recompute
     monkeypatch.setattr(doc.models, "recompute", lambda: walks.append(1) or real())
+    return walks
+
+
+def test_filters_ticked_on_a_live_page_rewalk_its_models_once(monkeypatch):
+    view = TrajectoriesView(state=AppState(m=3))
+    walks = _live_page_walks(view, monkeypatch)
     count = sum(len(fig.renderers) for fig in view._figures)
     view.state.extra_filters = ["kbf_minimax", "kbf_adaptive"]
     assert sum(len(fig.renderers) for fig in view._figures) == count + 2 * 3  # a line per filter and plot
@@ -115,15 +122,7 @@ def test_filters_ticked_on_a_live_page_rewalk_its_models_once(monkeypatch):
 
 
 def test_a_run_that_adds_no_line_does_not_rewalk_the_page(monkeypatch):
-    from bokeh.document import Document
-
     view = TrajectoriesView(state=AppState(m=3, extra_filters=["kbf_minimax"]))
-    view.state.start()
-    doc = Document()
-    for fig in [view._key_figure, *view._figures]:
-        doc.add_root(fig)
-    walks = []
-    real = doc.models.recompute
-    monkeypatch.setattr(doc.models, "recompute", lambda: walks.append(1) or real())
+    walks = _live_page_walks(view, monkeypatch)
     view.state.sigma = 30.0  # a new run: data only
     assert view.state.run.model.sigma == 30.0 and walks == []
