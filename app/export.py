@@ -24,7 +24,7 @@ from isl_core.runview import TUBE_THEORY
 
 from .pipeline import COORDINATES, extra_filters
 
-__all__ = ["MAX_ROWS", "run_csv"]
+__all__ = ["MAX_ROWS", "run_csv", "run_png"]
 
 MAX_ROWS = 20_000  #: rows of a CSV at most (every k-th step beyond; a 20 000-row CSV at m = 6 is ≈ 10 MB)
 
@@ -86,3 +86,16 @@ def run_csv(state) -> str:
     head = "\n".join(_header(state, req, run, view, prediction)) + "\n" + ",".join(cols)
     np.savetxt(out, data, delimiter=",", header=head, comments="# ", fmt="%.9g")
     return out.getvalue()
+
+
+def run_png(run) -> io.BytesIO:
+    """``run`` (a :class:`isl_core.runview.RunView`) as a PNG figure — every coordinate, the legend, the parameters
+    and the measured ratios — drawn by the renderer of ``isl figure3`` (:func:`app.static_figures.fig3_png`)."""
+    from .static_figures import fig3_png
+
+    out = io.BytesIO()
+    ratios = "\n".join(f"{tr.label}: measured RMSE/s_i = " + ", ".join(f"{r:.3f}" for r in tr.ratio)
+                        for tr in run.tracks[:2])
+    fig3_png([run], out, note=f"{ratios}\n(this run, averaged over t in [0, T])")
+    out.seek(0)
+    return out

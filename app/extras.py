@@ -26,6 +26,8 @@ from isl_core.baselines import LABELS
 from isl_core.sweep import BURN
 from isl_core.worstcase import FILTERS
 
+from .text import R_MIN, per_r_min
+
 __all__ = ["EXTRA_NAMES", "INPUTS", "RUN_INPUTS", "WC_INPUTS", "Baselines", "check_order", "extra_specs",
            "extra_theory", "worst_case_table"]
 
@@ -85,8 +87,8 @@ class Baselines(param.Parameterized):
         "Rows of the worst-case table: 1 to 5 values of α in [0.001, 100]; paper A, Fig. 2: 0.04 … 25."))
     wc_n_sigma = param.Integer(5, bounds=(2, 11), label="σ grid points", doc=(
         "Log-spaced σ values (both ends included) over which each worst case is taken."))
-    wc_horizon = param.Number(100.0, bounds=(20.0, 2000.0), label="worst-case horizon (× 1/r_min)", doc=(
-        "Length of each simulated run of the worst-case table in units of 1/r_min; ±2 % needs about 1000."))
+    wc_horizon = param.Number(100.0, bounds=(20.0, 2000.0), label=f"worst-case horizon (× 1/{R_MIN})", doc=(
+        f"Length of each simulated run of the worst-case table in units of 1/{R_MIN}; ±2 % needs about 1000."))
 
     extra_prediction = param.Dict(default={}, precedence=-1, doc="Predicted ratios of the run's extra filters.")
     worst = param.ClassSelector(class_=WorstCaseTable, default=None, allow_None=True, precedence=-1)
@@ -118,5 +120,5 @@ class Baselines(param.Parameterized):
                                          "than the optimal one (B.46)")
         self.param.update(worst=t, worst_note=(
             f"Simulated in {outcome.seconds:.1f} s: σ ∈ [{lo:g}, {hi:g}] ({len(t.sigmas)} values), m = {t.m}, "
-            f"w = {t.w:g}, seed {t.seeds[0]}. Each run averages over {t.horizon:g}/r_min after a burn-in of "
-            f"{BURN:g}/r_min{longer}; 95 % batch-means intervals."))
+            f"w = {t.w:g}, seed {t.seeds[0]}. Each run averages over {per_r_min(t.horizon)} after a burn-in of "
+            f"{per_r_min(BURN)}{longer}; 95 % batch-means intervals."))

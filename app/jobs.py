@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
-__all__ = ["LARGE_NICE", "LARGE_POOL", "LONG_NICE", "RUN_NICE", "RUN_POOL", "Jobs", "Outcome", "Superseded", "call",
-           "lower_priority"]
+__all__ = ["LARGE_NICE", "LARGE_POOL", "LONG_NICE", "RUN_NICE", "RUN_POOL", "VIEW_POOL", "Jobs", "Outcome", "Superseded",
+           "call", "lower_priority"]
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +55,8 @@ def lower_priority(nice: int) -> Callable[[], None]:
 #: leaves the cores to the work above it.
 RUN_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-run", initializer=lower_priority(RUN_NICE))
 LARGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-large", initializer=lower_priority(LARGE_NICE))
+#: builds a tab's part when a user first opens it (someone waits for it: the loop's priority, not the runs' lower one)
+VIEW_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-view")
 
 
 class Superseded(Exception):

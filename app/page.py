@@ -17,23 +17,30 @@ from collections.abc import Callable
 
 import panel as pn
 from panel.io.resources import CDN_DIST
+from panel.viewable import Viewable
 from threadpoolctl import threadpool_limits
 
-from app.jobs import LARGE_POOL, RUN_POOL, Jobs
+from app.jobs import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs
 from app.longjobs import LongJobQueue
 from app.serving import fastpath, hardening, offloop
-from app.state import AppState
+from app.state import TABS, AppState
 from app.urlsync import UrlSync, after_pause
-from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, about_card
+from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
 from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
 from app.views.paint import skip_same_stylesheet
 from app.views.scenario import ScenarioView
+from app.views.style import text_scale
 from app.views.worstcase import WorstCaseView
 
-__all__ = ["LONG_JOBS", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
+__all__ = ["LONG_JOBS", "TAB_TITLES", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
+ACCENT = "#1f4fc1"  #: the header's and the widgets' accent colour (white text on it: 7.3 : 1)
+#: the tabs' titles, in the order of :data:`app.state.TABS`
+TAB_TITLES = {"trajectories": "Trajectories (paper A, Fig. 3)", "sweep": "ν sweep (paper A, Fig. 2)",
+              "worstcase": "Worst case over σ", "compare": "Compare σ", "scenarios": "Scenarios: σ(t), tails, sensor"}
+PAGE_CSS = a11y.PAGE_CSS
 
 #: the server's one queue of long jobs (sweeps, recommendations, worst cases): every session's, one at a time, each
 #: in a child process (see app.longjobs for the measurements behind that choice)
@@ -145,7 +152,7 @@ def session_jobs(gate: SessionGate | None = None) -> Jobs:
     doc = pn.state.curdoc
     if doc is None or doc.session_context is None:
         return Jobs()
-    pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL}
+    pools = {"run": RUN_POOL, "large": LARGE_POOL, "theory": RUN_POOL, "view": VIEW_POOL}
     if gate is None:
         gate = SessionGate(doc)
     pn.state.onload(gate.opened)
@@ -156,12 +163,16 @@ class LocalFast(pn.theme.Fast):
     """Panel's Fast design without its web font (Open Sans from fonts.googleapis.com).
 
     Every other file of the page is served by the dashboard's own server; the font alone came from the internet.
+    The design also gives every component the page's own stylesheet, ``app/theme.css`` (focus ring, contrast).
     On a classroom network without internet access that request fails, and behind a firewall that drops it the
     stylesheet (in the page's head) can hold the first paint until the browser gives up. Text uses the system
     sans-serif instead (the font never loaded where the request failed, so the page looks the same there).
     """
 
     _resources = {kind: res for kind, res in pn.theme.Fast._resources.items() if kind != "font"}
+    #: every component also gets the page's own rules (``theme.css``: the focus ring, text colours at 4.5 : 1)
+    modifiers = {**pn.theme.Fast.modifiers,
+                 Viewable: {"stylesheets": [*pn.theme.Fast.modifiers[Viewable]["stylesheets"], "theme.css"]}}
     # Panel names a design's own files after the class ("localfast/..."): point at the Fast design's file
     _resources["js_modules"] = {**_resources["js_modules"], "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"}
 
@@ -189,7 +200,9 @@ def deferred(build: Callable[[], object], shown: bool = True):
         offloop.prebuild(obj, pane._inner_layout)
         return obj
 
-    pane = pn.panel(built, defer_load=True, loading_indicator=True, sizing_mode="stretch_width")
+    # a least height, so that the loading indicator Panel lays over the part while it is built can be seen (at
+    # 0 px a tab opened for the first time stayed blank for seconds)
+    pane = pn.panel(built, defer_load=True, loading_indicator=True, sizing_mode="stretch_width", min_height=320)
     return pane
 
 
@@ -204,24 +217,30 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     state.start()
     hardening.release_on_destroy(state.close)
     skip_same_stylesheet(pn.state.curdoc)
+    basis = round(620 * text_scale(state))  # the plots' least width beside the numbers (wider text: wider plots)
     trajectories = deferred(lambda: pn.FlexBox(  # the numbers beside the plots where both fit, else below them
-        pn.Column(TrajectoriesView(state=state), styles={"flex": "1 1 620px", "min-width": "0"},
+        pn.Column(TrajectoriesView(state=state), styles={"flex": f"1 1 {basis}px", "min-width": "0"},
                   sizing_mode="stretch_width"),
         NumbersView(state=state), flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"))
-    present = presenter_mode()
-    tabs = pn.Tabs(("Trajectories (paper A, Fig. 3)", trajectories),
-                   ("ν sweep (paper A, Fig. 2)", deferred(lambda: SweepView(state=state), shown=False)),
-                   ("Worst case over σ", deferred(lambda: WorstCaseView(state=state), shown=False)),
-                   ("Compare σ", deferred(lambda: CompareView(state=state), shown=False)),
-                   ("Scenarios: σ(t), tails, sensor", deferred(lambda: ScenarioView(state=state), shown=False)),
+    # (the numbers' column is as wide as its table at the page's font size: 430 px, or more in presenter mode)
+    present = state.present
+    views = {"trajectories": trajectories,
+             "sweep": on_first_open(state, "sweep", lambda: SweepView(state=state)),
+             "worstcase": on_first_open(state, "worstcase", lambda: WorstCaseView(state=state)),
+             "compare": on_first_open(state, "compare", lambda: CompareView(state=state)),
+             "scenarios": on_first_open(state, "scenarios", lambda: ScenarioView(state=state))}
+    tabs = pn.Tabs(*((TAB_TITLES[name], views[name]) for name in TABS), active=TABS.index(state.tab),
                    sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
+    _link_tabs(tabs, state)
     page = pn.template.FastListTemplate(
-        title=TITLE, sidebar=[deferred(lambda: ControlsView(state=state)), deferred(lambda: FiltersPanel(state=state)),
-                              deferred(about_card)], main=[tabs],
-        sidebar_width=340, accent_base_color="#1f4fc1", header_background="#1f4fc1", theme_toggle=False,
+        title=TITLE, sidebar=[deferred(about_card), deferred(lambda: ControlsView(state=state)),
+                              deferred(lambda: FiltersPanel(state=state))], main=[tabs],
+        sidebar_width=340, accent_base_color=ACCENT, header_background=ACCENT, theme_toggle=False,
         main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
-        header=[presenter_toggle(present)], collapsed_sidebar=present, raw_css=[PRESENTER_CSS] if present else [],
+        header=[presenter_toggle(present)], collapsed_sidebar=present,
+        raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
+    a11y.install(pn.state.curdoc)
     if gate is not None and offloop.building_page():
         gate.apply_here()
     return page
@@ -229,7 +248,8 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
 
 #: presenter mode: larger text everywhere (the plots' own fonts are already sized for a projector)
 PRESENTER_CSS = """
-:root, body { font-size: 19px; --type-ramp-base-font-size: 19px; --isl-table-font: 18px; }
+:root, body { font-size: 19px; --type-ramp-base-font-size: 19px; --isl-table-font: 18px; --isl-text-font: 19px;
+              --isl-note-font: 17px; --isl-tag-font: 15px; }
 .bk-root, .bk-panel-models-markup-HTML, .markdown { font-size: 19px; }
 """
 
@@ -237,15 +257,54 @@ PRESENTER_CSS = """
 #: URL already, so the page comes back with the same run
 _TOGGLE_JS = """
 const url = new URL(window.location.href);
-if (url.searchParams.get('present') === '1') url.searchParams.delete('present'); else url.searchParams.set('present', '1');
+const on = ['1', 'true', 'on', 'yes'].includes((url.searchParams.get('present') || '').trim().toLowerCase());
+if (on) url.searchParams.delete('present'); else url.searchParams.set('present', '1');
 window.location.href = url.toString();
 """
 
 
-def presenter_mode() -> bool:
-    """``?present=1`` in the page's URL: presenter mode (sidebar collapsed, larger text)."""
-    args = pn.state.session_args if pn.state.curdoc is not None and pn.state.curdoc.session_context else {}
-    return [v.strip() for v in args.get("present", [])] == [b"1"]
+def on_first_open(state: AppState, name: str, build: Callable[[], object]):
+    """The part shown in tab ``name``: built with the page when the page opens on that tab, else when the tab is first
+    opened — on a worker thread, its bokeh models too (:func:`app.serving.offloop.prebuild`), then swapped in on the
+    session's loop. Meanwhile the tab says what is happening: built by Panel as the tab opened, the part was sent
+    only once it was whole, and a tab stayed blank for 2–3 s."""
+    if state.tab == name:
+        return deferred(build)
+    holder = pn.Column(pn.Row(pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
+                              pn.pane.Markdown(f"**Building “{TAB_TITLES[name]}” …**", margin=(6, 0)),
+                              margin=(20, 10)), sizing_mode="stretch_width")
+    started = threading.Event()
+
+    def build_part():
+        part = pn.panel(build())
+        offloop.prebuild(part, holder)
+        return part
+
+    def show(outcome, superseded: bool) -> None:
+        holder.objects = [outcome.value if outcome.error is None else pn.pane.Alert(
+            f"This view could not be built: {state.describe(outcome.error)}.", alert_type="danger")]
+
+    def opened(*events) -> None:
+        if state.tab == name and not started.is_set():
+            started.set()
+            state.submit(f"tab:{name}", build_part, show, pool="view")
+
+    state.param.watch(opened, "tab")
+    return holder
+
+
+def _link_tabs(tabs: pn.Tabs, state: AppState) -> None:
+    """The open tab and the state's ``tab`` input follow each other (so the link and presenter mode keep it)."""
+    def from_tabs(event) -> None:
+        if TABS[event.new] != state.tab:
+            state.tab = TABS[event.new]
+
+    def from_state(event) -> None:
+        if tabs.active != TABS.index(event.new):
+            tabs.active = TABS.index(event.new)
+
+    tabs.param.watch(from_tabs, "active")
+    state.param.watch(from_state, "tab")
 
 
 def presenter_toggle(present: bool) -> pn.widgets.Button:

@@ -19,6 +19,7 @@ from isl_core.runview import RunView, simulate_view
 
 from . import extras
 from .longjobs import Cancelled
+from .text import R_MIN, num
 
 __all__ = [
     "APP_MAX_STEPS", "COORDINATES", "HORIZON_BOUNDS", "LIVE_MAX_STEPS", "Request", "Result", "Traces", "compute",
@@ -121,11 +122,11 @@ def fit(req: Request, planned=None) -> tuple[Request, str]:
     if horizon < shortest:
         raise ValueError(
             f"this setting needs {grid.N * shortest / req.horizon:,.0f} steps even at the shortest horizon "
-            f"({shortest:g} × 1/r_min), over the dashboard's limit of {APP_MAX_STEPS:,}: the fastest filter forces a "
-            "tiny step; lower ν or raise σ")
+            f"({num(shortest)} × 1/{R_MIN}), over the dashboard's limit of {APP_MAX_STEPS:,}: the fastest filter "
+            "forces a tiny step; lower ν or raise σ")
     return (dataclasses.replace(req, horizon=horizon),
-            f"horizon lowered from {req.horizon:g} to {horizon:g} × 1/r_min: the run needs {grid.N:,} steps, over the "
-            f"dashboard's limit of {APP_MAX_STEPS:,}")
+            f"horizon lowered from {num(req.horizon)} to {num(horizon)} × 1/{R_MIN}: the run needs {grid.N:,} steps, "
+            f"over the dashboard's limit of {APP_MAX_STEPS:,}")
 
 
 def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:

@@ -45,13 +45,21 @@ from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario_map import MAPS
 from isl_core.scenario_table import PRESETS as TABLE_PRESETS
 
-__all__ = ["INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "Picture", "ScenarioInputs", "ScenarioRequest",
+from .text import R_MIN, num, per_r_min
+
+__all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "Picture", "ScenarioInputs", "ScenarioRequest",
            "picture_csv", "scenario_picture"]
 
 PICTURE_INPUTS = ("sc_change", "sc_change_at", "sc_sigma_after", "sc_noise", "sc_dof", "sc_outlier_rate",
                   "sc_outlier_scale", "sc_sensor", "sc_horizon", "sc_window", "sc_runs")
 MAP_INPUTS = ("sc_map", "sc_map_seeds")
 INPUTS = PICTURE_INPUTS + MAP_INPUTS
+#: how the page names the choices of the scenario's selectors (their values are the link's and the core's)
+CHOICE_LABELS = {
+    "sc_change": {"none": "none", "step": "one step", "drift": "a drift"},
+    "sc_noise": {"gaussian": "Gaussian", "student": "Student-t", "outliers": "Gaussian with outliers"},
+    "sc_map": {"sigma_step": "a σ step", "tails": "heavy tails", "sensor": "the sensor interval"},
+}
 #: runs × steps of one picture: ≈ 2.3 µs a step for the seven filters on this 2-core machine, so ≈ 9 s at most
 PICTURE_MAX_STEPS = 4_000_000
 BURN = 2.0  #: the worst case leaves out the first 2/r_min (each filter's start from its own guess)
@@ -165,8 +173,8 @@ class ScenarioInputs(param.Parameterized):
 
     sc_change = param.Selector(objects=["none", "step", "drift"], default="step", label="σ change", doc=(
         "How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."))
-    sc_change_at = param.Number(10.0, bounds=(0.1, 1000.0), label="change at (× 1/r_min)", doc=(
-        "When σ has changed: the step's time, or the end of the drift, in units of 1/r_min at σ(0)."))
+    sc_change_at = param.Number(10.0, bounds=(0.1, 1000.0), label=f"change at (× 1/{R_MIN})", doc=(
+        f"When σ has changed: the step's time, or the end of the drift, in units of 1/{R_MIN} at σ(0)."))
     sc_sigma_after = param.Number(2.0, bounds=(0.1, 1000.0), label="σ after", doc=(
         "σ after the change (σ before it is the σ input)."))
     sc_noise = param.Selector(objects=list(NOISE_LAWS), default="gaussian", label="noise law",
@@ -177,11 +185,11 @@ class ScenarioInputs(param.Parameterized):
         "Fraction ε of the steps whose noise is k times larger."))
     sc_outlier_scale = param.Number(30.0, bounds=(1.0, 1000.0), label="outlier size k", doc=(
         "How much larger an outlier's noise is (k)."))
-    sc_sensor = param.Number(0.0, bounds=(0.0, 5.0), label="sensor interval (× 1/r_min)", doc=(
+    sc_sensor = param.Number(0.0, bounds=(0.0, 5.0), label=f"sensor interval (× 1/{R_MIN})", doc=(
         "The filters read the integrated observation every Δ (0: at every simulation step)."))
-    sc_horizon = param.Number(30.0, bounds=(5.0, 500.0), label="scenario horizon (× 1/r_min)", doc=(
-        "Length of each scenario run in units of 1/r_min at σ(0)."))
-    sc_window = param.Number(1.0, bounds=(0.1, 50.0), label="rolling window (× 1/r_min)", doc=(
+    sc_horizon = param.Number(30.0, bounds=(5.0, 500.0), label=f"scenario horizon (× 1/{R_MIN})", doc=(
+        f"Length of each scenario run in units of 1/{R_MIN} at σ(0)."))
+    sc_window = param.Number(1.0, bounds=(0.1, 50.0), label=f"rolling window (× 1/{R_MIN})", doc=(
         "Width of the window over which each point's RMSE ratio is taken."))
     sc_runs = param.Integer(32, bounds=(1, 256), label="runs averaged", doc=(
         "Independent runs (seeds from the seed input on) whose mean squared errors are averaged."))
@@ -191,6 +199,7 @@ class ScenarioInputs(param.Parameterized):
     sc_map_seeds = param.Integer(16, bounds=(2, 128), label="map seeds", doc="Independent runs per cell of the map.")
 
     scenario = param.ClassSelector(class_=Picture, default=None, allow_None=True, precedence=-1)
+    sc_preset_note = param.String("", precedence=-1, doc="What the last scenario preset set beyond the scenario.")
     scenario_busy = param.Boolean(False, precedence=-1)
     scenario_note = param.String("", precedence=-1, doc="Status line of the scenario picture.")
     sc_map_result = param.ClassSelector(class_=WhoWinsMap, default=None, allow_None=True, precedence=-1)
@@ -247,8 +256,8 @@ class ScenarioInputs(param.Parameterized):
         req = pic.request
         self.param.update(scenario=pic, scenario_busy=False, scenario_note=(
             f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs (seeds {req.seed}–{req.seed + req.runs - 1}) of "
-            f"{req.horizon:g}/r_min, {pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each; each point is "
-            f"the RMSE over a window of {pic.rolling.width:.3g}/r_min centred on it, over the clairvoyant filter's "
+            f"{per_r_min(req.horizon)}, {pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each; each point is "
+            f"the RMSE over a window of {per_r_min(pic.rolling.width, 3)} centred on it, over the clairvoyant filter's "
             "exact standard deviation, at the worst coordinate"
             + (", with a 95 % interval over the runs." if req.runs > 1 else " (one run: no interval).")))
 
@@ -274,7 +283,13 @@ class ScenarioInputs(param.Parameterized):
         if label not in PRESETS:
             self._say(f"Unknown scenario preset {label!r}; choose one of {', '.join(PRESETS)}.", "danger")
             return
-        self.param.update(**PRESETS[label])
+        values = PRESETS[label]
+        self.param.update(**values)
+        text = (f"Scenario preset “{label}”: the model's inputs in the sidebar were set too — α = "
+                f"{num(values['alpha'])}, w = {num(values['w'])}, m = {values['m']}, σ(0) = {num(values['sigma'])}, "
+                f"ν = {num(values['nu'], 3)} (paper A's table A.31) — as the scenario table runs them.")
+        self._say(text, "info")
+        self.sc_preset_note = text
 
     def cancel_map(self) -> None:
         self._map_task.cancel()
@@ -285,6 +300,6 @@ class ScenarioInputs(param.Parameterized):
             f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
             f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
             f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
-            f"{res.window:g}/r_min; the filters' ν "
+            f"{per_r_min(res.window)}; the filters' ν "
             "from table (A.31) and the minimax recommendation, as in `isl scenario --map`."))
 

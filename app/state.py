@@ -22,18 +22,24 @@ import param
 from isl_core.runview import RunView
 
 from . import extras, inputs, scenario, sweeps
-from .export import run_csv
+from .export import run_csv, run_png
 from .jobs import Jobs, Outcome
 from .longjobs import LongTask
 from .pipeline import HORIZON_BOUNDS, LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from .presets import PRESETS
+from .text import R_MIN, per_r_min
 
-__all__ = ["ALL_INPUTS", "INPUTS", "KINDS", "SWEEP_INPUTS", "AppState", "input_label"]
+__all__ = ["ALL_INPUTS", "DISPLAY_INPUTS", "INPUTS", "KINDS", "SWEEP_INPUTS", "TABS", "VIEWS", "AppState",
+           "input_label"]
 
 
 INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "nu", "m", "seed", "horizon")
 SWEEP_INPUTS = ("sweep_sigmas", "sweep_horizon")
-ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS, *scenario.INPUTS)
+#: how the page shows the run, kept in the link like the inputs (a shared link, presenter mode's reload); no new run
+DISPLAY_INPUTS = ("view", "tab", "present")
+ALL_INPUTS = (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS, *scenario.INPUTS, *DISPLAY_INPUTS)
+VIEWS = ("signal", "errors")  #: the trajectories' two views: the signal and its estimates, or each filter's error
+TABS = ("trajectories", "sweep", "worstcase", "compare", "scenarios")  #: the page's tabs, in order
 SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
 
 
@@ -44,7 +50,6 @@ def input_label(name: str, link: bool = False) -> str:
     if not link:
         return label
     return f"{name}=… in the link" if label == name else f"{label} ({name}=… in the link)"
-
 
 
 class AppState(extras.Baselines, scenario.ScenarioInputs):
@@ -68,12 +73,16 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
         "The ISL filter's only tuning knob (A.17); paper A studies ν/β = 2^ℓ, ℓ = −8..2."))
     m = param.Integer(3, bounds=(1, 6), label="m", doc="State dimension: X_1 and its m − 1 derivatives (A.1).")
     seed = param.Integer(1, bounds=(0, 2**31 - 1), label="seed", doc="Seed of the noise: same seed, same run.")
-    horizon = param.Number(10.0, bounds=HORIZON_BOUNDS, label="horizon (× 1/r_min)", doc=(
-        "Simulated time T in units of the optimal filter's settling time 1/r_min (A.24); paper A, Fig. 3: 10."))
+    horizon = param.Number(10.0, bounds=HORIZON_BOUNDS, label=f"horizon (× 1/{R_MIN})", doc=(
+        f"Simulated time T in units of the optimal filter's settling time 1/{R_MIN} (A.24); paper A, Fig. 3: 10."))
+    view = param.Selector(objects=list(VIEWS), default="signal", label="trajectory view",
+                          doc="The trajectory plots draw the signal and its estimates, or each filter's error.")
+    tab = param.Selector(objects=list(TABS), default="trajectories", label="open tab", doc="The tab on screen.")
+    present = param.Boolean(False, label="presenter mode", doc="Larger text for a projector, the controls folded away.")
     sweep_sigmas = param.List([2.0, 20.0, 200.0], item_type=float, bounds=(1, 5), label="σ values", doc=(
         "σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."))
-    sweep_horizon = param.Number(200.0, bounds=(20.0, 2000.0), label="sweep horizon (× 1/r_min)", doc=(
-        "Length of each simulated sweep run in units of 1/r_min; ±2 % needs about 1000."))
+    sweep_horizon = param.Number(200.0, bounds=(20.0, 2000.0), label=f"sweep horizon (× 1/{R_MIN})", doc=(
+        f"Length of each simulated sweep run in units of 1/{R_MIN}; ±2 % needs about 1000."))
 
     run = param.ClassSelector(class_=RunView, default=None, allow_None=True, precedence=-1,
                               doc="The latest good run (decimated for display).")
@@ -83,6 +92,8 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
     busy = param.Boolean(False, precedence=-1, doc="A large run (not followed live) is being computed.")
     message = param.String("", precedence=-1, doc="What the user should know: a refused input, an error.")
     message_kind = param.Selector(objects=["info", "warning", "danger"], default="info", precedence=-1)
+    refusals = param.Dict(default={}, precedence=-1, doc="Input name → why its last value was refused (shown beside it).")
+    message_inline = param.Boolean(False, precedence=-1, doc="The message is one input's refusal, shown beside it.")
     curves = param.ClassSelector(class_=sweeps.SweepCurves, default=None, allow_None=True, precedence=-1)
     curves_note = param.String("", precedence=-1, doc="Why there are no theory curves, if there are none.")
     points = param.ClassSelector(class_=sweeps.SweepPoints, default=None, allow_None=True, precedence=-1)
@@ -91,8 +102,9 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
     sweep_note = param.String("", precedence=-1, doc="Status line of the simulated sweep / recommendation.")
 
     def __init__(self, *, jobs: Jobs | None = None, **params) -> None:
-        self._refused: set[str] = set()  # inputs whose refusal is on screen
         super().__init__(**params)
+        #: the last α > 0 this page had (the default if it opened at α = 0): where unticking "α = 0" goes back to
+        self.alpha_before_zero = self.alpha if self.alpha > 0.0 else self.param.alpha.default
         self._jobs = jobs or Jobs()
         self._started = False
         self._quiet = False  # set while the state itself corrects an input (no new run)
@@ -116,10 +128,14 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
             except ValueError as exc:
                 self._refuse(name, exc)
                 return
-            if name in self._refused:  # the refused input has a good value again
-                self._refused.discard(name)
-                if not self._refused:
+            if name in self.refusals:  # the refused input has a good value again
+                left = {k: v for k, v in self.refusals.items() if k != name}
+                if left:
+                    self.refusals = left
+                else:
                     self._clear()
+            if name == "alpha" and value > 0.0:
+                self.alpha_before_zero = value
         super().__setattr__(name, value)
 
     def label_of(self, name: str, link: bool = False) -> str:
@@ -156,25 +172,26 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
             what = "a value" if len(bad) == 1 else f"{len(bad)} values"
             self._say(f"Refused {what} (each keeps its previous setting; {kept}): " + "; ".join(bad.values()) + ".",
                       "danger")
-            self._refused = set(bad)
+            self.refusals = {name: f"Refused: {text}." for name, text in bad.items() if name in ALL_INPUTS}
         return list(bad.values())
 
     def _refuse(self, name: str, exc: ValueError) -> None:
-        """A refusal stays on screen until that input gets a good value (or a preset, or another message)."""
+        """A refusal stays on screen, beside the input, until that input gets a good value (or a preset, or another
+        message)."""
         kept = "The last good run is kept." if self.run is not None else "Nothing was simulated for it."
-        self._say(f"Refused: {exc}. {kept}", "danger")
-        self._refused = {name}
+        text = f"Refused: {exc}. {kept}"
+        self._say(text, "danger", inline=True)
+        self.refusals = {name: text}
 
-    def _say(self, text: str, kind: str = "info") -> None:
-        """Show a message; a run requested before it will not clear it (see ``_apply_run``)."""
+    def _say(self, text: str, kind: str = "info", *, inline: bool = False) -> None:
+        """Show a message (``inline``: one input's refusal, shown beside it); a run requested before it will not clear
+        it (see ``_apply_run``)."""
         self._serial += 1
-        self._refused = set()
-        self.param.update(message=text, message_kind=kind)
+        self.param.update(message=text, message_kind=kind, message_inline=inline, refusals={})
 
     def _clear(self) -> None:
-        self._refused = set()
-        if self.message:
-            self.param.update(message="", message_kind="info")
+        if self.message or self.refusals:
+            self.param.update(message="", message_kind="info", message_inline=False, refusals={})
 
     # ---- derived values ------------------------------------------------------------------------------
     @property
@@ -192,6 +209,10 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
         """A run is in flight (whatever its size)."""
         return self._jobs.busy("run")
 
+    def submit(self, kind: str, fn, done, *, pool: str = "run") -> None:
+        """``fn()`` off the event loop, then ``done(outcome, superseded)`` on it (:meth:`app.jobs.Jobs.submit`)."""
+        self._jobs.submit(kind, fn, done, pool=pool)
+
     def later(self, fn) -> None:
         """Run ``fn()`` on the session's loop with its lock held (from any thread; at once outside a server)."""
         self._jobs.later(fn)
@@ -204,9 +225,8 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
     def start(self) -> None:
         """Compute the first run and the sweep's theory curves, as jobs (in a served session: off the event loop).
 
-        With no run on screen yet, a run too long for the dashboard is replaced by its nearest allowed setting
-        (:func:`app.pipeline.fit`: a shorter horizon, said in the message) — a page opened from any link shows a run or says why
-        it cannot."""
+        With no run on screen yet, a run too long for the dashboard is replaced by its nearest allowed setting (a
+        shorter horizon, :func:`app.pipeline.fit`): a page opened from any link shows a run or says why it cannot."""
         self._started = True
         if self.alpha == 0.0 and self.beta_from_w:
             self._switch_to_beta()
@@ -260,7 +280,7 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
                           extra_prediction=res.extra_prediction or {}, compute_seconds=outcome.seconds, busy=superseded)
         if res.adjusted and not superseded:
             self._say(f"Showing the nearest allowed setting: {res.adjusted}.", "warning")
-        elif serial == self._serial and not self._refused:
+        elif serial == self._serial and not self.refusals:
             self._clear()
 
     def apply_preset(self, name: str) -> None:
@@ -276,18 +296,10 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
         return io.StringIO(run_csv(self))
 
     def png(self) -> io.BytesIO:
-        """The run on screen as a PNG figure — every coordinate, the legend, the parameters and the measured ratios
-        — drawn by the renderer of ``isl figure3`` (:func:`app.static_figures.fig3_png`), for the download button."""
-        from .static_figures import fig3_png
-
+        """The run on screen as a PNG figure (:func:`app.export.run_png`), for the download button."""
         if self.run is None:
             raise ValueError("there is no run to draw yet")
-        out = io.BytesIO()
-        ratios = "\n".join(f"{tr.label}: measured RMSE/s_i = " + ", ".join(f"{r:.3f}" for r in tr.ratio)
-                            for tr in self.run.tracks[:2])
-        fig3_png([self.run], out, note=f"{ratios}\n(this run, averaged over t in [0, T])")
-        out.seek(0)
-        return out
+        return run_png(self.run)
 
     # ---- the ν-sweep (Fig. 2) ------------------------------------------------------------------------
     def want_curves(self) -> None:
@@ -356,7 +368,7 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
                                              "(its filter settles slower than the optimal one, B.46)")
             self.param.update(points=pts, sweep_note=(
                 f"Simulated in {outcome.seconds:.2g} s: each σ's run (seed {pts.seed}) averages over "
-                f"{pts.horizon:g}/r_min after a burn-in of {sweeps.BURN:g}/r_min{longer}; 95 % batch-means "
+                f"{per_r_min(pts.horizon)} after a burn-in of {per_r_min(sweeps.BURN)}{longer}; 95 % batch-means "
                 "intervals."))
 
     def recommend(self) -> None:

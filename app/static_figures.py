@@ -150,36 +150,39 @@ def _fig3_lines(view, i: int) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
     return lines
 
 
-def _fig3_title(view) -> str:
+def _fig3_title(view, sep: str = " ") -> str:
+    """The run's parameters (``sep`` between σ and the rest: a new line where a column is narrow)."""
     md = view.model
-    return (f"σ = {md.sigma:g} (m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed}, "
+    return (f"σ = {md.sigma:g}{sep}(m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed}, "
             f"T = {view.T:.4g} = {view.horizon:.3g}/r_min, N = {view.N:,})")
 
 
-def fig3_png(views, path, *, dpi: int = 110, note: str = ""):
+def fig3_png(views, path, *, dpi: int = 110, note: str = "", font: float = 1.0):
     """Fig. 3 of paper A as a PNG: one column per run (σ), one row per coordinate, the legend below the plots and
-    the parameters above each column (``note``: a line under the figure, e.g. the measured ratios). ``views``:
-    :class:`isl_core.runview.RunView` objects; ``path``: a file name or a binary file object."""
+    the parameters above each column, on two lines (``note``: a line above the figure, e.g. the measured ratios).
+    ``views``: :class:`isl_core.runview.RunView` objects; ``path``: a file name or a binary file object; ``font``
+    scales every text (the dashboard's picture is shown smaller than it is drawn)."""
     from matplotlib.figure import Figure
 
     m = views[0].model.m
-    fig = Figure(figsize=(max(6.4 * len(views), 9.0), 2.2 * m + 1.6), layout="constrained")
+    fig = Figure(figsize=(max(6.4 * len(views), 9.0), 2.3 * m + 2.0), layout="constrained")
     axes = fig.subplots(m, len(views), squeeze=False)
     for c, view in enumerate(views):
         for i in range(m):
             ax = axes[i, c]
             for label, t, y, style in _fig3_lines(view, i):
                 ax.plot(t, y, label=label or None, **style)
-            ax.set_ylabel(_coord(i))
+            ax.set_ylabel(_coord(i), fontsize=10 * font)
+            ax.tick_params(labelsize=9 * font)
             if i == 0:
-                ax.set_title(_fig3_title(view), fontsize=8.5)
+                ax.set_title(_fig3_title(view, "\n"), fontsize=9.5 * font)
             if i == m - 1:
-                ax.set_xlabel("t")
+                ax.set_xlabel("t", fontsize=10 * font)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 2 if len(views) == 1 else 4),
-               fontsize=8)
+               fontsize=9.5 * font)
     if note:
-        fig.suptitle(note, fontsize=8.5)
+        fig.suptitle(note, fontsize=9.5 * font)
     fig.savefig(path, dpi=dpi, format="png")
     return Path(path) if isinstance(path, str | Path) else path
 

@@ -26,6 +26,8 @@ from isl_core import Model, baseline_filters, recommend_nu, sweep, theory_ratios
 from isl_core.sweep import BURN
 from isl_core.theory import predicted_ratios_grid
 
+from .text import per_r_min
+
 __all__ = [
     "BATCHES",
     "BURN",
@@ -128,6 +130,6 @@ def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, hor
     sig = ", ".join(f"{s:g}" for s in sigmas)
     text = (f"Recommended ν = {rec.nu:.4g} (ν/β = {rec.nu_over_beta:.3g}) for σ ∈ {{{sig}}}: worst-case ratio "
             f"{rec.theory_worst:.3f} predicted, {rec.simulated_worst:.3f} "
-            f"[{rec.simulated_low:.3f}, {rec.simulated_high:.3f}] simulated ({horizon:g}/r_min). "
+            f"[{rec.simulated_low:.3f}, {rec.simulated_high:.3f}] simulated ({per_r_min(horizon)}). "
             f"Best fixed-gain Kalman–Bucy filter: {rec.kbf_worst:.3f} (designed for σ̄ = {rec.kbf_sigma_design:.3g}).")
     return float(rec.nu), text

@@ -12,7 +12,8 @@ import time
 import urllib.request
 from pathlib import Path
 
-__all__ = ["ARGS", "CHROMIUM", "NAMED", "PLOT_DATA", "ROOT", "dashboard", "free_port", "launch", "wait_http"]
+__all__ = ["ARGS", "CHROMIUM", "DEEP", "NAMED", "PLOT_DATA", "ROOT", "TAB_OPEN", "dashboard", "free_port", "launch",
+           "wait_http"]
 
 CHROMIUM = Path("/usr/bin/chromium")
 ROOT = Path(__file__).resolve().parent.parent
@@ -46,9 +47,10 @@ def wait_http(url: str, proc: subprocess.Popen, timeout: float = 120.0) -> None:
 
 
 @contextlib.contextmanager
-def dashboard(url: str, on_request=None, viewport: dict | None = None):
-    """A chromium page with the dashboard at ``url`` open and its first plot drawn (``on_request(url)`` sees
-    every request from the start); the test fails if the page raised a script error meanwhile."""
+def dashboard(url: str, on_request=None, viewport: dict | None = None, ready: str = ""):
+    """A chromium page with the dashboard at ``url`` open and its first plot drawn — or, for a link that opens another
+    tab, ``ready`` (a page-side function) true — (``on_request(url)`` sees every request from the start); the test
+    fails if the page raised a script error meanwhile."""
     from playwright import sync_api
     with sync_api.sync_playwright() as p:
         browser = launch(p)
@@ -60,7 +62,7 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None):
             page.on("pageerror", lambda error: errors.append(str(error)))
             page.goto(url)
             try:
-                page.wait_for_function(PLOT_DATA, timeout=30_000)
+                page.wait_for_function(ready or PLOT_DATA, timeout=30_000)
             except sync_api.TimeoutError:
                 models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
                 raise AssertionError(f"no plot data within 30 s; page errors: {errors}; models: {models}; "
@@ -76,6 +78,19 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None):
 #: bokeh's get_model_by_name throws on a model whose properties are not set yet ("… name is unset")
 NAMED = """(name) => { try { const d = window.Bokeh && Bokeh.documents[0]; return d ? d.get_model_by_name(name) : null; }
                      catch (e) { return null; } }"""
+
+#: ``deep(selector)``: the first element matching ``selector`` in the page, shadow roots included (Panel and BokehJS draw
+#: every component in a shadow root of its own, nested), or null
+DEEP = """(selector) => { const walk = (root) => { const hit = root.querySelector(selector); if (hit) return hit;
+        for (const el of root.querySelectorAll('*')) { if (el.shadowRoot) { const h = walk(el.shadowRoot);
+            if (h) return h; } } return null; };
+    return walk(document); }"""
+
+#: ``tab_open(title)``: the page's open tab is the one titled so and its panel has content
+TAB_OPEN = """(title) => { if (!window.Bokeh || !Bokeh.index) return false;
+    const tabs = Array.from(Bokeh.index.all_views()).find(v => v.header_els && v.model.type.endsWith('Tabs'));
+    return Boolean(tabs && tabs.model.tabs[tabs.model.active].title === title
+        && tabs.child_views[tabs.model.active] && tabs.child_views[tabs.model.active].el.isConnected); }"""
 
 PLOT_DATA = f"""() => {{
     const src = ({NAMED})('traj-1-isl');

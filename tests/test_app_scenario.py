@@ -11,6 +11,7 @@ import pytest
 from app.scenario import PICTURE_MAX_STEPS, PRESETS, filters
 from app.state import AppState
 from app.urlsync import query_string, read_query
+from app.colors import contrast, text_on, tint
 from app.views.scenario import SCENARIO_COLORS, ScenarioView, map_html, worst_html
 from isl_core import Scenario, average_scenario, who_wins_map
 
@@ -125,11 +126,19 @@ def test_the_map_runs_as_a_long_job_and_marks_ties(state):
     assert "needs α > 0" in state.sc_map_note
 
 
-def test_the_map_cells_name_the_winner():
+def test_the_map_cells_name_the_winner_in_text_that_reads_at_4_5_to_1():
+    """A cell is its winner's colour (a tie: a light shade of it), its text black or white, whichever reads better:
+    at least 4.5 : 1 (WCAG 2.1 AA) — white on cyan or yellow read at 2.1 : 1."""
     res = who_wins_map("tails", 1.0, values=[3.0], seeds=3)
     winner = res.winner[0, 0]
-    assert f"title='{html.escape(res.labels[winner])}'" in map_html(res)
-    assert f"background:{SCENARIO_COLORS[res.filters[winner]]}" in map_html(res)
+    color = SCENARIO_COLORS[res.filters[winner]]
+    back = tint(color, 0.3) if res.tie[0, 0] else color
+    cell = map_html(res)
+    assert f"title='{html.escape(res.labels[winner])}'" in cell
+    assert f"background:{back};color:{text_on(back)}" in cell
+    for color in SCENARIO_COLORS.values():
+        for shade in (color, tint(color, 0.3)):
+            assert contrast(text_on(shade), shade) >= 4.5, shade
 
 
 def test_closing_the_session_drops_the_picture(state):

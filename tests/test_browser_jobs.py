@@ -24,10 +24,10 @@ def test_simulated_sweep_points_and_the_worst_case_table_render(app_server):
     url, log = app_server
     query = "?sweep_horizon=20&sweep_sigmas=[20]&wc_alphas=[1]&wc_n_sigma=2&wc_horizon=20"  # small: seconds
     with dashboard(url + query) as page:
-        page.get_by_text("ν sweep (paper A, Fig. 2)").click()
+        page.get_by_role("tab", name="ν sweep (paper A, Fig. 2)").click()
         page.get_by_role("button", name="Simulate points").click()
         page.wait_for_function(SIM_POINTS, timeout=120_000)
-        page.get_by_text("Worst case over σ").click()
+        page.get_by_role("tab", name="Worst case over σ").click()
         page.get_by_role("button", name="Compute").click()
         table = page.locator("table.isl-worst")
         table.wait_for(timeout=120_000)
@@ -45,7 +45,7 @@ def test_the_high_order_sweep_measures_the_optimal_filter_at_one(app_server):
     url, log = app_server
     query = "?m=6&alpha=0&beta_from_w=false&beta=1&sweep_horizon=2000"
     with dashboard(url + query) as page:
-        page.get_by_text("ν sweep (paper A, Fig. 2)").click()
+        page.get_by_role("tab", name="ν sweep (paper A, Fig. 2)").click()
         page.get_by_role("button", name="Simulate points").click()
         check = page.get_by_text("Check — Kalman–Bucy measured ratios")
         check.wait_for(timeout=300_000)
@@ -132,7 +132,7 @@ def test_the_scenario_tab_draws_a_linked_scenario_and_its_map(app_server):
     is computed on request into coloured cells, and the link keeps the scenario."""
     url, log = app_server
     with dashboard(url + "?sc_noise=student&sc_runs=4&sc_map=sensor&sc_map_seeds=2") as page:
-        page.get_by_text("Scenarios: σ(t), tails, sensor").click()
+        page.get_by_role("tab", name="Scenarios: σ(t), tails, sensor").click()
         page.wait_for_function(SCENARIO_DATA, timeout=60_000)
         note = page.get_by_text("Simulated in", exact=False).first.inner_text()
         page.get_by_role("button", name="Compute map").click()

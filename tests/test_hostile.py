@@ -53,6 +53,8 @@ def _beyond(lo: float, hi: float, rng: np.random.Generator, *, margin: float = 1
 def _integral(value: float, lo: float) -> int:
     """``value`` as an int on the same side of the range (floor below ``lo``, ceil above), within ±(2**53 − 2)
     (larger integers lose precision in the browser; bokeh warns)."""
+    if not math.isfinite(value):  # (_beyond's largest values overflow past a range that ends near 2**31)
+        return int(math.copysign(2**53 - 2, value))
     n = math.floor(value) if value < lo else math.ceil(value)
     return int(min(max(n, -(2**53 - 2)), 2**53 - 2))
 
@@ -160,8 +162,9 @@ def widget_range(model) -> tuple[float, float]:
     """The widget values that map into the state's bounds: log10 of them for a log slider (its labels show
     10**value, :func:`app.views.controls.log_slider`), else the widget's own range."""
     p = LABELS.get(getattr(model, "title", None))
-    if isinstance(model, Spinner):
-        return float(model.low if model.low is not None else 0), float(model.high if model.high is not None else 2**31)
+    if isinstance(model, Spinner):  # a box has no range of its own (the state refuses out-of-range values)
+        lo, hi = p.bounds if p is not None else (model.low, model.high)
+        return float(lo if lo is not None else 0), float(hi if hi is not None else 2**31 - 1)
     if p is not None and isinstance(getattr(model, "format", None), CustomJSTickFormatter):
         lo, hi = p.bounds
         return (math.log10(lo) if lo > 0 else -math.inf), math.log10(hi)

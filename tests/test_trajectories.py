@@ -55,16 +55,16 @@ def test_a_click_on_a_legend_entry_hides_that_trace_in_every_plot(view):
 
 def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero():
     """m = 6 at a long horizon: X₁ spans ±10⁵ and more, the tube is invisible beside it; the error view draws
-    X̂_i − X_i, X̌_i − X_i (and each extra filter's) with the band ±3 s_i around the zero line, at their own scale."""
-    from app.views.trajectories import ERRORS
-
+    X̂_i − X_i, X̌_i − X_i (and each extra filter's) with the band ±3 s_i around the zero line, at their own scale.
+    The view is an input of the state (in the link): the switch follows it, and the state follows the switch."""
     state = AppState()
     state.param.update(m=6, horizon=100.0, extra_filters=["kbf_adaptive"])
     state.start()
     view = TrajectoriesView(state=state)
     run, traces = state.run, state.traces
     span = float(np.ptp(view._sources[0]["truth"].data["y"]))
-    view._mode.value = ERRORS
+    state.view = "errors"
+    assert view._mode.value == "errors"
     for i in range(6):
         for name in ("kbf", "isl"):
             np.testing.assert_array_equal(view._sources[i][name].data["y"], traces.series[i][f"error:{name}"][1])
@@ -78,7 +78,8 @@ def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero()
         assert hi - lo < 20 * run.s[i] * max(run.tracks[1].ratio[i], 1.0)  # the errors' scale, not the signal's
     assert view._figures[0].y_range.end - view._figures[0].y_range.start < span / 10
     assert view._legend.items[1].label.value == "X̂ᵢ − Xᵢ Kalman–Bucy"
-    view._mode.value = "Signal and estimates"  # and back: the estimates in the tube around X̂
+    view._mode.value = "signal"  # and back, by the switch: the estimates in the tube around X̂
+    assert state.view == "signal"
     np.testing.assert_array_equal(view._sources[0]["kbf"].data["y"], traces.series[0]["kbf"][1])
     assert view._bands[0].source is view._sources[0]["kbf"]
 

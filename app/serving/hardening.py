@@ -14,6 +14,8 @@ session exists, so it applies to every session; ``app/app.py`` may call it too, 
   its thread pool, and two at once corrupted param's bookkeeping so that a slider stopped moving the run.
 * Panel lifts a widget's read-only and constant flags on that widget's own parameter objects while it applies a
   browser change (:func:`per_instance_readonly_edits`), not on the class's, which every session's widgets share.
+* a link whose value Panel's own query parser cannot convert (a 5000-digit number) opens the page instead of failing
+  its script (:func:`tolerant_query_parser`).
 * websocket ``ERROR`` replies without server internals: bokeh answers a message it cannot apply (e.g. a scripted
   client setting a slider to a string) with an ``ERROR`` reply that carries the server's full traceback. The
   traceback is dropped (bokeh's protocol handler already logs it), and a reply text that is not bokeh's own
@@ -71,7 +73,38 @@ def install() -> None:
         keep_unsent_models_new()
         serialize_session_events()
         per_instance_readonly_edits()
+        tolerant_query_parser()
         _installed = True
+
+
+def tolerant_query_parser() -> None:
+    """Panel parses the page's query when it makes ``pn.state.location`` and turns every all-digit value into an
+    ``int``; Python refuses to convert more than 4300 digits (``ValueError``), so a link such as ``?seed=`` followed
+    by 5000 digits failed the page's script before the dashboard's own parser (:mod:`app.urlsync`, which refuses the
+    value in words) could read it, and the page stayed blank. Values Panel cannot convert stay text (the dashboard
+    reads the raw query, never Panel's parsed one)."""
+    from panel.io import location
+    from panel.util import parse_query
+
+    if getattr(location.parse_query, "_isl_tolerant", False):
+        return
+
+    def tolerant(query: str) -> dict:
+        try:
+            return parse_query(query)
+        except ValueError:
+            import urllib.parse as urlparse
+
+            out = {}
+            for key, text in urlparse.parse_qsl(query[1:]):
+                try:
+                    out.update(parse_query(f"?{urlparse.urlencode({key: text})}"))
+                except ValueError:
+                    out[key] = text
+            return out
+
+    tolerant._isl_tolerant = True
+    location.parse_query = tolerant
 
 
 def quiet_closed_websockets(loop) -> None:

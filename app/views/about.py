@@ -5,6 +5,8 @@ import panel as pn
 
 from isl_core.paper import PAPER_A, PAPER_B
 
+from .style import TEXT_FONT
+
 __all__ = ["ABOUT", "about_card"]
 
 ABOUT = r"""
@@ -24,9 +26,9 @@ whatever α (paper A's choice, w = 3). Only the position is observed, through wh
 **The tube** X̂ᵢ ± 3 sᵢ (dashed green): sᵢ is the optimal filter's RMSE from theory (the Riccati equation),
 so the true signal Xᵢ stays inside it about 99.7 % of the time; the table gives the measured share beside it.
 
-**Time scale.** r_min is the slowest decay rate of the optimal filter's error (the smallest real part of its
-closed-loop poles): after a few 1/r_min its error has forgotten where it started. The horizon is counted in
-1/r_min — 10/r_min (paper A's Fig. 3) shows a few independent stretches of error; longer horizons tighten the
+**Time scale.** rₘᵢₙ is the slowest decay rate of the optimal filter's error (the smallest real part of its
+closed-loop poles): after a few 1/rₘᵢₙ its error has forgotten where it started. The horizon is counted in
+1/rₘᵢₙ — 10/rₘᵢₙ (paper A's Fig. 3) shows a few independent stretches of error; longer horizons tighten the
 measured ratios. Every filter starts from the same random error drawn from the optimal filter's stationary
 covariance Δ, so the optimal filter's ratio is ≈ 1 at any horizon.
 
@@ -53,5 +55,6 @@ heavy tails or the sensor samples coarsely, an estimate of σ can lag or mislead
 
 
 def about_card() -> pn.Card:
-    return pn.Card(pn.pane.Markdown(ABOUT.format(a=PAPER_A, b=PAPER_B), styles={"font-size": "14px"}), title="What am I looking at?",
-                   collapsed=False, sizing_mode="stretch_width", margin=(10, 5))
+    """The card at the top of the sidebar, folded: its title is the first thing a newcomer reads there."""
+    return pn.Card(pn.pane.Markdown(ABOUT.format(a=PAPER_A, b=PAPER_B), styles={"font-size": TEXT_FONT}),
+                   title="What am I looking at?", collapsed=True, sizing_mode="stretch_width", margin=(10, 5))

@@ -19,10 +19,11 @@ from panel.viewable import Viewer
 
 from ..pipeline import COORDINATES, Request, compute
 from ..state import AppState
+from ..text import R_MIN, per_r_min
 from .numbers import TABLE_CSS
-from .style import SUBSCRIPT
+from .style import SUBSCRIPT, TEXT_FONT
 
-__all__ = ["CompareView", "compare_figure", "other_sigma"]
+__all__ = ["CompareView", "alt_text", "compare_figure", "other_sigma"]
 
 
 def other_sigma(sigma: float) -> float:
@@ -37,8 +38,17 @@ def compare_figure(shown, req: Request, sigma_b: float) -> tuple[bytes, list]:
 
     runs = [shown, compute(dataclasses.replace(req, sigma=sigma_b), nearest=True).run]
     out = io.BytesIO()
-    fig3_png(runs, out, dpi=90, note="the same seed and inputs; only σ differs")
+    fig3_png(runs, out, dpi=90, note="the same seed and inputs; only σ differs", font=1.35)
     return out.getvalue(), runs
+
+
+def alt_text(runs) -> str:
+    """What the comparison picture shows, for a screen reader (its numbers are in the table below it)."""
+    m = runs[0].model.m
+    sigmas = " and ".join(f"σ = {r.model.sigma:g}" for r in runs)
+    return (f"Paper A's Fig. 3 for {sigmas}, side by side: for each of the {m} coordinates, the signal, the "
+            "Kalman–Bucy estimate, the ISL estimate and the Kalman–Bucy estimate ± 3 sᵢ, against time; the measured "
+            "RMSE ratios of both runs are in the table below the picture.")
 
 
 def ratios_html(runs) -> str:
@@ -78,8 +88,8 @@ class CompareView(Viewer):
             return
         shown, self._drawn = self.state.run, self.state.shown_request
         self._note.object = f"Simulating σ = {self.sigma_b:g} beside the run on screen (σ = {shown.model.sigma:g}) …"
-        self.state._jobs.submit("compare", lambda req=self._drawn, b=self.sigma_b: compare_figure(shown, req, b),
-                                self._show, pool="large")
+        self.state.submit("compare", lambda req=self._drawn, b=self.sigma_b: compare_figure(shown, req, b),
+                          self._show, pool="large")
 
     def _stale(self, *events) -> None:
         if self._drawn is not None and self._drawn != self.state.shown_request:
@@ -92,15 +102,15 @@ class CompareView(Viewer):
             self._note.object = f"No comparison: {self.state.describe(outcome.error)}."
             return
         png, runs = outcome.value
-        self._image.object = png
+        self._image.param.update(object=png, alt_text=alt_text(runs))
         self._table.object = ratios_html(runs)
-        self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {runs[0].horizon:.3g}/r_min of each run's own "
-                             f"r_min; computed in {outcome.seconds:.2g} s. Drawn as `isl figure3` draws it.")
+        self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {per_r_min(runs[0].horizon, 3)} of each run's own "
+                             f"{R_MIN}; computed in {outcome.seconds:.2g} s. Drawn as `isl figure3` draws it.")
 
     def __panel__(self):
         intro = pn.pane.Markdown(
             "The run on screen beside the same run at another σ — paper A's Fig. 3 compares σ = 20 and σ = 200. "
             "Both use the same seed and every other input, so what changes is σ's doing.", margin=(0, 10),
-            styles={"font-size": "14px"})
+            styles={"font-size": TEXT_FONT})
         return pn.Column(intro, pn.Row(self._input, self._button), self._note, self._image, self._table,
                          sizing_mode="stretch_width")

@@ -8,6 +8,7 @@ current run is small (:attr:`AppState.live`), otherwise it applies on release (`
 from __future__ import annotations
 
 import math
+import numbers
 
 import panel as pn
 import param
@@ -16,13 +17,58 @@ from panel.viewable import Viewer
 
 from ..presets import PRESETS
 from ..state import AppState
+from .fields import field, refusal
 
-__all__ = ["ControlsView", "IntSlider", "Slider", "log_slider", "round_sig", "with_help"]
+__all__ = ["ControlsView", "Guarded", "IntSlider", "NumberInput", "Slider", "WholeInput", "log_slider", "round_sig",
+           "with_help"]
 
 _LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toString();"
 
 
-class Slider(pn.widgets.FloatSlider):
+class Guarded:
+    """A widget whose impossible browser values become refusals in words.
+
+    Panel converts and checks a value the browser sends before any watcher sees it: a scripted client's nan for an
+    integer, 10³⁰⁸ on a log slider or 2.5 in the seed box raised there ("cannot convert float NaN to integer"), and the
+    page showed "something went wrong" instead of the refusal the state gives every bad value, which names the input
+    and its range. A value :meth:`fits` refuses goes to the binding's ``refuse`` (the state refuses it), not to Panel.
+    """
+
+    def fits(self, value) -> bool:
+        """Whether Panel can take ``value`` for this widget."""
+        return value is None or (isinstance(value, numbers.Real) and not isinstance(value, bool)
+                                 and math.isfinite(value))
+
+    def _process_events(self, events: dict) -> None:
+        refuse = getattr(self, "_refuse", None)
+        bad = [v for k, v in events.items() if k in ("value", "value_throttled") and not self.fits(v)]
+        if bad and refuse is not None:
+            events = {k: v for k, v in events.items() if k not in ("value", "value_throttled")}
+            refuse(bad[0])
+        if events:
+            super()._process_events(events)
+
+
+def _within(widget, value, integral: bool) -> bool:
+    """A finite number inside ``widget``'s range (half a step of slack), whole if ``integral``."""
+    if not (isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)):
+        return False
+    slack = 0.5 * float(widget.step or 0)
+    return widget.start - slack <= value <= widget.end + slack and (not integral or float(value).is_integer())
+
+
+class WholeInput(Guarded, pn.widgets.IntInput):
+    """A box for a whole number: anything else the browser sends is refused by the state, by name."""
+
+    def fits(self, value) -> bool:
+        return value is None or (super().fits(value) and float(value).is_integer() and abs(value) < 2**53)
+
+
+class NumberInput(Guarded, pn.widgets.FloatInput):
+    """A box for a number: anything else the browser sends is refused by the state, by name."""
+
+
+class Slider(Guarded, pn.widgets.FloatSlider):
     """A FloatSlider whose changes reach the server at once, at the least server cost.
 
     Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
@@ -35,12 +81,18 @@ class Slider(pn.widgets.FloatSlider):
     _debounce = 0
     _busy__ignore = ["value", "value_throttled"]
 
+    def fits(self, value) -> bool:
+        return _within(self, value, integral=False)
 
-class IntSlider(pn.widgets.IntSlider):
+
+class IntSlider(Guarded, pn.widgets.IntSlider):
     """An IntSlider without Panel's debounce and busy bookkeeping (see :class:`Slider`)."""
 
     _debounce = 0
     _busy__ignore = ["value", "value_throttled"]
+
+    def fits(self, value) -> bool:
+        return _within(self, value, integral=True)
 
 
 def round_sig(x: float, digits: int = 3) -> float:
@@ -57,6 +109,8 @@ class _Binding:
         self._quiet = False
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
+        if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
+            widget._refuse = lambda raw: setattr(state, name, to_state(raw, force=True))
         state.param.watch(self._from_state, [name])
         self._from_state()
 
@@ -99,7 +153,9 @@ def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float 
         v = min(max(math.log10(x), a), b) if x > 0 else a
         return None if abs(v - widget.value) <= step / 2 else v
 
-    def to_state(v: float) -> float | None:
+    def to_state(v: float, force: bool = False) -> float | None:
+        if force:  # a value the slider cannot take (Guarded): the number it stands for, for the state to refuse
+            return v if not math.isfinite(v) else (math.inf if v > 300 else 0.0 if v < -300 else 10.0**v)
         current = getattr(state, name)
         if current > 0 and abs(math.log10(current) - v) <= step / 2:
             return None  # the widget already shows the state's value: not a change
@@ -115,7 +171,7 @@ def with_help(widget, doc: str) -> pn.Row:
 
 
 def _plain(state: AppState, name: str, widget):
-    _Binding(state, name, widget, lambda x: x, lambda v: v)
+    _Binding(state, name, widget, lambda x: x, lambda v, force=False: v)
     return widget
 
 
@@ -138,7 +194,8 @@ class ControlsView(Viewer):
         self._nu = log_slider(s, "nu", 0.001, 10000.0)
         self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6,
                                                       sizing_mode="stretch_width"))
-        self._seed = _plain(s, "seed", pn.widgets.IntInput(label="seed", start=0, end=2**31 - 1, width=120))
+        # no range on the box: BokehJS's box drops a value outside it silently; the state refuses it in words
+        self._seed = _plain(s, "seed", WholeInput(label="seed", width=120, description=s.param.seed.doc))
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
         self._sync_alpha_zero()
         self._derived = pn.pane.Markdown(self._derived_text, margin=(0, 10))
@@ -150,7 +207,7 @@ class ControlsView(Viewer):
         if event.new and self.state.alpha != 0.0:
             self.state.alpha = 0.0
         elif not event.new and self.state.alpha == 0.0:
-            self.state.alpha = round_sig(10.0 ** self._alpha.value)
+            self.state.alpha = self.state.alpha_before_zero
 
     def _sync_alpha_zero(self, *events) -> None:
         zero = self.state.alpha == 0.0
@@ -177,9 +234,9 @@ class ControlsView(Viewer):
     def _status_kind(self) -> str:
         return self.state.message_kind
 
-    @param.depends("state.message")
+    @param.depends("state.message", "state.message_inline")
     def _has_status(self) -> bool:
-        return bool(self.state.message)
+        return bool(self.state.message) and not self.state.message_inline  # a refusal shows beside its input
 
     @param.depends("state.beta_from_w")
     def _beta_widget(self):
@@ -205,8 +262,9 @@ class ControlsView(Viewer):
                                              color="success", variant="outline", sizing_mode="stretch_width",
                                              margin=(0, 10, 10, 10))
         spinner = pn.indicators.LoadingSpinner(value=s.param.busy, size=20, margin=(0, 10))
+
         def helped(name: str, widget):
-            return with_help(widget, s.param[name].doc)
+            return field(s, name, with_help(widget, s.param[name].doc), sizing_mode="stretch_width")
 
         return pn.Column(
             self._status,
@@ -214,11 +272,11 @@ class ControlsView(Viewer):
             pn.Row(pn.pane.Markdown("### Model", margin=(0, 10)), spinner),
             self._alpha_zero, helped("alpha", self._alpha),
             self._from_w,
-            self._beta_widget,
+            self._beta_widget, refusal(s, "w"), refusal(s, "beta"),
             helped("sigma", self._sigma), helped("m", self._m),
             pn.pane.Markdown("### ISL filter and run", margin=(0, 10)),
             helped("nu", self._nu), self._derived, helped("horizon", self._horizon),
-            pn.Row(self._seed, new_seed),
+            field(s, "seed", pn.Row(self._seed, new_seed)),
             download, figure_png,
             sizing_mode="stretch_width",
         )

@@ -7,8 +7,6 @@ worst-case tab assume.
 """
 from __future__ import annotations
 
-import html
-
 import panel as pn
 import param
 from panel.viewable import Viewer
@@ -17,9 +15,11 @@ from isl_core.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
 from ..state import AppState
-from .style import EXTRA_COLORS
+from .controls import Guarded, NumberInput, WholeInput
+from .fields import field
+from .style import EXTRA_COLORS, NOTE_FONT
 
-__all__ = ["FiltersPanel", "bind"]
+__all__ = ["FiltersPanel", "bind", "number"]
 
 
 def bind(state: AppState, name: str, widget):
@@ -40,14 +40,26 @@ def bind(state: AppState, name: str, widget):
                 quiet[0] = False
 
     widget.param.watch(from_widget, "value")
+    if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
+        widget._refuse = lambda raw: setattr(state, name, raw)
     state.param.watch(from_state, [name])
     from_state()
     return widget
 
 
-def _swatch(name: str) -> str:
-    return (f"<span style='color:{EXTRA_COLORS[name]};font-size:18px'>&#9632;</span> "
-            f"{html.escape(LABELS[name])}")
+def number(state: AppState, name: str, **widget):
+    """A number box for input ``name``, with its label and doc. The state checks what is typed and says why a value is
+    refused; the box itself has no range (BokehJS's box drops a value outside its range without a word, and the
+    page kept showing it while the run stayed as it was)."""
+    p = state.param[name]
+    kind = WholeInput if isinstance(p, param.Integer) else NumberInput
+    return bind(state, name, kind(label=p.label, description=p.doc, **widget))
+
+
+def _swatch_css(name: str) -> str:
+    """A square of the filter's plot colour before its checkbox's label."""
+    return (f".bk-label::before {{ content: '\\25A0'; color: {EXTRA_COLORS[name]}; font-size: 18px; "
+            "margin-right: 6px; vertical-align: -2px; }")
 
 
 class FiltersPanel(Viewer):
@@ -59,19 +71,16 @@ class FiltersPanel(Viewer):
         super().__init__(**params)
         s = self.state
         self._boxes = {}
-        for name in EXTRA_NAMES:
-            box = pn.widgets.Checkbox(value=name in s.extra_filters, margin=(8, 0, 0, 10), width=20,
-                                      css_classes=[f"extra-{name}"])
+        for name in EXTRA_NAMES:  # the label names the box for a screen reader; its colour swatch is drawn by CSS
+            box = pn.widgets.Checkbox(value=name in s.extra_filters, label=LABELS[name], margin=(6, 10),
+                                      css_classes=[f"extra-{name}"], sizing_mode="stretch_width",
+                                      stylesheets=[_swatch_css(name)])
             box.param.watch(self._on_box, "value")
             self._boxes[name] = box
         s.param.watch(self._from_state, ["extra_filters"])
-        p = s.param
-        self._design = bind(s, "sigma_design", pn.widgets.FloatInput(
-            label=p.sigma_design.label, start=0.1, end=1000.0, step=1.0, width=170))
-        self._lo = bind(s, "sigma_min", pn.widgets.FloatInput(label=p.sigma_min.label, start=0.1, end=1000.0,
-                                                               step=1.0, width=110))
-        self._hi = bind(s, "sigma_max", pn.widgets.FloatInput(label=p.sigma_max.label, start=0.1, end=1000.0,
-                                                               step=10.0, width=110))
+        self._design = number(s, "sigma_design", width=170, step=1.0)
+        self._lo = number(s, "sigma_min", width=110, step=1.0)
+        self._hi = number(s, "sigma_max", width=110, step=10.0)
 
     def _on_box(self, *events) -> None:
         chosen = [n for n, box in self._boxes.items() if box.value]
@@ -85,11 +94,12 @@ class FiltersPanel(Viewer):
                 box.value = want
 
     def __panel__(self):
-        rows = [pn.Row(self._boxes[n], pn.pane.HTML(_swatch(n), margin=(6, 0, 0, 0)), height=32)
-                for n in EXTRA_NAMES]
+        rows = [self._boxes[n] for n in EXTRA_NAMES]
         help_text = pn.pane.Markdown(
             "Drawn on the same run (same noise). The model-aware ISL filter uses the ν above; the Kalman–Bucy "
             "filter 'for max σ' and the adaptive one assume σ ∈ [σ min, σ max].",
-            styles={"font-size": "12px"}, margin=(0, 10))
-        return pn.Card(*rows, pn.Row(self._design), pn.Row(self._lo, self._hi), help_text,
+            styles={"font-size": NOTE_FONT}, margin=(0, 10))
+        s = self.state
+        return pn.Card(*rows, field(s, "sigma_design", self._design),
+                       pn.Row(field(s, "sigma_min", self._lo), field(s, "sigma_max", self._hi)), help_text,
                        title="Other filters (σ unknown)", collapsed=False, sizing_mode="stretch_width")

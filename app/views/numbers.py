@@ -21,24 +21,50 @@ from isl_core.runview import TUBE_THEORY
 
 from ..pipeline import COORDINATES
 from ..state import AppState
-from .style import EXTRA_COLORS, SUBSCRIPT
+from ..text import per_r_min_html
+from .style import EXTRA_COLORS, NOTE_FONT, SUBSCRIPT, text_scale
 
-__all__ = ["TABLE_CSS", "NumbersView", "numbers_html"]
+__all__ = ["TABLE_CSS", "THEORY_OFF", "NumbersView", "numbers_html", "theory_cell"]
 
 TABLE_CSS = """
 table.isl-numbers { border-collapse: collapse; font-size: var(--isl-table-font, 15px); margin: 4px 0 8px 0; }
 table.isl-numbers th, table.isl-numbers td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
 table.isl-numbers th { font-weight: 600; vertical-align: bottom; }
 table.isl-numbers td:first-child, table.isl-numbers th:first-child { text-align: left; }
-table.isl-numbers .tag { display: block; font-weight: normal; font-size: 12px; color: #666; }
+table.isl-numbers .tag { display: block; font-weight: normal; font-size: var(--isl-tag-font, 12px); color: #595959; }
 table.isl-numbers .theory { color: #555; font-style: italic; }
 table.isl-numbers.run td { text-align: left; }
 table.isl-numbers.ratios td { white-space: nowrap; }
 """
 
 
+THEORY_OFF = 2.0  #: a measured ratio this many times the theory's (or below 1/this) is far beyond one run's scatter
+
+
 def _fmt(x: float) -> str:
     return f"{x:.4g}"
+
+
+def _theory_aside(measured: float, theory: float | None) -> str:
+    """The theory beside a measured ratio of the extra filters' table, in brackets (by :func:`theory_cell`'s rule)."""
+    if theory is None or not np.isfinite(theory):
+        return ""
+    if measured > THEORY_OFF * theory or measured < theory / THEORY_OFF:
+        return " <span class='theory'>(theory not valid here)</span>"
+    return f" <span class='theory'>({_fmt(theory)})</span>"
+
+
+def theory_cell(measured: float, theory: float) -> str:
+    """The theory's ratio, or why it is not shown: none where the linearized filter is unstable, and not where the
+    run measured :data:`THEORY_OFF` times more (or less) — statistical linearization assumes the innovation stays
+    Gaussian, which a filter that has lost lock (small ν) violates; the theory then under-predicts, by tens at
+    ν = 0.001, and is not a number to read."""
+    if not np.isfinite(theory):
+        return "<td class='theory'>—<span class='tag'>unstable in theory</span></td>"
+    if measured > THEORY_OFF * theory or measured < theory / THEORY_OFF:
+        return (f"<td class='theory'>not valid<span class='tag'>measured is {measured / theory:.3g}× it: the filter "
+                "has lost lock, the linearization does not hold (ν sweep tab)</span></td>")
+    return f"<td class='theory'>{_fmt(theory)}</td>"
 
 
 def extras_html(run, extra_prediction: dict | None) -> str:
@@ -52,10 +78,8 @@ def extras_html(run, extra_prediction: dict | None) -> str:
     rows = []
     for tr in tracks:
         th = pred.get(tr.name)
-        cells = "".join(
-            f"<td>{tr.ratio[i]:.3f}" + ("" if th is None or not np.isfinite(th[i]) else
-                                         f" <span class='theory'>({_fmt(th[i])})</span>") + "</td>"
-            for i in range(run.model.m))
+        cells = "".join(f"<td>{tr.ratio[i]:.3f}{_theory_aside(tr.ratio[i], None if th is None else th[i])}</td>"
+                        for i in range(run.model.m))
         note = "" if tr.sigma_hat_mean is None else f"<span class='tag'>mean σ̂ = {tr.sigma_hat_mean:.4g}</span>"
         color = EXTRA_COLORS.get(tr.name, "#000")
         rows.append(f"<tr><td><span style='color:{color}'>&#9632;</span> {html.escape(tr.label)}{note}</td>{cells}</tr>")
@@ -77,14 +101,14 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         rows.append(
             f"<tr><td>X{k} {html.escape(COORDINATES[i])}</td><td class='theory'>{_fmt(run.s[i])}</td>"
             f"<td>{run.ratio_hat[i]:.3f}</td><td>{run.ratio_check[i]:.3f}</td>"
-            f"<td class='theory'>{_fmt(prediction[i])}</td><td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
+            f"{theory_cell(run.ratio_check[i], prediction[i])}<td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
         )
     longer = "" if run.stretch == 1.0 else (
         f"<span class='tag'>lengthened ×{run.stretch:.3g}: the ISL filter at this ν settles that much slower than "
         "the optimal one (B.46)</span>")
     facts = (
         f"<tr><td>r<sub>min</sub> (settling rate, theory)</td><td>{_fmt(run.r_min)}</td></tr>"
-        f"<tr><td>T (simulated time)</td><td>{_fmt(run.T)} = {run.T * run.r_min:.3g} / r<sub>min</sub>{longer}</td></tr>"
+        f"<tr><td>T (simulated time)</td><td>{_fmt(run.T)} = {per_r_min_html(run.T * run.r_min, 3)}{longer}</td></tr>"
         "<tr><td>averaging window</td><td>t ∈ [0, T], no burn-in: every filter starts at X(0) − e₀, "
         "e₀ ~ N(0, Δ)</td></tr>"
         f"<tr><td>h (Euler step)</td><td>{run.h:.3g}</td></tr>"
@@ -118,6 +142,6 @@ class NumbersView(Viewer):
             self._pane,
             pn.pane.Markdown(
                 "Ratios are RMSE / s<sub>i</sub>: 1 is optimal. Measured ratios on one short run scatter by "
-                "±10 % or more; a longer horizon narrows them.", margin=(0, 10), styles={"font-size": "13px"}),
-            width=430,
+                "±10 % or more; a longer horizon narrows them.", margin=(0, 10), styles={"font-size": NOTE_FONT}),
+            width=round(430 * text_scale(self.state)),
         )

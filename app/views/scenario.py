@@ -21,11 +21,14 @@ from panel.viewable import Viewer
 
 from isl_core.scenario_map import AXIS_LABELS
 
-from ..colors import EXTRA_COLORS, ISL, KBF
-from ..scenario import BURN, PRESETS, Picture
+from ..colors import EXTRA_COLORS, ISL, KBF, text_on, tint
+from ..scenario import BURN, CHOICE_LABELS, PRESETS, Picture
 from ..state import AppState
+from .fields import field
 from .filters_panel import bind
-from .style import job_buttons, ratio_axis, styled
+from .filters_panel import number as number_box
+from ..text import R_MIN, R_MIN_HTML, per_r_min_html
+from .style import TEXT_FONT, job_buttons, ratio_axis, styled, text_scale
 
 __all__ = ["SCENARIO_COLORS", "ScenarioView", "map_html", "worst_html"]
 
@@ -35,13 +38,13 @@ SCENARIO_COLORS = {"clairvoyant": "#6b6b6b", "kbf": KBF, "isl": ISL, "vb": "#7b3
 _SHORT = {"clairvoyant": "clairvoyant", "kbf": "KBF σ(0)", "isl": "ISL", "kbf_adaptive": "adaptive", "vb": "VB",
           "kbf_robust": "robust", "isl_minimax": "ISL minimax", "isl_model": "ISL model-aware"}
 _CSS = """
-table.isl-scn { border-collapse: collapse; font-size: 14px; margin: 4px 0 8px 0; }
+table.isl-scn { border-collapse: collapse; font-size: var(--isl-table-font, 14px); margin: 4px 0 8px 0; }
 table.isl-scn th, table.isl-scn td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
 table.isl-scn td:first-child, table.isl-scn th:first-child { text-align: left; }
-table.isl-scn .ci { display: block; font-size: 12px; color: #555; }
+table.isl-scn .ci { display: block; font-size: var(--isl-tag-font, 12px); color: #555; }
 table.isl-scn .best { font-weight: 700; }
-table.isl-scn td.cell { color: #fff; text-align: center; }
-table.isl-scn td.tie { opacity: 0.55; }
+table.isl-scn td.cell { text-align: center; }
+table.isl-scn td.tie { outline: 2px dashed #444; outline-offset: -3px; }
 """
 
 
@@ -58,7 +61,7 @@ def worst_html(pic: Picture | None) -> str:
     run = pic.average.run
     if pic.worst is None:
         return ("<p>No worst case: it needs 2 runs or more and a horizon longer than "
-                f"{BURN:g}/r_min + the window.</p>")
+                f"{per_r_min_html(BURN)} + the window.</p>")
     point, low, high = pic.worst
     best = 1 + int(np.argmin(np.where(np.isfinite(point[1:]), point[1:], np.inf)))
     rows = []
@@ -67,14 +70,14 @@ def worst_html(pic: Picture | None) -> str:
             f"<span{' class=best' if f == best else ''}>{point[f]:.3g}</span>"
             f"<span class='ci'>[{low[f]:.3g}, {high[f]:.3g}]</span>")
         rows.append(f"<tr><td>{html.escape(label)}</td><td>{cell}</td></tr>")
-    head = (f"<tr><th>filter</th><th>worst ratio after {BURN:g}/r_min<span class='ci'>simulated, 95 % bootstrap "
+    head = (f"<tr><th>filter</th><th>worst ratio after {per_r_min_html(BURN)}<span class='ci'>simulated, 95 % bootstrap "
             "interval</span></th></tr>")
     return f"<table class='isl-scn'>{head}{''.join(rows)}</table>"
 
 
 def map_html(res) -> str:
     """The who-wins map: a cell per swept value (and per window since the step), coloured by its winner, with the
-    margin over the runner-up; a faded cell marked "≈" is a tie."""
+    margin over the runner-up; a light cell with a dashed border, marked "≈", is a tie."""
     if res is None:
         return "<p>No map yet: press <b>Compute map</b>.</p>"
     head = "".join(f"<th>{x:g}</th>" for x in res.x)
@@ -85,14 +88,23 @@ def map_html(res) -> str:
         for c in range(len(res.x)):
             name = res.filters[res.winner[r, c]]
             tie = bool(res.tie[r, c])
-            cells.append(f"<td class='cell{' tie' if tie else ''}' style='background:{SCENARIO_COLORS[name]}' "
+            # a winner on its colour, a tie on a light shade of it with a dashed border: text at ≥ 4.5 : 1 on both
+            back = tint(SCENARIO_COLORS[name], 0.3) if tie else SCENARIO_COLORS[name]
+            ink = text_on(back)
+            cells.append(f"<td class='cell{' tie' if tie else ''}' style='background:{back};color:{ink}' "
                          f"title='{html.escape(res.labels[res.winner[r, c]])}'>{'≈ ' if tie else ''}"
-                         f"{html.escape(_SHORT[name])}<span class='ci' style='color:#fff'>×{res.margin[r, c]:.2f}"
+                         f"{html.escape(_SHORT[name])}<span class='ci' style='color:{ink}'>×{res.margin[r, c]:.2f}"
                          "</span></td>")
         rows.append(f"<tr><td>{label}</td>{''.join(cells)}</tr>")
-    corner = "time since the step (1/r_min) \\ " if res.kind == "sigma_step" else ""
+    corner = f"time since the step (1/{R_MIN_HTML}) \\ " if res.kind == "sigma_step" else ""
     return (f"<table class='isl-scn'><tr><th>{corner}{html.escape(AXIS_LABELS[res.kind])}</th>{head}</tr>"
             f"{''.join(rows)}</table>")
+
+
+def _relabel(item: LegendItem, label: str) -> None:
+    """``item``'s text set to ``label`` (no change sent when it already reads so)."""
+    if item.label != value(label):
+        item.label = value(label)
 
 
 class ScenarioView(Viewer):
@@ -116,19 +128,22 @@ class ScenarioView(Viewer):
         self._update()
 
     def _figures(self):
+        scale = text_scale(self.state)
         ratio = styled(figure(y_axis_type="log", height=380, sizing_mode="stretch_width", x_range=Range1d(0, 1),
                               title="RMSE ratio to the clairvoyant Kalman filter (simulated, rolling window)",
-                              tools="pan,xwheel_zoom,box_zoom,reset,save"))
+                              tools="pan,xwheel_zoom,box_zoom,reset,save"), scale)
         ratio.yaxis.axis_label = "RMSE / clairvoyant sd (worst i)"
-        ratio_axis(ratio.yaxis)
+        ratio_axis(ratio, scale)
         ratio.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         sigma = styled(figure(y_axis_type="log", height=220, sizing_mode="stretch_width", x_range=ratio.x_range,
-                              title="σ(t) and the σ̂(t) of the filters that learn it", tools="pan,xwheel_zoom,reset"))
-        sigma.xaxis.axis_label = "t (× 1/r_min at σ(0))"
+                              title="σ(t) and the σ̂(t) of the filters that learn it", tools="pan,xwheel_zoom,reset"),
+                       scale)
+        sigma.xaxis.axis_label = f"time t, in units of 1/{R_MIN} at σ(0)"
         sigma.yaxis.axis_label = "σ"
         sigma.yaxis.ticker = LogTicker(mantissas=[1, 2, 5])  # labels at every decade's 1, 2, 5
         for fig in (ratio, sigma):
-            fig.add_layout(Legend(items=[], location="top_left", label_text_font_size="10pt", click_policy="hide"),
+            fig.add_layout(Legend(items=[], location="top_left", label_text_font_size=f"{10 * scale:.3g}pt",
+                                  click_policy="hide"),
                            "right")
         return ratio, sigma
 
@@ -155,10 +170,12 @@ class ScenarioView(Viewer):
             self._change.update(location=knots[0][0] if knots else 0.0, visible=bool(knots))
 
     def _draw(self, run, learning) -> None:
-        """Glyphs for filters not drawn yet (the set of filters is the same in every picture)."""
+        """Glyphs for filters not drawn yet (the set of filters is the same in every picture), and every legend entry
+        labelled as this picture's run labels it (σ(0) and ν are in the labels: they change with the picture)."""
         legend = self._ratio_fig.legend[0]
         for name, label in zip(run.names, run.labels, strict=True):
             if name in self._legend_items:
+                _relabel(self._legend_items[name], label)
                 continue
             color = SCENARIO_COLORS[name]
             band = self._ratio_fig.varea("t", f"{name}_low", f"{name}_high", source=self._ratio_src, color=color,
@@ -172,25 +189,24 @@ class ScenarioView(Viewer):
             items = [LegendItem(label=value("σ(t), simulated"), renderers=[
                 self._sigma_fig.line("t", "sigma", source=self._sigma_src, color="#000", line_width=2)])]
             for name in learning:
-                label = run.labels[run.names.index(name)]
-                items.append(LegendItem(label=value(f"σ̂: {label}"), renderers=[
+                items.append(LegendItem(label=value(""), renderers=[
                     self._sigma_fig.line("t", name, source=self._sigma_src, color=SCENARIO_COLORS[name],
                                          line_width=2)]))
             sigma_legend.items = items
+        for item, name in zip(sigma_legend.items[1:], learning, strict=True):
+            _relabel(item, f"σ̂: {run.labels[run.names.index(name)]}")
 
     def _controls(self) -> pn.Column:
         s = self.state
         p = s.param
 
         def number(name: str, width: int = 150, **kw):
-            bounds = p[name].bounds
-            widget = (pn.widgets.IntInput if isinstance(p[name], param.Integer) else pn.widgets.FloatInput)(
-                label=p[name].label, start=bounds[0], end=bounds[1], width=width, description=p[name].doc, **kw)
-            return bind(s, name, widget)
+            return field(s, name, number_box(s, name, width=width, **kw))
 
         def choice(name: str, width: int = 130):
-            return bind(s, name, pn.widgets.Select(label=p[name].label, options=list(p[name].objects), width=width,
-                                                   description=p[name].doc))
+            options = {CHOICE_LABELS[name][v]: v for v in p[name].objects}
+            return field(s, name, bind(s, name, pn.widgets.Select(
+                label=p[name].label, options=options, width=width, description=p[name].doc)))
 
         preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS], width=260)
 
@@ -210,13 +226,15 @@ class ScenarioView(Viewer):
                        number("sc_outlier_scale", 130), number("sc_sensor", 190), **row),
             pn.FlexBox(number("sc_horizon", 190), number("sc_window", 170), number("sc_runs", 120), download,
                        spinner, **row),
-            pn.pane.Markdown(p.scenario_note, margin=(0, 10)), sizing_mode="stretch_width")
+            pn.pane.Markdown(p.sc_preset_note, margin=(0, 10)), pn.pane.Markdown(p.scenario_note, margin=(0, 10)),
+            sizing_mode="stretch_width")
 
     def _map_controls(self) -> pn.Column:
         s = self.state
         p = s.param
-        kind = bind(s, "sc_map", pn.widgets.Select(label=p.sc_map.label, options=list(p.sc_map.objects), width=150))
-        seeds = bind(s, "sc_map_seeds", pn.widgets.IntInput(label=p.sc_map_seeds.label, start=2, end=128, width=110))
+        kind = field(s, "sc_map", bind(s, "sc_map", pn.widgets.Select(
+            label=p.sc_map.label, options={CHOICE_LABELS["sc_map"][v]: v for v in p.sc_map.objects}, width=170)))
+        seeds = field(s, "sc_map_seeds", number_box(s, "sc_map_seeds", width=110))
         run, cancel, progress = job_buttons(p.sc_map_busy, p.sc_map_progress, "Compute map", s.compute_map,
                                             s.cancel_map, width=140)
         return pn.Column(pn.FlexBox(kind, seeds, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
@@ -228,12 +246,13 @@ class ScenarioView(Viewer):
             "noise, a **coarse sensor**. Every filter runs on the same noise and is compared with the *clairvoyant* "
             "Kalman filter, which knows σ(t), the noise's variance and the sensor: its ratio is 1 up to sampling "
             "error. The ISL filters use ν; the adaptive, variational-Bayes and robust filters learn σ over "
-            "[σ min, σ max] from its geometric middle.", margin=(0, 10), styles={"font-size": "14px"})
+            "[σ min, σ max] from its geometric middle.", margin=(0, 10), styles={"font-size": TEXT_FONT})
         map_intro = pn.pane.Markdown(
             "**Who wins where** — per cell, the filter with the lowest ratio to the clairvoyant one (max over "
-            "coordinates, mean square over the runs) and its margin over the runner-up; a faded cell marked ≈ is a "
-            "tie (the margin's 95 % lower bound over the runs is ≤ 1). Paper A's model at this α, m and w, σ(0) = 20; "
-            "the same as `isl scenario --map`.", margin=(10, 10, 0, 10), styles={"font-size": "14px"})
+            "coordinates, mean square over the runs) and its margin over the runner-up; a light cell with a dashed "
+            "border, marked ≈, is a tie (the margin's 95 % lower bound over the runs is ≤ 1). Paper A's model at this "
+            "α, m and w, σ(0) = 20; the same as the command `isl scenario --map`.", margin=(10, 10, 0, 10),
+            styles={"font-size": TEXT_FONT})
         return pn.Column(intro, self._controls(),
                          pn.pane.Bokeh(self._ratio_fig, margin=5, sizing_mode="stretch_width"),
                          pn.pane.Bokeh(self._sigma_fig, margin=5, sizing_mode="stretch_width"),

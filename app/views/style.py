@@ -7,8 +7,9 @@ from bokeh.plotting import figure
 
 from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
-__all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "RATIO_MANTISSAS", "SIGMA_COLORS",
-           "SIGMA_DASHES", "SUBSCRIPT", "TRUTH", "job_buttons", "line", "ratio_axis", "ratio_ticker", "styled"]
+__all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "NOTE_FONT", "PRESENTER_SCALE",
+           "RATIO_MANTISSAS", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TEXT_FONT", "TRUTH", "job_buttons", "line",
+           "ratio_axis", "ratio_ticker", "styled", "text_scale"]
 
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
@@ -20,14 +21,26 @@ SIGMA_DASHES = ("dotted", "dashed", "solid", "dashdot", "dotdash")  #: paper A, 
 SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
 
 
-def styled(fig: figure) -> figure:
-    """Large fonts, light grid, no logo."""
-    fig.title.text_font_size = "14pt"
+TEXT_FONT = "var(--isl-text-font, 14px)"  #: the views' explanatory text (larger in presenter mode: app.page)
+NOTE_FONT = "var(--isl-note-font, 13px)"  #: their small print
+
+#: how much larger a plot's text is in presenter mode (the page's text goes from 14 to 19 px there)
+PRESENTER_SCALE = 19 / 14
+
+
+def text_scale(state) -> float:
+    """The plots' font scale for ``state``'s page: :data:`PRESENTER_SCALE` in presenter mode, else 1."""
+    return PRESENTER_SCALE if state.present else 1.0
+
+
+def styled(fig: figure, scale: float = 1.0) -> figure:
+    """Large fonts (times ``scale``: :data:`PRESENTER_SCALE` for a projector), light grid, no logo."""
+    fig.title.text_font_size = f"{14 * scale:.3g}pt"
     fig.title.text_font_style = "bold"
     for axis in (*fig.xaxis, *fig.yaxis):
-        axis.axis_label_text_font_size = "13pt"
+        axis.axis_label_text_font_size = f"{13 * scale:.3g}pt"
         axis.axis_label_text_font_style = "normal"
-        axis.major_label_text_font_size = "11pt"
+        axis.major_label_text_font_size = f"{11 * scale:.3g}pt"
     for axis in fig.yaxis:
         if isinstance(axis.formatter, BasicTickFormatter):  # plain numbers up to 10⁷ (positions drift far)
             axis.formatter = BasicTickFormatter(power_limit_high=7, power_limit_low=-3)
@@ -53,20 +66,29 @@ RATIO_MANTISSAS = ((1, 1.05, 1.1, 1.2, 1.3, 1.5, 1.7, 2, 2.5, 3, 4, 5, 7), (1, 1
                    (1, 1.2, 1.5, 2, 3, 5), (1, 2, 5), (1, 3), (1,))
 
 
-def ratio_axis(axis) -> None:
-    """A log axis of RMSE ratios ticked 1, 1.2, 1.5, 2, … (:func:`ratio_ticker`) and labelled plainly (1.2, not
-    1.2e+0), so that 1.06 and 1.23 can be read off (the ν-sweep's and the worst case's charts)."""
-    axis.ticker = ratio_ticker()
-    axis.formatter = PrintfTickFormatter(format="%g")
+def ratio_axis(fig: figure, scale: float = 1.0) -> None:
+    """``fig``'s y axis, a log axis of RMSE ratios, ticked 1, 1.2, 1.5, 2, … (:func:`ratio_ticker`) and labelled
+    plainly (1.2, not 1.2e+0), so that 1.06 and 1.23 can be read off (the ν-sweep's and the worst case's charts)."""
+    for axis in fig.yaxis:
+        axis.ticker = ratio_ticker(fig, min_gap=round(TICK_GAP * scale))
+        axis.formatter = PrintfTickFormatter(format="%g")
 
 
-def ratio_ticker(max_ticks: int = 9) -> CustomJSTicker:
+TICK_GAP = 22  #: least distance in pixels between two tick labels of a ratio axis (an 11 pt label is ≈ 15 px high)
+
+
+def ratio_ticker(fig: figure | None = None, max_ticks: int = 9, min_gap: int = TICK_GAP) -> CustomJSTicker:
     """Ticks for a log axis of ratios: the finest set of :data:`RATIO_MANTISSAS` that puts at most ``max_ticks``
-    ticks in view (1, 1.2, 1.5, 2, 3, 5, … over a ratio range of 1–10), computed in the browser as the view
-    changes; a range of many decades falls back to powers of 10 (every k-th one)."""
+    ticks in view, at least ``min_gap`` pixels apart on ``fig``'s plot area (1, 1.2, 1.5, 2, 3, 5, … over a ratio
+    range of 1–10), computed in the browser as the view changes (at 1.1 and 1.2 two labels overlapped on a short
+    range drawn small); a range of many decades falls back to powers of 10 (every k-th one)."""
     code = """
         const lo = Math.min(cb_data.start, cb_data.end), hi = Math.max(cb_data.start, cb_data.end);
         if (!(lo > 0) || !(hi > lo)) return [];
+        let px = 0;
+        try { px = plot ? plot.inner_height : 0; } catch (e) { px = 0; }  // unset until the plot is laid out
+        const apart = (ticks) => { for (let k = 1; k < ticks.length; k++)
+            if (px * Math.log(ticks[k] / ticks[k - 1]) / Math.log(hi / lo) < min_gap) return false; return true; };
         const d0 = Math.floor(Math.log10(lo)), d1 = Math.ceil(Math.log10(hi));
         for (const set of sets) {
             const ticks = [];
@@ -75,13 +97,14 @@ def ratio_ticker(max_ticks: int = 9) -> CustomJSTicker:
                     const v = Number((m * Math.pow(10, d)).toPrecision(6));
                     if (v >= lo && v <= hi) ticks.push(v);
                 }
-            if (ticks.length <= max_ticks && ticks.length >= 2) return ticks;
+            if (ticks.length <= max_ticks && ticks.length >= 2 && (!(px > 0) || apart(ticks))) return ticks;
         }
         const step = Math.max(1, Math.ceil((d1 - d0) / max_ticks)), ticks = [];
         for (let d = d0; d <= d1; d += step) { const v = Math.pow(10, d); if (v >= lo && v <= hi) ticks.push(v); }
         return ticks;
     """
-    return CustomJSTicker(major_code=code, args={"sets": [list(m) for m in RATIO_MANTISSAS], "max_ticks": max_ticks})
+    return CustomJSTicker(major_code=code, args={"sets": [list(m) for m in RATIO_MANTISSAS], "max_ticks": max_ticks,
+                                                 "plot": fig, "min_gap": min_gap})
 
 
 def job_buttons(busy, progress, label: str, start, cancel, *, width: int = 120, below_label: bool = True) -> tuple:

@@ -23,7 +23,19 @@ from isl_core.baselines import LABELS
 from ..pipeline import COORDINATES
 from ..state import AppState
 from .controls import log_slider
-from .style import EXTRA_COLORS, SIGMA_COLORS, SIGMA_DASHES, SUBSCRIPT, job_buttons, ratio_axis, styled
+from .fields import field
+from .style import (
+    EXTRA_COLORS,
+    NOTE_FONT,
+    SIGMA_COLORS,
+    SIGMA_DASHES,
+    SUBSCRIPT,
+    TEXT_FONT,
+    job_buttons,
+    ratio_axis,
+    styled,
+    text_scale,
+)
 
 __all__ = ["SweepView", "parse_sigmas"]
 
@@ -31,12 +43,15 @@ _SLOTS = len(SIGMA_COLORS)
 _EXTRA_CURVES = ("kbf_mismatched", "kbf_minimax", "isl_model")  #: extra filters with a theory (app.sweeps)
 
 
-def parse_sigmas(text: str) -> list[float] | str:
-    """``"2, 20, 200"`` → ``[2.0, 20.0, 200.0]``; text that does not parse is returned as is (the state refuses it)."""
-    try:
-        return [float(v) for v in text.replace(";", ",").split(",") if v.strip()]
-    except ValueError:
-        return text
+def parse_sigmas(text: str) -> list[float | str]:
+    """``"2, 20, 200"`` → ``[2.0, 20.0, 200.0]``; an entry that is not a number stays text, which the state refuses
+    by name (``"2, abc"``: "abc" is not a number)."""
+    def entry(v: str) -> float | str:
+        try:
+            return float(v)
+        except ValueError:
+            return v.strip()
+    return [entry(v) for v in text.replace(";", ",").split(",") if v.strip()]
 
 
 def _positive(a: np.ndarray) -> np.ndarray:
@@ -54,7 +69,7 @@ class SweepView(Viewer):
         super().__init__(**params)
         self._lines, self._points, self._nu_marks = [], [], []
         self._extra_lines: list[dict] = []
-        self._extra_legend = pn.pane.HTML("", margin=(0, 10), styles={"font-size": "13px"})
+        self._extra_legend = pn.pane.HTML("", margin=(0, 10), styles={"font-size": NOTE_FONT})
         self._renderers: list[list[tuple]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
@@ -72,11 +87,12 @@ class SweepView(Viewer):
 
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
+        scale = text_scale(self.state)
         fig = styled(figure(x_axis_type="log", y_axis_type="log", height=400, sizing_mode="stretch_width",
-                            title=f"X{k} — {COORDINATES[i]}", tools="pan,wheel_zoom,box_zoom,reset,save"))
+                            title=f"X{k} — {COORDINATES[i]}", tools="pan,wheel_zoom,box_zoom,reset,save"), scale)
         fig.xaxis.axis_label = "ν/β"
         fig.yaxis.axis_label = f"š{k}/s{k}  (ISL RMSE / optimal)"
-        ratio_axis(fig.yaxis)
+        ratio_axis(fig, scale)
         fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         mark = Span(location=1.0, dimension="height", line_color="#c00", line_width=2, line_alpha=0.7)
         fig.add_layout(mark)
@@ -92,7 +108,8 @@ class SweepView(Viewer):
             items.append(LegendItem(label=value(""), renderers=[line, dots], visible=False))
             lines.append(line_src)
             points.append(pt_src)
-        legend = Legend(items=items, orientation="horizontal", label_text_font_size="11pt", padding=2, margin=2)
+        legend = Legend(items=items, orientation="horizontal", label_text_font_size=f"{11 * scale:.3g}pt", padding=2,
+                        margin=2)
         fig.add_layout(legend, "above")
         extra_lines = {}  # their legend is one HTML line above the plots (three legends per plot do not fit)
         for name in _EXTRA_CURVES:
@@ -181,11 +198,14 @@ class SweepView(Viewer):
         recommend.on_click(lambda e: s.recommend())
         note = pn.pane.Markdown(pn.bind(self._note, s.param.sweep_note, s.param.curves_note, s.param.points,
                                         s.param.curves), margin=(0, 10))
-        return pn.Column(pn.FlexBox(sigmas, horizon, run, cancel, progress, recommend, flex_wrap="wrap",
-                                    sizing_mode="stretch_width"), note, sizing_mode="stretch_width")
+        return pn.Column(pn.FlexBox(field(s, "sweep_sigmas", sigmas), field(s, "sweep_horizon", horizon), run, cancel,
+                                    progress, recommend, flex_wrap="wrap", sizing_mode="stretch_width"), note,
+                         sizing_mode="stretch_width")
 
     def _note(self, sweep_note: str, curves_note: str, points, curves) -> str:
         parts = [p for p in (curves_note, sweep_note) if p]
+        if curves is None and not curves_note:
+            parts.insert(0, "Computing the theory curves …")
         if curves is not None and curves.alpha == 0.0:
             if len(curves.sigmas) > 1 and np.allclose(curves.ratios, curves.ratios[:1], rtol=1e-9, equal_nan=True):
                 parts.append("The theory curves of every σ coincide (drawn on top of each other): at α = 0 the "
@@ -203,5 +223,5 @@ class SweepView(Viewer):
             "ISL filter's RMSE ratio š<sub>i</sub>/s<sub>i</sub> against ν/β for the current α, β and m. "
             "**Lines: theory** (statistical linearization; it under-predicts where the filter loses lock at "
             "small ν). **Dots: simulation** with 95 % intervals (on demand). Red line: the current ν.",
-            margin=(0, 10), styles={"font-size": "14px"})
+            margin=(0, 10), styles={"font-size": TEXT_FONT})
         return pn.Column(intro, self._controls(), self._extra_legend, *self._rows, sizing_mode="stretch_width")

@@ -5,9 +5,11 @@ Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green
 built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32) and the
 tube offsets. The tube is a ``Band`` whose edges are ``Dodge`` transforms of X̂_i by ±3 s_i: it costs no extra
 data, and as an annotation the browser redraws it without the per-glyph work (spatial index, selection view)
-that two extra line glyphs cost on every update — about 18 ms of a redraw, measured with
-``benchmarks/bench_app_latency.py``. Extra filters of the run (:mod:`app.extras`) are drawn by
-:class:`app.views.overlay.Overlay`, one colour each.
+that two extra line glyphs cost on every update. BokehJS recomputes a band's edges when its own properties or its
+source change, not when a transform it reads changes: a run whose data arrived before its new offsets kept the
+previous run's tube (after a preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band
+to recompute in the browser (:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in. Extra filters
+of the run (:mod:`app.extras`) are drawn by :class:`app.views.overlay.Overlay`, one colour each.
 
 The **error view** (a switch above the plots) draws each filter's error X̂_i − X_i, X̌_i − X_i, … instead, with
 the band ±3 s_i around 0 and the signal as the zero line: at high orders X_1 spans ±10⁶ and the tube is invisible
@@ -19,7 +21,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import field, value
-from bokeh.models import Band, ColumnDataSource, Dodge, Legend, LegendItem, Range1d, Title
+from bokeh.models import Band, ColumnDataSource, CustomJS, Dodge, Legend, LegendItem, Range1d, Title
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -27,10 +29,11 @@ from isl_core import M_MAX
 
 from ..pipeline import COORDINATES
 from ..state import AppState
+from ..text import num, per_r_min
 from .overlay import KEY_DATA, Overlay, follow
-from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled
+from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled, text_scale
 
-__all__ = ["TrajectoriesView", "plot_height"]
+__all__ = ["RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
 
 _TRUTH = {"line_color": TRUTH, "line_width": 1.4}
 _KBF = {"line_color": KBF, "line_width": 1.8}
@@ -40,16 +43,18 @@ _TUBE = {"line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alph
 SUMMARY_HEIGHT = 30  #: the first plot carries the run's summary above its frame
 LEGEND_ROW = 30  #: height of one row of the legend (two entries a row)
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
+#: run in the browser when a tube offset changes: the band re-reads its edges (y ± the new offset) and repaints
+RECOMPUTE_BAND = "band.change.emit()"
 
 
-def _legend_figure() -> figure:
+def _legend_figure(row: float) -> figure:
     """A figure holding only the legend: its glyphs are empty lines, nothing in it changes with a run.
 
     The legend sits in its own figure above the plots, not in the first plot: a run redraws every plot, and a
     legend inside one is redrawn with it. Its entries' glyphs are unseen lines of this figure, not the plotted
     lines (see :func:`app.views.overlay.follow`), so nothing a run changes is reachable from the legend.
     """
-    fig = figure(height=2 * LEGEND_ROW + 8, sizing_mode="stretch_width", toolbar_location=None, x_axis_type=None,
+    fig = figure(height=round(2 * row) + 8, sizing_mode="stretch_width", toolbar_location=None, x_axis_type=None,
                  y_axis_type=None, x_range=Range1d(0, 1), y_range=Range1d(0, 1), outline_line_color=None,
                  min_border=0, min_border_left=70)
     fig.grid.visible = False
@@ -107,7 +112,7 @@ class TrajectoriesView(Viewer):
         self._x_range = Range1d(0.0, 1.0)  # shared: pan or zoom one plot's time axis and all follow
         self._sources: list[dict[str, ColumnDataSource]] = []
         self._dodges: list[tuple[Dodge, Dodge]] = []
-        self._key_figure = _legend_figure()
+        self._key_figure = _legend_figure(LEGEND_ROW * self.scale)
         self._keys = self._legend_keys()
         self._followers = {name: follow(item.renderers[0]) for name, item in self._keys.items()}
         self._overlay = Overlay(self._key_figure)
@@ -115,12 +120,14 @@ class TrajectoriesView(Viewer):
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
         self._bands: list[Band] = []
-        self._mode = pn.widgets.RadioButtonGroup(options=[SIGNAL, ERRORS], value=SIGNAL, margin=(5, 10),
-                                                 variant="outline", stylesheets=[":host { font-size: 14px; }"])
-        self._mode.param.watch(self._on_mode, "value")
+        self._mode = pn.widgets.RadioButtonGroup(options={SIGNAL: "signal", ERRORS: "errors"}, value=self.state.view,
+                                                 margin=(5, 10), variant="outline",
+                                                 stylesheets=[f":host {{ font-size: {round(14 * self.scale)}px; }}"])
+        self._mode.param.watch(lambda event: setattr(self.state, "view", event.new), "value")
+        self.state.param.watch(self._on_view, ["view"])
         self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
         self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
-                              label_text_font_size="11pt", click_policy="hide", padding=2, margin=2, spacing=14,
+                              label_text_font_size=f"{11 * self.scale:.3g}pt", click_policy="hide", padding=2, margin=2, spacing=14,
                               location="top_left", border_line_alpha=0, background_fill_alpha=0)
         self._key_figure.add_layout(self._legend, "center")
         self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
@@ -145,7 +152,8 @@ class TrajectoriesView(Viewer):
         """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
         empty = lambda **style: self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
         keys = {"truth": empty(**_TRUTH), "kbf": empty(**_KBF), "isl": empty(**_ISL), "tube": empty(**_TUBE)}
-        return {name: LegendItem(label=value(KEY_LABELS[name][False]), renderers=[key]) for name, key in keys.items()}
+        return {name: LegendItem(label=value(KEY_LABELS[name][self.errors]), renderers=[key])
+                for name, key in keys.items()}
 
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
@@ -153,12 +161,15 @@ class TrajectoriesView(Viewer):
             x_range=self._x_range, y_range=Range1d(-1.0, 1.0), height=plot_height(3), sizing_mode="stretch_width",
             title=f"X{k} — {COORDINATES[i]}", tools="xpan,xwheel_zoom,box_zoom,reset,save",
             active_scroll=None, output_backend="canvas",
-        ))
+        ), self.scale)
         fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
         fig.xaxis.axis_label = "time t"
         src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
         up, down = Dodge(value=0.0), Dodge(value=0.0)
         band = Band(base="t", lower=field("y", down), upper=field("y", up), source=src["kbf"], fill_alpha=0.0, **_TUBE)
+        recompute = CustomJS(args={"band": band}, code=RECOMPUTE_BAND)
+        up.js_on_change("value", recompute)
+        down.js_on_change("value", recompute)
         fig.add_layout(band)
         self._bands.append(band)
         drawn = {"tube": band, "truth": line(fig, src["truth"], **_TRUTH), "kbf": line(fig, src["kbf"], **_KBF),
@@ -167,7 +178,7 @@ class TrajectoriesView(Viewer):
             self._followers[name].append(model)
             model.visible = self._keys[name].renderers[0].visible  # a plot built later: as its legend entry says
         if i == 0:  # the run's parameters, drawn on the canvas (no page re-layout)
-            self._summary = Title(text="", text_font_size="10.5pt", text_font_style="italic")
+            self._summary = Title(text="", text_font_size=f"{10.5 * self.scale:.3g}pt", text_font_style="italic")
             fig.add_layout(self._summary, "above")
         self._overlay.add(fig, i)
         self._sources.append(src)
@@ -182,7 +193,7 @@ class TrajectoriesView(Viewer):
             if run is not None:
                 _set_range(self._x_range, 0.0, run.T)
             extras = self._overlay.show([] if run is None else [tr.name for tr in run.tracks[2:]])
-            self._key_figure.height = (2 + -(-extras // 2)) * LEGEND_ROW + 8
+            self._key_figure.height = round((2 + -(-extras // 2)) * LEGEND_ROW * self.scale) + 8
             errors = self.errors
             for i, fig in enumerate(self._figures):
                 if i < m:
@@ -197,7 +208,7 @@ class TrajectoriesView(Viewer):
                     k = str(i + 1).translate(SUBSCRIPT)
                     fig.yaxis.axis_label = (f"error in X{k}" if errors else f"{COORDINATES[i]} X{k}")
                     _set_range(fig.y_range, *_y_limits(shown, 3.0 * float(run.s[i]), around_zero=errors))
-                    fig.height = plot_height(m) + (SUMMARY_HEIGHT if i == 0 else 0)
+                    fig.height = plot_height(m) + (round(SUMMARY_HEIGHT * self.scale) if i == 0 else 0)
                     fig.xaxis.visible = i == m - 1  # one shared time axis, under the last plot
                 elif len(self._sources[i]["kbf"].data["t"]):
                     for src in self._sources[i].values():
@@ -209,13 +220,20 @@ class TrajectoriesView(Viewer):
                 self._placeholder()
 
     @property
+    def scale(self) -> float:
+        """Font scale of the plots: larger in presenter mode (:func:`app.views.style.text_scale`)."""
+        return text_scale(self.state)
+
+    @property
     def errors(self) -> bool:
         """The error view is on."""
-        return self._mode.value == ERRORS
+        return self.state.view == "errors"
 
-    def _on_mode(self, event) -> None:
+    def _on_view(self, event) -> None:
         # the switch's callback may run on one of the server's threads: the bokeh models change on the session's
         # loop, with its document locked, like every run's outcome (AppState.later)
+        if self._mode.value != event.new:
+            self._mode.value = event.new
         self.state.later(self._apply_mode)
 
     def _apply_mode(self) -> None:
@@ -254,8 +272,9 @@ class TrajectoriesView(Viewer):
         if run is None:
             return "No run yet."
         mo = run.model
-        return (f"m = {mo.m}, α = {mo.alpha:.4g}, β = {mo.beta:.4g}, σ = {mo.sigma:.4g}, ν = {run.nu:.4g} "
-                f"(ν/β = {run.nu / mo.beta:.3g}) · T = {run.T:.4g} = {run.T * run.r_min:.3g}/r_min · N = {run.N:,}")
+        return (f"m = {mo.m}, α = {num(mo.alpha)}, β = {num(mo.beta)}, σ = {num(mo.sigma)}, ν = {num(run.nu)} "
+                f"(ν/β = {num(run.nu / mo.beta, 3)}) · T = {num(run.T)} = {per_r_min(run.T * run.r_min, 3)} · "
+                f"N = {run.N:,}")
 
     def __panel__(self):
         return self._column

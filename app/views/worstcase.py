@@ -23,18 +23,19 @@ from isl_core import WorstCaseTable
 from isl_core.worstcase import FILTERS, LABELS
 
 from ..state import AppState
-from .filters_panel import bind
-from .style import FILTER_COLORS, job_buttons, ratio_axis, styled
+from .fields import field
+from .filters_panel import number
+from .style import FILTER_COLORS, TEXT_FONT, job_buttons, ratio_axis, styled, text_scale
 from .sweep import parse_sigmas
 
 __all__ = ["WorstCaseView", "worst_case_html"]
 
 _CSS = """
-table.isl-worst { border-collapse: collapse; font-size: 14px; margin: 4px 0 8px 0; }
+table.isl-worst { border-collapse: collapse; font-size: var(--isl-table-font, 14px); margin: 4px 0 8px 0; }
 table.isl-worst th, table.isl-worst td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
 table.isl-worst th { font-weight: 600; vertical-align: bottom; }
 table.isl-worst td:first-child, table.isl-worst th:first-child { text-align: left; }
-table.isl-worst .ci, table.isl-worst .theory { display: block; font-size: 12px; color: #555; }
+table.isl-worst .ci, table.isl-worst .theory { display: block; font-size: var(--isl-tag-font, 12px); color: #555; }
 table.isl-worst .theory { font-style: italic; }
 table.isl-worst .best { font-weight: 700; }
 """
@@ -88,12 +89,13 @@ class WorstCaseView(Viewer):
         self._update()
 
     def _chart(self) -> figure:
+        scale = text_scale(self.state)
         fig = styled(figure(x_axis_type="log", y_axis_type="log", height=420, sizing_mode="stretch_width",
                             title="Worst-case RMSE ratio over the σ range (simulated, 95 % intervals)",
-                            tools="pan,wheel_zoom,box_zoom,reset,save"))
+                            tools="pan,wheel_zoom,box_zoom,reset,save"), scale)
         fig.xaxis.axis_label = "α"
         fig.yaxis.axis_label = "max over σ and i of RMSEᵢ / sᵢ"
-        ratio_axis(fig.yaxis)
+        ratio_axis(fig, scale)
         fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         items = []
         for name, src in self._sources.items():
@@ -102,7 +104,8 @@ class WorstCaseView(Viewer):
             fig.add_layout(Whisker(source=src, base="x", lower="lower", upper="upper", dimension="height",
                                    line_color=color, line_width=1.5))
             items.append(LegendItem(label=value(LABELS[name]), renderers=[dots]))
-        fig.add_layout(Legend(items=items, location="top_left", label_text_font_size="11pt", click_policy="hide"),
+        fig.add_layout(Legend(items=items, location="top_left", label_text_font_size=f"{11 * scale:.3g}pt",
+                              click_policy="hide"),
                        "right")
         return fig
 
@@ -127,19 +130,19 @@ class WorstCaseView(Viewer):
     def _controls(self) -> pn.Column:
         s = self.state
         p = s.param
-        lo = bind(s, "sigma_min", pn.widgets.FloatInput(label=p.sigma_min.label, start=0.1, end=1000.0, width=110))
-        hi = bind(s, "sigma_max", pn.widgets.FloatInput(label=p.sigma_max.label, start=0.1, end=1000.0, width=110))
+        lo = field(s, "sigma_min", number(s, "sigma_min", width=110))
+        hi = field(s, "sigma_max", number(s, "sigma_max", width=110))
         alphas = pn.widgets.TextInput(label="α values (comma separated)", width=220,
                                       value=", ".join(f"{v:g}" for v in s.wc_alphas))
         alphas.param.watch(lambda e: setattr(s, "wc_alphas", parse_sigmas(e.new)), "value")
         s.param.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "wc_alphas")
-        n = bind(s, "wc_n_sigma", pn.widgets.IntInput(label=p.wc_n_sigma.label, start=2, end=11, width=110))
-        horizon = bind(s, "wc_horizon", pn.widgets.FloatInput(label=p.wc_horizon.label, start=20.0, end=2000.0,
-                                                              step=50.0, width=190))
+        n = field(s, "wc_n_sigma", number(s, "wc_n_sigma", width=110))
+        horizon = field(s, "wc_horizon", number(s, "wc_horizon", step=50.0, width=190))
         run, cancel, progress = job_buttons(p.worst_busy, p.worst_progress, "Compute", s.compute_worst_case,
                                             s.cancel_worst_case)
         note = pn.pane.Markdown(p.worst_note, margin=(0, 10))
-        return pn.Column(pn.FlexBox(lo, hi, n, alphas, horizon, run, cancel, progress, flex_wrap="wrap",
+        return pn.Column(pn.FlexBox(lo, hi, n, field(s, "wc_alphas", alphas), horizon, run, cancel, progress,
+                                    flex_wrap="wrap",
                                     sizing_mode="stretch_width"), note,  # wraps on a narrow screen (1280 × 720)
                          sizing_mode="stretch_width")
 
@@ -148,10 +151,10 @@ class WorstCaseView(Viewer):
             "If σ is only known to lie in [σ min, σ max], what matters is each filter's **worst** RMSE ratio over "
             "that range: max over σ (log-spaced grid) and coordinates i of RMSE<sub>i</sub>/s<sub>i</sub>. All "
             "filters run on the same noise. Paper A's ISL filter appears twice: at the **minimax ν** this project "
-            "computes for the same σ grid (theory, `recommend_nu`) and at the **ν of paper A's table (A.31)**, as "
+            "computes for the same σ grid (from the theory) and at the **ν of paper A's table (A.31)**, as "
             "published (for the α that table lists, m = 3, w = 3). The Kalman–Bucy oracle knows σ (≈ 1, a check "
             "of the horizon). **Bold**: the best filter that does not know σ.", margin=(0, 10),
-            styles={"font-size": "14px"})
+            styles={"font-size": TEXT_FONT})
         return pn.Column(intro, self._controls(), self._table, pn.pane.Bokeh(self._figure, margin=5,
                                                                               sizing_mode="stretch_width"),
                          sizing_mode="stretch_width")

@@ -1,0 +1,44 @@
+"""How the page writes the quantities it names: r_min, times in units of 1/r_min, plain numbers.
+
+The page says what it shows in words and symbols a student reads, never in the code's names: ``r_min`` is written
+rₘᵢₙ on the plots' canvas (Unicode subscripts: a canvas has no markup) and r<sub>min</sub> in HTML; a number is
+written plainly, never in a program's exponent notation ("1000/rₘᵢₙ", not "1e+03/r_min").
+"""
+from __future__ import annotations
+
+import math
+
+__all__ = ["R_MIN", "R_MIN_HTML", "num", "per_r_min", "per_r_min_html"]
+
+R_MIN = "rₘᵢₙ"  #: the optimal filter's settling rate, as text (the plots' titles and labels, Markdown)
+R_MIN_HTML = "r<sub>min</sub>"  #: the same in HTML
+
+
+def num(x: float, digits: int = 4) -> str:
+    """``x`` with ``digits`` significant digits, written plainly from 0.001 to 10⁷ (thousands grouped from 10⁴),
+    else as ``a × 10^k``."""
+    x = float(x)
+    if not math.isfinite(x):
+        return "∞" if x > 0 else ("−∞" if x < 0 else "not a number")
+    if x == 0.0:
+        return "0"
+    if 1e-3 <= abs(x) < 1e7:
+        exponent = math.floor(math.log10(abs(x)))
+        decimals = max(digits - 1 - exponent, 0)
+        text = f"{round(x, decimals):,.{decimals}f}" if abs(x) >= 1e4 else f"{round(x, decimals):.{decimals}f}"
+        if "." in text:
+            text = text.rstrip("0").rstrip(".")
+        return text.replace("-", "−")
+    mantissa, exponent = f"{x:.{digits - 1}e}".split("e")
+    mantissa = mantissa.rstrip("0").rstrip(".")
+    return f"{mantissa} × 10^{int(exponent)}".replace("-", "−")
+
+
+def per_r_min(x: float, digits: int = 4) -> str:
+    """A time in units of 1/r_min: ``"10/rₘᵢₙ"``."""
+    return f"{num(x, digits)}/{R_MIN}"
+
+
+def per_r_min_html(x: float, digits: int = 4) -> str:
+    """The same in HTML: ``"10/r<sub>min</sub>"``."""
+    return f"{num(x, digits)}/{R_MIN_HTML}"

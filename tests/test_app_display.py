@@ -1,0 +1,121 @@
+"""What the page says and keeps, headless: refusals beside their input, the view and the tab in the link, α = 0
+unticked back to the α before, a scenario preset that says what it set, a theory that is refused where it does not
+hold, numbers written plainly, and widgets that turn an impossible browser value into a refusal."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from app.scenario import PRESETS as SCENARIO_PRESETS
+from app.state import AppState
+from app.text import num, per_r_min
+from app.urlsync import query_string, read_query
+from app.views.controls import ControlsView, IntSlider, Slider, WholeInput, log_slider
+from app.views.numbers import THEORY_OFF, numbers_html, theory_cell
+
+
+@pytest.fixture
+def state():
+    s = AppState()
+    s.start()
+    return s
+
+
+def test_a_refusal_is_kept_beside_its_input_until_it_gets_a_good_value(state):
+    state.seed = -5
+    assert set(state.refusals) == {"seed"} and state.message_inline
+    assert "seed must be a whole number from 0 to 2147483647; -5 is below that range" in state.refusals["seed"]
+    state.sigma = 30.0  # another input's good value leaves the refusal where it is
+    assert "seed" in state.refusals
+    state.seed = 4
+    assert state.refusals == {} and state.message == ""
+
+
+def test_a_links_refusals_are_reported_at_the_top_and_beside_each_input(state):
+    values, problems = read_query("?seed=abc&sigma=5000&nu=2")
+    state.set_inputs(values, problems, link=True)
+    assert set(state.refusals) == {"seed", "sigma"} and not state.message_inline
+    assert "Refused 2 values" in state.message and state.nu == 2.0
+
+
+def test_the_view_the_tab_and_presenter_mode_are_in_the_link_and_start_no_run(state):
+    run = state.run
+    state.param.update(view="errors", tab="scenarios", present=True)
+    assert state.run is run  # how the run is shown is not a new run
+    query = query_string(state)
+    assert "view=errors" in query and "tab=scenarios" in query and "present=true" in query
+    values, problems = read_query("?view=errors&tab=sweep&present=1")
+    assert values == {"view": "errors", "tab": "sweep", "present": True} and problems == {}
+    state.set_inputs(*read_query("?tab=settings"), link=True)
+    assert "open tab (tab=… in the link) must be one of trajectories, sweep" in state.refusals["tab"]
+    assert state.tab == "scenarios"
+
+
+def test_unticking_alpha_zero_goes_back_to_the_alpha_before(state):
+    controls = ControlsView(state=state)
+    state.alpha = 2.5
+    controls._alpha_zero.value = True
+    assert state.alpha == 0.0
+    controls._alpha_zero.value = False
+    assert state.alpha == 2.5  # it went to the slider's end, 0.01
+
+
+def test_a_scenario_preset_says_which_model_inputs_it_set(state):
+    label = next(k for k in SCENARIO_PRESETS if "200 → 2" in k)
+    state.apply_scenario_preset(label)
+    preset = SCENARIO_PRESETS[label]
+    assert state.sigma == preset["sigma"] == 200.0 and state.nu == preset["nu"]
+    for part in ("α = 1", "σ(0) = 200", f"ν = {num(preset['nu'], 3)}", "sidebar"):
+        assert part in state.sc_preset_note and part in state.message, part
+
+
+def test_the_theory_is_refused_where_the_filter_has_lost_lock(state):
+    """At ν = 0.001 the ISL filter's measured ratio is tens of times the linearization's: the table says the theory
+    does not hold instead of showing it beside the measurement."""
+    state.nu = 0.001
+    run, pred = state.run, state.prediction
+    off = [i for i in range(run.model.m) if run.ratio_check[i] > THEORY_OFF * pred[i]]
+    assert off, (run.ratio_check, pred)  # the run itself shows the loss of lock
+    text = numbers_html(run, pred, 0.0)
+    assert text.count("not valid") == len(off) and f"{pred[off[0]]:.4g}" not in text.split("not valid")[0][-200:]
+    assert theory_cell(1.2, 1.1).endswith(">1.1</td>") and "unstable" in theory_cell(1.2, math.inf)
+
+
+@pytest.mark.parametrize(("x", "text"), [(1000.0, "1000"), (0.849, "0.849"), (12345.6, "12,346"), (2.5e8, "2.5 × 10^8"),
+                                         (-3.2, "−3.2"), (1e-5, "1 × 10^−5")])
+def test_numbers_are_written_plainly(x, text):
+    assert num(x) == text
+    assert per_r_min(1000.0) == "1000/rₘᵢₙ"  # not 1e+03/r_min
+
+
+def test_a_value_a_widget_cannot_take_is_refused_by_the_state_without_an_error(state):
+    """A scripted browser sent nan to the m slider, 10³⁰⁸ to a log slider, 2.5 to the seed box: Panel raised while
+    converting it, and the page showed an error notification instead of the refusal that names the input."""
+    from app.views.controls import _plain
+
+    sigma = log_slider(state, "sigma", 0.1, 1000.0)
+    m = _plain(state, "m", IntSlider(label="m", start=1, end=6, value=3))
+    seed = _plain(state, "seed", WholeInput(label="seed", value=1))
+    run = state.run
+    cases = [(sigma, "sigma", math.nan), (sigma, "sigma", math.inf), (sigma, "sigma", 1e308), (m, "m", math.nan),
+             (m, "m", 2.5), (m, "m", -7.0), (seed, "seed", 2.5), (seed, "seed", math.inf), (seed, "seed", math.nan)]
+    for widget, name, bad in cases:
+        before = getattr(state, name)
+        widget._process_events({"value": bad})  # what Panel calls with a browser's change (it raised before)
+        assert getattr(state, name) == before and state.run is run
+        assert "must be" in state.refusals.get(name, ""), (name, bad, state.refusals)
+    assert isinstance(sigma, Slider)
+
+
+def test_a_value_panels_own_parser_cannot_convert_stays_text():
+    """Panel's query parser turned a 5000-digit seed into an int, over Python's limit, and the page's script failed
+    before the dashboard's own parser could refuse the value in words (``app.serving.hardening``)."""
+    from panel.io import location
+
+    from app.serving import hardening
+
+    hardening.tolerant_query_parser()
+    parsed = location.parse_query("?sigma=20&seed=" + "7" * 5000)
+    assert parsed["sigma"] == 20 and parsed["seed"] == "7" * 5000

@@ -1,0 +1,230 @@
+"""What the browser draws is what the run says: read from BokehJS (its views' arrays, its legend labels), compared with
+the core's numbers for the same inputs.
+
+The tube X̂ᵢ ± 3 sᵢ after a preset and after a slider move; the scenario legend after a scenario preset; presenter
+mode at a projector's and a wall screen's size; the view and the open tab kept in the link and across presenter mode;
+a link no parser can read; a refusal shown beside its input; the comparison picture's text alternative. The
+accessibility checks of the same pages are in ``test_browser_a11y.py``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from _browser import DEEP, NAMED, PLOT_DATA, TAB_OPEN, dashboard, launch
+
+from isl_core import Model, kalman_bucy
+
+pytestmark = [pytest.mark.browser]
+
+#: per plot, the band's drawn offsets from X̂ᵢ as BokehJS computed them: [min, max] of upper − y and of y − lower
+BAND_OFFSETS = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Band' && v._upper)
+    .map(v => { const y = v.model.source.data.y, up = v._upper, lo = v._lower;
+        let a = Infinity, b = -Infinity, c = Infinity, d = -Infinity;
+        for (let k = 0; k < y.length; k++) { const u = up[k] - y[k], l = y[k] - lo[k];
+            a = Math.min(a, u); b = Math.max(b, u); c = Math.min(c, l); d = Math.max(d, l); }
+        return [v.model.source.name, y.length, a, b, c, d]; })"""
+
+#: true once every band's drawn offsets are the expected 3 sᵢ (``arg``: name → 3 sᵢ) within float32 rounding
+BANDS_ARE = f"""(want) => {{ const got = ({BAND_OFFSETS})();
+    return got.length >= Object.keys(want).length && got.every(([name, n, a, b, c, d]) => !(name in want) || (n > 0
+        && [a, b, c, d].every(x => Math.abs(x - want[name]) <= 1e-3 * want[name])));
+}}"""
+
+
+def three_s(alpha: float, w: float, sigma: float, m: int = 3) -> dict[str, float]:
+    """3 sᵢ of the optimal filter (A.29), the tube's half-width, per plot's Kalman–Bucy source name."""
+    s = np.sqrt(np.diag(kalman_bucy(Model.from_w(alpha, w, sigma, m)).delta))
+    return {f"traj-{i + 1}-kbf": 3.0 * float(s[i]) for i in range(m)}
+
+
+def wait_bands(page, want: dict[str, float], what: str) -> None:
+    try:
+        page.wait_for_function(BANDS_ARE, arg=want, timeout=30_000)
+    except Exception:
+        raise AssertionError(f"{what}: the drawn tube is not X̂ ± 3 s of the run; drawn offsets "
+                             f"{page.evaluate(BAND_OFFSETS)}, 3 s = {want}") from None
+
+
+def test_the_tube_follows_every_run_after_a_preset_and_a_slider_move(app_server):
+    """After the preset "Fig. 3, σ = 200" the browser kept drawing σ = 20's half-widths (±50.4, ±23.2, ±8.87) around a
+    run whose 3 sᵢ are 294, 47.9, 8.99: BokehJS did not recompute a band when only its offset changed."""
+    url, _ = app_server
+    with dashboard(url, viewport={"width": 1280, "height": 900}) as page:
+        wait_bands(page, three_s(0.5, 3.0, 20.0), "the first run")
+        page.get_by_role("button", name="Fig. 3, σ = 200").click()
+        wait_bands(page, three_s(0.5, 3.0, 200.0), "after the preset σ = 200")
+        handle = page.get_by_role("slider", name="σ, observation noise intensity")
+        handle.focus()
+        handle.press("Home")  # σ to its minimum, 0.1
+        wait_bands(page, three_s(0.5, 3.0, 0.1), "after σ moved to its minimum")
+        assert page.evaluate("() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Band')"
+                             ".every(v => v.model.visible)")
+
+
+#: the scenario plots' legend labels as BokehJS holds them (what its legends draw), and their time axes' labels
+SCENARIO_TEXT = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Figure' && v.model.title
+        && /clairvoyant|σ\\(t\\)/.test(v.model.title.text))
+    .map(v => [v.model.title.text, v.model.right.filter(m => m.type === 'Legend')
+        .flatMap(l => l.items.map(i => i.label.value)), v.model.below.map(a => a.axis_label)])"""
+
+
+def test_the_scenario_legend_names_the_run_shown_after_a_preset(app_server):
+    """The legend said "Kalman–Bucy for constant σ = σ(0) = 20" and "ISL (ν = 3)" after the preset σ 200 → 2 had set
+    σ(0) = 200 and ν = 0.849: it was labelled once, at its first draw. The time axis read "1/r  min"."""
+    from app.scenario import PRESETS
+
+    url, _ = app_server
+    label = next(k for k in PRESETS if "200 → 2" in k)
+    nu = PRESETS[label]["nu"]
+    with dashboard(url + "?tab=scenarios&sc_runs=2&sc_horizon=12", viewport={"width": 1280, "height": 900},
+                   ready=f"() => ({TAB_OPEN})('Scenarios: σ(t), tails, sensor')") as page:
+        page.wait_for_function(f"() => ({SCENARIO_TEXT})().some(f => f[1].some(t => t.includes('σ(0) = 20')))",
+                               timeout=60_000)
+        page.get_by_label("scenario preset (the table's columns)").select_option(label=label)
+        want = ["Kalman–Bucy for constant σ = σ(0) = 200", f"ISL (ν = {nu:.4g})"]
+        page.wait_for_function(f"(want) => want.every(w => ({SCENARIO_TEXT})().some(f => f[1].includes(w)))",
+                               arg=want, timeout=60_000)
+        texts = page.evaluate(SCENARIO_TEXT)
+    labels = [t for f in texts for t in f[1]]
+    assert not any("σ(0) = 20 " in t or t.endswith("σ(0) = 20") for t in labels), labels
+    axes = [a for f in texts for a in f[2] if a]
+    assert axes and all("r_min" not in a and "rₘᵢₙ" in a for a in axes), axes
+
+
+NUMBERS_BOX = f"""() => {{ const t = ({DEEP})('table.isl-numbers.ratios'); if (!t) return null;
+    const r = t.getBoundingClientRect(); return [r.left, r.right, r.width]; }}"""
+
+
+@pytest.mark.parametrize("size", [(1280, 720), (1920, 1080)], ids=["1280x720", "1920x1080"])
+def test_presenter_mode_fits_the_screen_and_enlarges_the_plots_text(app_server, size):
+    """Presenter mode scrolled sideways (the main area 1325 px wide in a 1280 window) and cut off the "Xᵢ in tube"
+    column; its legends and ticks kept their desk size."""
+    url, _ = app_server
+    width, height = size
+    with dashboard(url + "?present=1", viewport={"width": width, "height": height}) as page:
+        page.wait_for_function(f"() => ({NUMBERS_BOX})() !== null", timeout=20_000)
+        assert page.evaluate("document.documentElement.scrollWidth") <= width
+        left, right, table_width = page.evaluate(NUMBERS_BOX)
+        sizes = page.evaluate("""() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Legend'
+            || v.model.type === 'LinearAxis').map(v => v.model.type === 'Legend' ? v.model.label_text_font_size
+            : v.model.major_label_text_font_size)""")
+    assert 0 <= left and right <= width + 0.5 and table_width > 300, (left, right, table_width)
+    points = [float(s.removesuffix("pt")) for s in sizes]
+    assert points and min(points) >= 14.0, sizes  # 11 pt at a desk, ×19/14 for a projector
+
+
+def test_the_view_and_the_tab_stay_in_the_link_and_across_presenter_mode(app_server):
+    url, _ = app_server
+    with dashboard(url, viewport={"width": 1600, "height": 1000}) as page:
+        page.get_by_text("Errors (estimate − signal)", exact=True).click()
+        page.get_by_role("tab", name="Worst case over σ").click()
+        page.wait_for_function("() => /view=errors/.test(location.search) && /tab=worstcase/.test(location.search)",
+                               timeout=20_000)
+        page.get_by_role("button", name="Presenter mode").click()
+        page.wait_for_function("() => /present=1/.test(location.search)", timeout=20_000)
+        page.get_by_role("button", name="Leave presenter mode").wait_for(timeout=30_000)
+        page.get_by_role("tab", name="Worst case over σ", selected=True).wait_for(timeout=30_000)
+        page.get_by_role("tab", name="Trajectories (paper A, Fig. 3)").click()
+        page.wait_for_function(f"""() => [1, 2, 3].every(i => {{ const s = ({NAMED})(`traj-${{i}}-truth`);
+            return s && s.data.y.length === 2; }})""", timeout=30_000)  # the error view: the signal is the zero line
+    assert "view=errors" in page.url
+
+
+def test_a_link_with_a_5000_digit_seed_opens_the_page_and_refuses_the_value(app_server):
+    """Panel's own query parser converted the digits to an int, over Python's 4300-digit limit, before the page's
+    parser ran: the page stayed blank."""
+    url, log = app_server
+    with dashboard(url + "?sigma=50&seed=" + "7" * 5000) as page:
+        refusal = page.get_by_role("alert").filter(has_text="seed")
+        refusal.first.wait_for(timeout=20_000)
+        text = refusal.first.inner_text()
+        table = page.locator("table.isl-numbers.ratios").inner_text()
+    assert "seed" in text and "whole number from 0 to 2147483647" in text and "5,000 characters" in text
+    assert "X₁ position" in table
+    assert "Traceback" not in log.read_text() and "4300" not in log.read_text()
+
+
+def _refusal_below(page, box_locator, text: str) -> dict:
+    """The live region saying ``text`` and its distance below ``box_locator``'s widget (px)."""
+    alert = page.get_by_role("alert").filter(has_text=text).first
+    alert.wait_for(timeout=20_000)
+    box, below = box_locator.bounding_box(), alert.bounding_box()
+    return {"text": alert.inner_text(), "gap": below["y"] - (box["y"] + box["height"]), "x": below["x"] - box["x"]}
+
+
+def test_a_refusal_is_shown_beside_the_input_that_caused_it(app_server):
+    """The seed box took −5 with no message in sight; the ν sweep's "2, abc" was refused at the top of the sidebar,
+    scrolled away from the box. Each refusal now sits under its input, in a live region a screen reader reads."""
+    url, _ = app_server
+    with dashboard(url, viewport={"width": 1280, "height": 900}) as page:
+        seed = page.get_by_label("seed", exact=True)
+        seed.fill("-5")
+        seed.press("Enter")
+        near = _refusal_below(page, seed, "seed must be a whole number from 0 to 2147483647")
+        assert 0 <= near["gap"] < 80 and "-5 is below that range" in near["text"], near
+        page.get_by_role("tab", name="ν sweep (paper A, Fig. 2)").click()
+        sigmas = page.get_by_label("σ values (comma separated)")
+        sigmas.wait_for(timeout=30_000)
+        sigmas.fill("2, abc")
+        sigmas.press("Enter")
+        near = _refusal_below(page, sigmas, "σ values")
+        assert 0 <= near["gap"] < 80 and '"abc" is not a number' in near["text"], near
+        assert page.get_by_role("alert").filter(has_text="σ values").first.is_visible()
+        seed.fill("4")
+        seed.press("Enter")
+        page.get_by_role("alert").filter(has_text="seed must be").wait_for(state="detached", timeout=20_000)
+
+
+def test_the_comparison_picture_has_a_text_alternative(app_server):
+    url, _ = app_server
+    with dashboard(url + "?tab=compare", viewport={"width": 1280, "height": 900},
+                   ready=f"() => ({TAB_OPEN})('Compare σ')") as page:
+        page.get_by_role("button", name="Compare", exact=True).click()
+        image = page.get_by_role("img", name="Paper A's Fig. 3 for σ = 20 and σ = 200")
+        image.wait_for(timeout=60_000)
+        alt = image.get_attribute("alt")
+        natural = image.evaluate("img => img.naturalWidth")
+    assert "table below" in alt and natural > 900
+
+
+@pytest.mark.parametrize(("lo", "hi", "px", "expected"), [
+    (0.9, 12.0, 400, [1, 1.2, 1.5, 2, 3, 5, 10, 12]),          # a ν-sweep row: the minimum ≈ 1.1 can be read off
+    (1.0, 1.3, 400, [1, 1.05, 1.1, 1.2, 1.3]),                  # worst cases of 1.06 and 1.23 apart
+    (1.0, 1.3, 60, [1, 1.2]),                                   # the same range drawn small: no two labels touch
+    (1.0, 1e6, 400, [1, 10, 100, 1000, 1e4, 1e5, 1e6]),          # many decades: powers of ten
+    (0.5, 0.5, 400, []),                                        # an empty range: no ticks rather than an error
+])
+def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected):
+    """The log ratio axes (app.views.style.ratio_ticker) tick 1, 1.2, 1.5, 2, …, and no finer than the plot's
+    height lets labels stand apart (1.1 and 1.2 overlapped on a short ν-sweep plot): the ticker's own JavaScript,
+    run in chromium on the ranges and heights those charts show."""
+    from app.views.style import TICK_GAP, ratio_ticker
+
+    ticker = ratio_ticker()
+    args = {**ticker.args, "plot": {"inner_height": px}}
+    from playwright import sync_api
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page()
+            ticks = page.evaluate(
+                "([code, args, cb_data]) => new Function('cb_data', ...Object.keys(args), code)"
+                "(cb_data, ...Object.values(args))",
+                [ticker.major_code, args, {"start": lo, "end": hi}])
+        finally:
+            browser.close()
+    assert ticks == pytest.approx(expected)
+    gaps = [px * math.log(b / a) / math.log(hi / lo) for a, b in zip(ticks, ticks[1:])]
+    assert all(g >= TICK_GAP for g in gaps), gaps
+
+
+def test_the_first_open_of_a_tab_says_it_is_being_built(app_server):
+    """The ν-sweep tab was blank for ≈ 2.6 s at its first opening; now a progress line shows until it is built."""
+    url, _ = app_server
+    with dashboard(url, viewport={"width": 1280, "height": 900}) as page:
+        page.get_by_role("tab", name="ν sweep (paper A, Fig. 2)").click()
+        page.get_by_text("Building “ν sweep (paper A, Fig. 2)” …").wait_for(timeout=10_000)
+        page.get_by_role("button", name="Simulate points").wait_for(timeout=60_000)
+        assert page.evaluate(PLOT_DATA)  # the trajectories are still there, in their own tab
