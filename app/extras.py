@@ -77,7 +77,7 @@ class Baselines(param.Parameterized):
 
     extra_filters = param.ListSelector(default=[], objects=list(EXTRA_NAMES), label="extra filters", doc=(
         "Baselines drawn on the same run (same noise): " + ", ".join(LABELS[n] for n in EXTRA_NAMES) + "."))
-    sigma_design = param.Number(20.0, bounds=SIGMA_BOUNDS, label="σ̄ (mismatched KBF)", doc=(
+    sigma_design = param.Number(20.0, bounds=SIGMA_BOUNDS, label="σ̄ of the KBF for mid σ", doc=(
         "The σ the mismatched Kalman–Bucy filter is designed for (its gain solves the CARE, A.23, at σ̄)."))
     sigma_min = param.Number(2.0, bounds=SIGMA_BOUNDS, label="σ min", doc=(
         "Bottom of the plausible σ range (below σ max): the adaptive filter's table, the worst-case table."))
@@ -102,6 +102,9 @@ class Baselines(param.Parameterized):
 
     def compute_worst_case(self) -> None:
         """Simulate the worst-case table as the session's long job (progress in ``worst_progress``; cancellable)."""
+        if blocked := self.refused_among((*WC_INPUTS, "sigma_min", "sigma_max", "sigma_design")):
+            self.worst_note = blocked
+            return
         fn = partial(worst_case_table, tuple(self.wc_alphas), sigma_range=self.sigma_range, n_sigma=self.wc_n_sigma,
                      m=self.m, w=self.w, sigma_design=self.sigma_design, horizon=self.wc_horizon, seed=self.seed)
         self._worst_task.start(fn, self._apply_worst, (

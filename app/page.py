@@ -259,6 +259,7 @@ _TOGGLE_JS = """
 const url = new URL(window.location.href);
 const on = ['1', 'true', 'on', 'yes'].includes((url.searchParams.get('present') || '').trim().toLowerCase());
 if (on) url.searchParams.delete('present'); else url.searchParams.set('present', '1');
+try { sessionStorage.setItem('isl-focus', 'presenter'); } catch (e) {}  // the reloaded page focuses the toggle again
 window.location.href = url.toString();
 """
 
@@ -274,10 +275,17 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
                               pn.pane.Markdown(f"**Building “{TAB_TITLES[name]}” …**", margin=(6, 0)),
                               margin=(20, 10)), sizing_mode="stretch_width")
     started = threading.Event()
+    doc = pn.state.curdoc
 
     def build_part():
-        part = pn.panel(build())
-        offloop.prebuild(part, holder)
+        # as the session's document: built without it, Panel pointed the part's stylesheets at its CDN (the page then
+        # asked cdn.holoviz.org for loading.css when the part's progress bar first showed)
+        from bokeh.io.doc import patch_curdoc
+        from panel.io.state import set_curdoc
+
+        with set_curdoc(doc), patch_curdoc(doc):
+            part = pn.panel(build())
+            offloop.prebuild(part, holder)
         return part
 
     def show(outcome, superseded: bool) -> None:

@@ -80,7 +80,7 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
 
 #: the columns of the scenario table (isl_core.scenario_table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
 #: ν of table (A.31), as the table runs them
-PRESETS = {label: _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
+PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
 
 
 @dataclass(frozen=True)
@@ -269,6 +269,9 @@ class ScenarioInputs(param.Parameterized):
 
     def compute_map(self) -> None:
         """The who-wins map as the session's long job (progress in ``sc_map_progress``; cancellable)."""
+        if blocked := self.refused_among(MAP_INPUTS):
+            self.sc_map_note = blocked
+            return
         if self.alpha <= 0.0:
             self.sc_map_note = "Not started: the map is for paper A's model, which needs α > 0."
             return

@@ -27,7 +27,7 @@ from .jobs import Jobs, Outcome
 from .longjobs import LongTask
 from .pipeline import HORIZON_BOUNDS, LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from .presets import PRESETS
-from .text import R_MIN, per_r_min
+from .text import R_MIN
 
 __all__ = ["ALL_INPUTS", "DISPLAY_INPUTS", "INPUTS", "KINDS", "SWEEP_INPUTS", "TABS", "VIEWS", "AppState",
            "input_label"]
@@ -60,18 +60,18 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
     """
 
     alpha = param.Number(0.5, bounds=(0.0, 100.0), label="α", doc=(
-        "Damping of the top derivative X_m, dX_m = −α X_m dt + β dv (A.5); α = 0 is paper B's white-noise model."))
+        "Damping of the top derivative Xₘ, dXₘ = −α Xₘ dt + β dv (A.5); α = 0 is paper B's white-noise model."))
     beta_from_w = param.Boolean(True, label="β from w", doc=(
-        "Paper A's parametrization (A.25): β = w·√(2α), w = stationary std of X_m. Off: β is set directly."))
+        "Paper A's parametrization (A.25): β = w·√(2α), w = stationary std of Xₘ. Off: β is set directly."))
     w = param.Number(3.0, bounds=(0.01, 100.0), label="w", doc=(
-        "Stationary standard deviation of X_m (A.25); used when 'β from w' is on. Paper A: w = 3."))
+        "Stationary standard deviation of Xₘ (A.25); used when 'β from w' is on. Paper A: w = 3."))
     beta = param.Number(3.0, bounds=(0.01, 1000.0), label="β", doc=(
-        "Intensity of the noise driving X_m (A.5); used when 'β from w' is off."))
+        "Intensity of the noise driving Xₘ (A.5); used when 'β from w' is off."))
     sigma = param.Number(20.0, bounds=(0.1, 1000.0), label="σ", doc=(
-        "Observation noise intensity, dY = X_1 dt + σ dε (A.6). Known to the Kalman–Bucy filter only."))
+        "Observation noise intensity, dY = X₁ dt + σ dε (A.6). Known to the Kalman–Bucy filter only."))
     nu = param.Number(3.0, bounds=(0.001, 10000.0), label="ν", doc=(
         "The ISL filter's only tuning knob (A.17); paper A studies ν/β = 2^ℓ, ℓ = −8..2."))
-    m = param.Integer(3, bounds=(1, 6), label="m", doc="State dimension: X_1 and its m − 1 derivatives (A.1).")
+    m = param.Integer(3, bounds=(1, 6), label="m", doc="State dimension: X₁ and its m − 1 derivatives (A.1).")
     seed = param.Integer(1, bounds=(0, 2**31 - 1), label="seed", doc="Seed of the noise: same seed, same run.")
     horizon = param.Number(10.0, bounds=HORIZON_BOUNDS, label=f"horizon (× 1/{R_MIN})", doc=(
         f"Simulated time T in units of the optimal filter's settling time 1/{R_MIN} (A.24); paper A, Fig. 3: 10."))
@@ -193,7 +193,6 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
         if self.message or self.refusals:
             self.param.update(message="", message_kind="info", message_inline=False, refusals={})
 
-    # ---- derived values ------------------------------------------------------------------------------
     @property
     def beta_effective(self) -> float:
         """β of the model: ``w·√(2α)`` (A.25) when 'β from w' is on, else the β input."""
@@ -212,6 +211,11 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
     def submit(self, kind: str, fn, done, *, pool: str = "run") -> None:
         """``fn()`` off the event loop, then ``done(outcome, superseded)`` on it (:meth:`app.jobs.Jobs.submit`)."""
         self._jobs.submit(kind, fn, done, pool=pool)
+
+    def refused_among(self, names) -> str:
+        """Why a computation over inputs ``names`` does not start: one of them still shows a refused value."""
+        bad = ", ".join(self.param[n].label for n in names if n in self.refusals)
+        return f"Not started: correct the refused value of {bad} first (it would use the previous one)." if bad else ""
 
     def later(self, fn) -> None:
         """Run ``fn()`` on the session's loop with its lock held (from any thread; at once outside a server)."""
@@ -351,6 +355,9 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
 
     def simulate_sweep(self) -> None:
         """Simulate the sweep's points for the current context (progress in ``sweep_progress``; cancellable)."""
+        if blocked := self.refused_among(SWEEP_INPUTS):
+            self.sweep_note = blocked
+            return
         alpha, beta, m, sigmas = self._sweep_model()
         fn = partial(sweeps.simulate_points, alpha, beta, m, sigmas, horizon=self.sweep_horizon, seed=self.seed)
         self._sweep_task.start(fn, self._apply_points,
@@ -362,17 +369,13 @@ class AppState(extras.Baselines, scenario.ScenarioInputs):
             self.sweep_note = "The parameters changed while the sweep ran; run it again."
         else:
             self._note_context = self._sweep_model()
-            k_lo, k_hi = min(pts.stretch), max(pts.stretch)
-            by = f"×{k_hi:.3g}" if k_lo == k_hi else f"×{k_lo:.3g}–×{k_hi:.3g}"
-            longer = "" if k_hi == 1.0 else (f", both lengthened {by} for the slowest ν "
-                                             "(its filter settles slower than the optimal one, B.46)")
-            self.param.update(points=pts, sweep_note=(
-                f"Simulated in {outcome.seconds:.2g} s: each σ's run (seed {pts.seed}) averages over "
-                f"{per_r_min(pts.horizon)} after a burn-in of {per_r_min(sweeps.BURN)}{longer}; 95 % batch-means "
-                "intervals."))
+            self.param.update(points=pts, sweep_note=sweeps.points_note(pts, outcome.seconds))
 
     def recommend(self) -> None:
         """Set ν to the value minimizing the worst-case ratio over the sweep's σ (``recommend_nu``, verified)."""
+        if blocked := self.refused_among(SWEEP_INPUTS):
+            self.sweep_note = blocked
+            return
         alpha, beta, m, sigmas = self._sweep_model()
         fn = partial(sweeps.recommend, alpha, beta, m, sigmas, horizon=self.sweep_horizon, seed=self.seed)
         self._sweep_task.start(fn, self._apply_recommendation,

@@ -151,10 +151,10 @@ def _fig3_lines(view, i: int) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
 
 
 def _fig3_title(view, sep: str = " ") -> str:
-    """The run's parameters (``sep`` between σ and the rest: a new line where a column is narrow)."""
+    """The run's parameters (``sep`` between σ, the model and the grid: a new line where a column is narrow)."""
     md = view.model
-    return (f"σ = {md.sigma:g}{sep}(m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed}, "
-            f"T = {view.T:.4g} = {view.horizon:.3g}/r_min, N = {view.N:,})")
+    return (f"σ = {md.sigma:g}{sep}(m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed},"
+            f"{sep}T = {view.T:.4g} = {view.horizon:.3g}/rₘᵢₙ, N = {view.N:,})")
 
 
 def fig3_png(views, path, *, dpi: int = 110, note: str = "", font: float = 1.0):

@@ -133,3 +133,13 @@ def recommend(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, hor
             f"[{rec.simulated_low:.3f}, {rec.simulated_high:.3f}] simulated ({per_r_min(horizon)}). "
             f"Best fixed-gain Kalman–Bucy filter: {rec.kbf_worst:.3f} (designed for σ̄ = {rec.kbf_sigma_design:.3g}).")
     return float(rec.nu), text
+
+
+def points_note(pts: SweepPoints, seconds: float) -> str:
+    """Where simulated points come from: their runs' seed, averaging window, any lengthening and the intervals."""
+    k_lo, k_hi = min(pts.stretch), max(pts.stretch)
+    by = f"×{k_hi:.3g}" if k_lo == k_hi else f"×{k_lo:.3g}–×{k_hi:.3g}"
+    longer = "" if k_hi == 1.0 else (f", both lengthened {by} for the slowest ν "
+                                     "(its filter settles slower than the optimal one, B.46)")
+    return (f"Simulated in {seconds:.2g} s: each σ's run (seed {pts.seed}) averages over {per_r_min(pts.horizon)} "
+            f"after a burn-in of {per_r_min(BURN)}{longer}; 95 % batch-means intervals.")

@@ -15,17 +15,17 @@ R_MIN_HTML = "r<sub>min</sub>"  #: the same in HTML
 
 
 def num(x: float, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits, written plainly from 0.001 to 10⁷ (thousands grouped from 10⁴),
-    else as ``a × 10^k``."""
+    """``x`` with ``digits`` significant digits, written plainly from 10⁻⁶ to 10⁷ (as the sliders show it, without
+    thousands separators), else as ``a × 10^k``."""
     x = float(x)
     if not math.isfinite(x):
         return "∞" if x > 0 else ("−∞" if x < 0 else "not a number")
     if x == 0.0:
         return "0"
-    if 1e-3 <= abs(x) < 1e7:
+    if 1e-6 <= abs(x) < 1e7:
         exponent = math.floor(math.log10(abs(x)))
         decimals = max(digits - 1 - exponent, 0)
-        text = f"{round(x, decimals):,.{decimals}f}" if abs(x) >= 1e4 else f"{round(x, decimals):.{decimals}f}"
+        text = f"{round(x, decimals):.{decimals}f}"
         if "." in text:
             text = text.rstrip("0").rstrip(".")
         return text.replace("-", "−")

@@ -83,8 +83,8 @@ def test_the_theory_is_refused_where_the_filter_has_lost_lock(state):
     assert theory_cell(1.2, 1.1).endswith(">1.1</td>") and "unstable" in theory_cell(1.2, math.inf)
 
 
-@pytest.mark.parametrize(("x", "text"), [(1000.0, "1000"), (0.849, "0.849"), (12345.6, "12,346"), (2.5e8, "2.5 × 10^8"),
-                                         (-3.2, "−3.2"), (1e-5, "1 × 10^−5")])
+@pytest.mark.parametrize(("x", "text"), [(1000.0, "1000"), (0.849, "0.849"), (12345.6, "12346"), (2.5e8, "2.5 × 10^8"),
+                                         (-3.2, "−3.2"), (3.333e-4, "0.0003333"), (1e-7, "1 × 10^−7")])
 def test_numbers_are_written_plainly(x, text):
     assert num(x) == text
     assert per_r_min(1000.0) == "1000/rₘᵢₙ"  # not 1e+03/r_min

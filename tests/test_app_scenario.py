@@ -74,12 +74,12 @@ def test_a_picture_too_long_for_the_dashboard_is_refused_with_the_setting_to_low
 
 
 def test_a_preset_sets_the_tables_column(state):
-    label = "σ 2 → 200 at 10/r_min"
+    label = "σ 2 → 200 at 10/rₘᵢₙ"  # the table's column, as the page writes it
     state.apply_scenario_preset(label)
     assert (state.alpha, state.w, state.m, state.sigma) == (1.0, 3.0, 3, 2.0)
     assert (state.sc_change, state.sc_change_at, state.sc_sigma_after) == ("step", 10.0, 200.0)
     assert state.nu == pytest.approx(0.849, abs=5e-4)  # β·(A.31)'s ν/β at α = 1, as the table runs it
-    assert set(PRESETS) >= {label, "Student-t noise, 3 degrees of freedom", "sensor read every 0.1/r_min"}
+    assert set(PRESETS) >= {label, "Student-t noise, 3 degrees of freedom", "sensor read every 0.1/rₘᵢₙ"}
     state.apply_scenario_preset("nonsense")
     assert "Unknown scenario preset" in state.message
 

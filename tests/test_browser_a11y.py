@@ -41,8 +41,9 @@ def test_every_view_of_the_page_meets_wcag_2_1_aa(app_server):
     divs, white on green buttons at 2.5 : 1, code at 2.3 : 1, the map's white on cyan or yellow at 2.1 : 1."""
     url, _ = app_server
     found = {}
+    requested: list[str] = []
     query = "?seed=-5&sc_runs=2&sc_horizon=8&sc_map=tails&sc_map_seeds=2"  # a refusal on screen from the start
-    with dashboard(url + query, viewport={"width": 1280, "height": 720}) as page:
+    with dashboard(url + query, viewport={"width": 1280, "height": 720}, on_request=requested.append) as page:
         page.get_by_role("alert").filter(has_text="seed").first.wait_for(timeout=20_000)
         found["trajectories, a refusal"] = violations(page)
         for title in ("ν sweep (paper A, Fig. 2)", "Worst case over σ"):
@@ -56,9 +57,12 @@ def test_every_view_of_the_page_meets_wcag_2_1_aa(app_server):
         page.get_by_role("button", name="Compute map").click()
         page.locator("td.cell").first.wait_for(timeout=120_000)
         found["Scenarios, the who-wins map drawn"] = violations(page)
-    with dashboard(url + "?present=1", viewport={"width": 1280, "height": 720}) as page:
+    with dashboard(url + "?present=1", viewport={"width": 1280, "height": 720}, on_request=requested.append) as page:
         found["presenter mode"] = violations(page)
     assert {where: v for where, v in found.items() if v} == {}
+    # and none of it asked another host for anything (the map's start asked the CDN for Panel's loading.css)
+    origin = url.rsplit("/", 1)[0]
+    assert [u for u in requested if not u.startswith((origin, origin.replace("http", "ws", 1), "data:", "blob:"))] == []
 
 
 #: the focused element, through every shadow root: [tag, role, accessible label or text, outline, box-shadow, in view]
@@ -95,6 +99,7 @@ def test_the_page_can_be_operated_by_keyboard_alone(app_server):
         page.keyboard.press("Home")
         page.keyboard.press(" ")
         page.wait_for_function(f"() => ({TAB_OPEN})('Trajectories (paper A, Fig. 3)')", timeout=20_000)
+        page.wait_for_function("() => !/tab=/.test(location.search)", timeout=20_000)  # the server has answered
         assert page.evaluate("scrollY") == 0  # Space opened the tab instead of scrolling the page
         # from the skip link on, up to the first plot's toolbar: every stop shows its focus ring and has a name, and
         # the tabs come before the toolbar (its buttons came before them)
@@ -108,7 +113,7 @@ def test_the_page_can_be_operated_by_keyboard_alone(app_server):
     assert rings == [], rings
     unnamed = [s for s in stops if not s[2] and s[0] != "INPUT"]
     assert unnamed == [], unnamed
-    assert [s[1] for s in stops].count("tab") == 1  # one stop for the tab list: the open tab
+    assert [s[1] for s in stops].count("tab") == 1, [s[:3] for s in stops]  # one stop for the tab list
 
 
 def test_the_sliders_say_what_they_show_and_a_label_ticks_its_box(app_server):

@@ -14,6 +14,7 @@ session exists, so it applies to every session; ``app/app.py`` may call it too, 
   its thread pool, and two at once corrupted param's bookkeeping so that a slider stopped moving the run.
 * Panel lifts a widget's read-only and constant flags on that widget's own parameter objects while it applies a
   browser change (:func:`per_instance_readonly_edits`), not on the class's, which every session's widgets share.
+* every stylesheet of the page is served by the server itself (:func:`local_stylesheets`).
 * a link whose value Panel's own query parser cannot convert (a 5000-digit number) opens the page instead of failing
   its script (:func:`tolerant_query_parser`).
 * websocket ``ERROR`` replies without server internals: bokeh answers a message it cannot apply (e.g. a scripted
@@ -74,7 +75,28 @@ def install() -> None:
         serialize_session_events()
         per_instance_readonly_edits()
         tolerant_query_parser()
+        local_stylesheets()
         _installed = True
+
+
+def local_stylesheets() -> None:
+    """Panel points a stylesheet at its CDN (cdn.holoviz.org) when the document it builds a component for has no
+    ``dist_url`` — the warm-up's document has none — and shares that stylesheet model between documents: a page
+    asked the CDN for ``loading.css`` when the who-wins map started to compute (a classroom without internet then
+    waits on a request that fails). The server serves Panel's files itself: no stylesheet is pointed at the CDN."""
+    from panel import reactive
+    from panel.io import resources
+
+    original = resources.patch_stylesheet
+    if getattr(original, "_isl_local", False):
+        return
+
+    def local(stylesheet, dist_url):
+        return original(stylesheet, resources.LOCAL_DIST if dist_url == resources.CDN_DIST else dist_url)
+
+    local._isl_local = True
+    resources.patch_stylesheet = local
+    reactive.patch_stylesheet = local
 
 
 def tolerant_query_parser() -> None:

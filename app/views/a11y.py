@@ -14,13 +14,15 @@ views of the page (those drawn already and, through their prototypes, those draw
 * **plots**: a plot's canvas, which takes the keyboard focus for key tools none of these plots has, leaves the tab
   order (two stops a plot before) and is the plot is a group named by its title; its toolbar's buttons are buttons (named by their
   tooltip, pressed or not);
+* the **help icons** ("?") take the keyboard focus, show their help on focus and are named by it;
 * **checkboxes** are named by their label, and a click on the label ticks them; the spinners' up/down buttons are
   named and left out of the tab order (the arrow keys step the number in the box);
 * **focus** is visible everywhere: :data:`FOCUS_CSS` goes into every BokehJS view's shadow root (each widget, plot
   and toolbar draws in its own), and :data:`PAGE_CSS` into the page;
 * **the template**: a "Skip to the views" link first in the tab order (it focuses the open tab: the controls of the
   sidebar and the plots' toolbars come before the tabs otherwise), the sidebar's toggle is a button reachable by
-  keyboard, the main area and the sidebar are landmarks, and the sidebar's list holds no list items (``role=none``).
+  keyboard, the main area and the sidebar are landmarks, and the sidebar's list holds no list items (``role=none``);
+  the presenter toggle, which reloads the page, has the focus again after the reload.
 
 If BokehJS no longer has what a part patches (another version), that part does nothing, and the browser tests fail on
 what they check (axe-core's rules and the keyboard walk in ``tests/test_browser_a11y.py``).
@@ -35,6 +37,9 @@ __all__ = ["A11Y_SCRIPT", "FOCUS_CSS", "PAGE_CSS", "SLIDER_NAMES", "install"]
 FOCUS_CSS = """
 :focus-visible, :host(:focus-visible) {
   outline: 3px solid #111 !important; outline-offset: 2px !important; box-shadow: 0 0 0 6px #fff !important;
+}
+input:focus-visible, select:focus-visible, textarea:focus-visible, .bk-tab:focus-visible {
+  outline-offset: -3px !important; box-shadow: none !important;
 }
 """
 
@@ -71,6 +76,10 @@ const after = (proto, method, hook) => {   // run hook(this) after proto[method]
     proto[method] = wrapped;
 };
 const views = () => (window.Bokeh && Bokeh.index ? Array.from(Bokeh.index.all_views()) : []);
+const view_class = (type) => {   // the view class of a model type (Panel's own, which Bokeh.require does not load)
+    try { const M = Bokeh.Models.get(type); return M && M.prototype.default_view ? M.prototype.default_view : null; }
+    catch (e) { return null; }
+};
 const text_of = (title) => (typeof title === "string" ? title.trim() : "");
 
 function label_slider() {
@@ -84,7 +93,10 @@ function label_slider() {
         this.__isl_aria = true;
         this._noUiSlider.on("update.isl", (values, i, unencoded) => {
             const h = this.slider_el.querySelectorAll(".noUi-handle")[i];
-            if (h) h.setAttribute("aria-valuetext", shown(unencoded[i]));
+            // the handle sits on the step grid; the title shows the model's value, which may lie between steps
+            const v = Math.abs(unencoded[i] - this.model.value) <= (this.model.step || 0) / 2 ? this.model.value
+                : unencoded[i];
+            if (h) h.setAttribute("aria-valuetext", shown(v));
         });
     }
 }
@@ -127,9 +139,9 @@ function tab_list() {
             const all = this.header_els, n = all.length, at = all.indexOf(el);
             const to = {ArrowRight: at + 1, ArrowDown: at + 1, ArrowLeft: at - 1, ArrowUp: at - 1, Home: 0,
                         End: n - 1}[event.key];
+            this.__isl_keyed_at = performance.now();
             if (event.key === "Enter" || event.key === " ") {
                 event.preventDefault();
-                this.__isl_refocus = at;   // Panel sends the tabs anew when one opens: the focus goes back to it
                 this.change_active(at);
             } else if (to !== undefined) {
                 event.preventDefault();
@@ -137,11 +149,10 @@ function tab_list() {
             }
         });
     });
-    const refocus = this.__isl_refocus;
-    if (refocus !== undefined && headers[refocus] && this.model.active === refocus) {
-        this.__isl_refocus = undefined;
-        headers[refocus].focus();
-    }
+    // Panel sends the tab list anew when a tab opens, and the focused header is replaced: a keyboard user's focus
+    // goes to the open tab's new header instead of the top of the page
+    const keyed = performance.now() - (this.__isl_keyed_at || -Infinity) < 5000;
+    if (keyed && this.shadow_el && !this.shadow_el.activeElement && headers[active]) headers[active].focus();
     (this.child_views || []).forEach((view, i) => {
         if (!view || !view.el) return;
         view.el.setAttribute("role", "tabpanel");
@@ -166,6 +177,21 @@ function tool_button() {
     if (this.model.tool && "active" in this.model.tool && this.class_list) {
         this.el.setAttribute("aria-pressed", String(Boolean(this.model.tool.active)));
     }
+}
+
+function help_icon() {
+    // the "?" beside an input showed its help on hover only: focusable, it shows it on focus and names it
+    const el = this.desc_el, tip = this.model.description;
+    if (!el || !tip || el.__isl_keys) return;
+    el.__isl_keys = true;
+    el.tabIndex = 0;
+    el.setAttribute("role", "button");
+    const raw = typeof tip.content === "string" ? tip.content : (tip.content && tip.content.html) || "";
+    const html = Array.isArray(raw) ? raw.filter((x) => typeof x === "string").join(" ") : String(raw);
+    el.setAttribute("aria-label", `Help: ${new DOMParser().parseFromString(html, "text/html").body.textContent.trim()}`);
+    el.addEventListener("focus", () => tip.setv({visible: true}));
+    el.addEventListener("blur", () => tip.setv({visible: false}));
+    el.addEventListener("keydown", (event) => { if (event.key === "Escape") tip.setv({visible: false}); });
 }
 
 function card_state() {
@@ -216,11 +242,14 @@ function patch() {
     if (on_off) after(on_off.OnOffButtonView.prototype, "_toggle_active", tool_button);
     const plot = need("models/plots/plot_canvas");
     if (plot) after(plot.PlotView.prototype, "render", plot_name);
-    const card = views().find((v) => v.model.type === "panel.models.layout.Card");
+    const help = view_class("panel.models.widgets.TooltipIcon");
+    if (help) after(help.prototype, "render", help_icon);
+    const panel_tabs = view_class("panel.models.tabs.Tabs");   // it has an update_active of its own
+    if (panel_tabs) after(panel_tabs.prototype, "update_active", tab_list);
+    const card = view_class("panel.models.layout.Card");
     if (card) {
-        const proto = Object.getPrototypeOf(card);
-        after(proto, "render", card_state);
-        after(proto, "_collapse", card_state);
+        after(card.prototype, "render", card_state);
+        after(card.prototype, "_collapse", card_state);
     }
     for (const view of views()) {   // the views drawn before this script ran
         focus_ring.call(view);
@@ -230,7 +259,8 @@ function patch() {
         if (tabs && view instanceof tabs.TabsView) tab_list.call(view);
         if (plot && view instanceof plot.PlotView) plot_name.call(view);
         if (button && view instanceof button.ToolButtonView) tool_button.call(view);
-        if (card && Object.getPrototypeOf(view) === Object.getPrototypeOf(card)) card_state.call(view);
+        if (help && view instanceof help) help_icon.call(view);
+        if (card && view instanceof card) card_state.call(view);
     }
 }
 
@@ -266,8 +296,23 @@ function template() {
     }
 }
 
+function refocus_toggle() {
+    // the presenter toggle reloads the page: a keyboard user's focus goes back to it, not to the top of the page
+    let wanted = null;
+    try { wanted = sessionStorage.getItem("isl-focus"); sessionStorage.removeItem("isl-focus"); } catch (e) {}
+    if (wanted !== "presenter") return;
+    let tries = 0;
+    const focus = () => {   // the header's toggle may be drawn a moment after the document is ready
+        const toggle = views().find((v) => v.button_el && /presenter mode/i.test(v.model.label || ""));
+        if (toggle) toggle.button_el.focus();
+        else if (tries++ < 100) setTimeout(focus, 50);
+    };
+    focus();
+}
+
 patch();
 template();
+refocus_toggle();
 """
 
 

@@ -11,8 +11,8 @@ __all__ = ["ABOUT", "about_card"]
 
 ABOUT = r"""
 **The signal.** X₁ is a position, X₂ its velocity, X₃ its acceleration, … (m coordinates). The top
-derivative X_m is an Ornstein–Uhlenbeck process, dX_m = −α X_m dt + β dv: α is how fast it forgets (α = 0 makes
-it a random walk, paper B), β how hard it is pushed. With **"β from w"**, β = w·√(2α) keeps the spread of X_m at w
+derivative Xₘ is an Ornstein–Uhlenbeck process, dXₘ = −α Xₘ dt + β dv: α is how fast it forgets (α = 0 makes
+it a random walk, paper B), β how hard it is pushed. With **"β from w"**, β = w·√(2α) keeps the spread of Xₘ at w
 whatever α (paper A's choice, w = 3). Only the position is observed, through white noise: dY = X₁ dt + σ dε.
 
 **Two filters** estimate all m coordinates from Y:
@@ -39,7 +39,7 @@ RMSE is 20 % above the optimum's.
 **Other filters** (tick them to overlay): the Kalman–Bucy filter designed for one σ used at another
 (*mismatched*), the one designed for the largest σ of the range (*minimax*), an *adaptive* Kalman–Bucy filter
 that estimates σ from its innovations, and a *model-aware* ISL filter (the same nonlinearity, with the
-model's damping −αX_m in its prediction).
+model's damping −αXₘ in its prediction).
 
 **When estimating σ works as well.** If σ is constant, the noise Gaussian and the sensor sampled finely, the
 innovations reveal σ within a few hundred steps, and the adaptive filter is then as good as the optimal one —

@@ -17,11 +17,15 @@ import panel as pn
 import param
 from panel.viewable import Viewer
 
+from .. import inputs
+from ..inputs import Kind
 from ..pipeline import COORDINATES, Request, compute
 from ..state import AppState
 from ..text import R_MIN, per_r_min
+from .controls import NumberInput
+from .fields import REFUSAL_CSS
 from .numbers import TABLE_CSS
-from .style import SUBSCRIPT, TEXT_FONT
+from .style import SUBSCRIPT, TEXT_FONT, px
 
 __all__ = ["CompareView", "alt_text", "compare_figure", "other_sigma"]
 
@@ -74,12 +78,26 @@ class CompareView(Viewer):
         self._image = pn.pane.PNG(None, sizing_mode="scale_width", max_width=1400, margin=(0, 10))
         self._table = pn.pane.HTML("", stylesheets=[TABLE_CSS], margin=(0, 10))
         self._note = pn.pane.Markdown("", margin=(0, 10))
-        self._input = pn.widgets.FloatInput.from_param(self.param.sigma_b, start=0.1, end=1000.0, width=180)
-        self._button = pn.widgets.Button(label="Compare", color="primary", width=130, margin=(24, 10, 0, 10))
+        # a box without a range (BokehJS drops a value outside it silently), checked here and refused in words
+        self._input = NumberInput(label=self.param.sigma_b.label, value=self.sigma_b, width=px(self.state, 180))
+        self._input._refuse = self._take
+        self._input.param.watch(lambda event: self._take(event.new), "value")
+        self._refusal = pn.pane.HTML("", visible=False, stylesheets=[REFUSAL_CSS], margin=(0, 10, 6, 10))
+        self._button = pn.widgets.Button(label="Compare", color="primary", width=px(self.state, 130),
+                                         margin=(24, 10, 0, 10))
         self._button.on_click(lambda event: self.draw())
         self._drawn: Request | None = None
         self.state.param.watch(self._stale, ["run"])
         self._note.object = "Press **Compare** to draw the run on screen beside the same run at the σ above."
+
+    def _take(self, value) -> None:
+        """σ of the second run from the box, or its refusal beside the box (the previous σ is kept)."""
+        try:
+            self.sigma_b = inputs.clean(self.param.sigma_b.label, value, Kind("number", *self.param.sigma_b.bounds))
+            self._refusal.param.update(object="", visible=False)
+        except ValueError as exc:
+            text = html.escape(f"Refused: {exc}. The comparison keeps σ = {self.sigma_b:g}.")
+            self._refusal.param.update(object=f"<div class='isl-refusal' role='alert'>{text}</div>", visible=True)
 
     def draw(self) -> None:
         """Simulate the second run and draw both (a job; the picture replaces the last one when it is done)."""
@@ -105,12 +123,12 @@ class CompareView(Viewer):
         self._image.param.update(object=png, alt_text=alt_text(runs))
         self._table.object = ratios_html(runs)
         self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {per_r_min(runs[0].horizon, 3)} of each run's own "
-                             f"{R_MIN}; computed in {outcome.seconds:.2g} s. Drawn as `isl figure3` draws it.")
+                             f"{R_MIN}; computed in {outcome.seconds:.2g} s; drawn by the renderer of the command `isl figure3`.")
 
     def __panel__(self):
         intro = pn.pane.Markdown(
             "The run on screen beside the same run at another σ — paper A's Fig. 3 compares σ = 20 and σ = 200. "
             "Both use the same seed and every other input, so what changes is σ's doing.", margin=(0, 10),
             styles={"font-size": TEXT_FONT})
-        return pn.Column(intro, pn.Row(self._input, self._button), self._note, self._image, self._table,
+        return pn.Column(intro, pn.Row(self._input, self._button), self._refusal, self._note, self._image, self._table,
                          sizing_mode="stretch_width")

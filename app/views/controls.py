@@ -17,6 +17,7 @@ from panel.viewable import Viewer
 
 from ..presets import PRESETS
 from ..state import AppState
+from ..text import num
 from .fields import field, refusal
 
 __all__ = ["ControlsView", "Guarded", "IntSlider", "NumberInput", "Slider", "WholeInput", "log_slider", "round_sig",
@@ -195,7 +196,9 @@ class ControlsView(Viewer):
         self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6,
                                                       sizing_mode="stretch_width"))
         # no range on the box: BokehJS's box drops a value outside it silently; the state refuses it in words
-        self._seed = _plain(s, "seed", WholeInput(label="seed", width=120, description=s.param.seed.doc))
+        # a box for any number: BokehJS's whole-number box turned a typed "1.5" into 15 and ran it
+        self._seed = _plain(s, "seed", NumberInput(label="seed", width=120, description=s.param.seed.doc,
+                                                   value=float(s.seed)))
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
         self._sync_alpha_zero()
         self._derived = pn.pane.Markdown(self._derived_text, margin=(0, 10))
@@ -224,7 +227,8 @@ class ControlsView(Viewer):
         beta = s.beta_effective
         if beta <= 0.0:
             return "β = w√(2α) = 0: untick **β from w** or raise α."
-        return f"β = **{beta:.4g}** · ν/β = **{s.nu / beta:.3g}** (ℓ = log₂ ν/β = {math.log2(s.nu / beta):.2f})"
+        return (f"β = **{num(beta)}** · ν/β = **{num(s.nu / beta, 3)}** "
+                f"(ℓ = log₂ ν/β = {num(math.log2(s.nu / beta), 3)})")
 
     @param.depends("state.message")
     def _status_text(self) -> str:
@@ -261,7 +265,7 @@ class ControlsView(Viewer):
         figure_png = pn.widgets.FileDownload(callback=s.png, filename="isl_figure.png", label="Download figure (PNG)",
                                              color="success", variant="outline", sizing_mode="stretch_width",
                                              margin=(0, 10, 10, 10))
-        spinner = pn.indicators.LoadingSpinner(value=s.param.busy, size=20, margin=(0, 10))
+        spinner = pn.indicators.LoadingSpinner(value=s.param.busy, visible=s.param.busy, size=20, margin=(0, 10))
 
         def helped(name: str, widget):
             return field(s, name, with_help(widget, s.param[name].doc), sizing_mode="stretch_width")

@@ -28,7 +28,7 @@ from .fields import field
 from .filters_panel import bind
 from .filters_panel import number as number_box
 from ..text import R_MIN, R_MIN_HTML, per_r_min_html
-from .style import TEXT_FONT, job_buttons, ratio_axis, styled, text_scale
+from .style import TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
 
 __all__ = ["SCENARIO_COLORS", "ScenarioView", "map_html", "worst_html"]
 
@@ -201,14 +201,14 @@ class ScenarioView(Viewer):
         p = s.param
 
         def number(name: str, width: int = 150, **kw):
-            return field(s, name, number_box(s, name, width=width, **kw))
+            return field(s, name, number_box(s, name, width=px(s, width), **kw))
 
         def choice(name: str, width: int = 130):
             options = {CHOICE_LABELS[name][v]: v for v in p[name].objects}
             return field(s, name, bind(s, name, pn.widgets.Select(
-                label=p[name].label, options=options, width=width, description=p[name].doc)))
+                label=p[name].label, options=options, width=px(s, width), description=p[name].doc)))
 
-        preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS], width=260)
+        preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS], width=px(self.state, 260))
 
         def pick(event) -> None:
             if event.new != "—":
@@ -216,9 +216,10 @@ class ScenarioView(Viewer):
                 preset.value = "—"
         preset.param.watch(pick, "value")
         download = pn.widgets.FileDownload(callback=s.scenario_csv, filename="isl_scenario.csv",
-                                           label="Download (CSV)", color="success", variant="outline", width=150,
+                                           label="Download (CSV)", color="success", variant="outline", width=px(self.state, 150),
                                            margin=(24, 10, 0, 10))
-        spinner = pn.indicators.LoadingSpinner(value=p.scenario_busy, size=20, margin=(30, 10))
+        spinner = pn.indicators.LoadingSpinner(value=p.scenario_busy, visible=p.scenario_busy, size=20,
+                                               margin=(30, 10))
         row = dict(flex_wrap="wrap", sizing_mode="stretch_width")
         return pn.Column(
             pn.FlexBox(preset, choice("sc_change"), number("sc_change_at"), number("sc_sigma_after", 120), **row),
@@ -233,10 +234,10 @@ class ScenarioView(Viewer):
         s = self.state
         p = s.param
         kind = field(s, "sc_map", bind(s, "sc_map", pn.widgets.Select(
-            label=p.sc_map.label, options={CHOICE_LABELS["sc_map"][v]: v for v in p.sc_map.objects}, width=170)))
-        seeds = field(s, "sc_map_seeds", number_box(s, "sc_map_seeds", width=110))
+            label=p.sc_map.label, options={CHOICE_LABELS["sc_map"][v]: v for v in p.sc_map.objects}, width=px(self.state, 170))))
+        seeds = field(s, "sc_map_seeds", number_box(s, "sc_map_seeds", width=px(self.state, 110)))
         run, cancel, progress = job_buttons(p.sc_map_busy, p.sc_map_progress, "Compute map", s.compute_map,
-                                            s.cancel_map, width=140)
+                                            s.cancel_map, width=140, scale=text_scale(s))
         return pn.Column(pn.FlexBox(kind, seeds, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
                          pn.pane.Markdown(p.sc_map_note, margin=(0, 10)), sizing_mode="stretch_width")
 
@@ -251,7 +252,7 @@ class ScenarioView(Viewer):
             "**Who wins where** — per cell, the filter with the lowest ratio to the clairvoyant one (max over "
             "coordinates, mean square over the runs) and its margin over the runner-up; a light cell with a dashed "
             "border, marked ≈, is a tie (the margin's 95 % lower bound over the runs is ≤ 1). Paper A's model at this "
-            "α, m and w, σ(0) = 20; the same as the command `isl scenario --map`.", margin=(10, 10, 0, 10),
+            "α, m and w, σ(0) = 20 (the command line's `isl scenario --map` computes the same map).", margin=(10, 10, 0, 10),
             styles={"font-size": TEXT_FONT})
         return pn.Column(intro, self._controls(),
                          pn.pane.Bokeh(self._ratio_fig, margin=5, sizing_mode="stretch_width"),

@@ -8,7 +8,7 @@ from bokeh.plotting import figure
 from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
 __all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "NOTE_FONT", "PRESENTER_SCALE",
-           "RATIO_MANTISSAS", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TEXT_FONT", "TRUTH", "job_buttons", "line",
+           "RATIO_MANTISSAS", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TEXT_FONT", "TRUTH", "job_buttons", "line", "px",
            "ratio_axis", "ratio_ticker", "styled", "text_scale"]
 
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
@@ -33,6 +33,11 @@ def text_scale(state) -> float:
     return PRESENTER_SCALE if state.present else 1.0
 
 
+def px(state, width: int) -> int:
+    """A widget's width in pixels for ``state``'s page: wider in presenter mode, where its text is larger."""
+    return round(width * text_scale(state))
+
+
 def styled(fig: figure, scale: float = 1.0) -> figure:
     """Large fonts (times ``scale``: :data:`PRESENTER_SCALE` for a projector), light grid, no logo."""
     fig.title.text_font_size = f"{14 * scale:.3g}pt"
@@ -46,7 +51,7 @@ def styled(fig: figure, scale: float = 1.0) -> figure:
             axis.formatter = BasicTickFormatter(power_limit_high=7, power_limit_low=-3)
     fig.grid.grid_line_alpha = 0.4
     fig.toolbar.logo = None
-    fig.min_border_left = 70
+    fig.min_border_left = round(70 * scale)
     return fig
 
 
@@ -107,13 +112,15 @@ def ratio_ticker(fig: figure | None = None, max_ticks: int = 9, min_gap: int = T
                                                  "plot": fig, "min_gap": min_gap})
 
 
-def job_buttons(busy, progress, label: str, start, cancel, *, width: int = 120, below_label: bool = True) -> tuple:
+def job_buttons(busy, progress, label: str, start, cancel, *, width: int = 120, below_label: bool = True,
+                scale: float = 1.0) -> tuple:
     """A long job's start button (disabled while it runs), cancel button and progress bar (both shown while it
-    runs), over the state's ``busy`` and ``progress`` parameters; ``below_label``: aligned with labelled inputs."""
+    runs), over the state's ``busy`` and ``progress`` parameters; ``below_label``: aligned with labelled inputs;
+    ``scale``: the text's (presenter mode's larger text needs wider buttons)."""
     margin = (24, 10, 0, 10) if below_label else (5, 10)
-    run = pn.widgets.Button(label=label, color="primary", width=width, disabled=busy, margin=margin)
+    run = pn.widgets.Button(label=label, color="primary", width=round(width * scale), disabled=busy, margin=margin)
     run.on_click(lambda event: start())
-    stop = pn.widgets.Button(label="Cancel", color="danger", width=90, visible=busy, margin=margin)
+    stop = pn.widgets.Button(label="Cancel", color="danger", width=round(90 * scale), visible=busy, margin=margin)
     stop.on_click(lambda event: cancel())
     bar = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), progress), max=100, width=200, visible=busy,
                                  margin=(34, 10) if below_label else (18, 10))

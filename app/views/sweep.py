@@ -32,6 +32,7 @@ from .style import (
     SUBSCRIPT,
     TEXT_FONT,
     job_buttons,
+    px,
     ratio_axis,
     styled,
     text_scale,
@@ -185,14 +186,15 @@ class SweepView(Viewer):
     def _controls(self) -> pn.Column:
         s = self.state
         sigmas = pn.widgets.TextInput(label="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep_sigmas),
-                                      width=220)
+                                      width=px(self.state, 220))
         sigmas.param.watch(lambda e: setattr(s, "sweep_sigmas", parse_sigmas(e.new)), "value")
         s.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sweep_sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
         horizon.width = 260
         run, cancel, progress = job_buttons(s.param.sweep_busy, s.param.sweep_progress, "Simulate points",
-                                            s.simulate_sweep, s.cancel_sweep, width=150, below_label=False)
-        recommend = pn.widgets.Button(label="Use recommended ν", color="success", width=180,
+                                            s.simulate_sweep, s.cancel_sweep, width=150, below_label=False,
+                                            scale=text_scale(s))
+        recommend = pn.widgets.Button(label="Use recommended ν", color="success", width=px(self.state, 180),
                                       disabled=pn.bind(lambda busy, a: busy or a == 0.0,
                                                        s.param.sweep_busy, s.param.alpha))
         recommend.on_click(lambda e: s.recommend())

@@ -15,7 +15,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import value
-from bokeh.models import ColumnDataSource, Legend, LegendItem, Span, Whisker
+from bokeh.models import ColumnDataSource, FixedTicker, Legend, LegendItem, Range1d, Span, Whisker
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -25,7 +25,7 @@ from isl_core.worstcase import FILTERS, LABELS
 from ..state import AppState
 from .fields import field
 from .filters_panel import number
-from .style import FILTER_COLORS, TEXT_FONT, job_buttons, ratio_axis, styled, text_scale
+from .style import FILTER_COLORS, TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
 from .sweep import parse_sigmas
 
 __all__ = ["WorstCaseView", "worst_case_html"]
@@ -91,6 +91,7 @@ class WorstCaseView(Viewer):
     def _chart(self) -> figure:
         scale = text_scale(self.state)
         fig = styled(figure(x_axis_type="log", y_axis_type="log", height=420, sizing_mode="stretch_width",
+                            y_range=Range1d(0.9, 2.0),  # set from each table's intervals (whiskers are not data)
                             title="Worst-case RMSE ratio over the σ range (simulated, 95 % intervals)",
                             tools="pan,wheel_zoom,box_zoom,reset,save"), scale)
         fig.xaxis.axis_label = "α"
@@ -126,20 +127,27 @@ class WorstCaseView(Viewer):
             # the chart shows once there is a table: an empty log-log chart has no range to show. (The figure's
             # own flag: toggling the Panel pane's makes it copy the figure's stylesheets back and fail a type check.)
             self._figure.visible = t is not None
+            if t is not None:  # ticks at the table's α only (the dots beside each are its filters), every whisker in
+                self._figure.xaxis.ticker = FixedTicker(ticks=[float(a) for a in t.alphas])
+                lows, highs = np.asarray(t.worst_low, float), np.asarray(t.worst_high, float)
+                ok = np.isfinite(lows) & np.isfinite(highs) & (highs > 0)
+                if np.any(ok):
+                    lo, hi = max(float(np.min(lows[ok])), 1e-3), float(np.max(highs[ok]))
+                    self._figure.y_range.update(start=min(lo, 1.0) / 1.08, end=hi * 1.08)
 
     def _controls(self) -> pn.Column:
         s = self.state
         p = s.param
-        lo = field(s, "sigma_min", number(s, "sigma_min", width=110))
-        hi = field(s, "sigma_max", number(s, "sigma_max", width=110))
-        alphas = pn.widgets.TextInput(label="α values (comma separated)", width=220,
+        lo = field(s, "sigma_min", number(s, "sigma_min", width=px(self.state, 110)))
+        hi = field(s, "sigma_max", number(s, "sigma_max", width=px(self.state, 110)))
+        alphas = pn.widgets.TextInput(label="α values (comma separated)", width=px(self.state, 220),
                                       value=", ".join(f"{v:g}" for v in s.wc_alphas))
         alphas.param.watch(lambda e: setattr(s, "wc_alphas", parse_sigmas(e.new)), "value")
         s.param.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "wc_alphas")
-        n = field(s, "wc_n_sigma", number(s, "wc_n_sigma", width=110))
-        horizon = field(s, "wc_horizon", number(s, "wc_horizon", step=50.0, width=190))
+        n = field(s, "wc_n_sigma", number(s, "wc_n_sigma", width=px(self.state, 110)))
+        horizon = field(s, "wc_horizon", number(s, "wc_horizon", step=50.0, width=px(self.state, 190)))
         run, cancel, progress = job_buttons(p.worst_busy, p.worst_progress, "Compute", s.compute_worst_case,
-                                            s.cancel_worst_case)
+                                            s.cancel_worst_case, scale=text_scale(s))
         note = pn.pane.Markdown(p.worst_note, margin=(0, 10))
         return pn.Column(pn.FlexBox(lo, hi, n, field(s, "wc_alphas", alphas), horizon, run, cancel, progress,
                                     flex_wrap="wrap",

@@ -1,0 +1,49 @@
+"""Sphinx configuration of the isl docs: ``python -m sphinx -W -b html docs docs/_build/html`` (``./scripts/docs``).
+
+Sphinx, because the numerical Python projects this one builds on document themselves with it (NumPy, SciPy,
+python-control): autodoc reads the numpydoc docstrings of :mod:`isl_core`, doctest runs their examples, and MyST lets
+the narrative pages be Markdown like the README. The pages need no internet: the theme's files are served with the
+pages, and equations are text (no math renderer fetched from a CDN), so a classroom without internet reads them at
+the dashboard's ``/docs``.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from importlib.metadata import version as _version  # noqa: E402
+
+__version__ = _version("isl")
+
+project = "isl"
+author = "the isl authors"
+copyright = "2025–2026, the isl authors"
+version = release = __version__
+
+extensions = ["myst_parser", "numpydoc", "sphinx.ext.autodoc", "sphinx.ext.doctest", "sphinx.ext.viewcode"]
+source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
+exclude_patterns = ["_build", "images/README.md"]
+myst_heading_anchors = 3
+nitpicky = False
+numpydoc_show_class_members = False
+numpydoc_validation_checks: set[str] = set()
+autodoc_member_order = "bysource"
+autodoc_typehints = "none"
+suppress_warnings: list[str] = []
+
+html_theme = "pydata_sphinx_theme"
+html_title = f"isl {version}"
+html_static_path = ["_static"]
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_prev_next": True,
+    "icon_links": [],
+    "secondary_sidebar_items": ["page-toc"],
+    "footer_start": ["copyright"],
+    "footer_end": [],
+}
+html_show_sourcelink = False
+html_copy_source = False
