@@ -163,7 +163,8 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
                    help=f"filters to compare (default {','.join(FILTERS)})")
     p.add_argument("--sigma-design", type=positive, default=None,
                    help="sigma of the mismatched KBF (default the geometric middle of the range)")
-    p.add_argument("--window", type=positive, default=1000.0, help="adaptive KBF window W in steps (default 1000)")
+    p.add_argument("--memory", type=positive, default=1000.0,
+                   help="adaptive KBF memory W in readings (= steps in these runs; default 1000)")
     p.add_argument("--seeds", type=_comma(seed_number), nargs="+", default=[[0, 1]])
     execution(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")

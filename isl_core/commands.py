@@ -227,7 +227,7 @@ def cmd_worstcase(args) -> int:
     try:
         res = worst_case(_flat(args.alphas), sigma_range=(args.sigma_min, args.sigma_max), n_sigma=args.n_sigma,
                          m=args.m, w=args.w, filters=_flat(args.filters), sigma_design=args.sigma_design,
-                         window=args.window, horizon=args.horizon, seeds=_flat(args.seeds), batches=args.batches,
+                         memory=args.memory, horizon=args.horizon, seeds=_flat(args.seeds), batches=args.batches,
                          executor=client, workers=args.workers,
                          progress=progress_bar("worstcase", not (args.quiet or args.json)))
     finally:

@@ -36,13 +36,19 @@ KIND_ROBUST = 5  #: the adaptive filter with Huber-clipped innovations (:mod:`is
 
 @dataclass(frozen=True)
 class VariationalGain:
-    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.variational`): forgetting factor ρ per
-    step, σ̂ and the inverse-gamma shape α₀ before the first reading, fixed-point iterations per reading."""
+    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.variational`): memory W in sensor
+    readings (forgetting factor ρ = 1 − 1/W per reading), σ̂ and the inverse-gamma shape α₀ before the first reading,
+    fixed-point iterations per reading."""
 
-    rho: float
+    memory: float
     sigma_init: float
     shape0: float
     iterations: int
+
+    @property
+    def rho(self) -> float:
+        """ρ = 1 − 1/W: a⁻ = ρa, b⁻ = ρb at each reading."""
+        return 1.0 - 1.0 / self.memory
 
 
 @dataclass(frozen=True)
@@ -51,14 +57,15 @@ class AdaptiveGain:
 
     ``log_gain`` (n, m) holds ``log K_i`` of the stationary gain (A.21–A.23) on the equally spaced grid
     ``log σ_j = log_sigma0 + j·step``, j = 0..n−1; between grid points log K is linear in log σ, outside the
-    grid it is held at the end values. ``window`` W (steps) bounds the forgetting factor ``λ_k = max(1/k, 1/W)``
-    of the innovation variance; ``sigma_init`` is σ̂ before the first innovation.
+    grid it is held at the end values. ``memory`` W (sensor readings) bounds the forgetting factor
+    ``λ_r = max(1/r, 1/W)`` of the innovation variance at the r-th reading; ``sigma_init`` is σ̂ before the first
+    innovation.
     """
 
     log_sigma0: float
     step: float
     log_gain: np.ndarray
-    window: float
+    memory: float
     sigma_init: float
 
     @property

@@ -18,12 +18,13 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
     robust (kind 5):       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.robust)
 
 The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
-its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ^q at each reading), ``vb_par[f]`` = (ρ per step,
-iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
+its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ = 1 − 1/W at each reading), ``vb_par[f]`` = (ρ per
+reading, iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
-power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
-factor is max(1/r, q/W) for the r-th reading: its window keeps its length in time.
+power-law and linear updates are those of :func:`isl_core.kernels.advance`. The σ-learning filters' memory W counts
+readings: the adaptive and robust estimators forget with λ = max(1/r, 1/W) at the r-th reading, the variational one
+with ρ = 1 − 1/W (:mod:`isl_core.adaptive`).
 
 Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of
 the reading (:func:`_pr`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for the
@@ -43,7 +44,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
+from .kernels import AD_INV_MEMORY, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
 from .noise import DRAWS, draw_ahead
 from .scenario import clairvoyant_step
 
@@ -74,9 +75,8 @@ def _vb_update(P, ab, par, u, H, h, a_f, gvec):
     """One reading of the variational-Bayes filter: updates P and (a, b) in place, writes F·K into ``gvec``;
     returns σ̂ = √(b/a)."""
     m = P.shape[0]
-    rho_q = 1.0 - (1.0 - par[0]) * (H * H / h)  # ρ per reading: 1 − q(1 − ρ), qh = H²
-    a = rho_q * ab[0] + 0.5
-    b_pr = rho_q * ab[1]
+    a = par[0] * ab[0] + 0.5  # a⁻ = ρa, b⁻ = ρb: ρ per reading
+    b_pr = par[0] * ab[1]
     b = b_pr
     p11 = P[0, 0]
     k1 = 0.0
@@ -342,7 +342,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
                     uu = min(uu, lim[f] * lim[f]) / vb_par[f, 1]
                 r_k = (k + 1) // q
                 var = ad[f, AD_VAR]
-                var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uu - var)
+                var += max(1.0 / r_k, ad[f, AD_INV_MEMORY]) * (uu - var)
                 ad[f, AD_VAR] = var
                 ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
                 _table_gain(table, ad, f, gain, sqqh)

@@ -39,7 +39,7 @@ from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
-__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "plan_scenario", "scenario_grid",
+__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "memory_time", "plan_scenario", "scenario_grid",
            "simulate_scenario"]
 
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
@@ -74,6 +74,11 @@ class ScenarioRun:
     diverged: tuple[float | None, ...] = ()
     learning: tuple[str, ...] = ()
 
+    def memory_time(self, memory: float) -> float:
+        """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
+        (:mod:`isl_core.adaptive`)."""
+        return memory_time(memory, self.q, self.h, self.r_min)
+
     def starts_after(self, burn: float) -> np.ndarray:
         """Which windows start at or after ``burn`` (units of 1/r_min at σ(0)), per window (nw,)."""
         return self.t[:-1] * self.r_min >= burn - 1e-12
@@ -92,6 +97,12 @@ class ScenarioRun:
         mse = np.tensordot(w, self.mse[keep], axes=1) / w.sum()
         ref = np.tensordot(w, self.ref_var[keep], axes=1) / w.sum()
         return np.sqrt(mse / ref[None, :])
+
+
+def memory_time(memory: float, q: int, h: float, r_min: float) -> float:
+    """W = ``memory`` readings of a sensor read every ``q`` steps of ``h``, in units of 1/``r_min``: W·q·h·r_min."""
+    memory = check_real("memory (W, in sensor readings)", memory, lo=0.0)
+    return memory * q * h * r_min
 
 
 def _learning_state(model: Model, filters, ad: np.ndarray):
@@ -148,6 +159,11 @@ class ScenarioPlan:
     packed: tuple
     learning_state: tuple
     delta: np.ndarray
+
+    def memory_time(self, memory: float) -> float:
+        """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
+        (:mod:`isl_core.adaptive`)."""
+        return memory_time(memory, self.q, self.h, self.r_min)
 
     def run(self, seed: int = 0, progress: Callable[[float], None] | None = None) -> ScenarioRun:
         """The run with noise from ``seed`` (module docstring); ``progress`` gets the fraction of steps done."""
