@@ -34,8 +34,8 @@ bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters cost
 (``benchmarks/bench_scenario.py``).
 
 Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
-:data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window (k // ``win``) (the last
-window takes the remainder), σ̂ likewise.
+:data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window w for the steps k in
+[``edges[w]``, ``edges[w + 1]``), σ̂ likewise.
 """
 from __future__ import annotations
 
@@ -151,7 +151,7 @@ def _pr(kind, u, raw, sqh, own, lim, m):
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k_out, q, damp, coef, kind, table, ad,
-                     clair, acc, k0, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
+                     clair, acc, k0, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
     ``sig`` (n,) is this chunk's σ_k, or (1,) its one σ while σ is constant; ``clair`` = (P, st, cg, cvar, cycle P,
@@ -211,8 +211,10 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     stride = 0 if sig.shape[0] == 1 else 1
     pending = 0
     beta2 = beta * beta
-    w = min(k0 // win, nw - 1)  # the window of this step's errors, and the first step of the next one
-    edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
+    w = 0  # the window of this step's errors, and the first step of the next one
+    while w < nw - 1 and edges[w + 1] <= k0:
+        w += 1
+    edge = edges[w + 1] if w < nw - 1 else k0 + n + 1
     left = q - k0 % q  # steps until the next reading, this one included
     # steps not yet summed into wref, all with the clairvoyant variance ``cvar`` and σ_k = ``s_cur``: while the
     # recursion is settled and σ_k stays, both repeat, and are summed once, times ``same``
@@ -225,7 +227,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
             _flush(wsq, w, sq)
             same, pending = 0, 0
             w += 1
-            edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
+            edge = edges[w + 1] if w < nw - 1 else k0 + n + 1
         b = j % DRAWS
         if b == 0:
             draw_ahead(rng, law, dof, ztab, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))

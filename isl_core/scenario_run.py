@@ -154,7 +154,7 @@ class ScenarioPlan:
     N: int
     q: int
     r_min: float
-    windows: int
+    edges: np.ndarray
     filters: tuple[FilterSpec, ...]
     packed: tuple
     learning_state: tuple
@@ -168,7 +168,8 @@ class ScenarioPlan:
     def run(self, seed: int = 0, progress: Callable[[float], None] | None = None) -> ScenarioRun:
         """The run with noise from ``seed`` (module docstring); ``progress`` gets the fraction of steps done."""
         seed = check_int("seed", seed, lo=0)
-        model, scenario, h, n, r_min, windows = self.model, self.scenario, self.h, self.N, self.r_min, self.windows
+        model, scenario, h, n, r_min, edges = self.model, self.scenario, self.h, self.N, self.r_min, self.edges
+        windows = len(edges) - 1
         filters, nf = self.filters, len(self.filters)
         damp, coef, kind, table, ad = self.packed
         ad = ad.copy()
@@ -177,7 +178,6 @@ class ScenarioPlan:
         x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
         e = np.tile(e0, (nf, 1))
         state = (*clairvoyant_state(self.delta, self.q), scenario.noise_variance)  # its P_0: Δ at σ(0)
-        win = n // windows
         adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
         wsq, wsig = np.zeros((windows, nf, model.m)), np.zeros((windows, int(adaptive.sum())))
         wref = np.zeros((windows, model.m + 1))
@@ -194,20 +194,18 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
             done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof, ztab,
                                     scenario.outlier_rate, scenario.outlier_scale, self.q, damp, coef, kind, table, ad,
-                                    state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
+                                    state, acc, k, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
             if done < todo:
                 raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
                                       f"(step {k + done:,} of {n:,}, h = {h:.3g})")
             k += done
             if progress is not None:
                 progress(k / n)
-        edges = np.minimum(np.arange(windows + 1) * win, n)
-        edges[-1] = n
         steps = np.diff(edges)
         mse, sigma_hat = wsq / steps[:, None, None], wsig / steps[:, None]
         slots = np.cumsum(adaptive) - 1
         for f in np.flatnonzero(died >= 0):  # from its window on, a diverged filter's error is infinite
-            w_died = min(died[f] // win, windows - 1)
+            w_died = int(np.searchsorted(edges, died[f], side="right")) - 1
             mse[w_died:, f, :] = np.inf
             if adaptive[f]:
                 sigma_hat[w_died:, slots[f]] = np.nan
@@ -220,6 +218,32 @@ class ScenarioPlan:
                            tuple(f.name for f, a in zip(filters, adaptive, strict=True) if a))
 
 
+def _edge_times(horizon: float, windows: int, edges) -> np.ndarray:
+    """The windows' edge times: ``windows`` equal windows, or ``edges`` checked (from 0 to ``horizon``, increasing)."""
+    if edges is None:
+        return np.linspace(0.0, horizon, windows + 1)  # more windows than steps: one a step (window_edges)
+    times = np.array([check_real(f"edges[{j}]", t, lo=0.0, hi=horizon) for j, t in enumerate(edges)])
+    if len(times) < 2 or times[0] != 0.0 or times[-1] != horizon or np.any(np.diff(times) <= 0.0):
+        raise ValueError(f"edges must increase from 0 to the horizon {horizon:g}, got {list(edges)!r}")
+    return times
+
+
+def window_edges(times: np.ndarray, step: float, n: int) -> np.ndarray:
+    """Steps (int64, increasing from 0 to n) at which windows starting at ``times`` (units of 1/r_min) start: the
+    first k with k·``step`` ≥ τ, ``step`` = h·r_min (the rule of σ(t_k) at a change); a window without a step of its
+    own is left out."""
+    out = np.empty(len(times), dtype=np.int64)
+    for j, tau in enumerate(times):
+        k = min(n, max(0, math.ceil(tau / step)))
+        while k > 0 and (k - 1) * step >= tau:
+            k -= 1
+        while k < n and k * step < tau:
+            k += 1
+        out[j] = k
+    out[0], out[-1] = 0, n
+    return np.unique(out)
+
+
 def plan_scenario(
     model: Model,
     nu: float,
@@ -228,14 +252,20 @@ def plan_scenario(
     horizon: float = 30.0,
     windows: int = 60,
     extra: Sequence[FilterSpec] = (),
+    edges: Sequence[float] | None = None,
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
-    over ``horizon`` (units of 1/r_min at σ(0)), checked and set up once for any number of seeds."""
+    over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
+    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.periods`), checked and set up once for any number of
+    seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
+    value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
+    errors after it."""
     scenario = Scenario() if scenario is None else scenario
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     windows = check_int("windows", windows, lo=1, hi=100_000)
+    times = _edge_times(horizon, windows, edges)
     specs = check_filters(model, nu, extra)
     h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
     kb = kalman_bucy(model)
@@ -246,8 +276,8 @@ def plan_scenario(
     damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
     kind[0] = KIND_CLAIRVOYANT
     learning = _learning_state(model, filters, ad)
-    return ScenarioPlan(model, scenario, float(nu), h, n, scenario.sensor_steps(h, r_min), r_min, min(windows, n),
-                        filters, (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float))
+    return ScenarioPlan(model, scenario, float(nu), h, n, scenario.sensor_steps(h, r_min), r_min,
+                        window_edges(times, h * r_min, n), filters, (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float))
 
 
 def simulate_scenario(

@@ -257,3 +257,16 @@ def test_memory_counts_readings_and_its_time_is_readings_times_the_sensor_interv
     assert "W = 30 readings" in variational_kbf(MODEL, memory=30.0).label
     with pytest.raises(ValueError, match=r"memory \(W, in sensor readings\) must be a finite number > 1"):
         variational_kbf(MODEL, memory=1.0)
+
+
+def test_a_window_that_starts_at_a_change_of_sigma_holds_exactly_the_steps_after_it():
+    """Windows start at the first step whose σ_k is the new σ: the clairvoyant variance of the window before the change
+    is that of σ(0) alone, and explicit edges give windows between them."""
+    change = 0.37
+    plan = plan_scenario(MODEL, 3.0, Scenario(sigma_knots=((change, 2.0),)), horizon=1.0, edges=(0.0, change, 1.0))
+    k = int(plan.edges[1])
+    assert len(plan.edges) == 3 and (k - 1) * plan.h * plan.r_min < change <= k * plan.h * plan.r_min
+    run = plan.run(0)
+    assert np.all(run.sigma[:1] == MODEL.sigma) and np.all(run.sigma[1:] == 2.0)
+    with pytest.raises(ValueError, match="edges must increase from 0 to the horizon"):
+        plan_scenario(MODEL, 3.0, horizon=1.0, edges=(0.0, 0.5, 0.4, 1.0))
