@@ -39,7 +39,7 @@ from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
-__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "memory_time", "plan_scenario", "scenario_grid",
+__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario", "scenario_grid",
            "simulate_scenario"]
 
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
@@ -228,18 +228,21 @@ def _edge_times(horizon: float, windows: int, edges) -> np.ndarray:
     return times
 
 
+def first_step(tau: float, step: float, n: int) -> int:
+    """The first step k ≤ n with k·``step`` ≥ ``tau`` (``step`` = h·r_min, times in 1/r_min): where σ(t_k) takes a value
+    that starts at ``tau`` (:meth:`Scenario.sigma_at`)."""
+    k = min(n, max(0, math.ceil(tau / step)))
+    while k > 0 and (k - 1) * step >= tau:
+        k -= 1
+    while k < n and k * step < tau:
+        k += 1
+    return k
+
+
 def window_edges(times: np.ndarray, step: float, n: int) -> np.ndarray:
     """Steps (int64, increasing from 0 to n) at which windows starting at ``times`` (units of 1/r_min) start: the
-    first k with k·``step`` ≥ τ, ``step`` = h·r_min (the rule of σ(t_k) at a change); a window without a step of its
-    own is left out."""
-    out = np.empty(len(times), dtype=np.int64)
-    for j, tau in enumerate(times):
-        k = min(n, max(0, math.ceil(tau / step)))
-        while k > 0 and (k - 1) * step >= tau:
-            k -= 1
-        while k < n and k * step < tau:
-            k += 1
-        out[j] = k
+    :func:`first_step` of each; a window without a step of its own is left out."""
+    out = np.array([first_step(tau, step, n) for tau in times], dtype=np.int64)
     out[0], out[-1] = 0, n
     return np.unique(out)
 
