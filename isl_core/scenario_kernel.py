@@ -16,6 +16,7 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
     clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k its recursion's gain at step k  (isl_core.scenario.clairvoyant)
     variational (kind 4):  e_f += F·K·u, K from a few fixed-point iterations      (isl_core.variational)
     robust (kind 5):       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.robust)
+    IMM (kind 6):          e_f += the bank's correction to Σ_j μ_j e_j            (isl_core.imm.imm_step)
 
 The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
 its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ = 1 − 1/W at each reading), ``vb_par[f]`` = (ρ per
@@ -46,6 +47,7 @@ from numba import njit
 
 from .kernels import AD_INV_MEMORY, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
 from .noise import DRAWS, draw_ahead
+from .imm import imm_step
 from .scenario import clairvoyant_step
 
 __all__ = ["KIND_CLAIRVOYANT", "advance_scenario"]
@@ -151,7 +153,7 @@ def _pr(kind, u, raw, sqh, own, lim, m):
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k_out, q, damp, coef, kind, table, ad,
-                     clair, acc, k0, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
+                     clair, acc, k0, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
     ``sig`` (n,) is this chunk's σ_k, or (1,) its one σ while σ is constant; ``clair`` = (P, st, cg, cvar, cycle P,
@@ -166,7 +168,9 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     The filters run in lanes of four (the last ones padded with idle lanes): errors ``el`` (m, lanes),
     gains ``G`` (m, lanes: √(qh)·K, the power law's coefficients, the clairvoyant gain, the variational filter's
     F·K). The σ-learning filters take their reading's u before the lanes' pass (the variational filter's gain of
-    this reading needs it) and take in u² after it (their gain at a reading uses the σ̂ before it).
+    this reading needs it) and take in u² after it (their gain at a reading uses the σ̂ before it). The IMM banks
+    (``imm``: :func:`isl_core.imm.imm_state`) step before the lanes' pass, and at a reading give their lane its
+    update (p = 1, G = the correction).
     """
     m = x.shape[0]
     nf = e.shape[0]
@@ -185,7 +189,10 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     accl, own, lim = np.zeros(nl), np.zeros(nl), np.zeros(nl)
     learn = np.zeros(nf, dtype=np.int64)  # the σ-learning filters, in order: slot a is learn[a]
     clairs = np.zeros(nf, dtype=np.int64)
-    na, nc = 0, 0
+    imms = np.zeros(nf, dtype=np.int64)
+    islot, iP, ie, ia, imu, iR, ipar, isig, i_W, i_V, i_out, i_w, i_mean = imm
+    corr = np.zeros(m)
+    na, nc, ni = 0, 0, 0
     for f in range(nf):
         zd[f], cp[f] = 1.0 - h * damp[f], h * (alpha - damp[f])
         accl[f] = acc[f]
@@ -199,7 +206,11 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         if kind[f] == 3:
             clairs[nc] = f
             nc += 1
-        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
+        if kind[f] == 6:
+            imms[ni] = f
+            ni += 1
+            own[f] = 1.0
+        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5 or kind[f] == 6:
             learn[na] = f
             na += 1
         G[:, f] = gain[f]
@@ -257,10 +268,19 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         shock = beta_sqh * vbuf[b]
         reading = left == 1
         left = q if reading else left - 1
+        for c in range(ni):  # the IMM banks: every step; at a reading their lane's update
+            f = imms[c]
+            if lane[f] != IDLE:
+                bk = islot[f]
+                s_hat = imm_step(iP, ie, ia, imu, iR, ipar, isig, bk, i_W, i_V, i_out, i_w, i_mean, el, f, noise, sqh,
+                                 h, decay, q_var, shock, reading, corr)
+                if reading:
+                    G[:, f] = corr
+                    ad[f, AD_SIGMA] = s_hat
         if reading:  # the σ-learning filters' u, before the lanes move: the variational filter's gain needs it
             for a in range(na):
                 f = learn[a]
-                if lane[f] == IDLE:
+                if lane[f] == IDLE or kind[f] == 6:
                     continue
                 u = noise - sqh * el[0, f]
                 if q > 1:
@@ -337,7 +357,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
                 continue
             if kind[f] == 4:
                 _predict_cov(vb_P[f], h, damp[f], q_var)
-            elif reading:
+            elif reading and kind[f] != 6:
                 u = own[f]
                 uu = u * u
                 if kind[f] == 5:

@@ -27,8 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import KIND_ADAPTIVE, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
+from .filters import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
 from .grid import MAX_STEPS, check_filters, run_plan
+from .imm import imm_state
 from .kernels import AD_SIGMA
 from .model import Model
 from .noise import LAWS, law_table
@@ -119,6 +120,8 @@ def _learning_state(model: Model, filters, ad: np.ndarray):
             ad[f, AD_SIGMA] = v.sigma_init
         if spec.huber is not None:
             vb_par[f] = spec.huber, huber_kappa(spec.huber)
+        if spec.imm is not None:  # σ̂ of the bank before its first reading: Σ μ_j σ_j at μ_j = 1/J
+            ad[f, AD_SIGMA] = spec.imm.sigmas.mean()
     return vb_P, vb_ab, vb_par
 
 
@@ -159,6 +162,7 @@ class ScenarioPlan:
     packed: tuple
     learning_state: tuple
     delta: np.ndarray
+    imm: tuple
 
     def memory_time(self, memory: float) -> float:
         """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
@@ -178,7 +182,9 @@ class ScenarioPlan:
         x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
         e = np.tile(e0, (nf, 1))
         state = (*clairvoyant_state(self.delta, self.q), scenario.noise_variance)  # its P_0: Δ at σ(0)
-        adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
+        adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
+        imm = tuple(a.copy() for a in self.imm)
+        imm[2][:] = e0  # every mode of every bank at the common start
         wsq, wsig = np.zeros((windows, nf, model.m)), np.zeros((windows, int(adaptive.sum())))
         wref = np.zeros((windows, model.m + 1))
         acc = np.zeros(nf)
@@ -194,7 +200,7 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
             done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof, ztab,
                                     scenario.outlier_rate, scenario.outlier_scale, self.q, damp, coef, kind, table, ad,
-                                    state, acc, k, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
+                                    state, acc, k, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm)
             if done < todo:
                 raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
                                       f"(step {k + done:,} of {n:,}, h = {h:.3g})")
@@ -279,8 +285,10 @@ def plan_scenario(
     damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
     kind[0] = KIND_CLAIRVOYANT
     learning = _learning_state(model, filters, ad)
-    return ScenarioPlan(model, scenario, float(nu), h, n, scenario.sensor_steps(h, r_min), r_min,
-                        window_edges(times, h * r_min, n), filters, (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float))
+    q = scenario.sensor_steps(h, r_min)
+    return ScenarioPlan(model, scenario, float(nu), h, n, q, r_min, window_edges(times, h * r_min, n), filters,
+                        (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float),
+                        imm_state(filters, model.m, q, h))
 
 
 def simulate_scenario(

@@ -177,7 +177,7 @@ def _pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False):
     """
     nf = len(filters)
     for f in filters:
-        if (f.variational is not None or f.huber is not None) and not scenario:
+        if (f.variational is not None or f.huber is not None or f.imm is not None) and not scenario:
             raise ValueError(f"the filter {f.label!r} runs in scenario runs only "
                              "(isl_core.scenario_run.simulate_scenario)")
     damp = np.array([f.damp for f in filters], dtype=np.float64)
