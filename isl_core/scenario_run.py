@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .filters import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
-from .grid import MAX_STEPS, check_filters, run_plan
+from .grid import MAX_STEPS, check_filters, check_specs, run_plan
 from .imm import imm_state
 from .kernels import AD_SIGMA
 from .model import Model
@@ -262,13 +262,15 @@ def plan_scenario(
     windows: int = 60,
     extra: Sequence[FilterSpec] = (),
     edges: Sequence[float] | None = None,
+    grid_filters: Sequence[FilterSpec] | None = None,
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
     over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
     edges[-1] = horizon, e.g. the periods of :mod:`isl_core.periods`), checked and set up once for any number of
     seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
     value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
-    errors after it."""
+    errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set
+    of runs that must share one grid."""
     scenario = Scenario() if scenario is None else scenario
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
@@ -276,7 +278,8 @@ def plan_scenario(
     windows = check_int("windows", windows, lo=1, hi=100_000)
     times = _edge_times(horizon, windows, edges)
     specs = check_filters(model, nu, extra)
-    h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
+    more = check_specs("grid_filters", model, grid_filters or (), allow_empty=True)
+    h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon)
     kb = kalman_bucy(model)
     clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
                        np.zeros(model.m), False)
