@@ -20,7 +20,7 @@ the filtered ones followed by the prediction: every mode has the same F, so mixi
 spread term included). Each mode is then exactly the clairvoyant Kalman filter of the grid (:func:`clairvoyant`)
 with σ_j: with one mode at the true constant σ the IMM filter is that Kalman filter, step for step.
 
-**Error coordinates** (SPEC §8), as every filter of the scenario loop (:mod:`isl_core.scenario_kernel`): the
+**Error coordinates**, as every filter of the scenario loop (:mod:`isl_core.scenario_kernel`): the
 bank carries e_j = Ẑ_j − X, whose innovation ΔY − h Σ C Ẑ_j = √h·Σ(σ_k ε_k − √h e_j,1) depends on the errors only.
 Since Σ_i μ_i|j = 1 the mixing of estimates is the same mixing of errors (Ẑ_i − Ẑ0_j = e_i − e0_j), and the
 filter's error is Σ_j μ_j e_j. Between readings the modes only propagate, like the combined error; at a reading
@@ -112,37 +112,37 @@ def imm_state(filters, m: int, q: int, h: float):
 
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
-def _predict(P, b, j, h, decay, q_var):
-    """P_j ← F_a P_j F_aᵀ + q_var·E Eᵀ on (X, S) in place: X_i += h X_{i+1}, X_m ·= decay, S += h X_1 (the
-    clairvoyant recursion's prediction, :func:`isl_core.scenario.clairvoyant_step`)."""
-    a = P.shape[2]
+def _predict(P, h, decay, q_var):
+    """P ← F_a P F_aᵀ + q_var·E Eᵀ on (X, S) in place (one mode's P): X_i += h X_{i+1}, X_m ·= decay, S += h X_1
+    (the clairvoyant recursion's prediction, :func:`isl_core.scenario.clairvoyant_step`)."""
+    a = P.shape[0]
     m = a - 1
     for c in range(a):  # rows: F_a P
-        P[b, j, m, c] += h * P[b, j, 0, c]
+        P[m, c] += h * P[0, c]
         for i in range(m - 1):
-            P[b, j, i, c] += h * P[b, j, i + 1, c]
-        P[b, j, m - 1, c] *= decay
+            P[i, c] += h * P[i + 1, c]
+        P[m - 1, c] *= decay
     for i in range(a):  # columns: (F_a P) F_aᵀ
-        P[b, j, i, m] += h * P[b, j, i, 0]
+        P[i, m] += h * P[i, 0]
         for c in range(m - 1):
-            P[b, j, i, c] += h * P[b, j, i, c + 1]
-        P[b, j, i, m - 1] *= decay
-    P[b, j, m - 1, m - 1] += q_var
+            P[i, c] += h * P[i, c + 1]
+        P[i, m - 1] *= decay
+    P[m - 1, m - 1] += q_var
 
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
-def _update(P, e, b, j, r, s):
-    """Mode j's reading in place: e_j += P_j C_aᵀ r / s, P_j ← P_j − P_j C_aᵀ C_a P_j / s, then S restarts at 0."""
-    a = P.shape[2]
+def _update(P, e, r, s):
+    """One mode's reading in place: e += P C_aᵀ r / s, P ← P − P C_aᵀ C_a P / s, then S restarts at 0 (known)."""
+    a = P.shape[0]
     m = a - 1
     for i in range(m):
-        e[b, j, i] += P[b, j, i, m] / s * r
+        e[i] += P[i, m] / s * r
     for i in range(m):
         for c in range(m):
-            P[b, j, i, c] -= P[b, j, i, m] * P[b, j, c, m] / s
+            P[i, c] -= P[i, m] * P[c, m] / s
     for i in range(a):
-        P[b, j, m, i] = 0.0
-        P[b, j, i, m] = 0.0
+        P[m, i] = 0.0
+        P[i, m] = 0.0
 
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
@@ -210,7 +210,7 @@ def imm_step(P, e, a, mu, R, par, sig, b, W, V, out, lw, mean, el, f, noise, sqh
         for i in range(m - 1):
             e[b, j, i] += h * e[b, j, i + 1]
         e[b, j, m - 1] = decay * e[b, j, m - 1] - shock
-        _predict(P, b, j, h, decay, q_var)
+        _predict(P[b, j], h, decay, q_var)  # a view: inlined, it costs no call
     if not reading:
         return -1.0
     least = math.inf
@@ -220,7 +220,7 @@ def imm_step(P, e, a, mu, R, par, sig, b, W, V, out, lw, mean, el, f, noise, sqh
         lw[j] = 0.5 * r * r / s
         least = min(least, lw[j])
         a[b, j] = mu[b, j] / math.sqrt(s)  # a_j restarts at 0 below: it holds c̄_j/√s_j until then
-        _update(P, e, b, j, r, s)
+        _update(P[b, j], e[b, j], r, s)
     total = 0.0
     for j in range(J):  # exponents shifted by the smallest (log-sum-exp): that mode's is exp(0), none underflows all
         lw[j] = a[b, j] * math.exp(least - lw[j])

@@ -6,7 +6,7 @@ for a scenario whose σ changes at t_c, the first 1/r_min after the change [t_c,
 scenario without a change, the settled run after the start [burn, T), burn = 2/r_min by default. Per filter f and
 period p, over the S seeds s and the steps k of the period,
 
-    ratio_f,p = √( (1/m) Σ_i  Σ_s,k e_f,i(s, k)²  /  (S · Σ_k P_ii(k)) )                               (SPEC §9)
+    ratio_f,p = √( (1/m) Σ_i  Σ_s,k e_f,i(s, k)²  /  (S · Σ_k P_ii(k)) )
 
 — the **normalized RMSE over all coordinates**: each coordinate's pooled mean square over the clairvoyant filter's
 exact variance P_ii (:func:`isl_core.scenario.clairvoyant`), averaged over the coordinates, then the root. No
