@@ -1,7 +1,8 @@
 """``isl scenario``: the fair table (default), the tuning curves (``--tune``) and the who-wins maps (``--map``).
 
-Every figure comes from :mod:`isl_core.tuning` (one tuning rule for every family, cached), :mod:`isl_core.scenario_table`
-and :mod:`isl_core.scenario_map`; this module only prints them or writes them as CSV/JSON.
+Every figure comes from :mod:`isl_core.tuning` (one tuning rule for every family, cached),
+:mod:`isl_core.scenario_table` and :mod:`isl_core.scenario_map`; this module only prints them or writes them
+as CSV/JSON.
 """
 from __future__ import annotations
 
@@ -83,7 +84,8 @@ def _table_out(args, res) -> int:
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
     rows = []
     for r, row in enumerate(tab.rows):
-        cells = {k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]} for c, k in enumerate(keys)}
+        cells = {k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]}
+                 for c, k in enumerate(keys)}
         presets = {}
         for p, name in enumerate(res.presets):
             worst, lo, hi = (a[r] for a in tab.preset(p))
@@ -112,6 +114,8 @@ def _table_out(args, res) -> int:
 
 
 def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
+    from .scenario_table import knob_text
+
     print(f"fair table: the normalized RMSE ratio to the clairvoyant Kalman filter per period (coordinates averaged, "
           f"pooled over seeds {res.seeds[0]}-{res.seeds[-1]}), {100 * tab.level:g} % Student interval over the "
           f"seeds; alpha = {res.alpha:g}, m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min")
@@ -119,10 +123,10 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
     for p, name in enumerate(res.presets):
         cells = res.preset_cells(p)
         print(f"\n{name}: {res.preset_labels[p]}   (W readings = W x {res.reading_time[p]:.3g}/r_min)")
-        print(f"  {'filter':52}" + "".join(f" | {res.cells[c][1].label[:26]:>26}" for c in cells))
+        print(f"  {'filter':64}" + "".join(f" | {res.cells[c][1].label[:26]:>26}" for c in cells))
         for r, row in enumerate(tab.rows):
-            label = row.label if row.role != "oracle" else f"{row.label} [{_knob(res, row.tuning[p])}]"
-            print(f"  {label[:52]:52}" + "".join(
+            label = row.label if row.role != "oracle" else f"{row.name}: {knob_text(row.tuning[p])}"
+            print(f"  {label[:64]:64}" + "".join(
                 f" | {f'{_ratio(tab.ratio[r, c])} [{_ratio(tab.low[r, c])}, {_ratio(tab.high[r, c])}]':>26}"
                 for c in cells))
     print("\nwho wins each cell (the lowest of the tuned and paper rows; a tie where the paired margin's lower bound "
@@ -139,13 +143,8 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
               + f"; the loop with its three filters {cost_meta['loop_with_clairvoyant_kbf_isl_ns_per_step']:.0f}")
 
 
-def _knob(res, knob: dict) -> str:
-    from .scenario_table import _knob_text
-
-    return _knob_text(knob)
-
-
 def _tune_out(args, res) -> int:
+    from .scenario_table import knob_text
     from .tuning import FAMILIES
 
     r, lo, hi = res.stats(args.level)
@@ -184,7 +183,7 @@ def _tune_out(args, res) -> int:
         for j in idx:
             marks = ["+" if j == oracle[f][p] else " " for p in range(len(res.presets))]
             vals = [r[j, res.preset_cells(p)].max() for p in range(len(res.presets))]
-            print(f"{'*' if j == best[f] else ' '} {_knob(res, res.knobs[j])[:44]:44}" + "".join(
+            print(f"{'*' if j == best[f] else ' '} {knob_text(res.knobs[j])[:44]:44}" + "".join(
                 f" | {_ratio(v):>9}{mk}" for v, mk in zip(vals, marks, strict=True)) + f" | {_ratio(r[j].max()):>6}")
     return 0
 

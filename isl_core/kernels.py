@@ -70,7 +70,8 @@ __all__ = [
 FLUSH = 1024
 
 #: columns of the per-filter adaptive state ``ad`` (nf, AD_WIDTH): table origin log σ_0, 1/(grid step),
-#: 1/W (W the memory in readings; a reading is a step here), then the state carried from call to call: the innovation variance v and σ̂
+#: 1/W (W the memory in readings; a reading is a step here), then the state carried from call to call: the
+#: innovation variance v and σ̂
 AD_LOG_SIGMA0, AD_INV_STEP, AD_INV_MEMORY, AD_VAR, AD_SIGMA = range(5)
 AD_WIDTH = 5
 

@@ -9,11 +9,15 @@ runs' short windows:
 
 at the window's centre t, with a 95 % interval from the seeds' spread (the mean over S independent runs of the
 window's mean square, ± z·s/√S, under the square root: the central limit theorem over seeds; no interval from a
-single seed). The worst coordinate i is shown per window and filter (the interval is that coordinate's).
+single seed). The worst coordinate i is shown per window and filter (the interval is that coordinate's). **Biased
+upwards**: a maximum over noisy coordinates lies above their mean, so even the clairvoyant filter's curve runs above
+1 (by its coordinates' sampling spread, a few per cent with 32 seeds and windows of 1/r_min); it is a picture of
+where in time a filter loses, and :meth:`ScenarioAverage.periods` is the statistic that reads 1 for the reference.
 
-:func:`worst_ratio` is the summary of :mod:`isl_core.scenario_table`: the largest ratio over windows and
-coordinates, with the basic bootstrap interval over seeds (see there); :func:`margin_low` says whether the lowest
-of them is told apart from the next one by the seeds (the tables' and the maps' "tie").
+:func:`worst_ratio` is the earlier table's summary, kept for the dashboard's picture: the largest ratio over windows
+and coordinates, with the basic bootstrap interval over seeds — biased above 1 for the reference (1.10–1.35 at 32–64
+seeds) and its interval can exclude its own estimate; the table and the maps now use the period statistic
+(:mod:`isl_core.periods`). :func:`margin_low` says whether the lowest of them is told apart from the next one.
 """
 from __future__ import annotations
 

@@ -40,8 +40,8 @@ from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
-__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario", "scenario_grid",
-           "simulate_scenario"]
+__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",
+           "scenario_grid", "simulate_scenario"]
 
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
 

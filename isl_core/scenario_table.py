@@ -33,7 +33,7 @@ from .scenario import Scenario
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 from .validate import check_real
 
-__all__ = ["PRESETS", "ScenarioTable", "TableRow", "scenario_table", "table_from"]
+__all__ = ["PRESETS", "ScenarioTable", "TableRow", "knob_text", "scenario_table", "table_from"]
 
 @dataclass(frozen=True)
 class TableRow:
@@ -79,14 +79,14 @@ class ScenarioTable:
                 self.high[:, cells].max(axis=1))
 
 
-_KNOB_TEXT = {"ell": lambda v: f"ν/β = 2^{v:g} = {2.0 ** v:.3g}", "memory": lambda v: f"W = {v:g} readings",
+KNOB_TEXT = {"ell": lambda v: f"ν/β = 2^{v:g} = {2.0 ** v:.3g}", "memory": lambda v: f"W = {v:g} readings",
               "c": lambda v: f"c = {v:g}", "switch": lambda v: f"switch {v:g} a reading",
               "modes": lambda v: f"{v:g} modes"}
 
 
-def _knob_text(knob: Mapping) -> str:
+def knob_text(knob: Mapping) -> str:
     """A knob in words: ``ν/β = 2^-2 = 0.25``, ``W = 30 readings``, ``c = 2, W = 10 readings``."""
-    return ", ".join(_KNOB_TEXT[k](v) if k in _KNOB_TEXT else f"{k} = {v}" for k, v in knob.items())
+    return ", ".join(KNOB_TEXT[k](v) if k in KNOB_TEXT else f"{k} = {v}" for k, v in knob.items())
 
 
 def _rows(tuning: Tuning) -> list[TableRow]:
@@ -97,7 +97,7 @@ def _rows(tuning: Tuning) -> list[TableRow]:
                      "the stationary filter of σ(0) (A.21–A.23)", (1,) * npre)]
     for fam, (label, _) in FAMILIES.items():
         j = tuning.minimax(fam)
-        rows.append(TableRow(fam, f"{label}, {_knob_text(tuning.knobs[j])}", "tuned", "nothing of σ",
+        rows.append(TableRow(fam, f"{label}, {knob_text(tuning.knobs[j])}", "tuned", "nothing of σ",
                              dict(tuning.knobs[j]), tuning.origin, (j,) * npre))
     if "(A.31)" in tuning.knobs[2]["paper"]:
         rows.append(TableRow("isl_a31", tuning.knobs[2]["paper"], "paper", "nothing of σ", {},

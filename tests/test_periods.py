@@ -1,4 +1,4 @@
-"""The period statistic (isl_core.periods): fixed periods, pooled over seeds, on which the clairvoyant filter reads 1."""
+"""The period statistic (isl_core.periods): fixed periods, pooled over seeds; the clairvoyant filter reads 1 on it."""
 from __future__ import annotations
 
 import math

@@ -56,8 +56,8 @@ def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tunin
     every = [tuning.filter(j, model) for j in range(3, len(tuning.names))]
     chosen = [tuning.minimax("imm"), tuning.minimax("vb")]
     periods = tuple(per for _, per in tuning.cells[:3])
-    plan = plan_scenario(model, model.beta * 0.2, scenario, horizon=5.0, extra=[tuning.filter(j, model) for j in chosen],
-                         edges=edge_times(periods, 5.0), grid_filters=every)
+    plan = plan_scenario(model, model.beta * 0.2, scenario, horizon=5.0, edges=edge_times(periods, 5.0),
+                         extra=[tuning.filter(j, model) for j in chosen], grid_filters=every)
     assert plan.N == tuning.steps[0]
     runs = [plan.run(s) for s in range(6)]
     y = per_seed(np.array([r.mse for r in runs]), runs[0], periods)
