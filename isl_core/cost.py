@@ -50,7 +50,7 @@ def _best(plan, repeats: int) -> float:
 
 
 def filter_costs(model: Model, filters: Sequence[FilterSpec], *, scenario: Scenario | None = None,
-                 horizon: float = 200.0, copies: int = 4, repeats: int = 7) -> Costs:
+                 horizon: float = 200.0, copies: int = 8, repeats: int = 7) -> Costs:
     """ns per step of each of ``filters`` (module docstring) on ``scenario`` (default σ constant) over ``horizon``
     (1/r_min) of ``model``, the ISL filter of the base at ν = β."""
     horizon = check_real("horizon", horizon, lo=1.0, hi=1e4)

@@ -183,6 +183,12 @@ class Tuning:
         """Every family's minimax-tuned filter for ``model``, in :data:`FAMILIES` order."""
         return [self.filter(self.minimax(f), model) for f in FAMILIES]
 
+    def grid_filters(self, model: Model) -> list[FilterSpec]:
+        """Every variant for ``model``: given as ``grid_filters`` to :func:`isl_core.scenario_run.plan_scenario`, a run
+        of a few filters gets the tuning's grid h — so W readings of a sensor read at every step span the time they
+        spanned in the tuning (``reading_time``) — and, with the same seeds, its noise."""
+        return [self.filter(j, model) for j in range(3, len(self.names))]
+
 
 def _key(alpha, m, w, seeds, horizon, burn, presets, grids) -> dict:
     return {"alpha": alpha, "m": m, "w": w, "seeds": list(seeds), "horizon": horizon, "burn": burn,

@@ -53,7 +53,7 @@ def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tunin
     beside it — the tuned IMM and VB filters run alone (on the grid of all the variants) give their columns."""
     _, sigma0, scenario = PRESETS["drop"]
     model = Model.from_w(1.0, 3.0, sigma0, 3)
-    every = [tuning.filter(j, model) for j in range(3, len(tuning.names))]
+    every = tuning.grid_filters(model)
     chosen = [tuning.minimax("imm"), tuning.minimax("vb")]
     periods = tuple(per for _, per in tuning.cells[:3])
     plan = plan_scenario(model, model.beta * 0.2, scenario, horizon=5.0, edges=edge_times(periods, 5.0),
