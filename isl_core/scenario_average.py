@@ -191,13 +191,16 @@ def average_scenario(
     done: int = 0,
     total: int | None = None,
     edges: Sequence[float] | None = None,
+    grid_filters: Sequence[FilterSpec] | None = None,
 ) -> ScenarioAverage:
     """One :func:`isl_core.scenario_run.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
-    once: :func:`isl_core.scenario_run.plan_scenario`, ``edges`` too); ``progress`` gets (done + runs so far)/total."""
+    once: :func:`isl_core.scenario_run.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
+    :meth:`isl_core.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total."""
     seeds = tuple(check_int("seed", s, lo=0) for s in seeds)
     if not seeds:
         raise ValueError("seeds must name at least one seed")
-    plan = plan_scenario(model, nu, scenario, horizon=horizon, windows=windows, extra=extra, edges=edges)
+    plan = plan_scenario(model, nu, scenario, horizon=horizon, windows=windows, extra=extra, edges=edges,
+                         grid_filters=grid_filters)
     runs = []
     for s, seed in enumerate(seeds):
         runs.append(plan.run(seed))

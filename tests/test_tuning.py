@@ -4,10 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from isl_core import Model, Scenario
+from isl_core import Model, Scenario, average_scenario
 from isl_core.periods import edge_times, per_seed
 from isl_core.riccati import kalman_bucy
-from isl_core.scenario_run import plan_scenario
 from isl_core.tuning import FAMILIES, TuningGrids, _MEMORY_CACHE, tune, variant_name
 
 PRESETS = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
@@ -56,11 +55,11 @@ def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tunin
     every = tuning.grid_filters(model)
     chosen = [tuning.minimax("imm"), tuning.minimax("vb")]
     periods = tuple(per for _, per in tuning.cells[:3])
-    plan = plan_scenario(model, model.beta * 0.2, scenario, horizon=5.0, edges=edge_times(periods, 5.0),
-                         extra=[tuning.filter(j, model) for j in chosen], grid_filters=every)
-    assert plan.N == tuning.steps[0]
-    runs = [plan.run(s) for s in range(6)]
-    y = per_seed(np.array([r.mse for r in runs]), runs[0], periods)
+    avg = average_scenario(model, model.beta * 0.2, scenario, seeds=range(6), horizon=5.0,
+                           edges=edge_times(periods, 5.0), extra=[tuning.filter(j, model) for j in chosen],
+                           grid_filters=every)
+    assert avg.run.N == tuning.steps[0]
+    y = per_seed(avg.mse, avg.run, periods)
     np.testing.assert_allclose(y[:, :, 3:], tuning.y[:, :3, chosen], rtol=1e-12)
 
 
