@@ -75,6 +75,7 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
+    from isl_core.imm import imm_state
     from isl_core.kernels import advance
     from isl_core.noise import LAW_GAUSSIAN, law_table
     from isl_core.scenario import clairvoyant_state
@@ -95,9 +96,9 @@ def loops_ns(n: int) -> tuple[float, float]:
             clair = (*clairvoyant_state(np.array(kb.delta, dtype=float), 1), 1.0)
             advance_scenario(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, np.full(1, FIG3.sigma), LAW_GAUSSIAN,
                              3.0, law_table("gaussian", 3.0), 0.0, 1.0, 1, damp, coef, kind, table, ad.copy(), clair,
-                             np.zeros(2), 0, max(steps // 50, 1),
-                             np.zeros((50, 2, 3)), np.zeros((50, 0)), np.zeros((50, 4)), np.zeros((2, 3, 3)),
-                             np.zeros((2, 2)), np.zeros((2, 2)), np.full(2, -1))
+                             np.zeros(2), 0, np.array([0, steps]),
+                             np.zeros((1, 2, 3)), np.zeros((1, 0)), np.zeros((1, 4)), np.zeros((2, 3, 3)),
+                             np.zeros((2, 2)), np.zeros((2, 2)), np.full(2, -1), imm_state(specs, 3, 1, h))
         else:
             advance(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, kind, table, ad.copy(), 0, 0,
                     steps,

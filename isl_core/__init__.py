@@ -7,10 +7,13 @@ Imports numpy, scipy and numba only — never a UI library.
 from .adaptive import adaptive_kbf
 from .baselines import BASELINES, baseline_filters, theory_ratios
 from .filters import AdaptiveGain, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .cost import Costs, filter_costs
 from .grid import RunPlan, run_plan, settling_rate, step_size
+from .imm import imm_kbf
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
+from .periods import Period, PeriodRatios, paired_margin, period_ratios, scenario_periods
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
 from .robust import robust_kbf
@@ -18,9 +21,10 @@ from .scenario import Clairvoyant, Scenario, clairvoyant
 from .scenario_map import WhoWinsMap, who_wins_map
 from .scenario_average import Rolling, ScenarioAverage, average_scenario
 from .scenario_run import ScenarioPlan, ScenarioRun, plan_scenario, scenario_grid, simulate_scenario
-from .scenario_table import ScenarioTable, scenario_table
+from .scenario_table import ScenarioTable, TableRow, scenario_table, table_from
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
+from .tuning import FAMILIES, Tuning, TuningGrids, tune
 from .theory import (
     mismatched_kbf,
     mismatched_kbf_ratios,
@@ -43,6 +47,8 @@ __all__ = [
     "Clairvoyant", "Scenario", "ScenarioRun", "ScenarioTable", "WhoWinsMap", "clairvoyant", "robust_kbf",
     "scenario_table", "simulate_scenario", "variational_kbf", "who_wins_map",
     "Rolling", "ScenarioAverage", "ScenarioPlan", "average_scenario", "plan_scenario", "scenario_grid",
+    "Costs", "filter_costs", "imm_kbf", "Period", "PeriodRatios", "paired_margin", "period_ratios", "scenario_periods",
+    "TableRow", "table_from", "FAMILIES", "Tuning", "TuningGrids", "tune",
     "clear_caches",
 ]
 

@@ -12,12 +12,20 @@ contributes is subtracted. On the Euler grid (B.34) the normalized innovation is
 argument: with fine sampling ΔY/√h ≈ σ·ε, so σ is identifiable from the observation path alone. Each step:
 
     K = K(σ̂_{k−1}) drives Ẑ_{k+1} (B.30)                       — the gain is known before u_k
-    v_k  = v_{k−1} + λ_k (u_k² − v_{k−1}),   λ_k = max(1/k, 1/W)  — running mean, then forgetting over W steps
+    v_k  = v_{k−1} + λ_k (u_k² − v_{k−1}),   λ_k = max(1/k, 1/W)  — running mean, then forgetting over W readings
     σ̂_k² = v_k / (1 + h·K_1(σ̂_{k−1}))                           — Mehra's correction R̂ = Ĉ_0 − H M Hᵀ
+
+**Memory W counts sensor readings** (k above is the reading's number, u_k its normalized innovation): one meaning
+for every σ-learning filter (this one, :mod:`isl_core.robust`, :mod:`isl_core.variational`), whatever the grid's
+step h or the sensor interval of a scenario (:mod:`isl_core.scenario_kernel`). In paper A's runs
+(:func:`isl_core.simulate`) the filters read Y at every step, so there a reading is a step. As a time, W readings
+of a sensor read every q steps of h are ``W·q·h`` (``W·q·h·r_min`` in units of 1/r_min:
+:meth:`isl_core.ScenarioPlan.memory_time`) — the same W is a different time in every scenario, and the tuning of
+:mod:`isl_core.tuning` chooses it per family by one rule.
 
 In steady state v is an exponentially weighted mean (weight λ = 1/W) of nearly independent u² with
 Var u² = 2σ⁴, so ``Var v = λ/(2 − λ)·2σ⁴ = 2σ⁴/(2W − 1)`` and ``sd(σ̂)/σ ≈ 1/√(2(2W − 1)) ≈ 1/(2√W)``: the
-default W = 1000 steps gives ≈ 1.6 %. Since the RMSE is flat at the optimal gain, the cost in RMSE is
+constructor's default W = 1000 readings gives ≈ 1.6 %. Since the RMSE is flat at the optimal gain, the cost in RMSE is
 second order in that error. A time average of σ̂ over L ≫ W steps is as good as the plain mean of L values
 of u²: ``sd ≈ σ/√(2L)``.
 
@@ -28,7 +36,7 @@ the ends beyond it. The table comes from the normalized CARE (:mod:`isl_core.ric
 ``K_i = ϱ^i Δ'_{i1}(α/ϱ)``: one small, well-conditioned CARE per grid point (cached).
 
 No theory (statistical linearization) exists for this filter: its predicted ratio is nan.
-Symbols: ``window`` = W, ``sigma_init`` = σ̂ before the first innovation, ``v`` the innovation variance.
+Symbols: ``memory`` = W (readings), ``sigma_init`` = σ̂ before the first innovation, ``v`` the innovation variance.
 """
 from __future__ import annotations
 
@@ -43,11 +51,11 @@ from .riccati import A_MAX, _normalized_care
 from .validate import check_real, short
 
 __all__ = [
-    "TABLE_MARGIN", "TABLE_PER_DECADE", "WINDOW", "adaptive_kbf", "check_sigma_range", "gain_table", "normalized_gains",
+    "MEMORY", "TABLE_MARGIN", "TABLE_PER_DECADE", "adaptive_kbf", "check_sigma_range", "gain_table", "normalized_gains",
     "sigma_hat_sd", "sigma_limit",
 ]
 
-WINDOW = 1000.0  #: default forgetting window W of the innovation variance, in steps
+MEMORY = 1000.0  #: the constructors' default memory W of the innovation variance, in sensor readings
 TABLE_PER_DECADE = 20  #: grid points of the gain table per decade of σ
 TABLE_MARGIN = 100.0  #: the table reaches this factor beyond each end of the σ range
 
@@ -81,19 +89,19 @@ def adaptive_kbf(
     model: Model,
     *,
     sigma_range: tuple[float, float] = (2.0, 200.0),
-    window: float = WINDOW,
+    memory: float = MEMORY,
     sigma_init: float | None = None,
 ) -> FilterSpec:
     """The adaptive Kalman–Bucy filter of this module for ``model``'s α, β, m (σ is not used).
 
     ``sigma_range`` (σ_min, σ_max): the plausible range of σ; the gain table spans it widened by TABLE_MARGIN
-    on each side. ``window``: W in steps (≥ 1). ``sigma_init``: σ̂ before the first innovation (default
+    on each side. ``memory``: W in sensor readings (≥ 1; module docstring). ``sigma_init``: σ̂ before the first innovation (default
     the geometric middle √(σ_min σ_max); after the first step the data take over, λ_1 = 1).
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     lo, hi = check_sigma_range(sigma_range)
-    window = check_real("window", window, lo=1.0)
+    memory = check_real("memory (W, in sensor readings)", memory, lo=1.0)
     sigma_init = math.sqrt(lo * hi) if sigma_init is None else check_real("sigma_init", sigma_init, lo=0.0,
                                                                           lo_open=True)
     top = sigma_limit(model)
@@ -104,8 +112,8 @@ def adaptive_kbf(
     n = max(2, math.ceil(TABLE_PER_DECADE * (log_hi - log_lo) / math.log(10.0)) + 1)
     step = (log_hi - log_lo) / (n - 1)
     table = _table(model.alpha, model.beta, model.m, log_lo, step, n)
-    gain = AdaptiveGain(log_lo, step, table, window, sigma_init)
-    return FilterSpec("kbf_adaptive", f"Kalman–Bucy, adaptive σ̂ (W = {window:g} steps)", model.alpha,
+    gain = AdaptiveGain(log_lo, step, table, memory, sigma_init)
+    return FilterSpec("kbf_adaptive", f"Kalman–Bucy, adaptive σ̂ (W = {memory:g} readings)", model.alpha,
                       gain.gain(sigma_init), False, gain)
 
 
@@ -129,7 +137,7 @@ def check_sigma_range(sigma_range) -> tuple[float, float]:
     return lo, hi
 
 
-def sigma_hat_sd(window: float = WINDOW) -> float:
+def sigma_hat_sd(memory: float = MEMORY) -> float:
     """Relative steady-state scatter ``sd(σ̂)/σ ≈ 1/√(2(2W − 1))`` of the estimate (module docstring)."""
-    window = check_real("window", window, lo=1.0)
-    return 1.0 / math.sqrt(2.0 * (2.0 * window - 1.0))
+    memory = check_real("memory (W, in sensor readings)", memory, lo=1.0)
+    return 1.0 / math.sqrt(2.0 * (2.0 * memory - 1.0))

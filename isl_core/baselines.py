@@ -32,7 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .adaptive import WINDOW, adaptive_kbf, check_sigma_range
+from .adaptive import MEMORY, adaptive_kbf, check_sigma_range
 from .filters import FilterSpec, isl_filter, optimal_kbf
 from .model import Model
 from .riccati import kalman_bucy
@@ -84,7 +84,7 @@ def baseline_filters(
     nu_model: float | None = None,
     sigma_design: float | None = None,
     sigma_range: tuple[float, float] = (2.0, 200.0),
-    window: float = WINDOW,
+    memory: float = MEMORY,
     names: Sequence[str] = BASELINES,
 ) -> list[FilterSpec]:
     """The filters ``names`` (default all of :data:`BASELINES`, in that order) for ``model``.
@@ -92,7 +92,7 @@ def baseline_filters(
     ``nu``: the ISL filter's tuning; ``nu_model``: the model-aware ISL filter's (default ``nu``);
     ``sigma_design``: σ̄ of the mismatched filter (default :func:`design_sigma` of ``sigma_range``);
     ``sigma_range``: also the top for ``kbf_minimax`` and the adaptive filter's table and start;
-    ``window``: the adaptive filter's forgetting window W in steps.
+    ``memory``: the adaptive filter's memory W in readings (here every step is a reading).
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
@@ -104,7 +104,7 @@ def baseline_filters(
         "kbf_mismatched": lambda: mismatched_kbf(
             model, design_sigma(sigma_range) if sigma_design is None else sigma_design),
         "kbf_minimax": lambda: minimax_kbf(model, sigma_range),
-        "kbf_adaptive": lambda: adaptive_kbf(model, sigma_range=sigma_range, window=window),
+        "kbf_adaptive": lambda: adaptive_kbf(model, sigma_range=sigma_range, memory=memory),
         "isl_model": lambda: model_aware_isl(model, nu if nu_model is None else nu_model),
     }
     return [makers[name]() for name in names]

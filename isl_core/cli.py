@@ -4,7 +4,7 @@
     isl sweep [--alphas ...] [--beta B] [--sigmas ...] [--ell-min L --ell-max L] [--horizon H] [--seeds ...] [--out DIR]
     isl recommend [--alphas ...] [--sigmas ...] [--horizon H] [--seeds ...] [--no-verify] [--json]
     isl worstcase [--alphas 0.04,0.2,1,5,25] [--sigma-min 2 --sigma-max 200] [--horizon H] [--seeds ...] [--json]
-    isl scenario [--alpha A] [--scenarios sigma_drop,...] [--seeds N] [--window W] [--json] [--csv FILE]
+    isl scenario [--alpha A] [--scenarios sigma_drop,...] [--seeds N] [--tune | --map KIND] [--json] [--csv FILE]
 
 These are the core's (``python -m isl_core``); the dashboard's ``isl`` console script (:mod:`app.cli`) is the same
 command with an :class:`Extension`: ``isl figure3``, ``isl serve`` and the sweep's HTML and PNG figures.
@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
-from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_scenario, cmd_sweep, cmd_worstcase
+from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
+from isl_core.commands_scenario import cmd_scenario
 
 __all__ = ["Extension", "UsageError", "build_parser", "main", "positive", "seed_number"]
 
@@ -163,7 +164,8 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
                    help=f"filters to compare (default {','.join(FILTERS)})")
     p.add_argument("--sigma-design", type=positive, default=None,
                    help="sigma of the mismatched KBF (default the geometric middle of the range)")
-    p.add_argument("--window", type=positive, default=1000.0, help="adaptive KBF window W in steps (default 1000)")
+    p.add_argument("--memory", type=positive, default=1000.0,
+                   help="adaptive KBF memory W in readings (= steps in these runs; default 1000)")
     p.add_argument("--seeds", type=_comma(seed_number), nargs="+", default=[[0, 1]])
     execution(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
@@ -174,21 +176,31 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
 
     from isl_core.scenario_table import PRESETS
 
-    p = sub.add_parser("scenario", help="beyond constant sigma: each filter's worst-case ratio to the clairvoyant "
-                       "Kalman filter, per scenario")
+    p = sub.add_parser("scenario", help="beyond constant sigma: the fair table of every filter's period ratio to the "
+                       "clairvoyant Kalman filter, each family tuned by one rule; --tune: the tuning curves")
     p.add_argument("--alpha", type=positive, default=1.0, help="alpha of paper A's model (default 1)")
     p.add_argument("--scenarios", type=_comma(str), nargs="+", default=[list(PRESETS)],
-                   help=f"scenarios (default {','.join(PRESETS)})")
+                   help=f"scenarios (default {','.join(PRESETS)}): also the set the knobs are tuned over")
+    p.add_argument("--tune", action="store_true",
+                   help="instead of the table: the tuning curves (each variant's ratio per scenario and period)")
     p.add_argument("--map", choices=["sigma_step", "tails", "sensor"], default=None,
                    help="instead of the table: who wins over sigma-step ratio x time since the step, over the noise's "
-                        "degrees of freedom, or over the sensor interval")
+                        "degrees of freedom, or over the sensor interval (the table's tuning)")
     p.add_argument("--values", type=_comma(_nonneg), nargs="+", default=None,
                    help="the map's values (default: sigma ratios 0.1..10, d = 2.5..100, intervals 0..0.5/r_min)")
-    p.add_argument("--seeds", type=_whole, default=None, help="independent noises averaged (default 64; maps 32)")
-    p.add_argument("--window", type=positive, default=1.0, help="time window, units of 1/r_min (default 1)")
-    p.add_argument("--burn", type=_nonneg, default=2.0, help="start left out, units of 1/r_min (default 2)")
+    p.add_argument("--untuned", action="store_true", help="the map's filters at the constructors' defaults")
+    p.add_argument("--seeds", type=_whole, default=None, help="independent noises pooled (default 32: seeds 0..31)")
+    p.add_argument("--window", type=positive, default=1.0, help="the sigma_step map's rows, units of 1/r_min "
+                   "(default 1)")
+    p.add_argument("--burn", type=_nonneg, default=2.0, help="start left out where sigma does not change, units of "
+                   "1/r_min (default 2)")
+    p.add_argument("--level", type=positive, default=0.95, help="confidence level of the intervals (default 0.95)")
+    p.add_argument("--workers", type=_whole, default=None, help="threads of the tuning runs (default: CPU count)")
+    p.add_argument("--no-cache", action="store_true", help="compute the tuning even if it is cached, keep it in "
+                   "memory only")
+    p.add_argument("--no-cost", action="store_true", help="do not measure each filter's ns per step")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
-    p.add_argument("--csv", type=Path, default=None, help="also write the table as CSV to this file")
+    p.add_argument("--csv", type=Path, default=None, help="also write the table (or the curves) as CSV to this file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     common(p, horizon=30.0)
     p.set_defaults(func=cmd_scenario)

@@ -1,6 +1,6 @@
-"""The compute commands of ``isl`` (run, sweep, recommend, worstcase): what each computes through the core's public
-functions and how it prints or writes the result. The command line itself (arguments, exit codes) is
-:mod:`isl_core.cli`.
+"""The compute commands of ``isl`` (run, sweep, recommend, worstcase; scenario: :mod:`isl_core.commands_scenario`):
+what each computes through the core's public functions and how it prints or writes the result. The command line
+itself (arguments, exit codes) is :mod:`isl_core.cli`.
 """
 from __future__ import annotations
 
@@ -11,8 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["UsageError", "cmd_recommend", "cmd_run", "cmd_scenario", "cmd_sweep", "cmd_worstcase", "nan_to_none",
-           "progress_bar"]
+__all__ = ["UsageError", "cmd_recommend", "cmd_run", "cmd_sweep", "cmd_worstcase", "nan_to_none", "progress_bar"]
 
 
 class UsageError(Exception):
@@ -227,7 +226,7 @@ def cmd_worstcase(args) -> int:
     try:
         res = worst_case(_flat(args.alphas), sigma_range=(args.sigma_min, args.sigma_max), n_sigma=args.n_sigma,
                          m=args.m, w=args.w, filters=_flat(args.filters), sigma_design=args.sigma_design,
-                         window=args.window, horizon=args.horizon, seeds=_flat(args.seeds), batches=args.batches,
+                         memory=args.memory, horizon=args.horizon, seeds=_flat(args.seeds), batches=args.batches,
                          executor=client, workers=args.workers,
                          progress=progress_bar("worstcase", not (args.quiet or args.json)))
     finally:
@@ -291,92 +290,3 @@ def _print_worstcase(res) -> None:
     print("best fixed-gain KBF over the range (theory): worst " + ", ".join(f"{v:.3f}" for v in res.best_fixed_worst)
           + " at sigma_design " + ", ".join(f"{v:.3g}" for v in res.best_fixed_sigma))
     print(_window_line(res.horizon, res.stretch.ravel().tolist(), res.seeds))
-
-
-def cmd_scenario(args) -> int:
-    """Worst-case ratio to the clairvoyant Kalman filter per filter (rows) and scenario (columns), simulated."""
-    from isl_core.scenario_table import PRESETS, scenario_table
-
-    if args.map is not None:
-        return _scenario_map(args)
-    names = _flat(args.scenarios)
-    unknown = [n for n in names if n not in PRESETS]
-    if unknown:
-        raise UsageError(f"isl scenario: unknown scenario {unknown[0]!r}; choose from {', '.join(PRESETS)}")
-    tab = scenario_table(args.alpha, m=args.m, w=args.w, scenarios={n: PRESETS[n] for n in names},
-                         seeds=64 if args.seeds is None else args.seeds,
-                         horizon=args.horizon, window=args.window, burn=args.burn,
-                         progress=progress_bar("scenario", not (args.quiet or args.json)))
-    rows = [{"filter": f, "label": lab, **{f"{s}": tab.worst[i, j] for j, s in enumerate(tab.scenarios)},
-             **{f"{s}_low": tab.low[i, j] for j, s in enumerate(tab.scenarios)},
-             **{f"{s}_high": tab.high[i, j] for j, s in enumerate(tab.scenarios)}}
-            for i, (f, lab) in enumerate(zip(tab.filters, tab.labels, strict=True))]
-    if args.csv is not None:
-        write_csv(args.csv, rows)
-    if args.json:
-        meta = {"alpha": tab.alpha, "m": tab.m, "w": tab.w, "seeds": tab.seeds, "horizon_over_r_min": tab.horizon,
-                "window_over_r_min": tab.window, "burn_over_r_min": tab.burn, "level": tab.level,
-                "scenarios": dict(zip(tab.scenarios, tab.scenario_labels, strict=True)),
-                "winner": dict(zip(tab.scenarios, tab.winner, strict=True)),
-                "runner_up": dict(zip(tab.scenarios, tab.runner_up, strict=True)),
-                "margin": dict(zip(tab.scenarios, tab.margin.tolist(), strict=True)),
-                "margin_low95": dict(zip(tab.scenarios, tab.margin_low.tolist(), strict=True)),
-                "tie": dict(zip(tab.scenarios, tab.tie.tolist(), strict=True))}
-        print(json.dumps(nan_to_none({"meta": meta, "rows": rows}), indent=1, allow_nan=False))
-        return 0
-    width = [max(len(s), 22) for s in tab.scenarios]
-    print(f"worst case over time windows of {tab.window:g}/r_min (after {tab.burn:g}/r_min) and coordinates of the "
-          f"RMSE ratio to the clairvoyant Kalman filter, mean square over {tab.seeds} seeds, {100 * tab.level:g} % "
-          f"bootstrap interval; alpha = {tab.alpha:g}, m = {tab.m}, w = {tab.w:g}, horizon {tab.horizon:g}/r_min")
-    print(f"{'filter':44} | " + " | ".join(f"{s:>{w}}" for s, w in zip(tab.scenarios, width, strict=True)))
-    for i, label in enumerate(tab.labels):
-        cells = [f"{_ratio(tab.worst[i, j])} [{_ratio(tab.low[i, j])}, {_ratio(tab.high[i, j])}]"
-                 for j in range(len(tab.scenarios))]
-        print(f"{label[:44]:44} | " + " | ".join(f"{c:>{w}}" for c, w in zip(cells, width, strict=True)))
-    print("lowest worst case (a tie where the margin's 95 % lower bound over the seeds is <= 1):")
-    for j, s in enumerate(tab.scenarios):
-        f, r, m, lo = tab.winner[j], tab.runner_up[j], tab.margin[j], tab.margin_low[j]
-        print(f"  {s}: " + (f"tie, {f} and {r} ({m:.2f}x, lower bound {lo:.2f}x)" if tab.tie[j] else
-                            f"{f}, {m:.2f}x ahead of {r} (lower bound {lo:.2f}x)"))
-    print("scenarios:")
-    for s, label in zip(tab.scenarios, tab.scenario_labels, strict=True):
-        print(f"  {s}: {label}")
-    return 0
-
-
-def _scenario_map(args) -> int:
-    """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin."""
-    from isl_core.scenario_map import AXIS_LABELS, STEP_AT, who_wins_map
-
-    after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
-    if after < args.window:
-        raise UsageError(f"isl scenario: --horizon must be at least {STEP_AT:g} (the sigma step's time) + --window "
-                         f"for the sigma_step map, got {args.horizon:g}")
-    res = who_wins_map(args.map, args.alpha, values=None if args.values is None else _flat(args.values), m=args.m,
-                       w=args.w, seeds=32 if args.seeds is None else args.seeds, window=args.window, after=after,
-                       burn=args.burn, progress=progress_bar("scenario map", not (args.quiet or args.json)))
-    winner, margin, tie = res.winner, res.margin, res.tie
-    rows = [{"since_step_over_r_min": None if math.isnan(t) else float(t), "value": float(x),
-             "winner": res.filters[winner[r, c]], "margin": float(margin[r, c]),
-             "margin_low95": float(res.margin_low[r, c]), "tie": bool(tie[r, c]),
-             **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)}}
-            for r, t in enumerate(res.rows) for c, x in enumerate(res.x)]
-    if args.csv is not None:
-        write_csv(args.csv, rows)
-    if args.json:
-        meta = {"map": res.kind, "axis": AXIS_LABELS[res.kind], "alpha": res.alpha, "beta": res.model.beta,
-                "m": res.model.m, "sigma0": res.model.sigma, "seeds": res.seeds,
-                "window_over_r_min": res.window, "filters": dict(zip(res.filters, res.labels, strict=True))}
-        print(json.dumps(nan_to_none({"meta": meta, "cells": rows}), indent=1, allow_nan=False))
-        return 0
-    print(f"who wins ({res.kind}): the filter with the lowest RMSE ratio to the clairvoyant Kalman filter (max over "
-          f"coordinates, mean square over {res.seeds} seeds, windows of {res.window:g}/r_min), x its margin over the "
-          f"runner-up, '~' a tie (the margin's 95 % lower bound over the seeds is <= 1); alpha = {res.alpha:g}")
-    head = "since step" if res.kind == "sigma_step" else ""
-    print(f"{head:>10} | {AXIS_LABELS[res.kind]}: " + " | ".join(f"{x:>18g}" for x in res.x))
-    for r, t in enumerate(res.rows):
-        cells = [f"{'~' if tie[r, c] else ''}{res.filters[winner[r, c]]} x{margin[r, c]:.2f}"
-                 for c in range(len(res.x))]
-        label = "" if math.isnan(t) else f"{t:g}"
-        print(f"{label:>10} | " + " " * (len(AXIS_LABELS[res.kind]) + 2) + " | ".join(f"{c:>18}" for c in cells))
-    return 0

@@ -9,10 +9,12 @@ linear, ``φ(u) = K u`` (then the step is the Kalman–Bucy scheme B.30), or the
 ``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18), or linear with a gain ``K(σ̂_k)`` that follows an
 online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.adaptive`, described by an
 :class:`AdaptiveGain`), or — in scenario runs only — the variational-Bayes adaptive Kalman filter of
-:mod:`isl_core.variational` (a :class:`VariationalGain`), which carries its own covariance.
+:mod:`isl_core.variational` (a :class:`VariationalGain`), which carries its own covariance, or the bank of Kalman
+filters of the interacting-multiple-model filter of :mod:`isl_core.imm` (an :class:`IMMBank`).
 
 Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law, ``adaptive`` the σ̂-driven gain;
-``kind`` is the kernel's code (:data:`KIND_LINEAR`, :data:`KIND_POWER`, :data:`KIND_ADAPTIVE`, :data:`KIND_VB`).
+``kind`` is the kernel's code (:data:`KIND_LINEAR`, :data:`KIND_POWER`, :data:`KIND_ADAPTIVE`, :data:`KIND_VB`,
+:data:`KIND_ROBUST`, :data:`KIND_IMM`).
 """
 from __future__ import annotations
 
@@ -25,24 +27,41 @@ from .nonlinearity import isl_exponents, isl_gains, linearization
 from .riccati import KalmanBucy
 
 __all__ = [
-    "KIND_ADAPTIVE", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB", "AdaptiveGain", "FilterSpec",
-    "VariationalGain", "isl_filter", "linearized_matrix", "optimal_kbf",
+    "KIND_ADAPTIVE", "KIND_IMM", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB", "AdaptiveGain", "FilterSpec",
+    "IMMBank", "VariationalGain", "isl_filter", "linearized_matrix", "optimal_kbf",
 ]
 
 KIND_LINEAR, KIND_POWER, KIND_ADAPTIVE = 0, 1, 2  #: the kernel's codes for φ (see :attr:`FilterSpec.kind`)
 KIND_VB = 4  #: the variational-Bayes filter (3 is the scenario kernel's clairvoyant filter)
 KIND_ROBUST = 5  #: the adaptive filter with Huber-clipped innovations (:mod:`isl_core.robust`)
+KIND_IMM = 6  #: the interacting-multiple-model bank of Kalman filters (:mod:`isl_core.imm`)
+
+
+@dataclass(frozen=True)
+class IMMBank:
+    """The IMM filter's bank (:mod:`isl_core.imm`): its modes' σ_j (J,), the switch probability p per reading and
+    each mode's covariance at the start (J, m, m), the stationary Δ of its σ_j (A.23)."""
+
+    sigmas: np.ndarray
+    switch: float
+    cov: np.ndarray
 
 
 @dataclass(frozen=True)
 class VariationalGain:
-    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.variational`): forgetting factor ρ per
-    step, σ̂ and the inverse-gamma shape α₀ before the first reading, fixed-point iterations per reading."""
+    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.variational`): memory W in sensor
+    readings (forgetting factor ρ = 1 − 1/W per reading), σ̂ and the inverse-gamma shape α₀ before the first reading,
+    fixed-point iterations per reading."""
 
-    rho: float
+    memory: float
     sigma_init: float
     shape0: float
     iterations: int
+
+    @property
+    def rho(self) -> float:
+        """ρ = 1 − 1/W: a⁻ = ρa, b⁻ = ρb at each reading."""
+        return 1.0 - 1.0 / self.memory
 
 
 @dataclass(frozen=True)
@@ -51,14 +70,15 @@ class AdaptiveGain:
 
     ``log_gain`` (n, m) holds ``log K_i`` of the stationary gain (A.21–A.23) on the equally spaced grid
     ``log σ_j = log_sigma0 + j·step``, j = 0..n−1; between grid points log K is linear in log σ, outside the
-    grid it is held at the end values. ``window`` W (steps) bounds the forgetting factor ``λ_k = max(1/k, 1/W)``
-    of the innovation variance; ``sigma_init`` is σ̂ before the first innovation.
+    grid it is held at the end values. ``memory`` W (sensor readings) bounds the forgetting factor
+    ``λ_r = max(1/r, 1/W)`` of the innovation variance at the r-th reading; ``sigma_init`` is σ̂ before the first
+    innovation.
     """
 
     log_sigma0: float
     step: float
     log_gain: np.ndarray
-    window: float
+    memory: float
     sigma_init: float
 
     @property
@@ -88,10 +108,13 @@ class FilterSpec:
     adaptive: AdaptiveGain | None = None
     variational: VariationalGain | None = None
     huber: float | None = None  #: with ``adaptive``: innovations clipped at ± huber·σ̂ (scenario runs only)
+    imm: IMMBank | None = None  #: the interacting-multiple-model filter's bank (scenario runs only)
 
     @property
     def kind(self) -> int:
-        """The kernel's code: :data:`KIND_ADAPTIVE`, :data:`KIND_POWER` or :data:`KIND_LINEAR`."""
+        """The kernel's code: :data:`KIND_ADAPTIVE`, :data:`KIND_POWER`, :data:`KIND_LINEAR`, … (module docstring)."""
+        if self.imm is not None:
+            return KIND_IMM
         if self.variational is not None:
             return KIND_VB
         if self.adaptive is not None:

@@ -62,7 +62,7 @@ import numpy as np
 from numba import njit
 
 __all__ = [
-    "AD_INV_STEP", "AD_INV_WINDOW", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "advance", "fast_cbrt",
+    "AD_INV_MEMORY", "AD_INV_STEP", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "advance", "fast_cbrt",
     "minmax_block", "sources_digest",
 ]
 
@@ -70,8 +70,9 @@ __all__ = [
 FLUSH = 1024
 
 #: columns of the per-filter adaptive state ``ad`` (nf, AD_WIDTH): table origin log σ_0, 1/(grid step),
-#: 1/W, then the state carried from call to call: the innovation variance v and σ̂
-AD_LOG_SIGMA0, AD_INV_STEP, AD_INV_WINDOW, AD_VAR, AD_SIGMA = range(5)
+#: 1/W (W the memory in readings; a reading is a step here), then the state carried from call to call: the
+#: innovation variance v and σ̂
+AD_LOG_SIGMA0, AD_INV_STEP, AD_INV_MEMORY, AD_VAR, AD_SIGMA = range(5)
 AD_WIDTH = 5
 
 #: FMA contraction only: no reassociation, nan/inf kept (see the module docstring)
@@ -266,7 +267,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
                 if kind[f] == 2:
                     u = uu[f]
                     var = ad[f, AD_VAR]
-                    var += max(1.0 / k, ad[f, AD_INV_WINDOW]) * (u * u - var)  # EWMA of u²
+                    var += max(1.0 / k, ad[f, AD_INV_MEMORY]) * (u * u - var)  # EWMA of u²
                     ad[f, AD_VAR] = var
                     s_hat = math.sqrt(var / (1.0 + sqh * gain[f, 0]))  # σ̂² = v/(1 + h K_1)
                     ad[f, AD_SIGMA] = s_hat

@@ -77,7 +77,7 @@ def reference_sigma_hat(
                 gain = spec.adaptive.gain(S[f, k])
                 Z[f, k + 1] = z + h * (A_f[f] @ z) + gain * (dY - h * (C @ z)[0])
                 u = dY / sqh - sqh * (C @ z)[0]
-                var[f] += max(1.0 / (k + 1), 1.0 / spec.adaptive.window) * (u**2 - var[f])
+                var[f] += max(1.0 / (k + 1), 1.0 / spec.adaptive.memory) * (u**2 - var[f])
                 S[f, k + 1] = math.sqrt(var[f] / (1.0 + h * gain[0]))
             elif spec.power:  # ISL (A.18)
                 u = dY / sqh - sqh * (C @ z)[0]

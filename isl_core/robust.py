@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from .adaptive import WINDOW, adaptive_kbf
+from .adaptive import MEMORY, adaptive_kbf
 from .filters import FilterSpec
 from .model import Model
 from .validate import check_real
@@ -37,8 +37,10 @@ def huber_kappa(c: float) -> float:
 
 
 def robust_kbf(model: Model, *, c: float = HUBER_C, sigma_range: tuple[float, float] = (2.0, 200.0),
-               window: float = WINDOW, sigma_init: float | None = None) -> FilterSpec:
-    """The robust adaptive filter (module docstring) for ``model``'s α, β, m; the rest as :func:`adaptive_kbf`."""
+               memory: float = MEMORY, sigma_init: float | None = None) -> FilterSpec:
+    """The robust adaptive filter (module docstring) for ``model``'s α, β, m; the rest as :func:`adaptive_kbf`
+    (``memory`` W in sensor readings)."""
     c = check_real("c (Huber's clipping constant)", c, lo=0.1, hi=10.0)
-    spec = adaptive_kbf(model, sigma_range=sigma_range, window=window, sigma_init=sigma_init)
-    return dataclasses.replace(spec, name="kbf_robust", label=f"Kalman–Bucy, adaptive σ̂, Huber c = {c:g}", huber=c)
+    spec = adaptive_kbf(model, sigma_range=sigma_range, memory=memory, sigma_init=sigma_init)
+    label = f"Kalman–Bucy, adaptive σ̂, Huber c = {c:g} (W = {spec.adaptive.memory:g} readings)"
+    return dataclasses.replace(spec, name="kbf_robust", huber=c, label=label)

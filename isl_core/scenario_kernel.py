@@ -16,14 +16,16 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
     clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k its recursion's gain at step k  (isl_core.scenario.clairvoyant)
     variational (kind 4):  e_f += F·K·u, K from a few fixed-point iterations      (isl_core.variational)
     robust (kind 5):       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.robust)
+    IMM (kind 6):          e_f += the bank's correction to Σ_j μ_j e_j            (isl_core.imm.imm_step)
 
 The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
-its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ^q at each reading), ``vb_par[f]`` = (ρ per step,
-iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
+its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ = 1 − 1/W at each reading), ``vb_par[f]`` = (ρ per
+reading, iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
-power-law and linear updates are those of :func:`isl_core.kernels.advance`. The adaptive estimator's forgetting
-factor is max(1/r, q/W) for the r-th reading: its window keeps its length in time.
+power-law and linear updates are those of :func:`isl_core.kernels.advance`. The σ-learning filters' memory W counts
+readings: the adaptive and robust estimators forget with λ = max(1/r, 1/W) at the r-th reading, the variational one
+with ρ = 1 − 1/W (:mod:`isl_core.adaptive`).
 
 Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of
 the reading (:func:`_pr`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for the
@@ -33,8 +35,8 @@ bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters cost
 (``benchmarks/bench_scenario.py``).
 
 Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
-:data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window (k // ``win``) (the last
-window takes the remainder), σ̂ likewise.
+:data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window w for the steps k in
+[``edges[w]``, ``edges[w + 1]``), σ̂ likewise.
 """
 from __future__ import annotations
 
@@ -43,8 +45,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import AD_INV_WINDOW, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
+from .kernels import AD_INV_MEMORY, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
 from .noise import DRAWS, draw_ahead
+from .imm import imm_step
 from .scenario import clairvoyant_step
 
 __all__ = ["KIND_CLAIRVOYANT", "advance_scenario"]
@@ -74,9 +77,8 @@ def _vb_update(P, ab, par, u, H, h, a_f, gvec):
     """One reading of the variational-Bayes filter: updates P and (a, b) in place, writes F·K into ``gvec``;
     returns σ̂ = √(b/a)."""
     m = P.shape[0]
-    rho_q = 1.0 - (1.0 - par[0]) * (H * H / h)  # ρ per reading: 1 − q(1 − ρ), qh = H²
-    a = rho_q * ab[0] + 0.5
-    b_pr = rho_q * ab[1]
+    a = par[0] * ab[0] + 0.5  # a⁻ = ρa, b⁻ = ρb: ρ per reading
+    b_pr = par[0] * ab[1]
     b = b_pr
     p11 = P[0, 0]
     k1 = 0.0
@@ -151,7 +153,7 @@ def _pr(kind, u, raw, sqh, own, lim, m):
 
 @njit(cache=CACHE, nogil=True, fastmath={"contract"})
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k_out, q, damp, coef, kind, table, ad,
-                     clair, acc, k0, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died):
+                     clair, acc, k0, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
     ``sig`` (n,) is this chunk's σ_k, or (1,) its one σ while σ is constant; ``clair`` = (P, st, cg, cvar, cycle P,
@@ -166,7 +168,9 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     The filters run in lanes of four (the last ones padded with idle lanes): errors ``el`` (m, lanes),
     gains ``G`` (m, lanes: √(qh)·K, the power law's coefficients, the clairvoyant gain, the variational filter's
     F·K). The σ-learning filters take their reading's u before the lanes' pass (the variational filter's gain of
-    this reading needs it) and take in u² after it (their gain at a reading uses the σ̂ before it).
+    this reading needs it) and take in u² after it (their gain at a reading uses the σ̂ before it). The IMM banks
+    (``imm``: :func:`isl_core.imm.imm_state`) step before the lanes' pass, and at a reading give their lane its
+    update (p = 1, G = the correction).
     """
     m = x.shape[0]
     nf = e.shape[0]
@@ -185,7 +189,10 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     accl, own, lim = np.zeros(nl), np.zeros(nl), np.zeros(nl)
     learn = np.zeros(nf, dtype=np.int64)  # the σ-learning filters, in order: slot a is learn[a]
     clairs = np.zeros(nf, dtype=np.int64)
-    na, nc = 0, 0
+    imms = np.zeros(nf, dtype=np.int64)
+    islot, iP, ie, ia, imu, iR, ipar, isig, i_W, i_V, i_out, i_w, i_mean = imm
+    corr = np.zeros(m)
+    na, nc, ni = 0, 0, 0
     for f in range(nf):
         zd[f], cp[f] = 1.0 - h * damp[f], h * (alpha - damp[f])
         accl[f] = acc[f]
@@ -199,7 +206,11 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         if kind[f] == 3:
             clairs[nc] = f
             nc += 1
-        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5:
+        if kind[f] == 6:
+            imms[ni] = f
+            ni += 1
+            own[f] = 1.0
+        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5 or kind[f] == 6:
             learn[na] = f
             na += 1
         G[:, f] = gain[f]
@@ -211,8 +222,10 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     stride = 0 if sig.shape[0] == 1 else 1
     pending = 0
     beta2 = beta * beta
-    w = min(k0 // win, nw - 1)  # the window of this step's errors, and the first step of the next one
-    edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
+    w = 0  # the window of this step's errors, and the first step of the next one
+    while w < nw - 1 and edges[w + 1] <= k0:
+        w += 1
+    edge = edges[w + 1] if w < nw - 1 else k0 + n + 1
     left = q - k0 % q  # steps until the next reading, this one included
     # steps not yet summed into wref, all with the clairvoyant variance ``cvar`` and σ_k = ``s_cur``: while the
     # recursion is settled and σ_k stays, both repeat, and are summed once, times ``same``
@@ -225,7 +238,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
             _flush(wsq, w, sq)
             same, pending = 0, 0
             w += 1
-            edge = (w + 1) * win if w < nw - 1 else k0 + n + 1
+            edge = edges[w + 1] if w < nw - 1 else k0 + n + 1
         b = j % DRAWS
         if b == 0:
             draw_ahead(rng, law, dof, ztab, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))
@@ -255,10 +268,19 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         shock = beta_sqh * vbuf[b]
         reading = left == 1
         left = q if reading else left - 1
+        for c in range(ni):  # the IMM banks: every step; at a reading their lane's update
+            f = imms[c]
+            if lane[f] != IDLE:
+                bk = islot[f]
+                s_hat = imm_step(iP, ie, ia, imu, iR, ipar, isig, bk, i_W, i_V, i_out, i_w, i_mean, el, f, noise, sqh,
+                                 h, decay, q_var, shock, reading, corr)
+                if reading:
+                    G[:, f] = corr
+                    ad[f, AD_SIGMA] = s_hat
         if reading:  # the σ-learning filters' u, before the lanes move: the variational filter's gain needs it
             for a in range(na):
                 f = learn[a]
-                if lane[f] == IDLE:
+                if lane[f] == IDLE or kind[f] == 6:
                     continue
                 u = noise - sqh * el[0, f]
                 if q > 1:
@@ -335,14 +357,14 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
                 continue
             if kind[f] == 4:
                 _predict_cov(vb_P[f], h, damp[f], q_var)
-            elif reading:
+            elif reading and kind[f] != 6:
                 u = own[f]
                 uu = u * u
                 if kind[f] == 5:
                     uu = min(uu, lim[f] * lim[f]) / vb_par[f, 1]
                 r_k = (k + 1) // q
                 var = ad[f, AD_VAR]
-                var += max(1.0 / r_k, q * ad[f, AD_INV_WINDOW]) * (uu - var)
+                var += max(1.0 / r_k, ad[f, AD_INV_MEMORY]) * (uu - var)
                 ad[f, AD_VAR] = var
                 ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
                 _table_gain(table, ad, f, gain, sqqh)

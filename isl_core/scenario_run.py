@@ -27,8 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import KIND_ADAPTIVE, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
-from .grid import MAX_STEPS, check_filters, run_plan
+from .filters import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
+from .grid import MAX_STEPS, check_filters, check_specs, run_plan
+from .imm import imm_state
 from .kernels import AD_SIGMA
 from .model import Model
 from .noise import LAWS, law_table
@@ -39,8 +40,8 @@ from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
 from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
-__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "plan_scenario", "scenario_grid",
-           "simulate_scenario"]
+__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",
+           "scenario_grid", "simulate_scenario"]
 
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
 
@@ -74,6 +75,11 @@ class ScenarioRun:
     diverged: tuple[float | None, ...] = ()
     learning: tuple[str, ...] = ()
 
+    def memory_time(self, memory: float) -> float:
+        """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
+        (:mod:`isl_core.adaptive`)."""
+        return memory_time(memory, self.q, self.h, self.r_min)
+
     def starts_after(self, burn: float) -> np.ndarray:
         """Which windows start at or after ``burn`` (units of 1/r_min at σ(0)), per window (nw,)."""
         return self.t[:-1] * self.r_min >= burn - 1e-12
@@ -94,6 +100,12 @@ class ScenarioRun:
         return np.sqrt(mse / ref[None, :])
 
 
+def memory_time(memory: float, q: int, h: float, r_min: float) -> float:
+    """W = ``memory`` readings of a sensor read every ``q`` steps of ``h``, in units of 1/``r_min``: W·q·h·r_min."""
+    memory = check_real("memory (W, in sensor readings)", memory, lo=0.0)
+    return memory * q * h * r_min
+
+
 def _learning_state(model: Model, filters, ad: np.ndarray):
     """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations); the
     robust filters' (c, κ(c))."""
@@ -108,6 +120,8 @@ def _learning_state(model: Model, filters, ad: np.ndarray):
             ad[f, AD_SIGMA] = v.sigma_init
         if spec.huber is not None:
             vb_par[f] = spec.huber, huber_kappa(spec.huber)
+        if spec.imm is not None:  # σ̂ of the bank before its first reading: Σ μ_j σ_j at μ_j = 1/J
+            ad[f, AD_SIGMA] = spec.imm.sigmas.mean()
     return vb_P, vb_ab, vb_par
 
 
@@ -143,16 +157,23 @@ class ScenarioPlan:
     N: int
     q: int
     r_min: float
-    windows: int
+    edges: np.ndarray
     filters: tuple[FilterSpec, ...]
     packed: tuple
     learning_state: tuple
     delta: np.ndarray
+    imm: tuple
+
+    def memory_time(self, memory: float) -> float:
+        """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
+        (:mod:`isl_core.adaptive`)."""
+        return memory_time(memory, self.q, self.h, self.r_min)
 
     def run(self, seed: int = 0, progress: Callable[[float], None] | None = None) -> ScenarioRun:
         """The run with noise from ``seed`` (module docstring); ``progress`` gets the fraction of steps done."""
         seed = check_int("seed", seed, lo=0)
-        model, scenario, h, n, r_min, windows = self.model, self.scenario, self.h, self.N, self.r_min, self.windows
+        model, scenario, h, n, r_min, edges = self.model, self.scenario, self.h, self.N, self.r_min, self.edges
+        windows = len(edges) - 1
         filters, nf = self.filters, len(self.filters)
         damp, coef, kind, table, ad = self.packed
         ad = ad.copy()
@@ -161,8 +182,9 @@ class ScenarioPlan:
         x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
         e = np.tile(e0, (nf, 1))
         state = (*clairvoyant_state(self.delta, self.q), scenario.noise_variance)  # its P_0: Δ at σ(0)
-        win = n // windows
-        adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST)
+        adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
+        imm = tuple(a.copy() for a in self.imm)
+        imm[2][:] = e0  # every mode of every bank at the common start
         wsq, wsig = np.zeros((windows, nf, model.m)), np.zeros((windows, int(adaptive.sum())))
         wref = np.zeros((windows, model.m + 1))
         acc = np.zeros(nf)
@@ -178,20 +200,18 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
             done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof, ztab,
                                     scenario.outlier_rate, scenario.outlier_scale, self.q, damp, coef, kind, table, ad,
-                                    state, acc, k, win, wsq, wsig, wref, vb_P, vb_ab, vb_par, died)
+                                    state, acc, k, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm)
             if done < todo:
                 raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
                                       f"(step {k + done:,} of {n:,}, h = {h:.3g})")
             k += done
             if progress is not None:
                 progress(k / n)
-        edges = np.minimum(np.arange(windows + 1) * win, n)
-        edges[-1] = n
         steps = np.diff(edges)
         mse, sigma_hat = wsq / steps[:, None, None], wsig / steps[:, None]
         slots = np.cumsum(adaptive) - 1
         for f in np.flatnonzero(died >= 0):  # from its window on, a diverged filter's error is infinite
-            w_died = min(died[f] // win, windows - 1)
+            w_died = int(np.searchsorted(edges, died[f], side="right")) - 1
             mse[w_died:, f, :] = np.inf
             if adaptive[f]:
                 sigma_hat[w_died:, slots[f]] = np.nan
@@ -204,6 +224,35 @@ class ScenarioPlan:
                            tuple(f.name for f, a in zip(filters, adaptive, strict=True) if a))
 
 
+def _edge_times(horizon: float, windows: int, edges) -> np.ndarray:
+    """The windows' edge times: ``windows`` equal windows, or ``edges`` checked (from 0 to ``horizon``, increasing)."""
+    if edges is None:
+        return np.linspace(0.0, horizon, windows + 1)  # more windows than steps: one a step (window_edges)
+    times = np.array([check_real(f"edges[{j}]", t, lo=0.0, hi=horizon) for j, t in enumerate(edges)])
+    if len(times) < 2 or times[0] != 0.0 or times[-1] != horizon or np.any(np.diff(times) <= 0.0):
+        raise ValueError(f"edges must increase from 0 to the horizon {horizon:g}, got {list(edges)!r}")
+    return times
+
+
+def first_step(tau: float, step: float, n: int) -> int:
+    """The first step k ≤ n with k·``step`` ≥ ``tau`` (``step`` = h·r_min, times in 1/r_min): where σ(t_k) takes a value
+    that starts at ``tau`` (:meth:`Scenario.sigma_at`)."""
+    k = min(n, max(0, math.ceil(tau / step)))
+    while k > 0 and (k - 1) * step >= tau:
+        k -= 1
+    while k < n and k * step < tau:
+        k += 1
+    return k
+
+
+def window_edges(times: np.ndarray, step: float, n: int) -> np.ndarray:
+    """Steps (int64, increasing from 0 to n) at which windows starting at ``times`` (units of 1/r_min) start: the
+    :func:`first_step` of each; a window without a step of its own is left out."""
+    out = np.array([first_step(tau, step, n) for tau in times], dtype=np.int64)
+    out[0], out[-1] = 0, n
+    return np.unique(out)
+
+
 def plan_scenario(
     model: Model,
     nu: float,
@@ -212,16 +261,25 @@ def plan_scenario(
     horizon: float = 30.0,
     windows: int = 60,
     extra: Sequence[FilterSpec] = (),
+    edges: Sequence[float] | None = None,
+    grid_filters: Sequence[FilterSpec] | None = None,
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
-    over ``horizon`` (units of 1/r_min at σ(0)), checked and set up once for any number of seeds."""
+    over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
+    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.periods`), checked and set up once for any number of
+    seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
+    value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
+    errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set
+    of runs that must share one grid."""
     scenario = Scenario() if scenario is None else scenario
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     windows = check_int("windows", windows, lo=1, hi=100_000)
+    times = _edge_times(horizon, windows, edges)
     specs = check_filters(model, nu, extra)
-    h, n, r_min = scenario_grid(model, nu, scenario, specs[1:], horizon)
+    more = check_specs("grid_filters", model, grid_filters or (), allow_empty=True)
+    h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon)
     kb = kalman_bucy(model)
     clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
                        np.zeros(model.m), False)
@@ -230,8 +288,10 @@ def plan_scenario(
     damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
     kind[0] = KIND_CLAIRVOYANT
     learning = _learning_state(model, filters, ad)
-    return ScenarioPlan(model, scenario, float(nu), h, n, scenario.sensor_steps(h, r_min), r_min, min(windows, n),
-                        filters, (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float))
+    q = scenario.sensor_steps(h, r_min)
+    return ScenarioPlan(model, scenario, float(nu), h, n, q, r_min, window_edges(times, h * r_min, n), filters,
+                        (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float),
+                        imm_state(filters, model.m, q, h))
 
 
 def simulate_scenario(

@@ -1,128 +1,134 @@
-"""Who wins where: every filter's worst-case ratio to the clairvoyant reference, per scenario (issue: "beyond σ").
+"""Who wins where, in a fair contest: every family at its minimax tuning, on the period statistic, per scenario.
 
-:func:`scenario_table` simulates each scenario of :data:`PRESETS` (or any given) with ``seeds`` independent noises
-and, per filter, reports the **worst-case ratio**: the largest, over time windows of ``window``/r_min and over the
-coordinates, of
+:func:`scenario_table` takes the tuning of :func:`isl_core.tuning.tune` (one run per preset and seed with every
+variant of every family on the same noise; cached) and reports, per row and cell (preset × period of
+:func:`isl_core.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates, pooled
+over the seeds, over the clairvoyant filter's exact variance — with Student's interval over the seeds:
 
-    √( mean over seeds of the window's mean squared error / the window's mean clairvoyant variance P_ii )
+* **references** — the clairvoyant filter (knows σ(t); reads 1 up to sampling error: the check of the denominator)
+  and the Kalman–Bucy filter optimal for σ(0) (knows σ at the start, learns nothing);
+* **tuned** — each family of :data:`isl_core.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one tuning
+  rule: the least, over the knob's grid, of the largest ratio over every cell of the table;
+* **paper** — paper A's ISL filter at table (A.31)'s ν, the paper's own value (where the table has this α);
+* **oracle-tuned** — each family at the best knob *per preset* (a reference: the tuning one would pick knowing the
+  scenario; its knob is given per preset).
 
-leaving out the first ``burn``/r_min (the start from each filter's own guess, which a user can choose; the σ steps
-of the presets come later, at 10/r_min). Averaging over seeds before the maximum keeps the maximum from picking a
-single unlucky window, but a maximum of noisy estimates still lies above the maximum of their means (the
-clairvoyant filter's own worst case, truly 1, comes out ≈ 1.1 with 64 seeds). The interval is the *basic* bootstrap
-over the seeds, [2θ̂ − q_high, 2θ̂ − q_low] with q the bootstrap quantiles at ``level``: it moves down by the bias
-that resampling shows (a percentile interval would sit wholly above θ̂ and above the truth). With the default 64
-seeds the clairvoyant row's interval contains 1 in every preset; with a handful of seeds the bias is larger than
-resampling shows, and the clairvoyant row says so. Times are in units of 1/r_min of the model at σ(0).
-
-Filters (rows): the Kalman–Bucy filter optimal for σ(0) ("optimal for constant σ"), the adaptive filter
-(:mod:`isl_core.adaptive`), the variational-Bayes filter (:mod:`isl_core.variational`), the robust filter
-(:mod:`isl_core.robust`), the ISL filter at table (A.31)'s ν for this α (paper A's value, when the table has this α),
-the ISL filter at the minimax ν of :func:`isl_core.recommend_nu` (theory over σ ∈ {2, 20, 200}) and the model-aware
-ISL filter at its own minimax ν. The σ-learning filters start from the geometric middle of [2, 200], σ̂ = 20, as the
-adaptive filter's default. The clairvoyant filter itself is the first row: ≈ 1 up to sampling error, the check.
+Every row says its tuning and its origin. Each tuned row *is* its variant's column of the tuning run, so it sits
+at its tuning curve's minimax point. A preset's number is a row's largest ratio over the preset's periods; the
+winner of a cell is the lowest of the tuned and paper rows, with the paired margin over the runner-up
+(:func:`isl_core.periods.paired_margin`) — a tie where its lower bound is ≤ 1.
+Times are in units of 1/r_min of the model at σ(0).
 """
 from __future__ import annotations
 
-import dataclasses
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive import adaptive_kbf
-from .baselines import model_aware_isl
-from .filters import isl_filter
-from .model import Model
-from .paper import M, W, a31_nu_over_beta
-from .recommend import recommend_nu
-from .robust import robust_kbf
+from .paper import M, W
+from .periods import paired_margin
+from .presets import PRESETS
 from .scenario import Scenario
-from .scenario_average import BOOT_SEED, average_scenario, worst_ratio
-from .validate import check_int, check_real
-from .variational import variational_kbf
+from .tuning import FAMILIES, Tuning, TuningGrids, tune
+from .validate import check_real
 
-__all__ = ["PRESETS", "ScenarioTable", "scenario_table"]
+__all__ = ["PRESETS", "ScenarioTable", "TableRow", "knob_text", "scenario_table", "table_from"]
 
-SIGMA_RANGE = (2.0, 200.0)  #: the σ range the σ-learning filters' tables and the minimax ν are built for
-#: name: (label, σ(0), scenario)
-PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
-    "sigma_drop": ("σ 200 → 2 at 10/r_min", 200.0, Scenario(sigma_knots=((10.0, 2.0),))),
-    "sigma_rise": ("σ 2 → 200 at 10/r_min", 2.0, Scenario(sigma_knots=((10.0, 200.0),))),
-    "student3": ("Student-t noise, 3 degrees of freedom", 20.0, Scenario(noise="student", dof=3.0)),
-    "outliers": ("1 % outliers × 30", 20.0, Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0)),
-    "sensor": ("sensor read every 0.1/r_min", 20.0, Scenario(sensor_interval=0.1)),
-    "constant": ("constant σ, Gaussian", 20.0, Scenario()),
-}
+@dataclass(frozen=True)
+class TableRow:
+    """One row: ``name`` (stable: the family, or ``oracle:<family>``), ``label``, ``role`` ("reference", "tuned",
+    "paper", "oracle"), what it ``knows`` of σ, its ``tuning`` (knob → value; per preset for an oracle row), its
+    ``origin`` and ``columns``, per preset the index of its filter in the tuning's run."""
+
+    name: str
+    label: str
+    role: str
+    knows: str
+    tuning: dict | tuple[dict, ...]
+    origin: str
+    columns: tuple[int, ...]
 
 
 @dataclass(frozen=True)
 class ScenarioTable:
-    """``worst[f, s]`` with the interval ``low``/``high`` (basic bootstrap, module docstring); rows ``filters``
-    (names), ``labels``; columns ``scenarios`` (preset names) with ``scenario_labels``; ``winner[s]`` the filter (name)
-    with the lowest worst case but the clairvoyant one, ``margin[s]`` the runner-up's worst case over the
-    winner's, ``margin_low[s]`` its lower bound (paired bootstrap over the seeds,
-    :func:`isl_core.scenario_average.margin_low`) and ``tie[s]`` whether that bound is ≤ 1: the seeds cannot tell
-    the winner from the runner-up."""
+    """``ratio[r, c]`` with ``low``/``high`` at ``level`` per row (``rows``) and cell (``tuning.cells``: preset
+    index, period); :meth:`preset` the largest over a preset's cells; per cell ``winner``/``runner_up`` (row
+    indices among the tuned and paper rows), ``margin`` (the runner-up's ratio over the winner's, paired over the
+    seeds) and ``margin_low`` its lower bound; ``tie`` where that bound is ≤ 1."""
 
-    alpha: float
-    m: int
-    w: float
-    filters: tuple[str, ...]
-    labels: tuple[str, ...]
-    scenarios: tuple[str, ...]
-    scenario_labels: tuple[str, ...]
-    worst: np.ndarray
+    tuning: Tuning
+    rows: tuple[TableRow, ...]
+    ratio: np.ndarray
     low: np.ndarray
     high: np.ndarray
-    seeds: int
-    horizon: float
-    window: float
-    burn: float
     level: float
+    winner: np.ndarray
+    runner_up: np.ndarray
+    margin: np.ndarray
     margin_low: np.ndarray
-
-    @property
-    def winner(self) -> tuple[str, ...]:
-        return tuple(self.filters[1 + int(np.argmin(col))] for col in self.worst[1:].T)
-
-    @property
-    def runner_up(self) -> tuple[str, ...]:
-        return tuple(self.filters[1 + int(np.argsort(col)[1])] for col in self.worst[1:].T)
 
     @property
     def tie(self) -> np.ndarray:
         return self.margin_low <= 1.0
 
-    @property
-    def margin(self) -> np.ndarray:
-        ranked = np.sort(self.worst[1:], axis=0)
-        return ranked[1] / ranked[0]
+    def preset(self, p: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per row, the largest ratio over preset ``p``'s periods and the largest ends of their intervals."""
+        cells = self.tuning.preset_cells(p)
+        return (self.ratio[:, cells].max(axis=1), self.low[:, cells].max(axis=1),
+                self.high[:, cells].max(axis=1))
 
 
-def _filters(model: Model, alpha: float, m: int, w: float):
-    """The table's filters for one model (the run carries the clairvoyant, σ(0)-optimal and first ISL filters)."""
-    beta = model.beta
-    nob = a31_nu_over_beta(alpha, m, w)
-    minimax = recommend_nu(alpha, sigmas=(2.0, 20.0, 200.0), m=m, w=w, verify=False).nu
-    aware = recommend_nu(alpha, sigmas=(2.0, 20.0, 200.0), m=m, w=w, verify=False, model_aware=True).nu
-    guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
-    first = beta * nob if nob is not None else minimax
-    extra = [adaptive_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
-             variational_kbf(model, sigma_init=guess),
-             robust_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess)]
-    if nob is not None:
-        extra.append(dataclasses.replace(isl_filter(model, minimax), name="isl_minimax",
-                                         label=f"ISL, minimax ν = {minimax:.3g}"))
-    extra.append(model_aware_isl(model, aware))
-    first_label = (f"ISL, table (A.31) ν = {first:.3g}" if nob is not None else f"ISL, minimax ν = {first:.3g}")
-    return first, first_label, extra
+KNOB_TEXT = {"ell": lambda v: f"ν/β = 2^{v:g} = {2.0 ** v:.3g}", "memory": lambda v: f"W = {v:g} readings",
+              "c": lambda v: f"c = {v:g}", "switch": lambda v: f"switch {v:g} a reading",
+              "modes": lambda v: f"{v:g} modes"}
 
 
-def table_labels(run, nu_label: str) -> tuple[str, ...]:
-    """Row labels: the run's, with the σ(0)-optimal filter named without its σ(0) and the first ISL row's tuning."""
-    return (run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *run.labels[3:])
+def knob_text(knob: Mapping) -> str:
+    """A knob in words: ``ν/β = 2^-2 = 0.25``, ``W = 30 readings``, ``c = 2, W = 10 readings``."""
+    return ", ".join(KNOB_TEXT[k](v) if k in KNOB_TEXT else f"{k} = {v}" for k, v in knob.items())
+
+
+def _rows(tuning: Tuning) -> list[TableRow]:
+    npre = len(tuning.presets)
+    rows = [TableRow("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", "reference", "σ(t)", {},
+                     "the reference: its exact covariance P is every ratio's denominator", (0,) * npre),
+            TableRow("kbf", "Kalman–Bucy for constant σ = σ(0)", "reference", "σ(0)", {},
+                     "the stationary filter of σ(0) (A.21–A.23)", (1,) * npre)]
+    for fam, (label, _) in FAMILIES.items():
+        j = tuning.minimax(fam)
+        rows.append(TableRow(fam, f"{label}, {knob_text(tuning.knobs[j])}", "tuned", "nothing of σ",
+                             dict(tuning.knobs[j]), tuning.origin, (j,) * npre))
+    if "(A.31)" in tuning.knobs[2]["paper"]:
+        rows.append(TableRow("isl_a31", tuning.knobs[2]["paper"], "paper", "nothing of σ", {},
+                             "paper A, table (A.31): the ν/β the authors read off their Fig. 2", (2,) * npre))
+    for fam, (label, _) in FAMILIES.items():
+        cols = tuple(tuning.oracle(fam, p) for p in range(npre))
+        rows.append(TableRow(f"oracle:{fam}", f"{label}, oracle-tuned (best knob per preset)", "oracle",
+                             "nothing of σ", tuple(dict(tuning.knobs[j]) for j in cols),
+                             "the least largest ratio over each preset's periods, on the same runs", cols))
+    return rows
+
+
+def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
+    """The fair table (module docstring) of a :class:`isl_core.tuning.Tuning`."""
+    level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
+    rows = _rows(tuning)
+    r, lo, hi = tuning.stats(level)
+    cells = range(len(tuning.cells))
+    col = np.array([[row.columns[tuning.cells[c][0]] for c in cells] for row in rows])  # (rows, cells)
+    pick = np.take_along_axis
+    ratio, low, high = (pick(a, col, axis=0) for a in (r, lo, hi))
+    contenders = np.array([i for i, row in enumerate(rows) if row.role in ("tuned", "paper")])
+    winner, runner, margin, mlow = (np.empty(len(cells), dtype=int), np.empty(len(cells), dtype=int),
+                                    np.empty(len(cells)), np.empty(len(cells)))
+    for c in cells:
+        order = contenders[np.argsort(np.where(np.isnan(ratio[contenders, c]), np.inf, ratio[contenders, c]),
+                                      kind="stable")]
+        winner[c], runner[c] = order[0], order[1]
+        ya, yb = tuning.y[:, c, col[order[0], c]], tuning.y[:, c, col[order[1], c]]
+        margin[c], mlow[c] = paired_margin(ya, yb, level)
+    return ScenarioTable(tuning, tuple(rows), ratio, low, high, level, winner, runner, margin, mlow)
 
 
 def scenario_table(
@@ -131,37 +137,18 @@ def scenario_table(
     m: int = M,
     w: float = W,
     scenarios: Mapping[str, tuple[str, float, Scenario]] = PRESETS,
-    seeds: int = 64,
+    seeds: int = 32,
     horizon: float = 30.0,
-    window: float = 1.0,
     burn: float = 2.0,
     level: float = 0.95,
+    grids: TuningGrids = TuningGrids(),
+    workers: int | None = None,
     progress: Callable[[float], None] | None = None,
+    cache: bool = True,
 ) -> ScenarioTable:
-    """The worst-case table (module docstring) for paper A's model with this α (β = w√(2α), A.25)."""
-    alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
-    seeds = check_int("seeds", seeds, lo=2, hi=10_000)
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    window = check_real("window", window, lo=0.0, lo_open=True, hi=horizon)
-    burn = check_real("burn", burn, lo=0.0, hi=horizon, hi_open=True)
+    """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
+    tuning of :func:`isl_core.tuning.tune` with these arguments (cached), then :func:`table_from` at ``level``."""
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
-    windows = max(1, round(horizon / window))
-    worst, low, high, lows, names, labels = [], [], [], [], None, None
-    rng = np.random.default_rng(BOOT_SEED)
-    for j, (_, sigma0, scenario) in enumerate(scenarios.values()):
-        model = Model.from_w(alpha, w, sigma0, m)
-        nu, nu_label, extra = _filters(model, alpha, m, w)
-        avg = average_scenario(model, nu, scenario, seeds=range(seeds), horizon=horizon, windows=windows, extra=extra,
-                               progress=progress, done=j * seeds, total=len(scenarios) * seeds)
-        run = avg.run
-        if names is None:
-            names, labels = run.names, table_labels(run, nu_label)
-        keep = run.starts_after(burn)
-        point, lo, hi, margin = worst_ratio(avg.mse[:, keep], run.ref_var[keep], level, rng, margin=True)
-        worst.append(point)
-        low.append(lo)
-        high.append(hi)
-        lows.append(margin)
-    return ScenarioTable(alpha, m, w, names, labels, tuple(scenarios), tuple(v[0] for v in scenarios.values()),
-                         np.array(worst).T, np.array(low).T, np.array(high).T, seeds, horizon, window, burn, level,
-                         np.array(lows))
+    res = tune(alpha, m=m, w=w, presets=scenarios, seeds=seeds, horizon=horizon, burn=burn, grids=grids,
+               workers=workers, progress=progress, cache=cache)
+    return table_from(res, level)

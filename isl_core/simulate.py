@@ -24,7 +24,7 @@ import numpy as np
 
 from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
 from .grid import check_filters, run_plan
-from .kernels import AD_INV_STEP, AD_INV_WINDOW, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
+from .kernels import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
 from .model import Model
 from .riccati import KalmanBucy, kalman_bucy
 from .validate import check_int, short
@@ -177,7 +177,7 @@ def _pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False):
     """
     nf = len(filters)
     for f in filters:
-        if (f.variational is not None or f.huber is not None) and not scenario:
+        if (f.variational is not None or f.huber is not None or f.imm is not None) and not scenario:
             raise ValueError(f"the filter {f.label!r} runs in scenario runs only "
                              "(isl_core.scenario_run.simulate_scenario)")
     damp = np.array([f.damp for f in filters], dtype=np.float64)
@@ -192,7 +192,7 @@ def _pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False):
             continue
         table[f, :len(gt.log_gain)] = gt.log_gain
         table[f, len(gt.log_gain):] = gt.log_gain[-1]
-        ad[f, AD_LOG_SIGMA0], ad[f, AD_INV_STEP], ad[f, AD_INV_WINDOW] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.window
+        ad[f, AD_LOG_SIGMA0], ad[f, AD_INV_STEP], ad[f, AD_INV_MEMORY] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.memory
         ad[f, AD_VAR], ad[f, AD_SIGMA] = gt.sigma_init**2, gt.sigma_init
     return damp, coef, kind, table, ad
 

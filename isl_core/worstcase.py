@@ -13,7 +13,7 @@ numbers). Choices, all documented:
   model-aware one; and paper A's filter at the ν/β of table (A.31) ("ISL, ν from table A.31",
   :mod:`isl_core.paper`) for the α the table holds (m = 3, w = 3; other α: not simulated, nan).
 * mismatched KBF: σ̄ = √(σ_min σ_max) unless ``sigma_design`` is given; minimax KBF: σ̄ = σ_max;
-  adaptive KBF: its table and start from the same range, window ``window``.
+  adaptive KBF: its table and start from the same range, memory ``memory`` (readings = steps here).
 * simulation: the sweep machinery of :mod:`isl_core.sweep` — one group per (α, σ, seed) with the step h of
   the SPEC §4 rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
   group's slowest filter (:func:`isl_core.sweep.group_length`: 1/r_min, or ``stretch``/r_min where a fixed gain
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive import WINDOW, check_sigma_range
+from .adaptive import MEMORY, check_sigma_range
 from .baselines import BASELINES, baseline_filters, check_names, design_sigma, theory_ratios
 from .baselines import LABELS as BASE_LABELS
 from .filters import isl_filter
@@ -159,7 +159,7 @@ def _max_over(x: np.ndarray) -> np.ndarray:
     return x.max(axis=(1, 3))
 
 
-def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches):
+def _plan(alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, batches):
     """Per-α tunings, every group's task (most expensive first), and per-(α, σ) theory, s, r_min, h, steps."""
     na, ns, nf = len(alphas), len(sigmas), len(names)
     lo, hi = float(sigmas[0]), float(sigmas[-1])
@@ -179,7 +179,7 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, bat
         present = tuple(n for n in names if not (n == "isl_a31" and a31 is None))  # (A.31) holds 5 α only
         cols.append(tuple(names.index(n) for n in present))
         kw = {"nu": rec.nu, "nu_model": nu_model, "sigma_design": sigma_design, "sigma_range": (lo, hi),
-              "window": window}
+              "memory": memory}
         for f, name in enumerate(names):
             nu[a, f] = {"isl": rec.nu, "isl_model": nu_model, "isl_a31": nu_a31}.get(name, math.nan)
             design[a, f] = {"kbf_mismatched": design_sigma((lo, hi)) if sigma_design is None else sigma_design,
@@ -207,7 +207,7 @@ def _filter(model: Model, name: str, nu_a31: float, kw: dict):
     return baseline_filters(model, names=(name,), **kw)[0]
 
 
-def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level):
+def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level):
     alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
     lo, hi = check_sigma_range(sigma_range)
     if not hi > lo:
@@ -217,11 +217,11 @@ def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, se
     w = check_real("w", w, lo=0.0, lo_open=True)
     if sigma_design is not None:
         sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
-    window = check_real("window", window, lo=1.0)
+    memory = check_real("memory (W, in readings)", memory, lo=1.0)
     horizon, seeds, batches, level = check_sampling(horizon, seeds, batches, level)
     sigmas = np.geomspace(lo, hi, n_sigma)
     sigmas[0], sigmas[-1] = lo, hi  # exact ends
-    return alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level
+    return alphas, sigmas, m, w, sigma_design, memory, horizon, seeds, batches, level
 
 
 def worst_case(
@@ -233,7 +233,7 @@ def worst_case(
     w: float = 3.0,
     filters: Sequence[str] = FILTERS,
     sigma_design: float | None = None,
-    window: float = WINDOW,
+    memory: float = MEMORY,
     horizon: float = 1000.0,
     seeds: Sequence[int] = (0, 1),
     batches: int = 10,
@@ -247,16 +247,17 @@ def worst_case(
 
     ``filters``: names from :data:`FILTERS` (default all): the baselines of :mod:`isl_core.baselines` and
     ``isl_a31``, paper A's filter at table A.31's ν (for the α of that table; nan elsewhere). ``sigma_design``: σ̄ of the
-    mismatched Kalman–Bucy filter (default √(σ_min σ_max)); ``window``: the adaptive filter's W in steps.
+    mismatched Kalman–Bucy filter (default √(σ_min σ_max)); ``memory``: the adaptive filter's W in readings (a
+    reading is a step in these runs).
     ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``chunk``, ``workers`` and
     ``progress`` as in :func:`isl_core.sweep`: results do not depend on the executor or on chunking.
     """
-    alphas, sigmas, m, w, sigma_design, window, horizon, seeds, batches, level = _check(
-        alphas, sigma_range, n_sigma, m, w, sigma_design, window, horizon, seeds, batches, level)
+    alphas, sigmas, m, w, sigma_design, memory, horizon, seeds, batches, level = _check(
+        alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level)
     names = check_names(filters, "filters", FILTERS)
     chunk, workers = check_execution(chunk, workers, progress)
     nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols = _plan(
-        alphas, sigmas, names, m, w, sigma_design, window, horizon, seeds, batches)
+        alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, batches)
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(

@@ -9,6 +9,18 @@ import pytest
 from _browser import ROOT, free_port, wait_http
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _own_tuning_cache(tmp_path_factory):
+    """No test reads or writes the user's cache of tunings (isl_core.tuning.cache_dir): one of the session's own."""
+    old = os.environ.get("ISL_CACHE_DIR")
+    os.environ["ISL_CACHE_DIR"] = str(tmp_path_factory.mktemp("isl-cache"))
+    yield
+    if old is None:
+        os.environ.pop("ISL_CACHE_DIR", None)
+    else:
+        os.environ["ISL_CACHE_DIR"] = old
+
+
 @pytest.fixture(scope="module")
 def app_server(tmp_path_factory):
     """URL of the dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads,

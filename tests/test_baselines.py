@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from isl_core import FilterSpec, Model, isl_filter, kalman_bucy, optimal_kbf, simulate, simulate_rmse
-from isl_core.adaptive import TABLE_MARGIN, TABLE_PER_DECADE, WINDOW, adaptive_kbf, gain_table, sigma_hat_sd
+from isl_core.adaptive import TABLE_MARGIN, TABLE_PER_DECADE, MEMORY, adaptive_kbf, gain_table, sigma_hat_sd
 from isl_core.baselines import (
     BASELINES,
     LABELS,
@@ -76,7 +76,7 @@ def test_registry_names_kinds_and_defaults():
     ({"sigma_range": (5.0, 2.0)}, r"^sigma_range\[1\] must be a finite number >= 5"),
     ({"sigma_range": 3.0}, r"^sigma_range must be a pair"),
     ({"sigma_range": (0.0, 2.0)}, r"^sigma_range\[0\] must be a finite number > 0"),
-    ({"window": 0.5}, r"^window must be a finite number >= 1"),
+    ({"memory": 0.5}, r"^memory \(W, in sensor readings\) must be a finite number >= 1"),
     ({"sigma_design": math.nan, "names": ("kbf_mismatched",)}, r"^sigma_design must be a finite number > 0"),
     ({"nu": -1.0, "names": ("isl",)}, r"^nu must be a finite number > 0"),
 ])
@@ -128,7 +128,7 @@ def test_gain_table_is_the_care_gain_and_exact_between_points_for_alpha0():
     spec = adaptive_kbf(Model(0.0, 3.0, 5.0, 3), sigma_range=(2.0, 200.0))
     table = spec.adaptive
     decades = math.log10(200.0 * TABLE_MARGIN / (2.0 / TABLE_MARGIN))
-    assert len(table.log_gain) == round(TABLE_PER_DECADE * decades) + 1 and table.window == WINDOW
+    assert len(table.log_gain) == round(TABLE_PER_DECADE * decades) + 1 and table.memory == MEMORY
     assert table.sigmas[0] == pytest.approx(2.0 / TABLE_MARGIN) and table.sigma_init == pytest.approx(20.0)
     for s in (0.37, 3.3, 47.0, 555.0):  # α = 0: K_i = G_i1 (β/σ)^{i/m} (B.18), linear in log–log
         np.testing.assert_allclose(table.gain(s), kalman_bucy(Model(0.0, 3.0, s, 3)).K, rtol=1e-12)
@@ -138,7 +138,7 @@ def test_gain_table_is_the_care_gain_and_exact_between_points_for_alpha0():
 
 def test_adaptive_run_exposes_sigma_hat():
     window = 200
-    spec = adaptive_kbf(FIG3, sigma_range=(2.0, 200.0), window=window)
+    spec = adaptive_kbf(FIG3, sigma_range=(2.0, 200.0), memory=window)
     run = simulate(FIG3, 3.0, seed=1, extra=[spec], T=1500.0 / kalman_bucy(FIG3).r_min)
     sig = run.track("kbf_adaptive").sigma_hat
     assert sig.shape == run.t.shape and sig[0] == spec.adaptive.sigma_init and not sig.flags.writeable
@@ -170,7 +170,7 @@ def test_adaptive_kbf_learns_sigma_and_reaches_the_optimum(alpha, sigma):
     se = per_batch.std(ddof=1) / math.sqrt(BATCHES)
     assert abs(per_batch @ res.counts / res.counts.sum() - 1.0) <= 4.0 * se + 1e-3, (per_batch, se)
     assert se <= 3.0 / math.sqrt(2.0 * res.counts.sum())  # the batches agree with the documented σ/√(2L)
-    assert abs(res.sigma_hat_final[1] / sigma - 1.0) <= 5.0 * sigma_hat_sd(WINDOW)
+    assert abs(res.sigma_hat_final[1] / sigma - 1.0) <= 5.0 * sigma_hat_sd(MEMORY)
     assert np.all(np.abs(ratio[1] - ratio[0]) <= 0.01), ratio
     grid = _grid_ratio(model, oracle, res.h)
     assert np.all((low <= grid) & (grid <= high)), (low, high, grid)

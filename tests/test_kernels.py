@@ -84,7 +84,7 @@ def test_kernel_matches_numpy_reference(alpha, beta, sigma, m):
     kb = kalman_bucy(model)
     nu = 0.7 * beta
     extra = (model_aware_isl(model, nu), FilterSpec("kbf0", "KBF with A0", 0.0, np.array(kb.K), False),
-             adaptive_kbf(model, sigma_range=(sigma / 5, sigma / 2), window=200))  # W < n: both phases of λ_k
+             adaptive_kbf(model, sigma_range=(sigma / 5, sigma / 2), memory=200))  # W < n: both phases of λ_k
     run = simulate(model, nu, T=15.0 / kb.r_min, seed=11, extra=extra)
     n = min(run.N, 1500)
     specs = [optimal_kbf(model, kb), isl_filter(model, nu), *extra]

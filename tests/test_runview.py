@@ -16,7 +16,7 @@ FIG3 = Model(0.5, 3.0, 20.0, 3)
 @pytest.mark.parametrize("model, horizon, points", [(FIG3, 10.0, 2400), (FIG3, 300.0, 400),
                                                      (Model(0.0, 1.0, 5.0, 6), 40.0, 1000), (Model(1.0, 0.5, 3.0, 1), 50.0, 64)])
 def test_the_view_is_the_simulated_run_decimated(model, horizon, points):
-    extra = [adaptive_kbf(model, sigma_range=(1.0, 30.0), window=100)]
+    extra = [adaptive_kbf(model, sigma_range=(1.0, 30.0), memory=100)]
     run = simulate(model, 0.7 * model.beta, horizon=horizon, seed=5, extra=extra)
     view = simulate_view(model, 0.7 * model.beta, horizon=horizon, seed=5, extra=extra, points=points)
     assert (view.N, view.h, view.T, view.stretch) == (run.N, run.h, run.T, run.stretch)

@@ -74,7 +74,7 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
                         uu = min(u * u, lim * lim) / huber_kappa(spec.huber)  # κ: checked by quadrature below
                     e[f] += gain[f] * uc
                     if spec.adaptive is not None:
-                        lam = max(1.0 / readings, q / spec.adaptive.window)
+                        lam = max(1.0 / readings, 1.0 / spec.adaptive.memory)
                         ad[f, 3] += lam * (uu - ad[f, 3])
                         s_hat = math.sqrt(ad[f, 3] / (1.0 + q * h * gain[f][0] / math.sqrt(q * h)))
                         gain[f] = math.sqrt(q * h) * spec.adaptive.gain(s_hat)
@@ -97,7 +97,7 @@ def _vb_loop(model, spec, scenario, h, n, seed, q):
     v = spec.variational
     P = np.array(kalman_bucy(Model(model.alpha, model.beta, v.sigma_init, model.m)).delta)
     a, b = v.shape0, v.shape0 * v.sigma_init**2
-    rho = 1.0 - q * (1.0 - v.rho)
+    rho = 1.0 - 1.0 / v.memory  # per reading
     F = np.eye(model.m) + h * model.A
     Q = h * model.beta**2 * (model.E @ model.E.T)
     H = math.sqrt(q * h) * model.C
@@ -140,7 +140,7 @@ def test_hubers_kappa_and_the_robust_filters_sigma_on_gaussian_noise():
 @pytest.mark.parametrize("before", [0, 2])  # the filters run in lanes of four: the VB filter in the first or second
 @pytest.mark.parametrize("scenario", [Scenario(sigma_knots=((0.2, 2.0),)), Scenario(sensor_interval=0.03)])
 def test_the_compiled_variational_filter_equals_the_papers_algorithm(scenario, before):
-    spec = variational_kbf(MODEL, sigma_init=60.0, window=200.0)
+    spec = variational_kbf(MODEL, sigma_init=60.0, memory=200.0)
     extra = [adaptive_kbf(MODEL), robust_kbf(MODEL)][:before] + [spec]
     run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=9, extra=extra)
     sq = _vb_loop(MODEL, spec, scenario, run.h, run.N, 9, run.q)
@@ -244,3 +244,29 @@ def test_a_plan_runs_any_seed_as_simulate_scenario_does_and_is_not_changed_by_it
         np.testing.assert_array_equal(run.mse, alone.mse)
         np.testing.assert_array_equal(run.sigma_hat, alone.sigma_hat)
         np.testing.assert_array_equal(run.ref_var, alone.ref_var)
+
+
+def test_memory_counts_readings_and_its_time_is_readings_times_the_sensor_interval():
+    """W readings of a sensor read every Δ are W·Δ in time (q = round(Δ/h) steps: within half a step a reading); with
+    a reading at every step, W·h."""
+    coarse = plan_scenario(MODEL, 3.0, Scenario(sensor_interval=0.1), horizon=1.0, windows=1)
+    assert coarse.memory_time(30.0) == pytest.approx(30.0 * 0.1, rel=0.5 / coarse.q)
+    fine = plan_scenario(MODEL, 3.0, Scenario(), horizon=1.0, windows=1)
+    assert fine.q == 1 and fine.memory_time(30.0) == pytest.approx(30.0 * fine.h * fine.r_min, rel=1e-15)
+    assert "W = 30 readings" in adaptive_kbf(MODEL, memory=30.0).label
+    assert "W = 30 readings" in variational_kbf(MODEL, memory=30.0).label
+    with pytest.raises(ValueError, match=r"memory \(W, in sensor readings\) must be a finite number > 1"):
+        variational_kbf(MODEL, memory=1.0)
+
+
+def test_a_window_that_starts_at_a_change_of_sigma_holds_exactly_the_steps_after_it():
+    """Windows start at the first step whose σ_k is the new σ: the clairvoyant variance of the window before the change
+    is that of σ(0) alone, and explicit edges give windows between them."""
+    change = 0.37
+    plan = plan_scenario(MODEL, 3.0, Scenario(sigma_knots=((change, 2.0),)), horizon=1.0, edges=(0.0, change, 1.0))
+    k = int(plan.edges[1])
+    assert len(plan.edges) == 3 and (k - 1) * plan.h * plan.r_min < change <= k * plan.h * plan.r_min
+    run = plan.run(0)
+    assert np.all(run.sigma[:1] == MODEL.sigma) and np.all(run.sigma[1:] == 2.0)
+    with pytest.raises(ValueError, match="edges must increase from 0 to the horizon"):
+        plan_scenario(MODEL, 3.0, horizon=1.0, edges=(0.0, 0.5, 0.4, 1.0))

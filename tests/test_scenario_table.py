@@ -1,96 +1,140 @@
-"""The who-wins table of scenarios (isl_core.scenario_table)."""
+"""The fair table (isl_core.scenario_table), the who-wins maps (isl_core.scenario_map) and ``isl scenario``."""
 from __future__ import annotations
 
 import csv
 import json
+import math
 
 import numpy as np
 import pytest
 
+from isl_core import Scenario
 from isl_core.cli import main
-from isl_core.scenario_table import PRESETS, scenario_table
+from isl_core.scenario_map import who_wins_map
+from isl_core.scenario_table import PRESETS, table_from
+from isl_core.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune
+
+SMALL = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
+         "constant": ("constant σ", 20.0, Scenario())}
+GRIDS = TuningGrids(isl_ell=(-4.0, -2.0, 0.0), memory=(10.0, 100.0, 1000.0), robust_c=(1.345, 3.0),
+                    imm_switch=(1e-3, 1e-1), imm_modes=(5,))
 
 
 @pytest.fixture(scope="module")
-def table():
-    chosen = {k: PRESETS[k] for k in ("sigma_drop", "constant")}
-    return scenario_table(1.0, scenarios=chosen, seeds=6, horizon=16.0)
+def tuning():
+    return tune(1.0, presets=SMALL, seeds=8, horizon=5.0, grids=GRIDS, cache=False)
 
 
-def test_rows_columns_and_intervals(table):
-    assert table.scenarios == ("sigma_drop", "constant")
-    assert table.filters[:3] == ("clairvoyant", "kbf", "isl")
-    assert {"kbf_adaptive", "vb", "kbf_robust", "isl_minimax", "isl_model"} <= set(table.filters)
-    assert "(A.31)" in table.labels[2]  # α = 1 is in paper A's table: its ν is the first ISL row
-    assert table.worst.shape == table.low.shape == table.high.shape == (len(table.filters), 2)
-    assert np.all(table.low < table.high)
-    assert "clairvoyant" not in table.winner and np.all(table.margin >= 1.0)
+@pytest.fixture(scope="module")
+def table(tuning):
+    return table_from(tuning)
 
 
-def test_a_winner_is_named_only_where_the_seeds_tell_it_from_the_runner_up(table):
-    drop, constant = 0, 1
-    np.testing.assert_array_equal(table.tie, table.margin_low <= 1.0)
-    assert np.all(table.margin_low <= table.margin + 1e-12)
-    assert all(w != r for w, r in zip(table.winner, table.runner_up, strict=True))
-    # constant σ and Gaussian noise: the σ(0)-optimal, adaptive and variational-Bayes filters are the same filter up
-    # to the noise, so whichever comes first, the seeds cannot tell it from the next: a tie, not a winner
-    assert table.tie[constant]
-    # after σ drops 100-fold, the model-aware ISL filter is far below the filters that learn or assume σ
-    assert table.winner[drop].startswith("isl")
+@pytest.fixture(autouse=True)
+def _own_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("ISL_CACHE_DIR", str(tmp_path))
 
 
-def test_the_figures_say_what_the_scenarios_do(table):
-    drop, constant = 0, 1
-    # constant σ: the clairvoyant filter is the Kalman–Bucy filter (on the grid vs in continuous time: within 3 %)
-    c, k = table.worst[0, constant], table.worst[1, constant]
-    assert k == pytest.approx(c, rel=0.03)
-    # σ 200 → 2: the filter designed for σ = 200 is far off afterwards; the ISL filter, which needs no σ, is not
-    isl = table.worst[2, drop]
-    assert table.worst[1, drop] > 4.0 * table.worst[0, drop]
-    assert isl < 0.5 * table.worst[1, drop]
+def test_each_tuned_row_sits_at_its_tuning_curves_minimax_point(tuning, table):
+    """A tuned row is its variant's column of the tuning run: its largest ratio over the cells is the least over the
+    knob's grid, and its stated tuning is that variant's knob."""
+    ratio = np.sqrt(tuning.y.mean(axis=0))  # (cells, filters): the curves, written out
+    for family in FAMILIES:
+        row = next(i for i, r in enumerate(table.rows) if r.name == family)
+        idx = tuning.variants(family)
+        curve = ratio[:, idx].max(axis=0)
+        assert table.ratio[row].max() == pytest.approx(curve.min(), rel=1e-12)
+        assert table.rows[row].tuning == tuning.knobs[idx[int(np.argmin(curve))]]
+        np.testing.assert_allclose(table.ratio[row], ratio[:, idx[int(np.argmin(curve))]], rtol=1e-12)
 
 
-@pytest.mark.parametrize(("kwargs", "named"), [({"seeds": 1}, "seeds"), ({"window": 0.0}, "window"),
-                                               ({"burn": 30.0}, "burn"), ({"level": 1.0}, "level")])
-def test_bad_settings_are_named(kwargs, named):
-    with pytest.raises(ValueError, match=named):
-        scenario_table(1.0, **kwargs)
+def test_every_row_states_its_tuning_and_origin_and_the_oracle_is_no_worse(tuning, table):
+    roles = [r.role for r in table.rows]
+    assert roles[:2] == ["reference", "reference"] and roles.count("tuned") == len(FAMILIES)
+    assert roles.count("oracle") == len(FAMILIES) and roles.count("paper") == 1  # α = 1 is in table (A.31)
+    assert all(r.origin for r in table.rows)
+    assert all("minimax over 2 presets" in r.origin for r in table.rows if r.role == "tuned")
+    assert all(len(r.tuning) == 2 for r in table.rows if r.role == "oracle")  # a knob per preset
+    for family in FAMILIES:
+        tuned = next(i for i, r in enumerate(table.rows) if r.name == family)
+        oracle = next(i for i, r in enumerate(table.rows) if r.name == f"oracle:{family}")
+        for p in range(2):
+            assert table.preset(p)[0][oracle] <= table.preset(p)[0][tuned] + 1e-12
 
 
-def test_the_command_prints_json_and_writes_csv_and_refuses_unknown_scenarios(tmp_path, capsys):
+def test_the_winner_of_each_cell_is_the_lowest_contender_with_a_paired_margin(table):
+    contenders = [i for i, r in enumerate(table.rows) if r.role in ("tuned", "paper")]
+    for c in range(table.ratio.shape[1]):
+        order = sorted(contenders, key=lambda i: table.ratio[i, c])
+        assert (table.winner[c], table.runner_up[c]) == (order[0], order[1])
+        assert table.margin[c] == pytest.approx(table.ratio[order[1], c] / table.ratio[order[0], c], rel=1e-12)
+        assert table.margin_low[c] <= table.margin[c] and table.tie[c] == (table.margin_low[c] <= 1.0)
+
+
+def test_the_clairvoyant_row_reads_one_within_its_sampling_error(tuning, table):
+    y = tuning.y[:, :, 0]
+    se = y.std(axis=0, ddof=1) / math.sqrt(y.shape[0])
+    assert np.all(np.abs(y.mean(axis=0) - 1.0) <= 4.5 * se)
+    assert np.all(table.low[0] <= table.ratio[0]) and np.all(table.ratio[0] <= table.high[0])
+
+
+def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenarios(tmp_path, capsys):
     out = tmp_path / "table.csv"
-    assert main(["scenario", "--seeds", "2", "--horizon", "12", "--scenarios", "sensor,constant", "--json",
-                 "--csv", str(out)]) == 0
+    args = ["scenario", "--scenarios", "sensor,constant", "--seeds", "2", "--horizon", "6", "--no-cost"]
+    assert main([*args, "--json", "--csv", str(out)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert list(doc["meta"]["scenarios"]) == ["sensor", "constant"] and doc["meta"]["seeds"] == 2
-    meta = doc["meta"]
-    assert set(meta["tie"]) == set(meta["margin_low95"]) == set(meta["runner_up"]) == {"sensor", "constant"}
-    assert all(meta["tie"][s] == (meta["margin_low95"][s] <= 1.0) for s in meta["tie"])
-    assert [r["filter"] for r in doc["rows"]][:3] == ["clairvoyant", "kbf", "isl"]
+    meta, rows = doc["meta"], doc["rows"]
+    assert list(meta["scenarios"]) == ["sensor", "constant"] and meta["seeds"] == [0, 1]
+    assert [c["cell"] for c in meta["cells"]] == ["sensor:settled", "constant:settled"]
+    assert [r["name"] for r in rows][:3] == ["clairvoyant", "kbf", "isl"]
+    assert all(r["origin"] and "tuning" in r for r in rows)
+    assert {w["cell"] for w in doc["winners"]} == {"sensor:settled", "constant:settled"}
+    assert set(meta["clairvoyant_reads_1_within_its_interval"]) == {"sensor:settled", "constant:settled"}
+    assert meta["one_reading_over_r_min"]["sensor"] == pytest.approx(0.1, rel=0.1)
     with open(out) as fh:
-        rows = list(csv.DictReader(fh))
-    assert [r["filter"] for r in rows] == [r["filter"] for r in doc["rows"]]
-    assert float(rows[1]["constant"]) == pytest.approx(doc["rows"][1]["constant"])
+        lines = list(csv.DictReader(fh))
+    assert len(lines) == 2 * len(rows) and lines[0]["filter"] == "clairvoyant"
+    assert float(lines[2]["ratio"]) == pytest.approx(rows[1]["cells"]["sensor:settled"]["ratio"])
+    _MEMORY_CACHE.clear()
+    assert main([*args, "--quiet"]) == 0  # the same tuning, now from the disk cache: the text table
+    text = capsys.readouterr().out
+    assert "read from the cache" in text and "who wins each cell" in text
     assert main(["scenario", "--scenarios", "sigma_dorp", "--quiet"]) == 2
     assert "unknown scenario 'sigma_dorp'" in capsys.readouterr().err
 
 
-def test_the_sigma_step_map_has_a_row_per_window_after_the_step_and_names_a_winner_per_cell():
-    from isl_core.scenario_map import who_wins_map
+def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
+    out = tmp_path / "curves.csv"
+    args = ["scenario", "--scenarios", "constant", "--seeds", "2", "--horizon", "6", "--tune"]
+    assert main([*args, "--json", "--csv", str(out)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert set(doc["tuned"]) == set(FAMILIES)
+    vb = [c for c in doc["curves"] if c["family"] == "vb"]
+    assert [c["memory"] for c in vb][0] == 10.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
+    assert all(c["memory_over_r_min"] == pytest.approx(c["memory"] * doc["meta"]["one_reading_over_r_min"]["constant"])
+               for c in vb)
+    with open(out) as fh:
+        assert len(list(csv.DictReader(fh))) == len(doc["curves"])
+    assert main([*args, "--quiet"]) == 0
+    assert "tuning curves" in capsys.readouterr().out
 
-    res = who_wins_map("sigma_step", values=(0.1, 10.0), seeds=3, after=4.0)
+
+def test_the_sigma_step_map_has_a_row_per_period_after_the_step_with_the_tables_tuning(tuning):
+    res = who_wins_map("sigma_step", values=(0.1, 10.0), seeds=6, after=4.0, tuning=tuning)
     assert res.ratio.shape == (4, 2, len(res.filters)) and np.allclose(res.rows, [0.0, 1.0, 2.0, 3.0])
-    assert np.all(res.winner >= 1) and np.all(res.margin >= 1.0)
-    # right after σ drops tenfold the filter tuned for σ(0) is the worst of all (its gain is ten times too small)
-    assert np.argmax(res.ratio[0, 0, 1:]) == 0
+    assert res.filters == ("clairvoyant", "kbf", "isl", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
+    assert res.origin.startswith("tuned") and np.all(res.winner >= 1) and np.all(res.margin >= 1.0)
+    # after σ drops tenfold the filter for σ(0) stays off (its gain is too small: 2.0 measured), the learners recover
+    pooled = np.sqrt((res.ratio[:, 0] ** 2).mean(axis=0))  # over the 4/r_min after the step
+    assert pooled[1] > 1.5 and pooled[4:].min() < pooled[1] / 1.3
+    np.testing.assert_array_equal(res.tie, res.margin_low <= 1.0)
 
 
 def test_the_one_dimensional_maps_and_the_command(capsys):
-    from isl_core.scenario_map import who_wins_map
-
-    res = who_wins_map("tails", values=(3.0, 100.0), seeds=2, after=6.0)
-    assert res.ratio.shape == (1, 2, len(res.filters)) and np.isnan(res.rows[0])
-    assert main(["scenario", "--map", "sensor", "--values", "0,0.1", "--seeds", "2", "--horizon", "6", "--json"]) == 0
+    res = who_wins_map("tails", values=(3.0, 100.0), seeds=2, after=6.0, untuned=True)
+    assert res.ratio.shape == (1, 2, len(res.filters)) and np.isnan(res.rows[0]) and res.origin.startswith("untuned")
+    assert main(["scenario", "--map", "sensor", "--values", "0,0.1", "--seeds", "2", "--horizon", "6", "--json",
+                 "--untuned"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["meta"]["map"] == "sensor" and [c["value"] for c in doc["cells"]] == [0.0, 0.1]
     assert all(c["winner"] in doc["meta"]["filters"] and c["winner"] != "clairvoyant" for c in doc["cells"])
@@ -98,3 +142,7 @@ def test_the_one_dimensional_maps_and_the_command(capsys):
     assert "--horizon must be at least 10" in capsys.readouterr().err
     with pytest.raises(ValueError, match="kind"):
         who_wins_map("drift")
+
+
+def test_the_presets_are_the_issues_scenarios():
+    assert list(PRESETS) == ["sigma_drop", "sigma_rise", "student3", "outliers", "sensor", "constant"]

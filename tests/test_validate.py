@@ -124,7 +124,7 @@ CASES = {
     "predicted_ratios_grid.nus": (lambda v: core.predicted_ratios_grid(M, v), "nus",
                                   _many(lambda v: _real(v, 0.0, lo_open=True))),
     "mismatched_kbf.sigma_design": (lambda v: core.mismatched_kbf(M, v), "sigma_design", lambda v: _real(v, **pos)),
-    "adaptive_kbf.window": (lambda v: core.adaptive_kbf(M, window=v), "window", lambda v: _real(v, 1.0)),
+    "adaptive_kbf.memory": (lambda v: core.adaptive_kbf(M, memory=v), "memory", lambda v: _real(v, 1.0)),
     "adaptive_kbf.sigma_range": (lambda v: core.adaptive_kbf(M, sigma_range=v), "sigma_range", _range_pair),
     "baseline_filters.names": (lambda v: core.baseline_filters(M, nu=3.0, names=v), "names", lambda v: False),
     "sweep.alphas": (lambda v: core.sweep(v, [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2), "alphas",

@@ -144,7 +144,7 @@ def test_progress_reaches_one_and_can_cancel():
     ({"sigma_design": -1.0}, r"^sigma_design must be a finite number > 0"),
     ({"horizon": math.inf}, r"^horizon must be a finite number > 0"),
     ({"seeds": ()}, r"^seeds must be a non-empty sequence"),
-    ({"window": 0.0}, r"^window must be a finite number >= 1"),
+    ({"memory": 0.0}, r"^memory \(W, in readings\) must be a finite number >= 1"),
     ({"progress": 3}, r"^progress must be a callable or None"),
     ({"m": 7}, r"^m must be an integer >= 1 and <= 6"),
 ])

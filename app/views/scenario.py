@@ -34,9 +34,10 @@ __all__ = ["SCENARIO_COLORS", "ScenarioView", "map_html", "worst_html"]
 
 #: every filter of a picture; the clairvoyant reference in grey, the two filters paper A compares as everywhere
 SCENARIO_COLORS = {"clairvoyant": "#6b6b6b", "kbf": KBF, "isl": ISL, "vb": "#7b3294", "kbf_robust": "#d6604d",
-                   "isl_minimax": "#7b9be0", **{k: v for k, v in EXTRA_COLORS.items() if k not in ("kbf",)}}
+                   "isl_minimax": "#7b9be0", "imm": "#1b7837",
+                   **{k: v for k, v in EXTRA_COLORS.items() if k not in ("kbf",)}}
 _SHORT = {"clairvoyant": "clairvoyant", "kbf": "KBF σ(0)", "isl": "ISL", "kbf_adaptive": "adaptive", "vb": "VB",
-          "kbf_robust": "robust", "isl_minimax": "ISL minimax", "isl_model": "ISL model-aware"}
+          "kbf_robust": "robust", "isl_minimax": "ISL minimax", "isl_model": "ISL model-aware", "imm": "IMM"}
 _CSS = """
 table.isl-scn { border-collapse: collapse; font-size: var(--isl-table-font, 14px); margin: 4px 0 8px 0; }
 table.isl-scn th, table.isl-scn td { padding: 4px 8px; text-align: right; border-bottom: 1px solid #ddd; }
