@@ -23,6 +23,7 @@ ENV PATH=/opt/venv/bin:$PATH \
     PYTHONDONTWRITEBYTECODE=1 \
     PYTHONMALLOC=malloc \
     NUMBA_CACHE_DIR=/var/cache/isl/numba \
+    ISL_CACHE_DIR=/var/cache/isl/tuning \
     HOME=/tmp \
     ISL_ADDRESS=0.0.0.0 \
     ISL_PORT=5006
@@ -36,6 +37,9 @@ WORKDIR /home/isl
 # Compile the numba kernel into NUMBA_CACHE_DIR and run the app once: a broken app fails the build. Then the same
 # with no writable cache (as under --read-only, or a UID that may not write NUMBA_CACHE_DIR): the kernels must fall
 # back to a cache under /tmp instead of refusing to load.
+# The scenario table's tuning (paper A's model at α = 1, m = 3, w = 3: every filter's knob by one rule, ≈ 2 min): the
+# Scenarios tab's presets then show every filter tuned from the first page on (a read-only cache is read, not written)
+RUN python -m isl_core scenario --tune --quiet > /dev/null
 RUN python -m app.serving --check \
     && NUMBA_CACHE_DIR=/proc/isl-read-only python -m app.serving --check \
     && rm -rf /tmp/isl-numba-cache-*

@@ -20,31 +20,18 @@ from __future__ import annotations
 
 import io
 import math
-from dataclasses import dataclass
 from functools import partial
 
-import numpy as np
 import param
 
-from isl_core import (
-    Model,
-    Rolling,
-    Scenario,
-    ScenarioAverage,
-    WhoWinsMap,
-    adaptive_kbf,
-    average_scenario,
-    robust_kbf,
-    scenario_grid,
-    variational_kbf,
-    who_wins_map,
-)
-from isl_core.baselines import model_aware_isl
+from isl_core import Scenario, WhoWinsMap, who_wins_map
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario_map import MAPS
 from isl_core.scenario_table import PRESETS as TABLE_PRESETS
+from isl_core.tuning import Tuning, tune
 
+from .scenario_picture import Picture, ScenarioRequest, picture_csv, scenario_picture, tuning_for
 from .text import R_MIN, num, per_r_min
 
 __all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "Picture", "ScenarioInputs", "ScenarioRequest",
@@ -60,10 +47,6 @@ CHOICE_LABELS = {
     "sc_noise": {"gaussian": "Gaussian", "student": "Student-t", "outliers": "Gaussian with outliers"},
     "sc_map": {"sigma_step": "a σ step", "tails": "heavy tails", "sensor": "the sensor interval"},
 }
-#: runs × steps of one picture: ≈ 2.3 µs a step for the seven filters on this 2-core machine, so ≈ 9 s at most
-PICTURE_MAX_STEPS = 4_000_000
-BURN = 2.0  #: the worst case leaves out the first 2/r_min (each filter's start from its own guess)
-SHORT_PER_WINDOW = 10  #: short windows per rolling window (the rolling window moves by a tenth of its width)
 
 
 def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
@@ -81,90 +64,6 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
 #: the columns of the scenario table (isl_core.scenario_table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
 #: ν of table (A.31), as the table runs them
 PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
-
-
-@dataclass(frozen=True)
-class ScenarioRequest:
-    """What one picture needs: the model, ν, the σ range of the learning filters, the scenario and its settings."""
-
-    alpha: float
-    beta: float
-    sigma: float
-    m: int
-    nu: float
-    seed: int
-    sigma_range: tuple[float, float]
-    scenario: Scenario
-    horizon: float
-    window: float
-    runs: int
-
-    @property
-    def model(self) -> Model:
-        return Model(self.alpha, self.beta, self.sigma, self.m)
-
-
-@dataclass(frozen=True)
-class Picture:
-    """A computed picture: the runs, the rolling ratios, the worst cases (None with one run) and the request."""
-
-    request: ScenarioRequest
-    average: ScenarioAverage
-    rolling: Rolling
-    worst: tuple[np.ndarray, np.ndarray, np.ndarray] | None
-
-
-def filters(req: ScenarioRequest) -> list:
-    """The extra filters of a picture (module docstring); the run adds the clairvoyant, σ(0)-optimal and ISL ones."""
-    model = req.model
-    guess = math.sqrt(req.sigma_range[0] * req.sigma_range[1])
-    return [adaptive_kbf(model, sigma_range=req.sigma_range, sigma_init=guess),
-            variational_kbf(model, sigma_init=guess),
-            robust_kbf(model, sigma_range=req.sigma_range, sigma_init=guess),
-            model_aware_isl(model, req.nu)]
-
-
-def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
-    """Simulate ``req`` (module docstring); a ``ValueError`` in words if it is too long for the dashboard."""
-    extra = filters(req)
-    _, n, _ = scenario_grid(req.model, req.nu, req.scenario, extra, req.horizon)
-    if n * req.runs > PICTURE_MAX_STEPS:
-        most = max(1, PICTURE_MAX_STEPS // n)
-        raise ValueError(f"{req.runs} runs of {n:,} steps are {n * req.runs:,} steps, over the dashboard's "
-                         f"{PICTURE_MAX_STEPS:,} for a scenario: lower the runs averaged (sc_runs) to {most} or the "
-                         "scenario horizon (sc_horizon)")
-    windows = max(1, min(n, round(SHORT_PER_WINDOW * req.horizon / req.window)))
-    avg = average_scenario(req.model, req.nu, req.scenario, seeds=range(req.seed, req.seed + req.runs),
-                           horizon=req.horizon, windows=windows, extra=extra, progress=progress)
-    rolling = avg.rolling(req.window)
-    worst = None
-    if req.runs > 1 and req.horizon > BURN + req.window:
-        worst = avg.worst(width=req.window, burn=BURN)
-    return Picture(req, avg, rolling, worst)
-
-
-def picture_csv(pic: Picture) -> str:
-    """The picture's rolling ratios, intervals, σ(t) and σ̂(t) as CSV, its settings in ``#`` lines above."""
-    req, roll, run = pic.request, pic.rolling, pic.average.run
-    out = io.StringIO()
-    out.write(f"# isl scenario picture: alpha={req.alpha:g} beta={req.beta:g} sigma(0)={req.sigma:g} m={req.m} "
-              f"nu={req.nu:g} seeds={req.seed}..{req.seed + req.runs - 1} horizon={req.horizon:g}/r_min "
-              f"window={roll.width:g}/r_min sigma_range={req.sigma_range[0]:g}..{req.sigma_range[1]:g}\n")
-    out.write(f"# scenario: {req.scenario!r}\n")
-    out.write("# ratio: RMSE of the filter over the clairvoyant filter's exact sd, worst coordinate, mean square over "
-              "the seeds (simulated); low/high: 95 % interval over the seeds\n")
-    names = run.names
-    cols = ["t_over_r_min", "sigma"] + [f"sigma_hat_{n}" for n in pic.average.learning]
-    for n in names:
-        cols += [f"ratio_{n}", f"low_{n}", f"high_{n}", f"coordinate_{n}"]
-    out.write(",".join(cols) + "\n")
-    for j, t in enumerate(roll.t):
-        row = [f"{t:.6g}", f"{roll.sigma[j]:.6g}", *(f"{v:.6g}" for v in roll.sigma_hat[j])]
-        for f in range(len(names)):
-            row += [f"{roll.ratio[j, f]:.6g}", f"{roll.low[j, f]:.6g}", f"{roll.high[j, f]:.6g}",
-                    str(int(roll.coordinate[j, f]) + 1)]
-        out.write(",".join(row) + "\n")
-    return out.getvalue()
 
 
 class ScenarioInputs(param.Parameterized):
@@ -206,10 +105,16 @@ class ScenarioInputs(param.Parameterized):
     sc_map_busy = param.Boolean(False, precedence=-1)
     sc_map_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
     sc_map_note = param.String("", precedence=-1, doc="Status line of the who-wins map.")
+    sc_tuning = param.ClassSelector(class_=Tuning, default=None, allow_None=True, precedence=-1,
+                                    doc="The tuning of the page's α, m and w, when there is one (the tuning curves).")
+    sc_tune_busy = param.Boolean(False, precedence=-1)
+    sc_tune_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
+    sc_tune_note = param.String("", precedence=-1, doc="Status line of the tuning.")
 
     def _init_scenario(self, long_task) -> None:
         self._scenario_wanted = False
         self._map_task = long_task(self, busy="sc_map_busy", progress="sc_map_progress", note="sc_map_note")
+        self._tune_task = long_task(self, busy="sc_tune_busy", progress="sc_tune_progress", note="sc_tune_note")
         self.param.watch(self._on_scenario_inputs, ["alpha", "beta_from_w", "w", "beta", "sigma", "m", "nu", "seed",
                                                     "sigma_min", "sigma_max", *PICTURE_INPUTS])
 
@@ -254,12 +159,10 @@ class ScenarioInputs(param.Parameterized):
             return
         pic: Picture = outcome.value
         req = pic.request
-        self.param.update(scenario=pic, scenario_busy=False, scenario_note=(
+        self.param.update(scenario=pic, sc_tuning=pic.tuned, scenario_busy=False, scenario_note=(
             f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs (seeds {req.seed}–{req.seed + req.runs - 1}) of "
-            f"{per_r_min(req.horizon)}, {pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each; each point is "
-            f"the RMSE over a window of {per_r_min(pic.rolling.width, 3)} centred on it, over the clairvoyant filter's "
-            "exact standard deviation, at the worst coordinate"
-            + (", with a 95 % interval over the runs." if req.runs > 1 else " (one run: no interval).")))
+            f"{per_r_min(req.horizon)}, {pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: "
+            f"{pic.origin}."))
 
     def scenario_csv(self) -> io.StringIO:
         """The picture on screen as CSV (:func:`picture_csv`), for the download button."""
@@ -297,12 +200,37 @@ class ScenarioInputs(param.Parameterized):
     def cancel_map(self) -> None:
         self._map_task.cancel()
 
+    def find_tuning(self) -> None:
+        """The cached tuning of the page's model into ``sc_tuning`` (None if there is none)."""
+        try:
+            self.sc_tuning = tuning_for(self.scenario_request())
+        except ValueError:
+            self.sc_tuning = None
+
+    def compute_tuning(self) -> None:
+        """Tune every family for the page's α, m and w (:func:`isl_core.tuning.tune`: ≈ 2 min on two cores, then
+        cached) as the session's long job; the picture and the curves follow it."""
+        if self.alpha <= 0.0:
+            self.sc_tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
+            return
+        w = self.w if self.beta_from_w else self.beta_effective / math.sqrt(2.0 * self.alpha)
+        fn = partial(tune, self.alpha, m=self.m, w=w)
+        self._tune_task.start(fn, self._apply_tuning, "Tuning every filter: 6 presets × 32 seeds, 155 variants …")
+
+    def cancel_tuning(self) -> None:
+        self._tune_task.cancel()
+
+    def _apply_tuning(self, outcome) -> None:
+        self.param.update(sc_tuning=outcome.value, sc_tune_note=f"Tuned in {outcome.seconds:.0f} s: "
+                                                                 f"{outcome.value.origin}.")
+        if self._scenario_wanted:
+            self.compute_scenario()
+
     def _apply_map(self, outcome) -> None:
         res: WhoWinsMap = outcome.value
         self.param.update(sc_map_result=res, sc_map_note=(
             f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
             f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
             f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
-            f"{per_r_min(res.window)}; the filters' ν "
-            "from table (A.31) and the minimax recommendation, as in `isl scenario --map`."))
+            f"{per_r_min(res.window)}; filters tuned as in the scenario table: {res.origin}."))
 

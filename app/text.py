@@ -7,8 +7,9 @@ written plainly, never in a program's exponent notation ("1000/rₘᵢₙ", not 
 from __future__ import annotations
 
 import math
+import re
 
-__all__ = ["R_MIN", "R_MIN_HTML", "num", "per_r_min", "per_r_min_html"]
+__all__ = ["R_MIN", "R_MIN_HTML", "num", "per_r_min", "per_r_min_html", "powers"]
 
 R_MIN = "rₘᵢₙ"  #: the optimal filter's settling rate, as text (the plots' titles and labels, Markdown)
 R_MIN_HTML = "r<sub>min</sub>"  #: the same in HTML
@@ -42,3 +43,14 @@ def per_r_min(x: float, digits: int = 4) -> str:
 def per_r_min_html(x: float, digits: int = 4) -> str:
     """The same in HTML: ``"10/r<sub>min</sub>"``."""
     return f"{num(x, digits)}/{R_MIN_HTML}"
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def powers(text: str) -> str:
+    """``2^-4`` written 2⁻⁴ (a whole exponent in superscript), ``2^-4.5`` written 2^(−4.5)."""
+    def sup(match: re.Match) -> str:
+        e = match.group(2)
+        return match.group(1) + (e.translate(_SUPERSCRIPT) if "." not in e else f"^({e.replace('-', '−')})")
+    return re.sub(r"(\d)\^(-?\d+(?:\.\d+)?)", sup, text)

@@ -8,12 +8,16 @@ import io
 import numpy as np
 import pytest
 
-from app.scenario import PICTURE_MAX_STEPS, PRESETS, filters
+from app import scenario_picture
+from app.colors import contrast, text_on, tint
+from app.scenario import PRESETS
+from app.scenario_picture import LOOP, PICTURE_MAX_STEPS, picture_filters
 from app.state import AppState
 from app.urlsync import query_string, read_query
-from app.colors import contrast, text_on, tint
-from app.views.scenario import SCENARIO_COLORS, ScenarioView, map_html, worst_html
-from isl_core import Scenario, average_scenario, who_wins_map
+from app.views.scenario import ScenarioView
+from app.views.scenario_tables import SCENARIO_COLORS, map_html, periods_html
+from isl_core import Scenario, average_scenario, plan_scenario, who_wins_map
+from isl_core.scenario_table import PRESETS as TABLE_PRESETS
 
 
 @pytest.fixture
@@ -54,11 +58,13 @@ def test_the_picture_is_the_cores_average_for_the_same_request(state):
     req = pic.request
     assert req.scenario == Scenario(sigma_knots=((6.0, 2.0),))
     direct = average_scenario(req.model, state.nu, req.scenario, seeds=range(state.seed, state.seed + 4),
-                              horizon=14.0, windows=140, extra=filters(req))
+                              horizon=14.0, windows=140, extra=picture_filters(req, None)[0])
     np.testing.assert_array_equal(pic.average.mse, direct.mse)
     roll = direct.rolling(1.0)
     np.testing.assert_array_equal(pic.rolling.ratio, roll.ratio)
-    assert pic.average.run.names == ("clairvoyant", "kbf", "isl", "kbf_adaptive", "vb", "kbf_robust", "isl_model")
+    assert pic.average.run.names == ("clairvoyant", "kbf", "isl", "isl_model", "kbf_adaptive", "vb", "kbf_robust",
+                                     "imm")
+    assert pic.tuned is None and set(pic.tuning.values()) >= {"untuned: the constructor's default"}
     # an input change recomputes it (the tab is open)
     state.sc_noise = "outliers"
     assert state.scenario.request.scenario.noise == "outliers"
@@ -95,17 +101,50 @@ def test_the_csv_holds_every_window_and_filter(state):
     assert {"ratio_clairvoyant", "high_isl", "sigma_hat_vb", "coordinate_isl_model"} <= set(rows[0])
 
 
-def test_the_view_draws_the_picture_and_the_worst_case(state):
-    state.param.update(sc_runs=3, sc_horizon=10.0)
+def test_the_view_draws_the_picture_and_the_period_table(state):
+    state.param.update(sc_runs=3, sc_horizon=13.0)
     view = ScenarioView(state=state)
     data = view._ratio_src.data
     assert len(data["t"]) == len(state.scenario.rolling.t) and "isl_model_high" in data
-    assert set(view._sigma_src.data) == {"t", "sigma", "kbf_adaptive", "vb", "kbf_robust"}
+    assert set(view._sigma_src.data) == {"t", "sigma", "kbf_adaptive", "vb", "kbf_robust", "imm"}
     assert view._change.visible and view._change.location == 10.0
-    table = worst_html(state.scenario)
-    assert table.count("<tr>") == 8 and "class=best" in table
-    state.sc_runs = 1  # one run: no interval, no worst case, said so
-    assert "needs 2 runs" in worst_html(state.scenario)
+    pic = state.scenario
+    table = periods_html(pic, pic.costs)
+    assert table.count("<tr>") == 1 + len(pic.average.run.names) and "class='best'" in table
+    assert "first 1/rₘᵢₙ after the change" in table and "untuned" in table
+    assert set(pic.costs) == {"loop"} | set(pic.average.run.names) - set(LOOP)
+    assert all(v >= 0 for v in pic.costs.values())
+    assert table.count("the 3 together") == 1 and table.count("rowspan='3'") == 1  # the loop's three share one cost
+    state.sc_runs = 1  # one run: no interval, no period statistic, said so
+    assert "No period statistic from one run" in periods_html(state.scenario)
+
+
+def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(state, monkeypatch):
+    """With a tuning for the page's α, m and w, the filters that do not know σ(t) take its minimax knobs, run on its
+    grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point."""
+    from isl_core.tuning import TuningGrids, tune
+
+    grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,),
+                        imm_modes=(6,))
+    small = tune(1.0, seeds=2, horizon=12.0, grids=grids, presets={k: v for k, v in
+                 TABLE_PRESETS.items() if k in ("sigma_drop", "constant")}, cache=False)
+    monkeypatch.setattr(scenario_picture, "tuning_for", lambda req: small)
+    state.param.update(alpha=1.0, sc_runs=2, sc_horizon=12.0)
+    state.want_scenario()
+    pic = state.scenario
+    assert pic.tuned is small and state.sc_tuning is small
+    assert pic.average.run.names[3:] == ("isl_tuned", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
+    vb = small.knobs[small.minimax("vb")]
+    assert pic.tuning["vb"] == f"tuned: W = {vb['memory']:g} readings"
+    req = pic.request  # on the tuning's grid: h set by every variant of the tuning, not by the picture's filters
+    on_grid = plan_scenario(req.model, req.nu, req.scenario, horizon=12.0, extra=picture_filters(req, small)[0],
+                            grid_filters=small.grid_filters(req.model))
+    assert pic.average.run.h == on_grid.h
+    from app.views.tuning import TuningView, curves
+    view = TuningView(state=state)
+    view._family.value = "vb"
+    x, _, largest, best = curves(small, "vb")
+    assert list(x) == [10.0, 100.0] and largest[best] == largest.min() and view._mark.location == x[best]
 
 
 def test_the_map_runs_as_a_long_job_and_marks_ties(state):

@@ -135,12 +135,14 @@ def test_the_scenario_tab_draws_a_linked_scenario_and_its_map(app_server):
         page.get_by_role("tab", name="Scenarios: σ(t), tails, sensor").click()
         page.wait_for_function(SCENARIO_DATA, timeout=60_000)
         note = page.get_by_text("Simulated in", exact=False).first.inner_text()
+        key = page.get_by_text("pooled over the", exact=False).first.inner_text()
         page.get_by_role("button", name="Compute map").click()
         cells = page.locator("table.isl-scn td.cell")
         cells.first.wait_for(timeout=120_000)
         n_cells = cells.count()
         link = page.url
-    assert "4 runs" in note and "95 % interval over the runs" in note
+    assert "4 runs" in note and "Tuning:" in note
+    assert "pooled over the 4 runs" in key and "95 % interval" in key
     assert n_cells == 6  # the sensor map's six intervals, one row
     assert "sc_noise=student" in link and "sc_runs=4" in link
     assert "Traceback" not in log.read_text()

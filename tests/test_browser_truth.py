@@ -66,7 +66,7 @@ def test_the_tube_follows_every_run_after_a_preset_and_a_slider_move(app_server)
 #: the scenario plots' legend labels as BokehJS holds them (what its legends draw), and their time axes' labels
 SCENARIO_TEXT = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Figure' && v.model.title
         && /clairvoyant|σ\\(t\\)/.test(v.model.title.text))
-    .map(v => [v.model.title.text, v.model.right.filter(m => m.type === 'Legend')
+    .map(v => [v.model.title.text, [...v.model.right, ...v.model.below].filter(m => m.type === 'Legend')
         .flatMap(l => l.items.map(i => i.label.value)), v.model.below.map(a => a.axis_label)])"""
 
 

@@ -36,5 +36,10 @@ def refusal(state, name: str) -> pn.pane.HTML:
 
 
 def field(state, name: str, widget, **column) -> pn.Column:
-    """``widget`` (which edits input ``name``) with its refusal below it."""
+    """``widget`` (which edits input ``name``) with its refusal below it; as wide as the widget when it has a width
+    (in a row of inputs that wraps, each keeps its own width)."""
+    width = getattr(widget, "width", None)
+    if "sizing_mode" not in column and isinstance(width, int):
+        margin = widget.margin if isinstance(widget.margin, tuple) and len(widget.margin) == 4 else None
+        column["width"] = width + (margin[1] + margin[3] if margin else 20)
     return pn.Column(widget, refusal(state, name), margin=0, **column)
