@@ -121,7 +121,8 @@ def test_the_view_draws_the_picture_and_the_period_table(state):
 
 def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(state, monkeypatch):
     """With a tuning for the page's α, m and w, the filters that do not know σ(t) take its minimax knobs, run on its
-    grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point."""
+    grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point
+    and each preset's own best (the oracle reference)."""
     from isl_core.tuning import TuningGrids, tune
 
     grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,),
@@ -143,8 +144,12 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     from app.views.tuning import TuningView, curves
     view = TuningView(state=state)
     view._family.value = "vb"
-    x, _, largest, best = curves(small, "vb")
+    x, per_preset, largest, best = curves(small, "vb")
     assert list(x) == [10.0, 100.0] and largest[best] == largest.min() and view._mark.location == x[best]
+    dots = view._oracle.data  # each preset's own best (oracle) on its curve, the core's oracle knob in the note
+    assert list(dots["y"]) == list(per_preset.min(axis=1))
+    assert [small.knobs[small.oracle("vb", p)]["memory"] for p in range(2)] == list(dots["x"])
+    assert "Oracle-tuned" in view._note.object
 
 
 def test_the_map_runs_as_a_long_job_and_marks_ties(state):

@@ -61,6 +61,7 @@ class TuningView(Viewer):
                                          value="vb", width=px(self.state, 260))
         self._sources = [ColumnDataSource({"x": [], "y": []}, name=f"tuning-{p}") for p in range(len(PRESET_COLORS))]
         self._all = ColumnDataSource({"x": [], "y": []}, name="tuning-all")
+        self._oracle = ColumnDataSource({"x": [], "y": [], "color": []}, name="tuning-oracle")
         self._mark = Span(location=1.0, dimension="height", line_color="#c00", line_width=2, visible=False)
         self._items: list[LegendItem] = []
         self._figure = self._chart()
@@ -83,6 +84,9 @@ class TuningView(Viewer):
             self._items.append(LegendItem(label=value(""), renderers=[line], visible=False))
         every = fig.line("x", "y", source=self._all, color="#000", line_width=4, line_alpha=0.8)
         self._items.append(LegendItem(label=value("largest over the presets (the rule's)"), renderers=[every]))
+        best = fig.scatter("x", "y", source=self._oracle, size=11 * scale, marker="circle", fill_color="color",
+                           line_color="#000", line_width=1.5)
+        self._items.append(LegendItem(label=value("each preset's own best (oracle, a reference)"), renderers=[best]))
         fig.add_layout(Legend(items=self._items, location="top_left", label_text_font_size=f"{10 * scale:.3g}pt",
                               click_policy="hide"), "right")
         return fig
@@ -95,6 +99,7 @@ class TuningView(Viewer):
                                  "defaults, labelled *untuned*.")
             for src in (*self._sources, self._all):
                 src.data = {"x": [], "y": []}
+            self._oracle.data = {"x": [], "y": [], "color": []}
             self._mark.visible = False
             return
         x, per_preset, largest, best = curves(t, family)
@@ -105,11 +110,18 @@ class TuningView(Viewer):
             if have:
                 self._items[p].label = value(t.preset_labels[p].replace("r_min", R_MIN))
         self._all.data = {"x": x, "y": largest}
+        low = per_preset.argmin(axis=1)  # each preset's best along this curve: a reference no rule can pick blind
+        self._oracle.data = {"x": x[low], "y": per_preset[np.arange(len(low)), low],
+                             "color": list(PRESET_COLORS[:len(low)])}
         self._figure.xaxis.axis_label = AXIS[family][1]
         self._mark.update(location=float(x[best]), visible=True)
         knob, origin = powers(knob_text(t.knobs[t.minimax(family)])), t.origin.replace("r_min", R_MIN)
+        oracle = "; ".join(f"{t.preset_labels[p].replace('r_min', R_MIN)}: {powers(knob_text(t.knobs[j]))}"
+                           for p, j in enumerate(t.oracle(family, p) for p in range(len(t.presets))))
         self._note.object = (f"**{html.escape(FAMILIES[family][0])}**: tuned at {knob} (red line), where its largest "
-                             f"ratio over every preset and period is least: {largest[best]:.3g}. Tuning: {origin}.")
+                             f"ratio over every preset and period is least: {largest[best]:.3g}. Oracle-tuned, each "
+                             f"preset at its own best knob (dots; a reference, since a filter that does not know σ "
+                             f"cannot know the preset either): {html.escape(oracle)}. Tuning: {origin}.")
 
     def __panel__(self):
         s = self.state
