@@ -20,8 +20,7 @@ from panel.io.resources import CDN_DIST
 from panel.viewable import Viewable
 from threadpoolctl import threadpool_limits
 
-from app.jobs import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs
-from app.longjobs import LongJobQueue
+from app.jobs import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs, LongJobQueue
 from app.serving import fastpath, hardening, offloop
 from app.state import TABS, AppState
 from app.urlsync import UrlSync, after_pause
@@ -43,7 +42,7 @@ TAB_TITLES = {"trajectories": "Trajectories (paper A, Fig. 3)", "sweep": "ν swe
 PAGE_CSS = a11y.PAGE_CSS
 
 #: the server's one queue of long jobs (sweeps, recommendations, worst cases): every session's, one at a time, each
-#: in a child process (see app.longjobs for the measurements behind that choice)
+#: in a child process (see app.jobs.long for the measurements behind that choice)
 LONG_JOBS = LongJobQueue(workers=1, max_waiting=8, processes=True)
 
 # The model's matrices are m×m (m ≤ 7): multithreaded BLAS only adds overhead, and with several sessions' jobs

@@ -18,7 +18,7 @@ from isl_core import DivergenceError, Model, predicted_ratios, run_plan
 from isl_core.runview import RunView, simulate_view
 
 from . import extras
-from .longjobs import Cancelled
+from .jobs import Cancelled
 from .text import R_MIN, num
 
 __all__ = [

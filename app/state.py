@@ -23,8 +23,7 @@ from isl_core.runview import RunView
 
 from . import extras, inputs, scenario, sweeps
 from .export import run_csv, run_png
-from .jobs import Jobs, Outcome
-from .longjobs import LongTask
+from .jobs import Jobs, LongTask, Outcome
 from .pipeline import HORIZON_BOUNDS, LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from .presets import PRESETS
 from .text import R_MIN

@@ -11,8 +11,7 @@ from _loop import ManualLoop
 
 from app import extras
 from app.extras import EXTRA_NAMES
-from app.jobs import Jobs
-from app.longjobs import LongJobQueue
+from app.jobs import Jobs, LongJobQueue
 from app.state import AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import WorstCaseView, worst_case_html

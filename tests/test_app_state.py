@@ -12,8 +12,7 @@ from _loop import ManualLoop
 
 from app import pipeline
 from app import state as state_module
-from app.jobs import Jobs
-from app.longjobs import LongJobQueue
+from app.jobs import Jobs, LongJobQueue
 from app.pipeline import APP_MAX_STEPS
 from app.presets import PRESETS
 from app.state import INPUTS, AppState

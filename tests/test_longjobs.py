@@ -1,4 +1,4 @@
-"""The server's queue of long jobs (app.longjobs): one per session, bounded, first come first served, positions."""
+"""The server's queue of long jobs (app.jobs.long): one per session, bounded, first come first served, positions."""
 from __future__ import annotations
 
 import multiprocessing
@@ -8,7 +8,7 @@ from functools import partial
 import pytest
 
 from app.jobs import Outcome
-from app.longjobs import Cancelled, LongJobQueue, QueueFull, in_process
+from app.jobs import Cancelled, LongJobQueue, QueueFull, in_process
 
 
 class Gate:

@@ -9,6 +9,6 @@
 * :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class;
 * :mod:`app.serving.fastpath` — less of Panel's Python per slider change (design stylesheets only when they change).
 
-The session's own jobs (:mod:`app.jobs`) and the server's long-job queue (:mod:`app.longjobs`) belong to the
+The session's own jobs (:mod:`app.jobs.threads`) and the server's long-job queue (:mod:`app.jobs.long`) belong to the
 dashboard's pipeline and stay beside it.
 """

@@ -12,46 +12,21 @@ Without an executor (tests, scripts) a job runs inline and its outcome is applie
 from __future__ import annotations
 
 import logging
-import os
 import threading
-import time
 from collections.abc import Callable
 from concurrent.futures import Executor, ThreadPoolExecutor
-from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
-__all__ = ["LARGE_NICE", "LARGE_POOL", "LONG_NICE", "RUN_NICE", "RUN_POOL", "VIEW_POOL", "Jobs", "Outcome", "Superseded",
-           "call", "lower_priority"]
+from .base import LARGE_NICE, RUN_NICE, Outcome, QueueFull, call, lower_priority
+
+__all__ = ["LARGE_POOL", "RUN_POOL", "VIEW_POOL", "Jobs", "Superseded"]
 
 log = logging.getLogger(__name__)
 
-RUN_NICE = 5  #: CPU priority of the threads computing runs: below the event loop (nice 0)
-LARGE_NICE = 8  #: of the thread computing large runs (over LIVE_MAX_STEPS steps): below the slider runs
-LONG_NICE = 10  #: and of the thread computing long jobs (sweeps, worst cases, recommendations): below the runs
-
-
-def lower_priority(nice: int) -> Callable[[], None]:
-    """A thread initializer that lowers the calling thread's CPU priority by ``nice`` (Linux: threads are scheduled
-    one by one, and a thread may lower its own priority without privileges; elsewhere: nothing).
-
-    The event loop of a served dashboard answers every session and ``/liveness``; measured on 2 cores with two
-    sessions re-running 10⁶-step runs and two worst cases at their maximum, it got a small share of the CPU among
-    the compute threads and one slider answer took seconds. With the compute threads niced, the kernel still gets
-    every idle cycle, but the loop runs first.
-    """
-    def initializer() -> None:
-        try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0)
-                                                                              + nice))
-        except (AttributeError, OSError):  # not Linux, or not allowed: same priority as the loop
-            log.debug("could not lower a worker thread's priority", exc_info=True)
-    return initializer
-
-
 #: Shared by every session of a server process: runs (a slider's answer) on two threads, large runs (≈ 10⁵–10⁶ steps,
 #: followed on release only) on one thread of their own at a lower priority, long jobs in the queue of
-#: :mod:`app.longjobs` (one thread, lower still) — so that no run queues behind a large run or a long job, and each
+#: :mod:`app.jobs.long` (one thread, lower still) — so that no run queues behind a large run or a long job, and each
 #: leaves the cores to the work above it.
 RUN_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-run", initializer=lower_priority(RUN_NICE))
 LARGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-large", initializer=lower_priority(LARGE_NICE))
@@ -61,25 +36,6 @@ VIEW_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-view")
 
 class Superseded(Exception):
     """A cancellable job was stopped: a newer request of its kind was waiting, or its session closed."""
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """What a job returned or raised, and its wall-clock time in seconds."""
-
-    value: Any = None
-    error: BaseException | None = None
-    seconds: float = 0.0
-
-
-def call(fn: Callable[[], Any]) -> Outcome:
-    """Run ``fn`` and capture its value or exception (exceptions must cross the thread boundary as data)."""
-    t0 = time.perf_counter()
-    try:
-        value = fn()
-    except Exception as exc:  # noqa: BLE001 — every failure becomes a message, the server keeps serving
-        return Outcome(error=exc, seconds=time.perf_counter() - t0)
-    return Outcome(value=value, seconds=time.perf_counter() - t0)
 
 
 def _inline(fn: Callable[[], None]) -> None:
@@ -96,7 +52,7 @@ class Jobs:
     def __init__(self, executors: dict[str, Executor] | None = None,
                  schedule: Callable[[Callable[[], None]], None] | None = None, long_queue=None) -> None:
         self._executors = executors or {}
-        self._long = long_queue  # an app.longjobs.LongJobQueue, shared by the server's sessions (None: inline)
+        self._long = long_queue  # an app.jobs.long.LongJobQueue, shared by the server's sessions (None: inline)
         self._tickets: set = set()
         self._schedule = schedule or _inline
         self._busy: set[str] = set()
@@ -109,7 +65,7 @@ class Jobs:
 
     @property
     def long_in_process(self) -> bool:
-        """Long jobs compute in child processes (the server's queue, :mod:`app.longjobs`)."""
+        """Long jobs compute in child processes (the server's queue, :mod:`app.jobs.long`)."""
         return self._long is not None and self._long.processes
 
     def submit(self, kind: str, fn: Callable[..., Any], done: Callable[[Outcome, bool], None], *,
@@ -170,10 +126,8 @@ class Jobs:
 
     def submit_long(self, fn: Callable[[threading.Event], Any], done: Callable[[Outcome], None],
                     on_position: Callable[[int], None]) -> Callable[[], None]:
-        """Queue ``fn(cancel_event)`` as this session's long job (:class:`app.longjobs.LongJobQueue`); ``done`` and
+        """Queue ``fn(cancel_event)`` as this session's long job (:class:`app.jobs.long.LongJobQueue`); ``done`` and
         ``on_position`` run on the session's loop. Returns a function that cancels it. Inline without a queue."""
-        from .longjobs import QueueFull
-
         if self.closed:
             return lambda: None
         if self._long is None:

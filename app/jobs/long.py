@@ -16,7 +16,7 @@ The rules, as data that a test can check without a browser:
 * a job can be cancelled while it waits (it is dropped) or while it runs (its ``cancel`` event is set; the job's
   progress callback raises at its next report).
 
-Each session reaches the queue through its :class:`app.jobs.Jobs` (``submit_long``) and shows a job's progress,
+Each session reaches the queue through its :class:`app.jobs.threads.Jobs` (``submit_long``) and shows a job's progress,
 place and outcome through a :class:`LongTask`.
 """
 from __future__ import annotations
@@ -30,15 +30,11 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from typing import Any
 
-from .jobs import LONG_NICE, Outcome, call, lower_priority
+from .base import LONG_NICE, Cancelled, Outcome, QueueFull, call, in_steps, lower_priority
 
-__all__ = ["Cancelled", "LongJobQueue", "LongTask", "QueueFull", "Ticket", "in_process", "ping"]
+__all__ = ["LongJobQueue", "LongTask", "Ticket", "in_process", "ping"]
 
 log = logging.getLogger(__name__)
-
-
-class QueueFull(RuntimeError):
-    """Too many long jobs are waiting, or this session has one already; the message says which."""
 
 
 @dataclass(eq=False)
@@ -133,10 +129,6 @@ class LongJobQueue:
                 log.exception("delivering a long job's outcome failed")
 
 
-class Cancelled(Exception):
-    """Raised from a long job's progress callback to stop it."""
-
-
 #: modules the child processes' parent (a fork server) imports once, so that a job starts in milliseconds
 PRELOAD = ["isl_core", "app.sweeps", "app.extras"]
 _CONTEXT: list = []
@@ -151,18 +143,6 @@ def _context():
         ctx.set_forkserver_preload(PRELOAD)
         _CONTEXT.append(ctx)
     return _CONTEXT[0]
-
-
-def in_steps(report: Callable[[float], None], step: float = 0.01) -> Callable[[float], None]:
-    """``report`` called only when the progress fraction has moved by ``step`` since its last call, or reached 1
-    (a job reports per chunk; a page or a pipe needs no more than 1 % steps)."""
-    last = [0.0]
-
-    def progress(fraction: float) -> None:
-        if fraction - last[0] >= step or fraction >= 1.0:
-            last[0] = fraction
-            report(fraction)
-    return progress
 
 
 def _child(fn: Callable[..., Any], conn, nice: int) -> None:
@@ -226,7 +206,7 @@ class LongTask:
     """One kind of long job of a session (the ν-sweep's, the worst case's): start, progress, place in the queue,
     cancel, and the outcome — written to three of ``state``'s parameters (``busy``, ``progress``, ``note``).
 
-    ``state`` provides ``_jobs`` (:class:`app.jobs.Jobs`) and ``describe(error)`` for failures.
+    ``state`` provides ``_jobs`` (:class:`app.jobs.threads.Jobs`) and ``describe(error)`` for failures.
     """
 
     def __init__(self, state, *, busy: str, progress: str, note: str) -> None:

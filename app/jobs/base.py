@@ -1,0 +1,79 @@
+"""What the session's jobs and the server's long jobs share: an outcome, CPU priorities, the ways a job ends early.
+
+:mod:`app.jobs.threads` runs a session's jobs on thread pools, :mod:`app.jobs.long` the server's queue of long jobs
+in child processes; both import this module and neither imports the other.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from isl_core.jobs import Cancelled
+
+__all__ = ["LARGE_NICE", "LONG_NICE", "RUN_NICE", "Cancelled", "Outcome", "QueueFull", "call", "in_steps",
+           "lower_priority"]
+
+log = logging.getLogger(__name__)
+
+RUN_NICE = 5  #: CPU priority of the threads computing runs: below the event loop (nice 0)
+LARGE_NICE = 8  #: of the thread computing large runs (over LIVE_MAX_STEPS steps): below the slider runs
+LONG_NICE = 10  #: and of the thread computing long jobs (sweeps, worst cases, recommendations): below the runs
+
+
+def lower_priority(nice: int) -> Callable[[], None]:
+    """A thread initializer that lowers the calling thread's CPU priority by ``nice`` (Linux: threads are scheduled
+    one by one, and a thread may lower its own priority without privileges; elsewhere: nothing).
+
+    The event loop of a served dashboard answers every session and ``/liveness``; measured on 2 cores with two
+    sessions re-running 10⁶-step runs and two worst cases at their maximum, it got a small share of the CPU among
+    the compute threads and one slider answer took seconds. With the compute threads niced, the kernel still gets
+    every idle cycle, but the loop runs first.
+    """
+    def initializer() -> None:
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0)
+                                                                              + nice))
+        except (AttributeError, OSError):  # not Linux, or not allowed: same priority as the loop
+            log.debug("could not lower a worker thread's priority", exc_info=True)
+    return initializer
+
+
+
+class QueueFull(RuntimeError):
+    """Too many long jobs are waiting, or this session has one already; the message says which."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a job returned or raised, and its wall-clock time in seconds."""
+
+    value: Any = None
+    error: BaseException | None = None
+    seconds: float = 0.0
+
+
+def call(fn: Callable[[], Any]) -> Outcome:
+    """Run ``fn`` and capture its value or exception (exceptions must cross the thread boundary as data)."""
+    t0 = time.perf_counter()
+    try:
+        value = fn()
+    except Exception as exc:  # noqa: BLE001 — every failure becomes a message, the server keeps serving
+        return Outcome(error=exc, seconds=time.perf_counter() - t0)
+    return Outcome(value=value, seconds=time.perf_counter() - t0)
+
+
+def in_steps(report: Callable[[float], None], step: float = 0.01) -> Callable[[float], None]:
+    """``report`` called only when the progress fraction has moved by ``step`` since its last call, or reached 1
+    (a job reports per chunk; a page or a pipe needs no more than 1 % steps)."""
+    last = [0.0]
+
+    def progress(fraction: float) -> None:
+        if fraction - last[0] >= step or fraction >= 1.0:
+            last[0] = fraction
+            report(fraction)
+    return progress
