@@ -15,6 +15,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 from pathlib import Path
@@ -224,9 +225,20 @@ def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_
     compiled without a cache when not even the temporary directory can take them."""
     python = _interpreter_for_another_user()
     assert python is not None, "no interpreter another UID may run (neither this one nor Debian's)"
-    tree, cache, tmp = tmp_path / "tree", tmp_path / "cache", tmp_path / "tmp"
-    for d in (tree, cache, tmp):
+    tree, cache = tmp_path / "tree", tmp_path / "cache"
+    for d in (tree, cache):
         d.mkdir()
+    # TMPDIR short, as /tmp is in a container: the fork server's socket lives there, and a Unix socket's path may
+    # not exceed 107 bytes (pytest's own temporary paths can).
+    tmp = Path(tempfile.mkdtemp(prefix="isl-"))
+    try:
+        _check_as_another_uid(python, tmp_path, tree, cache, tmp, tmp_writable)
+    finally:
+        subprocess.run(["chmod", "-R", "u+w", str(tmp)], check=False)
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _check_as_another_uid(python, tmp_path, tree, cache, tmp, tmp_writable):
     for package in ("isl_core", "app"):
         shutil.copytree(REPO / package, tree / package, ignore=shutil.ignore_patterns("__pycache__"))
     subprocess.run(["chmod", "-R", "a-w", str(tree), str(cache)], check=True)
