@@ -18,6 +18,7 @@ from isl_core import DivergenceError, Model, predicted_ratios, run_plan
 from isl_core.runview import RunView, simulate_view
 
 from . import extras
+from .extras import SIGMA_DESIGN, SIGMA_RANGE
 from .jobs import Cancelled
 from .text import R_MIN, num
 
@@ -46,8 +47,8 @@ class Request:
     seed: int
     horizon: float
     extras: tuple[str, ...] = ()
-    sigma_design: float = 20.0
-    sigma_range: tuple[float, float] = (2.0, 200.0)
+    sigma_design: float = SIGMA_DESIGN
+    sigma_range: tuple[float, float] = SIGMA_RANGE
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from isl_core import Model, baseline_filters, recommend_nu, sweep, theory_ratios
 from isl_core.sweep import BURN
 from isl_core.theory import predicted_ratios_grid
 
+from .extras import SIGMA_DESIGN, SIGMA_RANGE
 from .text import per_r_min
 
 __all__ = [
@@ -82,7 +83,7 @@ class SweepPoints:
 
 
 def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, extras: Sequence[str] = (),
-                  sigma_design: float = 20.0, sigma_range: tuple[float, float] = (2.0, 200.0)) -> SweepCurves:
+                  sigma_design: float = SIGMA_DESIGN, sigma_range: tuple[float, float] = SIGMA_RANGE) -> SweepCurves:
     """Predicted ``š_i/s_i`` over ``ν/β = 2^THEORY_LEVELS`` for each σ (B.48, SPEC §6); inf where unstable.
 
     ``extras``: names of extra filters whose curves to add (``sigma_design``, ``sigma_range`` as in

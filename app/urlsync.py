@@ -26,11 +26,9 @@ import time
 import urllib.parse
 from collections.abc import Callable
 
-import param
-
 from . import inputs
 from .serving.offloop import session_loop
-from .state import ALL_INPUTS, KINDS, AppState, input_label
+from .state import ALL_INPUTS, KINDS, PARAMS, AppState, input_label
 
 __all__ = ["URL_INPUTS", "URL_PAUSE", "UrlSync", "after_pause", "parse_query", "query_string", "read_query"]
 
@@ -94,11 +92,11 @@ def parse_query(search: str) -> dict[str, object]:
     return read_query(search)[0]
 
 
-def query_string(state: param.Parameterized, search: str = "") -> str:
+def query_string(state: AppState, search: str = "") -> str:
     """``search`` with the known inputs replaced by the state's non-default ones (unknown keys are kept)."""
     kept = [(k, v) for k, v in urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True)
             if k not in URL_INPUTS]
-    ours = [(n, _encode(getattr(state, n))) for n in URL_INPUTS if getattr(state, n) != state.param[n].default]
+    ours = [(n, _encode(state.get(n))) for n in URL_INPUTS if state.get(n) != PARAMS[n].default]
     query = urllib.parse.urlencode(kept + ours, safe="[],:")
     return f"?{query}" if query else ""
 
@@ -120,7 +118,7 @@ class UrlSync:
         # may already have rewritten it (a bad value dropped, a horizon lowered). That echo is not a navigation.
         self._opened_with = location.search
         self.apply(location.search)
-        state.param.watch(self._on_input, list(URL_INPUTS))
+        state.watch(self._on_input, URL_INPUTS)
         state.param.watch(self._on_outcome, _OUTCOMES)
         location.param.watch(self._on_search, ["search"])
 
@@ -128,11 +126,10 @@ class UrlSync:
         """Set the state's inputs from ``search``: the query's values, defaults for the inputs it lacks; every bad
         value is reported (one message) and the URL then shows what the page shows."""
         values, problems = read_query(search)
-        wanted = {n: self.state.param[n].default for n in URL_INPUTS}
+        wanted = {n: PARAMS[n].default for n in URL_INPUTS}
         wanted.update(values)
-        changed = {n: v for n, v in wanted.items() if not _same(getattr(self.state, n), v)}
-        with param.parameterized.batch_call_watchers(self.state):  # one new run for the whole link
-            bad = self.state.set_inputs(changed, problems, link=True)
+        changed = {n: v for n, v in wanted.items() if not _same(self.state.get(n), v)}
+        bad = self.state.set_inputs(changed, problems, link=True)  # in one batch: one new run for the whole link
         if bad and self.state.computing:
             self._pending = True  # cleaned with the answer to the rest of the link
         elif bad:
@@ -192,5 +189,5 @@ class UrlSync:
 def _same(a, b) -> bool:
     try:
         return bool(a == b)
-    except Exception:  # noqa: BLE001 — incomparable values differ
+    except Exception:
         return False

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from app.scenario import PRESETS as SCENARIO_PRESETS
+from app.state.scenarios import PRESETS as SCENARIO_PRESETS
 from app.state import AppState
 from app.text import num, per_r_min
 from app.urlsync import query_string, read_query
@@ -64,11 +64,11 @@ def test_unticking_alpha_zero_goes_back_to_the_alpha_before(state):
 
 def test_a_scenario_preset_says_which_model_inputs_it_set(state):
     label = next(k for k in SCENARIO_PRESETS if "200 → 2" in k)
-    state.apply_scenario_preset(label)
+    state.scenarios.apply_preset(label)
     preset = SCENARIO_PRESETS[label]
     assert state.sigma == preset["sigma"] == 200.0 and state.nu == preset["nu"]
     for part in ("α = 1", "σ(0) = 200", f"ν = {num(preset['nu'], 3)}", "sidebar"):
-        assert part in state.sc_preset_note and part in state.message, part
+        assert part in state.scenarios.preset_note and part in state.message, part
 
 
 def test_the_theory_is_refused_where_the_filter_has_lost_lock(state):

@@ -12,12 +12,13 @@ from _loop import ManualLoop
 from app import extras
 from app.extras import EXTRA_NAMES
 from app.jobs import Jobs, LongJobQueue
-from app.state import AppState
+from app.state import PARAMS, AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import WorstCaseView, worst_case_html
 from isl_core import Model, baseline_filters, simulate, theory_ratios
 from isl_core.baselines import LABELS
 from isl_core.decimate import minmax_indices
+from isl_core.worstcase import FILTERS
 
 
 @pytest.fixture
@@ -33,12 +34,12 @@ def test_default_run_has_only_the_two_filters(state):
 
 
 def test_extra_filters_ride_on_the_same_run(state):
-    state.extra_filters = list(extras.EXTRA_NAMES)
+    state.baselines.extra_filters = list(extras.EXTRA_NAMES)
     run = state.run
     assert [tr.name for tr in run.tracks] == ["kbf", "isl", *extras.EXTRA_NAMES] and state.message == ""
     # the same noise: an independent simulate with the same filters, grid and seed reproduces every track
-    specs = baseline_filters(run.model, nu=run.nu, sigma_design=state.sigma_design,
-                             sigma_range=(state.sigma_min, state.sigma_max), names=extras.EXTRA_NAMES)
+    specs = baseline_filters(run.model, nu=run.nu, sigma_design=state.baselines.sigma_design,
+                             sigma_range=state.baselines.sigma_range, names=extras.EXTRA_NAMES)
     again = simulate(run.model, run.nu, T=run.T, h=run.h, seed=run.seed, extra=specs)
     for a, b in zip(run.tracks, again.tracks, strict=True):
         for i in range(run.model.m):
@@ -56,8 +57,8 @@ def test_extra_filters_ride_on_the_same_run(state):
 
 
 def test_design_sigma_and_range_reach_the_filters(state):
-    state.extra_filters = ["kbf_mismatched", "kbf_minimax"]
-    state.param.update(sigma_design=5.0, sigma_max=100.0)
+    state.baselines.extra_filters = ["kbf_mismatched", "kbf_minimax"]
+    state.set_inputs({"sigma_design": 5.0, "sigma_max": 100.0})
     assert "5" in state.run.track("kbf_mismatched").label and "100" in state.run.track("kbf_minimax").label
     model = state.run.model
     spec, = baseline_filters(model, nu=3.0, sigma_design=5.0, names=("kbf_mismatched",))
@@ -71,30 +72,30 @@ def test_design_sigma_and_range_reach_the_filters(state):
     ("wc_alphas", []), ("wc_alphas", [0.0]), ("wc_n_sigma", 1), ("wc_horizon", float("inf")),
 ])
 def test_bad_values_are_refused_with_a_message(state, name, bad):
-    state.extra_filters = ["isl_model"]
-    run, before = state.run, getattr(state, name)
-    setattr(state, name, bad)
-    assert getattr(state, name) == before and state.run is run
-    label = state.param[name].label
+    state.baselines.extra_filters = ["isl_model"]
+    run, before = state.run, state.get(name)
+    state.set(name, bad)
+    assert state.get(name) == before and state.run is run
+    label = PARAMS[name].label
     assert state.message.startswith("Refused: ") and label in state.message and " must be " in state.message
 
 
 def test_sigma_range_needs_min_below_max(state):
-    state.sigma_min = 200.0
-    assert state.sigma_min == 2.0 and "σ min (sigma_min) must be below σ max (sigma_max)" in state.message
-    state.sigma_max = 300.0
-    state.sigma_min = 250.0
-    assert (state.sigma_min, state.sigma_max) == (250.0, 300.0)
+    state.baselines.sigma_min = 200.0
+    assert state.baselines.sigma_min == 2.0 and "σ min (sigma_min) must be below σ max (sigma_max)" in state.message
+    state.baselines.sigma_max = 300.0
+    state.baselines.sigma_min = 250.0
+    assert state.baselines.sigma_range == (250.0, 300.0)
 
 
 def test_sweep_curves_of_the_extra_filters(state):
-    state.want_curves()
-    assert state.curves is not None, state.curves_note
-    assert state.curves.extra == {}
-    state.extra_filters = list(extras.EXTRA_NAMES)
-    extra = state.curves.extra
+    state.sweep.want_curves()
+    assert state.sweep.curves is not None, state.sweep.curves_note
+    assert state.sweep.curves.extra == {}
+    state.baselines.extra_filters = list(extras.EXTRA_NAMES)
+    extra = state.sweep.curves.extra
     assert set(extra) == {"kbf_mismatched", "kbf_minimax", "isl_model"}  # no theory for the adaptive filter
-    assert extra["isl_model"].shape == state.curves.ratios.shape
+    assert extra["isl_model"].shape == state.sweep.curves.ratios.shape
     assert np.ptp(extra["kbf_minimax"], axis=1).max() == 0.0  # a fixed gain does not depend on ν
 
 
@@ -103,17 +104,17 @@ def test_worst_case_table_is_computed_off_thread_and_shown():
     try:
         s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule, long_queue=LongJobQueue()))
         s.start()
-        s.param.update(wc_alphas=[1.0], wc_n_sigma=2, wc_horizon=20.0)
+        s.set_inputs({"wc_alphas": [1.0], "wc_n_sigma": 2, "wc_horizon": 20.0})
         view = WorstCaseView(state=s)
         assert not view._figure.visible and "No table yet" in view._table.object  # nothing to plot yet
         caller = threading.get_ident()
-        s.compute_worst_case()
-        assert s.worst_busy  # returned before the table exists: the work is in the long-job queue
-        loop.pump(lambda: not s.worst_busy, timeout=120.0)
+        s.worstcase.compute()
+        assert s.worstcase.busy  # returned before the table exists: the work is in the long-job queue
+        loop.pump(lambda: not s.worstcase.busy, timeout=120.0)
         assert threading.get_ident() == caller
-        t = s.worst
-        assert t is not None and "Simulated" in s.worst_note, s.worst_note
-        assert t.alphas.tolist() == [1.0] and t.sigma_range == (2.0, 200.0) and t.names == extras.FILTERS
+        t = s.worstcase.table
+        assert t is not None and "Simulated" in s.worstcase.note, s.worstcase.note
+        assert t.alphas.tolist() == [1.0] and t.sigma_range == (2.0, 200.0) and t.names == FILTERS
         # internal consistency: each worst case is the largest per-σ value, the oracle's theory is 1
         assert np.all(t.worst[0] >= t.ratio[0].max(axis=-1).max(axis=0) - 1e-12)
         assert t.theory_worst[0, 0] == pytest.approx(1.0, rel=1e-9)
@@ -131,11 +132,11 @@ def test_worst_case_can_be_cancelled():
     try:
         s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule, long_queue=LongJobQueue()))
         s.start()
-        s.param.update(wc_alphas=[0.04, 25.0], wc_horizon=2000.0)  # long enough to be caught running
-        s.compute_worst_case()
-        s.cancel_worst_case()
-        loop.pump(lambda: not s.worst_busy, timeout=120.0)
-        assert s.worst_note == "Cancelled." and s.worst is None
+        s.set_inputs({"wc_alphas": [0.04, 25.0], "wc_horizon": 2000.0})  # long enough to be caught running
+        s.worstcase.compute()
+        s.worstcase.cancel()
+        loop.pump(lambda: not s.worstcase.busy, timeout=120.0)
+        assert s.worstcase.note == "Cancelled." and s.worstcase.table is None
     finally:
         pool.shutdown(wait=True)
 
@@ -152,16 +153,16 @@ def test_worst_case_model_is_the_papers_parametrization():
 def test_sweep_view_draws_the_extra_curves(state):
     from app.views.sweep import SweepView
 
-    state.want_curves()
-    assert state.curves is not None, state.curves_note
+    state.sweep.want_curves()
+    assert state.sweep.curves is not None, state.sweep.curves_note
     view = SweepView(state=state)
     srcs = view._extra_lines[0]
     assert all(len(src.data["x"]) == 0 for name in srcs for src in srcs[name])
-    state.extra_filters = ["isl_model", "kbf_adaptive"]
-    n = len(state.sweep_sigmas)
+    state.baselines.extra_filters = ["isl_model", "kbf_adaptive"]
+    n = len(state.sweep.sigmas)
     assert [len(src.data["x"]) > 0 for src in srcs["isl_model"]] == [True] * n + [False] * (len(srcs["isl_model"]) - n)
     assert LABELS["isl_model"] in view._extra_legend.object and LABELS["kbf_minimax"] not in view._extra_legend.object
-    np.testing.assert_array_equal(srcs["isl_model"][0].data["y"], state.curves.extra["isl_model"][0, :, 0])
+    np.testing.assert_array_equal(srcs["isl_model"][0].data["y"], state.sweep.curves.extra["isl_model"][0, :, 0])
 
 
 def test_sweep_note_at_alpha_zero_says_the_curves_coincide_and_why_no_recommendation(state):
@@ -170,13 +171,13 @@ def test_sweep_note_at_alpha_zero_says_the_curves_coincide_and_why_no_recommenda
     view = SweepView(state=state)
 
     def note() -> str:
-        return view._note(state.sweep_note, state.curves_note, state.points, state.curves)
+        return view._note(state.sweep.note, state.sweep.curves_note, state.sweep.points, state.sweep.curves)
 
     assert state.alpha > 0 and "coincide" not in note() and "needs α > 0" not in note()
     state.alpha = 0.0  # paper B: the ratio depends on ν/β only
-    assert state.curves.alpha == 0.0 and len(state.curves.sigmas) == 3
+    assert state.sweep.curves.alpha == 0.0 and len(state.sweep.curves.sigmas) == 3
     assert "coincide" in note() and "needs α > 0" in note()
-    state.sweep_sigmas = [20.0]
+    state.sweep.sigmas = [20.0]
     assert "coincide" not in note()  # one σ: nothing to coincide with
 
 
@@ -189,14 +190,14 @@ def test_trajectories_overlay_the_extra_filters(state):
     lines = {n: view._overlay._followers[n] for n in EXTRA_NAMES}  # the filter's line in each plot
     assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())  # default: nothing sent
     assert not any(item.visible for item in items.values()) and not any(ln.visible for v in lines.values() for ln in v)
-    state.extra_filters = ["kbf_adaptive", "isl_model"]
+    state.baselines.extra_filters = ["kbf_adaptive", "isl_model"]
     for i in range(state.m):
         t, y = state.traces.series[i]["isl_model"]
         np.testing.assert_array_equal(srcs[i]["isl_model"].data["y"], y)
         assert len(srcs[i]["kbf_adaptive"].data["t"]) > 0 and "kbf_minimax" not in srcs[i]  # built when first shown
     assert items["isl_model"].visible and items["kbf_adaptive"].visible and not items["kbf_minimax"].visible
     assert all(ln.visible for ln in lines["isl_model"]) and not any(ln.visible for ln in lines["kbf_minimax"])
-    state.extra_filters = []
+    state.baselines.extra_filters = []
     assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from app import scenario_picture
 from app.colors import contrast, text_on, tint
-from app.scenario import PRESETS
+from app.state.scenarios import PRESETS
 from app.scenario_picture import LOOP, PICTURE_MAX_STEPS, picture_filters
 from app.state import AppState
 from app.urlsync import query_string, read_query
@@ -33,14 +33,14 @@ def state():
     ("sc_runs", 1000, "runs averaged"), ("sc_window", 0.0, "rolling window"), ("sc_map", "space", "map over"),
 ])
 def test_a_bad_scenario_input_is_refused_by_name_and_keeps_its_value(state, name, bad, named):
-    before = getattr(state, name)
-    setattr(state, name, bad)
-    assert getattr(state, name) == before
+    before = state.get(name)
+    state.set(name, bad)
+    assert state.get(name) == before
     assert state.message_kind == "danger" and named in state.message and "must be" in state.message
 
 
 def test_the_link_carries_the_scenario_and_reports_bad_values(state):
-    state.param.update(sc_noise="student", sc_dof=4.0, sc_change="none")
+    state.set_inputs({"sc_noise": "student", "sc_dof": 4.0, "sc_change": "none"})
     query = query_string(state)
     assert "sc_noise=student" in query and "sc_change=none" in query
     values, problems = read_query(query)
@@ -51,10 +51,10 @@ def test_the_link_carries_the_scenario_and_reports_bad_values(state):
 
 
 def test_the_picture_is_the_cores_average_for_the_same_request(state):
-    state.param.update(sc_runs=4, sc_horizon=14.0, sc_change_at=6.0)
-    state.want_scenario()  # outside a server the job runs inline
-    pic = state.scenario
-    assert pic is not None and "Simulated in" in state.scenario_note and "4 runs" in state.scenario_note
+    state.set_inputs({"sc_runs": 4, "sc_horizon": 14.0, "sc_change_at": 6.0})
+    state.scenarios.want()  # outside a server the job runs inline
+    pic = state.scenarios.picture
+    assert pic is not None and "Simulated in" in state.scenarios.note and "4 runs" in state.scenarios.note
     req = pic.request
     assert req.scenario == Scenario(sigma_knots=((6.0, 2.0),))
     direct = average_scenario(req.model, state.nu, req.scenario, seeds=range(state.seed, state.seed + 4),
@@ -66,57 +66,57 @@ def test_the_picture_is_the_cores_average_for_the_same_request(state):
                                      "imm")
     assert pic.tuned is None and set(pic.tuning.values()) >= {"untuned: the constructor's default"}
     # an input change recomputes it (the tab is open)
-    state.sc_noise = "outliers"
-    assert state.scenario.request.scenario.noise == "outliers"
+    state.scenarios.noise = "outliers"
+    assert state.scenarios.picture.request.scenario.noise == "outliers"
 
 
 def test_a_picture_too_long_for_the_dashboard_is_refused_with_the_setting_to_lower(state):
-    state.param.update(sc_runs=256, sc_horizon=500.0)
-    state.want_scenario()
-    assert state.scenario is None
-    assert "sc_runs" in state.scenario_note and f"{PICTURE_MAX_STEPS:,}" in state.scenario_note
-    state.param.update(sc_horizon=5.0, sc_window=8.0)
-    assert "sc_window" in state.scenario_note and "not be longer" in state.scenario_note
+    state.set_inputs({"sc_runs": 256, "sc_horizon": 500.0})
+    state.scenarios.want()
+    assert state.scenarios.picture is None
+    assert "sc_runs" in state.scenarios.note and f"{PICTURE_MAX_STEPS:,}" in state.scenarios.note
+    state.set_inputs({"sc_horizon": 5.0, "sc_window": 8.0})
+    assert "sc_window" in state.scenarios.note and "not be longer" in state.scenarios.note
 
 
 def test_a_preset_sets_the_tables_column(state):
     label = "σ 2 → 200 at 10/rₘᵢₙ"  # the table's column, as the page writes it
-    state.apply_scenario_preset(label)
+    state.scenarios.apply_preset(label)
     assert (state.alpha, state.w, state.m, state.sigma) == (1.0, 3.0, 3, 2.0)
-    assert (state.sc_change, state.sc_change_at, state.sc_sigma_after) == ("step", 10.0, 200.0)
+    assert (state.scenarios.change, state.scenarios.change_at, state.scenarios.sigma_after) == ("step", 10.0, 200.0)
     assert state.nu == pytest.approx(0.849, abs=5e-4)  # β·(A.31)'s ν/β at α = 1, as the table runs it
     assert set(PRESETS) >= {label, "Student-t noise, 3 degrees of freedom", "sensor read every 0.1/rₘᵢₙ"}
-    state.apply_scenario_preset("nonsense")
+    state.scenarios.apply_preset("nonsense")
     assert "Unknown scenario preset" in state.message
 
 
 def test_the_csv_holds_every_window_and_filter(state):
-    state.param.update(sc_runs=3, sc_horizon=10.0)
-    state.want_scenario()
-    text = state.scenario_csv().getvalue()
+    state.set_inputs({"sc_runs": 3, "sc_horizon": 10.0})
+    state.scenarios.want()
+    text = state.scenarios.csv().getvalue()
     head = [line for line in text.splitlines() if line.startswith("#")]
     assert any("sigma(0)=20" in line for line in head) and any("Scenario(" in line for line in head)
     rows = list(csv.DictReader(io.StringIO("\n".join(line for line in text.splitlines() if not line.startswith("#")))))
-    assert len(rows) == len(state.scenario.rolling.t)
+    assert len(rows) == len(state.scenarios.picture.rolling.t)
     assert {"ratio_clairvoyant", "high_isl", "sigma_hat_vb", "coordinate_isl_model"} <= set(rows[0])
 
 
 def test_the_view_draws_the_picture_and_the_period_table(state):
-    state.param.update(sc_runs=3, sc_horizon=13.0)
+    state.set_inputs({"sc_runs": 3, "sc_horizon": 13.0})
     view = ScenarioView(state=state)
     data = view._ratio_src.data
-    assert len(data["t"]) == len(state.scenario.rolling.t) and "isl_model_high" in data
+    assert len(data["t"]) == len(state.scenarios.picture.rolling.t) and "isl_model_high" in data
     assert set(view._sigma_src.data) == {"t", "sigma", "kbf_adaptive", "vb", "kbf_robust", "imm"}
     assert view._change.visible and view._change.location == 10.0
-    pic = state.scenario
+    pic = state.scenarios.picture
     table = periods_html(pic, pic.costs)
     assert table.count("<tr>") == 1 + len(pic.average.run.names) and "class='best'" in table
     assert "first 1/rₘᵢₙ after the change" in table and "untuned" in table
     assert set(pic.costs) == {"loop"} | set(pic.average.run.names) - set(LOOP)
     assert all(v >= 0 for v in pic.costs.values())
     assert table.count("the 3 together") == 1 and table.count("rowspan='3'") == 1  # the loop's three share one cost
-    state.sc_runs = 1  # one run: no interval, no period statistic, said so
-    assert "No period statistic from one run" in periods_html(state.scenario)
+    state.scenarios.runs = 1  # one run: no interval, no period statistic, said so
+    assert "No period statistic from one run" in periods_html(state.scenarios.picture)
 
 
 def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(state, monkeypatch):
@@ -130,10 +130,10 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     small = tune(1.0, seeds=2, horizon=12.0, grids=grids, presets={k: v for k, v in
                  TABLE_PRESETS.items() if k in ("sigma_drop", "constant")}, cache=False)
     monkeypatch.setattr(scenario_picture, "tuning_for", lambda req: small)
-    state.param.update(alpha=1.0, sc_runs=2, sc_horizon=12.0)
-    state.want_scenario()
-    pic = state.scenario
-    assert pic.tuned is small and state.sc_tuning is small
+    state.set_inputs({"alpha": 1.0, "sc_runs": 2, "sc_horizon": 12.0})
+    state.scenarios.want()
+    pic = state.scenarios.picture
+    assert pic.tuned is small and state.scenarios.tuning is small
     assert pic.average.run.names[3:] == ("isl_tuned", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
     vb = small.knobs[small.minimax("vb")]
     assert pic.tuning["vb"] == f"tuned: W = {vb['memory']:g} readings"
@@ -153,21 +153,21 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
 
 
 def test_the_map_runs_as_a_long_job_and_marks_ties(state):
-    state.param.update(sc_map="sensor", sc_map_seeds=2)
-    state.compute_map()
-    res = state.sc_map_result
-    assert res is not None and res.kind == "sensor" and "Simulated in" in state.sc_map_note
+    state.set_inputs({"sc_map": "sensor", "sc_map_seeds": 2})
+    state.scenarios.compute_map()
+    res = state.scenarios.map_result
+    assert res is not None and res.kind == "sensor" and "Simulated in" in state.scenarios.map_note
     page = map_html(res)
     assert page.count("class='cell") == len(res.x)
     assert page.count("≈ ") == int(res.tie.sum())
     assert res.model.beta == pytest.approx(state.beta_effective)
     # β as an input: the map is for that β (paper A's model with w = β/√(2α)), not for the w slider's
-    state.param.update(beta_from_w=False, beta=2.5)
-    state.compute_map()
-    assert state.sc_map_result.model.beta == pytest.approx(2.5) and "β = 2.5" in state.sc_map_note
+    state.set_inputs({"beta_from_w": False, "beta": 2.5})
+    state.scenarios.compute_map()
+    assert state.scenarios.map_result.model.beta == pytest.approx(2.5) and "β = 2.5" in state.scenarios.map_note
     state.alpha = 0.0
-    state.compute_map()
-    assert "needs α > 0" in state.sc_map_note
+    state.scenarios.compute_map()
+    assert "needs α > 0" in state.scenarios.map_note
 
 
 def test_the_map_cells_name_the_winner_in_text_that_reads_at_4_5_to_1():
@@ -186,8 +186,8 @@ def test_the_map_cells_name_the_winner_in_text_that_reads_at_4_5_to_1():
 
 
 def test_closing_the_session_drops_the_picture(state):
-    state.param.update(sc_runs=2, sc_horizon=8.0)
-    state.want_scenario()
-    assert state.scenario is not None
+    state.set_inputs({"sc_runs": 2, "sc_horizon": 8.0})
+    state.scenarios.want()
+    assert state.scenarios.picture is not None
     state.close()
-    assert state.scenario is None and state.sc_map_result is None
+    assert state.scenarios.picture is None and state.scenarios.map_result is None

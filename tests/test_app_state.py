@@ -11,7 +11,7 @@ import pytest
 from _loop import ManualLoop
 
 from app import pipeline
-from app import state as state_module
+from app.state import session as state_module
 from app.jobs import Jobs, LongJobQueue
 from app.pipeline import APP_MAX_STEPS
 from app.presets import PRESETS
@@ -171,11 +171,11 @@ def test_alpha_zero_in_w_mode_switches_to_beta(state):
 
 
 def test_sweep_sigmas_are_validated_and_sorted(state):
-    state.sweep_sigmas = [200, 2.0, 20]
-    assert state.sweep_sigmas == [2.0, 20.0, 200.0]
+    state.sweep.sigmas = [200, 2.0, 20]
+    assert state.sweep.sigmas == [2.0, 20.0, 200.0]
     for bad in (["a"], [], [1.0] * 6, "2, 20", [0.0], [float("nan")]):
-        state.sweep_sigmas = bad
-        assert state.sweep_sigmas == [2.0, 20.0, 200.0]
+        state.sweep.sigmas = bad
+        assert state.sweep.sigmas == [2.0, 20.0, 200.0]
         assert state.message.startswith("Refused: σ values must be a list of 1 to 5 numbers from 0.1 to 1000; ")
 
 
@@ -183,7 +183,7 @@ def test_csv_holds_the_run_its_parameters_and_its_numbers(state):
     from app.export import MAX_ROWS
     from isl_core import simulate
 
-    state.extra_filters = ["kbf_adaptive"]
+    state.baselines.extra_filters = ["kbf_adaptive"]
     text = state.csv().getvalue()
     lines = text.splitlines()
     head = "\n".join(line for line in lines if line.startswith("#"))
@@ -223,11 +223,11 @@ def test_traces_are_small_and_real_samples(state):
 
 
 def test_theory_curves_follow_the_context(state):
-    state.want_curves()
-    assert state.curves is not None, state.curves_note
-    assert state.curves.ratios.shape == (3, 81, 3)
+    state.sweep.want_curves()
+    assert state.sweep.curves is not None, state.sweep.curves_note
+    assert state.sweep.curves.ratios.shape == (3, 81, 3)
     state.m = 2
-    assert state.curves.m == 2 and state.curves.ratios.shape == (3, 81, 2)
+    assert state.sweep.curves.m == 2 and state.sweep.curves.ratios.shape == (3, 81, 2)
     kb = kalman_bucy(Model(0.5, 3.0, 20.0, 2))
     assert kb.r_min > 0  # the context change did not disturb the run
 
@@ -265,34 +265,34 @@ def test_threaded_sweep_can_be_cancelled():
     try:
         s = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule, long_queue=LongJobQueue()))
         s.start()
-        s.param.update(sweep_horizon=2000.0, alpha=25.0)  # long enough to be caught running
-        s.simulate_sweep()
-        assert s.sweep_busy
-        s.cancel_sweep()
-        loop.pump(lambda: not s.sweep_busy)
-        assert s.sweep_note == "Cancelled." and s.points is None
+        s.set_inputs({"sweep_horizon": 2000.0, "alpha": 25.0})  # long enough to be caught running
+        s.sweep.simulate()
+        assert s.sweep.busy
+        s.sweep.cancel()
+        loop.pump(lambda: not s.sweep.busy)
+        assert s.sweep.note == "Cancelled." and s.sweep.points is None
     finally:
         pool.shutdown(wait=True)
 
 
 def test_inline_sweep_gives_points_with_intervals(state):
-    state.param.update(sweep_sigmas=[20.0], sweep_horizon=50.0)
-    state.simulate_sweep()
-    pts = state.points
+    state.set_inputs({"sweep_sigmas": [20.0], "sweep_horizon": 50.0})
+    state.sweep.simulate()
+    pts = state.sweep.points
     assert pts is not None and pts.ratio.shape == (1, 11, 3) and np.all(pts.high > pts.low)
-    assert pts.sigmas == (20.0,) and "Simulated" in state.sweep_note
+    assert pts.sigmas == (20.0,) and "Simulated" in state.sweep.note
     state.alpha = 1.0  # another context: the points are stale and dropped, and the note that reported them
-    assert state.points is None and state.sweep_note == ""
+    assert state.sweep.points is None and state.sweep.note == ""
 
 
 def test_a_recommendation_note_goes_with_its_context(state):
-    state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
-    state.recommend()
-    assert state.sweep_note.startswith("Recommended ν")
+    state.set_inputs({"sweep_sigmas": [2.0, 200.0], "sweep_horizon": 20.0})
+    state.sweep.recommend()
+    assert state.sweep.note.startswith("Recommended ν")
     state.seed = 5  # not part of the sweep's context: the note stays
-    assert state.sweep_note.startswith("Recommended ν")
+    assert state.sweep.note.startswith("Recommended ν")
     state.m = 2
-    assert state.sweep_note == ""
+    assert state.sweep.note == ""
 
 
 def test_close_drops_the_run(state):
@@ -307,9 +307,9 @@ def test_every_preset_is_valid(state):
 
 
 def test_recommendation_sets_nu(state):
-    state.param.update(sweep_sigmas=[2.0, 200.0], sweep_horizon=20.0)
-    state.recommend()
-    assert state.sweep_note.startswith("Recommended ν"), state.sweep_note
+    state.set_inputs({"sweep_sigmas": [2.0, 200.0], "sweep_horizon": 20.0})
+    state.sweep.recommend()
+    assert state.sweep.note.startswith("Recommended ν"), state.sweep.note
     rec = recommend_nu(0.5, sigmas=[2.0, 200.0], m=3, w=3.0, verify=False)
     assert state.nu == pytest.approx(rec.nu, rel=1e-12)  # the core's answer, not a copy of table (A.31)
 
@@ -317,8 +317,8 @@ def test_recommendation_sets_nu(state):
 def test_recommendation_needs_alpha_positive(state):
     state.alpha = 0.0
     nu = state.nu
-    state.recommend()
-    assert "alpha > 0" in state.sweep_note and state.nu == nu
+    state.sweep.recommend()
+    assert "alpha > 0" in state.sweep.note and state.nu == nu
 
 
 def test_create_app_builds_a_page_outside_a_server():

@@ -73,7 +73,7 @@ SCENARIO_TEXT = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model
 def test_the_scenario_legend_names_the_run_shown_after_a_preset(app_server):
     """The legend said "Kalman–Bucy for constant σ = σ(0) = 20" and "ISL (ν = 3)" after the preset σ 200 → 2 had set
     σ(0) = 200 and ν = 0.849: it was labelled once, at its first draw. The time axis read "1/r  min"."""
-    from app.scenario import PRESETS
+    from app.state.scenarios import PRESETS
 
     url, _ = app_server
     label = next(k for k in PRESETS if "200 → 2" in k)

@@ -26,7 +26,8 @@ from _serving import run, served, session_client
 from bokeh.models import Checkbox, ColumnDataSource, CustomJSTickFormatter, Slider, Spinner, TextInput
 
 from app import extras
-from app.state import INPUTS, SWEEP_INPUTS, SWEEP_SIGMA_BOUNDS, AppState
+from app.state import ALL_INPUTS, DISPLAY_INPUTS, KINDS, PARAMS, AppState
+from app.state.sweep import SWEEP_SIGMA_BOUNDS
 
 SEED = 20251122
 MIN_VALUES = 1000
@@ -59,11 +60,11 @@ def _integral(value: float, lo: float) -> int:
     return int(min(max(n, -(2**53 - 2)), 2**53 - 2))
 
 
-ITEM_BOUNDS = {"sweep_sigmas": SWEEP_SIGMA_BOUNDS, "wc_alphas": extras.ALPHA_BOUNDS}   # of list entries
 
 
-def bad_values(p: param.Parameter, rng: np.random.Generator, n: int) -> Iterator[object]:
-    """``n`` values that parameter ``p`` of :class:`AppState` must refuse."""
+def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
+    """``n`` values that input ``key`` (in the session or one of its rooms) must refuse."""
+    p = PARAMS[key]
     nonfinite = [math.nan, math.inf, -math.inf, 1e308, -1e308, np.float64("nan"), np.float32("inf"), None, True, False]
     if isinstance(p, param.Boolean):
         pool = [None, 0, 1, 1.0, "true", "False", math.nan, [], "yes", np.int64(1)]
@@ -73,8 +74,12 @@ def bad_values(p: param.Parameter, rng: np.random.Generator, n: int) -> Iterator
         pool = [None, "nope", names[0], [names[0], "nope"], [1], [None], {names[0]: True}, math.nan,
                 ["<script>"], [names[0].upper()], 3, [[names[0]]], [{}]]
         picks = lambda: pool[rng.integers(len(pool))]
+    elif isinstance(p, param.Selector):
+        names = list(p.objects)
+        pool = [None, "nope", 3, [names[0]], names[0].upper(), math.nan, {}, "", True, "<script>", f" {names[0]}"]
+        picks = lambda: pool[rng.integers(len(pool))]
     elif isinstance(p, param.List):
-        lo, hi = ITEM_BOUNDS[p.name]
+        lo, hi = KINDS[key].lo, KINDS[key].hi  # of its entries
 
         def picks():
             k = rng.integers(6)
@@ -119,17 +124,17 @@ def state() -> AppState:
 
 def test_state_refuses_every_bad_value_with_a_message_and_keeps_the_run(state):
     rng = np.random.default_rng(SEED)
-    names = [*INPUTS, *SWEEP_INPUTS, *extras.INPUTS]
+    names = [k for k in ALL_INPUTS if k not in DISPLAY_INPUTS]  # every input of the model and of every room
     per_input = -(-MIN_VALUES // len(names)) + 5
-    run0, traces0, values0 = state.run, state.traces, {n: getattr(state, n) for n in names}
+    run0, traces0, values0 = state.run, state.traces, {n: state.get(n) for n in names}
     tried, answered, escaped = 0, 0, []
     for name in names:
-        label = state.param[name].label
-        for value in bad_values(state.param[name], rng, per_input):
+        label = PARAMS[name].label
+        for value in bad_values(name, rng, per_input):
             tried += 1
             state.message = ""
             try:
-                setattr(state, name, value)
+                state.set(name, value)
             except Exception as exc:  # noqa: BLE001  (the test counts what escapes)
                 escaped.append((name, repr(value)[:60], repr(exc)[:200]))
                 continue
@@ -137,7 +142,7 @@ def test_state_refuses_every_bad_value_with_a_message_and_keeps_the_run(state):
             if message.startswith("Refused: ") and label in message and "Traceback" not in message:
                 answered += 1
             assert state.run is run0 and state.traces is traces0, (name, value)
-            assert getattr(state, name) == values0[name], (name, value)
+            assert state.get(name) == values0[name], (name, value)
     print(f"state class: {tried} hostile values tried, {answered} answered with a message, {len(escaped)} escaped")
     assert tried >= MIN_VALUES
     assert escaped == []
@@ -150,12 +155,12 @@ def test_unhashable_filter_names_are_refused_with_a_message(state):
     run0 = state.run
     for value in ([[extras.EXTRA_NAMES[0]]], [{}]):
         state.message = ""
-        state.extra_filters = value
+        state.baselines.extra_filters = value
         assert "Refused" in state.message and state.run is run0
 
 
 # -------------------------------------------------------------------------------- raw document changes
-LABELS = {AppState.param[n].label: AppState.param[n] for n in (*INPUTS, *SWEEP_INPUTS, *extras.INPUTS)}
+LABELS = {PARAMS[n].label: PARAMS[n] for n in ALL_INPUTS if n not in DISPLAY_INPUTS}
 
 
 def widget_range(model) -> tuple[float, float]:

@@ -58,7 +58,7 @@ def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero()
     X̂_i − X_i, X̌_i − X_i (and each extra filter's) with the band ±3 s_i around the zero line, at their own scale.
     The view is an input of the state (in the link): the switch follows it, and the state follows the switch."""
     state = AppState()
-    state.param.update(m=6, horizon=100.0, extra_filters=["kbf_adaptive"])
+    state.set_inputs({"m": 6, "horizon": 100.0, "extra_filters": ["kbf_adaptive"]})
     state.start()
     view = TrajectoriesView(state=state)
     run, traces = state.run, state.traces
@@ -117,7 +117,7 @@ def test_filters_ticked_on_a_live_page_rewalk_its_models_once(monkeypatch):
     view = TrajectoriesView(state=AppState(m=3))
     walks = _live_page_walks(view, monkeypatch)
     count = sum(len(fig.renderers) for fig in view._figures)
-    view.state.extra_filters = ["kbf_minimax", "kbf_adaptive"]
+    view.state.baselines.extra_filters = ["kbf_minimax", "kbf_adaptive"]
     assert sum(len(fig.renderers) for fig in view._figures) == count + 2 * 3  # a line per filter and plot
     assert len(walks) == 1
 

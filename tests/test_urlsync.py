@@ -31,7 +31,7 @@ def linked(search: str = "", jobs: Jobs | None = None) -> tuple[AppState, Locati
 def test_a_link_sets_the_inputs_it_names_and_leaves_the_rest_at_their_defaults():
     state, _ = linked("?sigma=200&m=2&nu=0.5&extra_filters=[\"kbf_adaptive\"]&sweep_sigmas=[5,50]")
     assert (state.sigma, state.m, state.nu) == (200.0, 2, 0.5)
-    assert state.extra_filters == ["kbf_adaptive"] and state.sweep_sigmas == [5.0, 50.0]
+    assert state.baselines.extra_filters == ["kbf_adaptive"] and state.sweep.sigmas == [5.0, 50.0]
     assert state.alpha == AppState.param.alpha.default and state.horizon == AppState.param.horizon.default
     assert state.run.model.sigma == 200.0 and state.run.model.m == 2 and state.run.nu == 0.5
     assert [tr.name for tr in state.run.tracks[2:]] == ["kbf_adaptive"]
@@ -64,14 +64,14 @@ def test_a_refused_value_never_reaches_the_url():
 
 def test_every_input_round_trips_through_the_query():
     state, _ = linked()
-    state.param.update(alpha=2.0, beta_from_w=False, beta=7.5, sigma=3.0, nu=0.2, m=4, seed=11, horizon=20.0,
-                       sweep_sigmas=[1.0, 10.0], sweep_horizon=50.0, extra_filters=["kbf_mismatched", "isl_model"],
-                       sigma_design=50.0, sigma_min=1.0, sigma_max=100.0, wc_alphas=[0.1, 1.0], wc_n_sigma=4,
-                       wc_horizon=500.0)
-    assert state.message == "" and state.extra_filters == ["kbf_mismatched", "isl_model"]
+    state.set_inputs(dict(alpha=2.0, beta_from_w=False, beta=7.5, sigma=3.0, nu=0.2, m=4, seed=11, horizon=20.0,
+                          sweep_sigmas=[1.0, 10.0], sweep_horizon=50.0, extra_filters=["kbf_mismatched", "isl_model"],
+                          sigma_design=50.0, sigma_min=1.0, sigma_max=100.0, wc_alphas=[0.1, 1.0], wc_n_sigma=4,
+                          wc_horizon=500.0, sc_runs=7, sc_noise="student", sc_map="tails"))
+    assert state.message == "" and state.baselines.extra_filters == ["kbf_mismatched", "isl_model"]
     other, _ = linked(query_string(state))
     assert other.message == ""
-    assert {n: getattr(other, n) for n in URL_INPUTS} == {n: getattr(state, n) for n in URL_INPUTS}
+    assert {n: other.get(n) for n in URL_INPUTS} == {n: state.get(n) for n in URL_INPUTS}
 
 
 def test_browser_navigation_applies_the_new_query():
@@ -89,7 +89,7 @@ def test_the_url_is_written_with_the_run_it_started_not_before():
         assert state.computing and location.search == ""  # the run is still being computed
         loop.pump(lambda: not state.computing)
         assert state.run.model.sigma == 50.0 and location.search == "?sigma=50"
-        state.sweep_sigmas = [3.0, 30.0]  # starts no run: written at once
+        state.sweep.sigmas = [3.0, 30.0]  # starts no run: written at once
         assert location.search == "?sigma=50&sweep_sigmas=[3,30]"
     finally:
         pool.shutdown(wait=True)
@@ -135,7 +135,7 @@ def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is
         loop.q.get_nowait()()
         assert location.search == "?sigma=70&seed=3"
 
-        state.sweep_sigmas = [3.0, 30.0]  # starts no run: written once it has rested
+        state.sweep.sigmas = [3.0, 30.0]  # starts no run: written once it has rested
         now[0] = 2.1
         deferred.pop()[1]()
         loop.q.get_nowait()()

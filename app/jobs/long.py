@@ -206,7 +206,8 @@ class LongTask:
     """One kind of long job of a session (the ν-sweep's, the worst case's): start, progress, place in the queue,
     cancel, and the outcome — written to three of ``state``'s parameters (``busy``, ``progress``, ``note``).
 
-    ``state`` provides ``_jobs`` (:class:`app.jobs.threads.Jobs`) and ``describe(error)`` for failures.
+    ``state`` (a session or one of its rooms, :class:`app.state.Room`) provides ``jobs`` (:class:`app.jobs.threads.Jobs`),
+    ``later(fn)`` and ``describe(error)`` for failures.
     """
 
     def __init__(self, state, *, busy: str, progress: str, note: str) -> None:
@@ -225,7 +226,7 @@ class LongTask:
                 if cancel.is_set():
                     raise Cancelled()
                 show(fraction)
-            if self.state._jobs.long_in_process:
+            if self.state.jobs.long_in_process:
                 return in_process(fn, progress, cancel)
             return fn(progress=progress)
 
@@ -234,7 +235,7 @@ class LongTask:
             self._set(token, note=f"Waiting: {what} ahead of yours (the server runs them one at a time). {note}"
                       if ahead else note)
 
-        self._cancel = self.state._jobs.submit_long(run, lambda outcome: self._finish(token, apply, outcome), waiting)
+        self._cancel = self.state.jobs.submit_long(run, lambda outcome: self._finish(token, apply, outcome), waiting)
 
     def cancel(self) -> None:
         """Stop the job: dropped if it still waits; if it runs, its child process is ended at once (on a thread: at its

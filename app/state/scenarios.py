@@ -1,20 +1,17 @@
-"""The dashboard's Scenario group: σ that changes, heavy-tailed noise, a coarse sensor — against a clairvoyant filter.
+"""The Scenario tab's room: σ that changes, heavy-tailed noise, a coarse sensor — against a clairvoyant filter.
 
-The model inputs (α, β, m, ν, seed) are the dashboard's; σ is σ(0), where the scenario starts. :class:`ScenarioInputs`
-declares the scenario's own inputs (bounds, label, doc; :class:`app.state.AppState` inherits them, so they are
-checked, linked in the URL and refused in words like every other input) and computes two things through the core:
+The model inputs (α, β, m, ν, seed) are the session's; σ is σ(0), where the scenario starts. :class:`ScenarioRoom`
+holds the scenario's own inputs (keys ``sc_…``: checked, linked in the URL and refused in words like every other
+input) and computes three things through the core:
 
-* **the picture** (:func:`scenario_picture`): :func:`isl_core.average_scenario` over ``sc_runs`` seeds (the seed
-  input and the ones after it), every filter's rolling RMSE ratio to the clairvoyant Kalman filter that knows σ(t)
-  (:meth:`isl_core.ScenarioAverage.rolling`), σ(t) and each σ-learning filter's σ̂(t), and each filter's worst case
-  over the windows after 2/r_min with its bootstrap interval. A job on the pool of large runs, recomputed when an
-  input changes while the tab is open;
+* **the picture** (:func:`app.scenario_picture.scenario_picture`): every filter over ``runs`` seeds (the seed input
+  and the ones after it) against the clairvoyant Kalman filter that knows σ(t) — the rolling ratio in time, σ(t)
+  and each σ-learning filter's σ̂(t), and the period statistic with each filter's tuning and cost. A job on the
+  pool of large runs, recomputed when an input changes while the tab is open;
 * **the who-wins map** (:func:`isl_core.who_wins_map` for the page's α, β and m at σ(0) = 20): the session's long job
-  (progress, cancel, place in the queue).
-
-The filters: the clairvoyant reference, the Kalman–Bucy filter optimal for constant σ = σ(0), paper A's ISL filter
-at ν, the adaptive Kalman–Bucy filter, the variational-Bayes filter and the robust (Huber) filter — the three learning
-σ over [σ min, σ max] from its geometric middle — and the model-aware ISL filter at the same ν.
+  (progress, cancel, place in the queue);
+* **the tuning** (:func:`isl_core.tuning.tune` for the page's α, m and w): a long job, then cached, which every
+  later picture of that model uses.
 """
 from __future__ import annotations
 
@@ -31,16 +28,19 @@ from isl_core.scenario_map import MAPS
 from isl_core.scenario_table import PRESETS as TABLE_PRESETS
 from isl_core.tuning import Tuning, tune
 
-from .scenario_picture import Picture, ScenarioRequest, picture_csv, scenario_picture, tuning_for
-from .text import R_MIN, num, per_r_min
+from ..jobs import LongTask
+from ..scenario_picture import Picture, ScenarioRequest, picture_csv, scenario_picture, tuning_for
+from ..text import R_MIN, num, per_r_min
+from .room import Room
 
-__all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "Picture", "ScenarioInputs", "ScenarioRequest",
-           "picture_csv", "scenario_picture"]
+__all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "ScenarioRoom"]
 
 PICTURE_INPUTS = ("sc_change", "sc_change_at", "sc_sigma_after", "sc_noise", "sc_dof", "sc_outlier_rate",
                   "sc_outlier_scale", "sc_sensor", "sc_horizon", "sc_window", "sc_runs")
 MAP_INPUTS = ("sc_map", "sc_map_seeds")
 INPUTS = PICTURE_INPUTS + MAP_INPUTS
+#: the model's inputs that change the picture
+MODEL_INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "m", "nu", "seed")
 #: how the page names the choices of the scenario's selectors (their values are the link's and the core's)
 CHOICE_LABELS = {
     "sc_change": {"none": "none", "step": "one step", "drift": "a drift"},
@@ -66,171 +66,183 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
 PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
 
 
-class ScenarioInputs(param.Parameterized):
-    """Inputs and outputs of the Scenario group (module docstring). The host provides ``_jobs``, ``describe``,
-    ``_say``, the model's inputs and ``sigma_range``; it calls :meth:`_init_scenario` once its jobs exist."""
+class ScenarioRoom(Room):
+    """Inputs, picture, map and tuning of the Scenario tab (the module docstring); keys ``sc_…``."""
 
-    sc_change = param.Selector(objects=["none", "step", "drift"], default="step", label="σ change", doc=(
+    KEYS = {key: key[3:] for key in INPUTS}
+
+    change = param.Selector(objects=["none", "step", "drift"], default="step", label="σ change", doc=(
         "How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."))
-    sc_change_at = param.Number(10.0, bounds=(0.1, 1000.0), label=f"change at (× 1/{R_MIN})", doc=(
+    change_at = param.Number(10.0, bounds=(0.1, 1000.0), label=f"change at (× 1/{R_MIN})", doc=(
         f"When σ has changed: the step's time, or the end of the drift, in units of 1/{R_MIN} at σ(0)."))
-    sc_sigma_after = param.Number(2.0, bounds=(0.1, 1000.0), label="σ after", doc=(
+    sigma_after = param.Number(2.0, bounds=(0.1, 1000.0), label="σ after", doc=(
         "σ after the change (σ before it is the σ input)."))
-    sc_noise = param.Selector(objects=list(NOISE_LAWS), default="gaussian", label="noise law",
+    noise = param.Selector(objects=list(NOISE_LAWS), default="gaussian", label="noise law",
                               doc="The observation noise's law per step, scaled so that σ stays its intensity.")
-    sc_dof = param.Number(3.0, bounds=(2.1, 1000.0), label="Student-t degrees of freedom", doc=(
+    dof = param.Number(3.0, bounds=(2.1, 1000.0), label="Student-t degrees of freedom", doc=(
         "d of the Student-t noise (d > 2: finite variance); small d, heavy tails."))
-    sc_outlier_rate = param.Number(0.01, bounds=(0.0, 0.5), label="outlier fraction", doc=(
+    outlier_rate = param.Number(0.01, bounds=(0.0, 0.5), label="outlier fraction", doc=(
         "Fraction ε of the steps whose noise is k times larger."))
-    sc_outlier_scale = param.Number(30.0, bounds=(1.0, 1000.0), label="outlier size k", doc=(
+    outlier_scale = param.Number(30.0, bounds=(1.0, 1000.0), label="outlier size k", doc=(
         "How much larger an outlier's noise is (k)."))
-    sc_sensor = param.Number(0.0, bounds=(0.0, 5.0), label=f"sensor interval (× 1/{R_MIN})", doc=(
+    sensor = param.Number(0.0, bounds=(0.0, 5.0), label=f"sensor interval (× 1/{R_MIN})", doc=(
         "The filters read the integrated observation every Δ (0: at every simulation step)."))
-    sc_horizon = param.Number(30.0, bounds=(5.0, 500.0), label=f"scenario horizon (× 1/{R_MIN})", doc=(
+    horizon = param.Number(30.0, bounds=(5.0, 500.0), label=f"scenario horizon (× 1/{R_MIN})", doc=(
         f"Length of each scenario run in units of 1/{R_MIN} at σ(0)."))
-    sc_window = param.Number(1.0, bounds=(0.1, 50.0), label=f"rolling window (× 1/{R_MIN})", doc=(
+    window = param.Number(1.0, bounds=(0.1, 50.0), label=f"rolling window (× 1/{R_MIN})", doc=(
         "Width of the window over which each point's RMSE ratio is taken."))
-    sc_runs = param.Integer(32, bounds=(1, 256), label="runs averaged", doc=(
+    runs = param.Integer(32, bounds=(1, 256), label="runs averaged", doc=(
         "Independent runs (seeds from the seed input on) whose mean squared errors are averaged."))
-    sc_map = param.Selector(objects=list(MAPS), default="sigma_step", label="map over", doc=(
+    map = param.Selector(objects=list(MAPS), default="sigma_step", label="map over", doc=(
         "The who-wins map's axis: the σ step's ratio (× time since the step), the tails' degrees of freedom, or the "
         "sensor interval."))
-    sc_map_seeds = param.Integer(16, bounds=(2, 128), label="map seeds", doc="Independent runs per cell of the map.")
+    map_seeds = param.Integer(16, bounds=(2, 128), label="map seeds", doc="Independent runs per cell of the map.")
 
-    scenario = param.ClassSelector(class_=Picture, default=None, allow_None=True, precedence=-1)
-    sc_preset_note = param.String("", precedence=-1, doc="What the last scenario preset set beyond the scenario.")
-    scenario_busy = param.Boolean(False, precedence=-1)
-    scenario_note = param.String("", precedence=-1, doc="Status line of the scenario picture.")
-    sc_map_result = param.ClassSelector(class_=WhoWinsMap, default=None, allow_None=True, precedence=-1)
-    sc_map_busy = param.Boolean(False, precedence=-1)
-    sc_map_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
-    sc_map_note = param.String("", precedence=-1, doc="Status line of the who-wins map.")
-    sc_tuning = param.ClassSelector(class_=Tuning, default=None, allow_None=True, precedence=-1,
+    picture = param.ClassSelector(class_=Picture, default=None, allow_None=True, precedence=-1)
+    preset_note = param.String("", precedence=-1, doc="What the last scenario preset set beyond the scenario.")
+    busy = param.Boolean(False, precedence=-1)
+    note = param.String("", precedence=-1, doc="Status line of the scenario picture.")
+    map_result = param.ClassSelector(class_=WhoWinsMap, default=None, allow_None=True, precedence=-1)
+    map_busy = param.Boolean(False, precedence=-1)
+    map_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
+    map_note = param.String("", precedence=-1, doc="Status line of the who-wins map.")
+    tuning = param.ClassSelector(class_=Tuning, default=None, allow_None=True, precedence=-1,
                                     doc="The tuning of the page's α, m and w, when there is one (the tuning curves).")
-    sc_tune_busy = param.Boolean(False, precedence=-1)
-    sc_tune_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
-    sc_tune_note = param.String("", precedence=-1, doc="Status line of the tuning.")
+    tune_busy = param.Boolean(False, precedence=-1)
+    tune_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
+    tune_note = param.String("", precedence=-1, doc="Status line of the tuning.")
 
-    def _init_scenario(self, long_task) -> None:
-        self._scenario_wanted = False
-        self._map_task = long_task(self, busy="sc_map_busy", progress="sc_map_progress", note="sc_map_note")
-        self._tune_task = long_task(self, busy="sc_tune_busy", progress="sc_tune_progress", note="sc_tune_note")
-        self.param.watch(self._on_scenario_inputs, ["alpha", "beta_from_w", "w", "beta", "sigma", "m", "nu", "seed",
-                                                    "sigma_min", "sigma_max", *PICTURE_INPUTS])
+    def __init__(self, host, **params) -> None:
+        super().__init__(host, **params)
+        self._wanted = False  # the picture: computed once the tab is open
+        self._map_task = LongTask(self, busy="map_busy", progress="map_progress", note="map_note")
+        self._tune_task = LongTask(self, busy="tune_busy", progress="tune_progress", note="tune_note")
+        host.param.watch(self._on_inputs, list(MODEL_INPUTS))
+        host.baselines.param.watch(self._on_inputs, ["sigma_min", "sigma_max"])
+        self.param.watch(self._on_inputs, [self.KEYS[k] for k in PICTURE_INPUTS])
 
-    def scenario_request(self) -> ScenarioRequest:
+    def _model_w(self) -> float:
+        """w of the page's model: paper A's with w = β/√(2α) when β is an input (β = w√(2α), A.25)."""
+        host = self._host
+        return host.w if host.beta_from_w else host.beta_effective / math.sqrt(2.0 * host.alpha)
+
+    def request(self) -> ScenarioRequest:
         """The picture's request from the current inputs (``ValueError`` in words for an impossible scenario)."""
-        knots = () if self.sc_change == "none" else ((self.sc_change_at, self.sc_sigma_after),)
-        scenario = Scenario(sigma_knots=knots, sigma_shape="drift" if self.sc_change == "drift" else "steps",
-                            noise=self.sc_noise, dof=self.sc_dof, outlier_rate=self.sc_outlier_rate,
-                            outlier_scale=self.sc_outlier_scale, sensor_interval=self.sc_sensor)
-        if self.sc_window > self.sc_horizon:
-            raise ValueError(f"the rolling window (sc_window = {self.sc_window:g}) must not be longer than the "
-                             f"scenario horizon (sc_horizon = {self.sc_horizon:g})")
-        return ScenarioRequest(self.alpha, self.beta_effective, self.sigma, self.m, self.nu, self.seed,
-                               self.sigma_range, scenario, self.sc_horizon, self.sc_window, self.sc_runs)
+        knots = () if self.change == "none" else ((self.change_at, self.sigma_after),)
+        scenario = Scenario(sigma_knots=knots, sigma_shape="drift" if self.change == "drift" else "steps",
+                            noise=self.noise, dof=self.dof, outlier_rate=self.outlier_rate,
+                            outlier_scale=self.outlier_scale, sensor_interval=self.sensor)
+        if self.window > self.horizon:
+            raise ValueError(f"the rolling window (sc_window = {self.window:g}) must not be longer than the "
+                             f"scenario horizon (sc_horizon = {self.horizon:g})")
+        h = self._host
+        return ScenarioRequest(h.alpha, h.beta_effective, h.sigma, h.m, h.nu, h.seed, h.baselines.sigma_range,
+                               scenario, self.horizon, self.window, self.runs)
 
-    def want_scenario(self) -> None:
+    def want(self) -> None:
         """The Scenario tab is on screen: compute its picture, now and whenever an input changes."""
-        if not self._scenario_wanted:
-            self._scenario_wanted = True
-            self.compute_scenario()
+        if not self._wanted:
+            self._wanted = True
+            self.compute()
 
-    def _on_scenario_inputs(self, *events) -> None:
-        if self._scenario_wanted:
-            self.compute_scenario()
+    def _on_inputs(self, *events) -> None:
+        if self._wanted:
+            self.compute()
 
-    def compute_scenario(self) -> None:
+    def compute(self) -> None:
         """Simulate the picture for the current inputs (a job on the pool of large runs; a newer one supersedes it)."""
         try:
-            req = self.scenario_request()
+            req = self.request()
         except ValueError as exc:
-            self.scenario_note = f"Not simulated: {exc}."
+            self.note = f"Not simulated: {exc}."
             return
-        self.param.update(scenario_busy=True, scenario_note=f"Simulating {req.runs} runs of the scenario …")
-        self._jobs.submit("scenario", partial(scenario_picture, req), self._apply_scenario, pool="large",
-                          cancellable=True)
+        self.param.update(busy=True, note=f"Simulating {req.runs} runs of the scenario …")
+        self.jobs.submit("scenario", partial(scenario_picture, req), self._apply, pool="large", cancellable=True)
 
-    def _apply_scenario(self, outcome, superseded: bool) -> None:
+    def _apply(self, outcome, superseded: bool) -> None:
         if superseded:
             return
         if outcome.error is not None:
-            self.param.update(scenario_busy=False, scenario_note=f"Not simulated: {self.describe(outcome.error)}.")
+            self.param.update(busy=False, note=f"Not simulated: {self.describe(outcome.error)}.")
             return
         pic: Picture = outcome.value
         req = pic.request
-        self.param.update(scenario=pic, sc_tuning=pic.tuned, scenario_busy=False, scenario_note=(
+        self.param.update(picture=pic, tuning=pic.tuned, busy=False, note=(
             f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs (seeds {req.seed}–{req.seed + req.runs - 1}) of "
             f"{per_r_min(req.horizon)}, {pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: "
             f"{pic.origin}."))
 
-    def scenario_csv(self) -> io.StringIO:
-        """The picture on screen as CSV (:func:`picture_csv`), for the download button."""
-        if self.scenario is None:
+    def csv(self) -> io.StringIO:
+        """The picture on screen as CSV (:func:`app.scenario_picture.picture_csv`), for the download button."""
+        if self.picture is None:
             raise ValueError("there is no scenario picture yet")
-        return io.StringIO(picture_csv(self.scenario))
+        return io.StringIO(picture_csv(self.picture))
 
     def compute_map(self) -> None:
-        """The who-wins map as the session's long job (progress in ``sc_map_progress``; cancellable)."""
+        """The who-wins map as the session's long job (progress in ``map_progress``; cancellable)."""
         if blocked := self.refused_among(MAP_INPUTS):
-            self.sc_map_note = blocked
+            self.map_note = blocked
             return
-        if self.alpha <= 0.0:
-            self.sc_map_note = "Not started: the map is for paper A's model, which needs α > 0."
+        if self._host.alpha <= 0.0:
+            self.map_note = "Not started: the map is for paper A's model, which needs α > 0."
             return
-        # the page's model: paper A's with w = β/√(2α) when β is an input (β = w√(2α), A.25)
-        w = self.w if self.beta_from_w else self.beta_effective / math.sqrt(2.0 * self.alpha)
-        fn = partial(who_wins_map, self.sc_map, self.alpha, m=self.m, w=w, seeds=self.sc_map_seeds)
-        cells = len(MAPS[self.sc_map])
-        self._map_task.start(fn, self._apply_map, f"Simulating {cells} cells × {self.sc_map_seeds} runs …")
+        fn = partial(who_wins_map, self.map, self._host.alpha, m=self._host.m, w=self._model_w(),
+                     seeds=self.map_seeds)
+        cells = len(MAPS[self.map])
+        self._map_task.start(fn, self._apply_map, f"Simulating {cells} cells × {self.map_seeds} runs …")
 
-    def apply_scenario_preset(self, label: str) -> None:
-        """Set the inputs of scenario preset ``label`` (:data:`PRESETS`) in one batch."""
+    def cancel_map(self) -> None:
+        """Stop the map: dropped if it waits in the queue, else ended."""
+        self._map_task.cancel()
+
+    def apply_preset(self, label: str) -> None:
+        """Set the inputs of scenario preset ``label`` (:data:`PRESETS`), the model's among them, in one batch."""
+        host = self._host
         if label not in PRESETS:
-            self._say(f"Unknown scenario preset {label!r}; choose one of {', '.join(PRESETS)}.", "danger")
+            host.say(f"Unknown scenario preset {label!r}; choose one of {', '.join(PRESETS)}.", "danger")
             return
         values = PRESETS[label]
-        self.param.update(**values)
+        host.set_inputs(values)
         text = (f"Scenario preset “{label}”: the model's inputs in the sidebar were set too — α = "
                 f"{num(values['alpha'])}, w = {num(values['w'])}, m = {values['m']}, σ(0) = {num(values['sigma'])}, "
                 f"ν = {num(values['nu'], 3)} (paper A's table A.31) — as the scenario table runs them.")
-        self._say(text, "info")
-        self.sc_preset_note = text
-
-    def cancel_map(self) -> None:
-        self._map_task.cancel()
+        host.say(text, "info")
+        self.preset_note = text
 
     def find_tuning(self) -> None:
-        """The cached tuning of the page's model into ``sc_tuning`` (None if there is none)."""
+        """The cached tuning of the page's model into ``tuning`` (None if there is none)."""
         try:
-            self.sc_tuning = tuning_for(self.scenario_request())
+            self.tuning = tuning_for(self.request())
         except ValueError:
-            self.sc_tuning = None
+            self.tuning = None
 
     def compute_tuning(self) -> None:
         """Tune every family for the page's α, m and w (:func:`isl_core.tuning.tune`: ≈ 2 min on two cores, then
         cached) as the session's long job; the picture and the curves follow it."""
-        if self.alpha <= 0.0:
-            self.sc_tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
+        if self._host.alpha <= 0.0:
+            self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return
-        w = self.w if self.beta_from_w else self.beta_effective / math.sqrt(2.0 * self.alpha)
-        fn = partial(tune, self.alpha, m=self.m, w=w)
+        fn = partial(tune, self._host.alpha, m=self._host.m, w=self._model_w())
         self._tune_task.start(fn, self._apply_tuning, "Tuning every filter: 6 presets × 32 seeds, 155 variants …")
 
     def cancel_tuning(self) -> None:
+        """Stop the tuning: dropped if it waits in the queue, else ended."""
         self._tune_task.cancel()
 
     def _apply_tuning(self, outcome) -> None:
-        self.param.update(sc_tuning=outcome.value, sc_tune_note=f"Tuned in {outcome.seconds:.0f} s: "
-                                                                 f"{outcome.value.origin}.")
-        if self._scenario_wanted:
-            self.compute_scenario()
+        self.param.update(tuning=outcome.value, tune_note=f"Tuned in {outcome.seconds:.0f} s: {outcome.value.origin}.")
+        if self._wanted:
+            self.compute()
 
     def _apply_map(self, outcome) -> None:
         res: WhoWinsMap = outcome.value
-        self.param.update(sc_map_result=res, sc_map_note=(
+        self.param.update(map_result=res, map_note=(
             f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
             f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
             f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
             f"{per_r_min(res.window)}; filters tuned as in the scenario table: {res.origin}."))
 
+    def release(self) -> None:
+        """The session ends: drop the picture and the map without a redraw."""
+        with param.parameterized.discard_events(self):
+            self.param.update(picture=None, map_result=None)

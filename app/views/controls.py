@@ -16,7 +16,7 @@ from bokeh.models import CustomJSTickFormatter
 from panel.viewable import Viewer
 
 from ..presets import PRESETS
-from ..state import AppState
+from ..state import PARAMS, AppState
 from ..text import num
 from .fields import field, refusal
 
@@ -111,8 +111,8 @@ class _Binding:
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
         if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-            widget._refuse = lambda raw: setattr(state, name, to_state(raw, force=True))
-        state.param.watch(self._from_state, [name])
+            widget._refuse = lambda raw: state.set(name, to_state(raw, force=True))
+        state.watch(self._from_state, [name])
         self._from_state()
 
     def _from_widget(self, *events) -> None:
@@ -126,14 +126,14 @@ class _Binding:
         want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
         for event in events:
             if event.name == want and event.new is None:
-                setattr(self.state, self.name, None)  # an emptied box: the state refuses it with a message
+                self.state.set(self.name, None)  # an emptied box: the state refuses it with a message
             elif event.name == want:
                 value = self._to_state(event.new)
                 if value is not None:
-                    setattr(self.state, self.name, value)
+                    self.state.set(self.name, value)
 
     def _from_state(self, *events) -> None:
-        value = self._to_widget(getattr(self.state, self.name))
+        value = self._to_widget(self.state.get(self.name))
         if value is None or value == self.widget.value:
             return  # the widget already shows it: sending it back would fight a slider being dragged
         self._quiet = True
@@ -145,7 +145,7 @@ class _Binding:
 
 def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float = 0.01) -> pn.widgets.FloatSlider:
     """A slider over log10 of input ``name`` between ``lo`` and ``hi`` (within the input's bounds)."""
-    p = state.param[name]
+    p = PARAMS[name]
     a, b = math.log10(lo), math.log10(hi)
     widget = Slider(label=p.label, start=a, end=b, step=step,
                                     format=CustomJSTickFormatter(code=_LOG_FORMAT), sizing_mode="stretch_width")
@@ -157,7 +157,7 @@ def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float 
     def to_state(v: float, force: bool = False) -> float | None:
         if force:  # a value the slider cannot take (Guarded): the number it stands for, for the state to refuse
             return v if not math.isfinite(v) else (math.inf if v > 300 else 0.0 if v < -300 else 10.0**v)
-        current = getattr(state, name)
+        current = state.get(name)
         if current > 0 and abs(math.log10(current) - v) <= step / 2:
             return None  # the widget already shows the state's value: not a change
         return round_sig(10.0**v)
@@ -268,7 +268,7 @@ class ControlsView(Viewer):
         spinner = pn.indicators.LoadingSpinner(value=s.param.busy, visible=s.param.busy, size=20, margin=(0, 10))
 
         def helped(name: str, widget):
-            return field(s, name, with_help(widget, s.param[name].doc), sizing_mode="stretch_width")
+            return field(s, name, with_help(widget, PARAMS[name].doc), sizing_mode="stretch_width")
 
         return pn.Column(
             self._status,

@@ -14,7 +14,7 @@ from panel.viewable import Viewer
 from isl_core.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
-from ..state import AppState
+from ..state import PARAMS, AppState
 from .controls import Guarded, NumberInput, WholeInput
 from .fields import field
 from .style import EXTRA_COLORS, NOTE_FONT
@@ -28,10 +28,10 @@ def bind(state: AppState, name: str, widget):
 
     def from_widget(event) -> None:
         if not quiet[0]:
-            setattr(state, name, list(event.new) if isinstance(event.new, (list, tuple)) else event.new)
+            state.set(name, list(event.new) if isinstance(event.new, (list, tuple)) else event.new)
 
     def from_state(*events) -> None:
-        value = getattr(state, name)
+        value = state.get(name)
         if value != widget.value:
             quiet[0] = True
             try:
@@ -41,8 +41,8 @@ def bind(state: AppState, name: str, widget):
 
     widget.param.watch(from_widget, "value")
     if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-        widget._refuse = lambda raw: setattr(state, name, raw)
-    state.param.watch(from_state, [name])
+        widget._refuse = lambda raw: state.set(name, raw)
+    state.watch(from_state, [name])
     from_state()
     return widget
 
@@ -51,7 +51,7 @@ def number(state: AppState, name: str, **widget):
     """A number box for input ``name``, with its label and doc. The state checks what is typed and says why a value is
     refused; the box itself has no range (BokehJS's box drops a value outside its range without a word, and the
     page kept showing it while the run stayed as it was)."""
-    p = state.param[name]
+    p = PARAMS[name]
     kind = WholeInput if isinstance(p, param.Integer) else NumberInput
     return bind(state, name, kind(label=p.label, description=p.doc, **widget))
 
@@ -72,24 +72,24 @@ class FiltersPanel(Viewer):
         s = self.state
         self._boxes = {}
         for name in EXTRA_NAMES:  # the label names the box for a screen reader; its colour swatch is drawn by CSS
-            box = pn.widgets.Checkbox(value=name in s.extra_filters, label=LABELS[name], margin=(6, 10),
+            box = pn.widgets.Checkbox(value=name in s.baselines.extra_filters, label=LABELS[name], margin=(6, 10),
                                       css_classes=[f"extra-{name}"], sizing_mode="stretch_width",
                                       stylesheets=[_swatch_css(name)])
             box.param.watch(self._on_box, "value")
             self._boxes[name] = box
-        s.param.watch(self._from_state, ["extra_filters"])
+        s.baselines.param.watch(self._from_state, ["extra_filters"])
         self._design = number(s, "sigma_design", width=170, step=1.0)
         self._lo = number(s, "sigma_min", width=110, step=1.0)
         self._hi = number(s, "sigma_max", width=110, step=10.0)
 
     def _on_box(self, *events) -> None:
         chosen = [n for n, box in self._boxes.items() if box.value]
-        if chosen != list(self.state.extra_filters):
-            self.state.extra_filters = chosen
+        if chosen != list(self.state.baselines.extra_filters):
+            self.state.baselines.extra_filters = chosen
 
     def _from_state(self, *events) -> None:
         for name, box in self._boxes.items():
-            want = name in self.state.extra_filters
+            want = name in self.state.baselines.extra_filters
             if box.value != want:
                 box.value = want
 

@@ -1,5 +1,5 @@
 """Scenario view: every filter's rolling RMSE ratio to the clairvoyant Kalman filter in time, σ(t) and σ̂(t) below it,
-the worst cases, and the who-wins map (:mod:`app.scenario`).
+the period statistic, the tuning curves and the who-wins map (:class:`app.state.ScenarioRoom`).
 
 Two linked plots share the time axis: the ratios (log scale, 95 % bands over the runs; 1 is the clairvoyant filter's
 own level) and σ(t) with the σ̂(t) of each filter that learns σ. A dashed line marks the σ change. The worst-case
@@ -16,8 +16,8 @@ from bokeh.models import ColumnDataSource, DataRange1d, Legend, LegendItem, LogT
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
-from ..scenario import CHOICE_LABELS, PRESETS
-from ..state import AppState
+from ..state import PARAMS, AppState
+from ..state.scenarios import CHOICE_LABELS, PRESETS
 from ..text import R_MIN
 from .fields import field
 from .filters_panel import bind
@@ -55,9 +55,9 @@ class ScenarioView(Viewer):
         self._tuning = TuningView(state=self.state)
         self._change = Span(location=0.0, dimension="height", line_color="#888", line_dash="dashed", visible=False)
         self._ratio_fig.add_layout(self._change)
-        self.state.param.watch(self._update, ["scenario"])
-        self.state.param.watch(lambda e: setattr(self._map, "object", map_html(e.new)), ["sc_map_result"])
-        self.state.want_scenario()
+        self.state.scenarios.param.watch(self._update, ["picture"])
+        self.state.scenarios.param.watch(lambda e: setattr(self._map, "object", map_html(e.new)), ["map_result"])
+        self.state.scenarios.want()
         self._update()
 
     def _figures(self):
@@ -82,7 +82,7 @@ class ScenarioView(Viewer):
         return ratio, sigma
 
     def _update(self, *events) -> None:
-        pic = self.state.scenario
+        pic = self.state.scenarios.picture
         self._periods.object = periods_html(pic, None if pic is None else pic.costs)
         if pic is None:
             return
@@ -133,27 +133,28 @@ class ScenarioView(Viewer):
 
     def _controls(self) -> pn.Column:
         s = self.state
-        p = s.param
+        p = s.scenarios.param
 
         def number(name: str, width: int = 150, **kw):
             return field(s, name, number_box(s, name, width=px(s, width), **kw))
 
         def choice(name: str, width: int = 130):
-            options = {CHOICE_LABELS[name][v]: v for v in p[name].objects}
+            decl = PARAMS[name]
+            options = {CHOICE_LABELS[name][v]: v for v in decl.objects}
             return field(s, name, bind(s, name, pn.widgets.Select(
-                label=p[name].label, options=options, width=px(s, width), description=p[name].doc)))
+                label=decl.label, options=options, width=px(s, width), description=decl.doc)))
 
         preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS], width=px(self.state, 260))
 
         def pick(event) -> None:
             if event.new != "—":
-                s.apply_scenario_preset(event.new)
+                s.scenarios.apply_preset(event.new)
                 preset.value = "—"
         preset.param.watch(pick, "value")
-        download = pn.widgets.FileDownload(callback=s.scenario_csv, filename="isl_scenario.csv",
+        download = pn.widgets.FileDownload(callback=s.scenarios.csv, filename="isl_scenario.csv",
                                            label="Download (CSV)", color="success", variant="outline", width=px(self.state, 150),
                                            margin=(24, 10, 0, 10))
-        spinner = pn.indicators.LoadingSpinner(value=p.scenario_busy, visible=p.scenario_busy, size=20,
+        spinner = pn.indicators.LoadingSpinner(value=p.busy, visible=p.busy, size=20,
                                                margin=(30, 10))
         row = dict(flex_wrap="wrap", sizing_mode="stretch_width")
         return pn.Column(
@@ -162,19 +163,20 @@ class ScenarioView(Viewer):
                        number("sc_outlier_scale", 130), number("sc_sensor", 190), **row),
             pn.FlexBox(number("sc_horizon", 190), number("sc_window", 170), number("sc_runs", 120), download,
                        spinner, **row),
-            pn.pane.Markdown(p.sc_preset_note, margin=(0, 10)), pn.pane.Markdown(p.scenario_note, margin=(0, 10)),
+            pn.pane.Markdown(p.preset_note, margin=(0, 10)), pn.pane.Markdown(p.note, margin=(0, 10)),
             sizing_mode="stretch_width")
 
     def _map_controls(self) -> pn.Column:
         s = self.state
-        p = s.param
+        p, decl = s.scenarios.param, PARAMS["sc_map"]
         kind = field(s, "sc_map", bind(s, "sc_map", pn.widgets.Select(
-            label=p.sc_map.label, options={CHOICE_LABELS["sc_map"][v]: v for v in p.sc_map.objects}, width=px(self.state, 170))))
+            label=decl.label, options={CHOICE_LABELS["sc_map"][v]: v for v in decl.objects},
+            width=px(self.state, 170))))
         seeds = field(s, "sc_map_seeds", number_box(s, "sc_map_seeds", width=px(self.state, 110)))
-        run, cancel, progress = job_buttons(p.sc_map_busy, p.sc_map_progress, "Compute map", s.compute_map,
-                                            s.cancel_map, width=140, scale=text_scale(s))
+        run, cancel, progress = job_buttons(p.map_busy, p.map_progress, "Compute map", s.scenarios.compute_map,
+                                            s.scenarios.cancel_map, width=140, scale=text_scale(s))
         return pn.Column(pn.FlexBox(kind, seeds, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
-                         pn.pane.Markdown(p.sc_map_note, margin=(0, 10)), sizing_mode="stretch_width")
+                         pn.pane.Markdown(p.map_note, margin=(0, 10)), sizing_mode="stretch_width")
 
     def __panel__(self):
         intro = pn.pane.Markdown(

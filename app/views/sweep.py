@@ -76,9 +76,9 @@ class SweepView(Viewer):
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
         self._rows = (pn.Row(sizing_mode="stretch_width"), pn.Row(sizing_mode="stretch_width"))
         s = self.state
-        s.want_curves()
-        s.param.watch(self._update_curves, ["curves"])
-        s.param.watch(self._update_points, ["points"])
+        s.sweep.want_curves()
+        s.sweep.param.watch(self._update_curves, ["curves"])
+        s.sweep.param.watch(self._update_points, ["points"])
         s.param.watch(self._update_nu, ["nu", "alpha", "beta_from_w", "w", "beta"])
         s.param.watch(self._update_layout, ["m"])
         self._update_layout()
@@ -134,7 +134,7 @@ class SweepView(Viewer):
         self._rows[1].objects = self._panes[per_row:m]
 
     def _update_curves(self, *events) -> None:
-        curves = self.state.curves
+        curves = self.state.sweep.curves
         with pn.io.hold():
             for i in range(M_MAX):
                 for j in range(_SLOTS):
@@ -164,7 +164,7 @@ class SweepView(Viewer):
                     src.data = {"x": [], "y": []}
 
     def _update_points(self, *events) -> None:
-        pts = self.state.points
+        pts = self.state.sweep.points
         with pn.io.hold():
             for i in range(M_MAX):
                 for j in range(_SLOTS):
@@ -185,21 +185,21 @@ class SweepView(Viewer):
     # ---- controls ----------------------------------------------------------------------------------
     def _controls(self) -> pn.Column:
         s = self.state
-        sigmas = pn.widgets.TextInput(label="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep_sigmas),
+        sigmas = pn.widgets.TextInput(label="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep.sigmas),
                                       width=px(self.state, 220))
-        sigmas.param.watch(lambda e: setattr(s, "sweep_sigmas", parse_sigmas(e.new)), "value")
-        s.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sweep_sigmas")
+        sigmas.param.watch(lambda e: s.set("sweep_sigmas", parse_sigmas(e.new)), "value")
+        s.sweep.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
         horizon.width = 260
-        run, cancel, progress = job_buttons(s.param.sweep_busy, s.param.sweep_progress, "Simulate points",
-                                            s.simulate_sweep, s.cancel_sweep, width=150, below_label=False,
+        run, cancel, progress = job_buttons(s.sweep.param.busy, s.sweep.param.progress, "Simulate points",
+                                            s.sweep.simulate, s.sweep.cancel, width=150, below_label=False,
                                             scale=text_scale(s))
         recommend = pn.widgets.Button(label="Use recommended ν", color="success", width=px(self.state, 180),
                                       disabled=pn.bind(lambda busy, a: busy or a == 0.0,
-                                                       s.param.sweep_busy, s.param.alpha))
-        recommend.on_click(lambda e: s.recommend())
-        note = pn.pane.Markdown(pn.bind(self._note, s.param.sweep_note, s.param.curves_note, s.param.points,
-                                        s.param.curves), margin=(0, 10))
+                                                       s.sweep.param.busy, s.param.alpha))
+        recommend.on_click(lambda e: s.sweep.recommend())
+        note = pn.pane.Markdown(pn.bind(self._note, s.sweep.param.note, s.sweep.param.curves_note,
+                                        s.sweep.param.points, s.sweep.param.curves), margin=(0, 10))
         return pn.Column(pn.FlexBox(field(s, "sweep_sigmas", sigmas), field(s, "sweep_horizon", horizon), run, cancel,
                                     progress, recommend, flex_wrap="wrap", sizing_mode="stretch_width"), note,
                          sizing_mode="stretch_width")

@@ -116,7 +116,7 @@ class TrajectoriesView(Viewer):
         self._keys = self._legend_keys()
         self._followers = {name: follow(item.renderers[0]) for name, item in self._keys.items()}
         self._overlay = Overlay(self._key_figure)
-        self._overlay.expect(self.state.extra_filters)  # a link's filters: their lines are built with the page
+        self._overlay.expect(self.state.baselines.extra_filters)  # a link's filters: their lines are built with the page
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
         self._bands: list[Band] = []

@@ -67,7 +67,7 @@ class TuningView(Viewer):
         self._figure = self._chart()
         self._note = pn.pane.Markdown("", margin=(0, 10), styles={"font-size": TEXT_FONT})
         self._family.param.watch(lambda event: self._update(), "value")
-        self.state.param.watch(lambda event: self._update(), ["sc_tuning"])
+        self.state.scenarios.param.watch(lambda event: self._update(), ["tuning"])
         self._update()
 
     def _chart(self) -> figure:
@@ -92,7 +92,7 @@ class TuningView(Viewer):
         return fig
 
     def _update(self) -> None:
-        t, family = self.state.sc_tuning, self._family.value
+        t, family = self.state.scenarios.tuning, self._family.value
         if t is None:
             self._note.object = ("No tuning for this α, m and w yet: **Tune** computes it (≈ 2 min on two cores, then "
                                  "kept) — until then the Scenario picture runs the filters at their constructors' "
@@ -125,14 +125,14 @@ class TuningView(Viewer):
 
     def __panel__(self):
         s = self.state
-        p = s.param
-        run, cancel, progress = job_buttons(p.sc_tune_busy, p.sc_tune_progress, "Tune", s.compute_tuning,
-                                            s.cancel_tuning, width=110, scale=text_scale(s))
+        p = s.scenarios.param
+        run, cancel, progress = job_buttons(p.tune_busy, p.tune_progress, "Tune", s.scenarios.compute_tuning,
+                                            s.scenarios.cancel_tuning, width=110, scale=text_scale(s))
         intro = pn.pane.Markdown(
             "**One tuning rule for every filter.** Each family's knob is the one whose largest ratio over the "
             "scenario table's presets and periods is least (the minimax); the curves show the statistic against the "
             "knob, preset by preset.", margin=(10, 10, 0, 10), styles={"font-size": TEXT_FONT})
         return pn.Column(intro, pn.FlexBox(self._family, run, cancel, progress, flex_wrap="wrap",
                                            sizing_mode="stretch_width"),
-                         pn.pane.Markdown(p.sc_tune_note, margin=(0, 10)), self._note,
+                         pn.pane.Markdown(p.tune_note, margin=(0, 10)), self._note,
                          pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width"), sizing_mode="stretch_width")

@@ -84,8 +84,8 @@ class WorstCaseView(Viewer):
         self._sources = {n: ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"worst-{n}")
                          for n in FILTERS}
         self._figure = self._chart()
-        self._table = pn.pane.HTML(worst_case_html(self.state.worst), stylesheets=[_CSS], margin=(0, 10))
-        self.state.param.watch(self._update, ["worst"])
+        self._table = pn.pane.HTML(worst_case_html(self.state.worstcase.table), stylesheets=[_CSS], margin=(0, 10))
+        self.state.worstcase.param.watch(self._update, ["table"])
         self._update()
 
     def _chart(self) -> figure:
@@ -111,7 +111,7 @@ class WorstCaseView(Viewer):
         return fig
 
     def _update(self, *events) -> None:
-        t = self.state.worst
+        t = self.state.worstcase.table
         self._table.object = worst_case_html(t)
         with pn.io.hold():
             for name, src in self._sources.items():
@@ -137,18 +137,18 @@ class WorstCaseView(Viewer):
 
     def _controls(self) -> pn.Column:
         s = self.state
-        p = s.param
+        p = s.worstcase.param
         lo = field(s, "sigma_min", number(s, "sigma_min", width=px(self.state, 110)))
         hi = field(s, "sigma_max", number(s, "sigma_max", width=px(self.state, 110)))
         alphas = pn.widgets.TextInput(label="α values (comma separated)", width=px(self.state, 220),
-                                      value=", ".join(f"{v:g}" for v in s.wc_alphas))
-        alphas.param.watch(lambda e: setattr(s, "wc_alphas", parse_sigmas(e.new)), "value")
-        s.param.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "wc_alphas")
+                                      value=", ".join(f"{v:g}" for v in s.worstcase.alphas))
+        alphas.param.watch(lambda e: s.set("wc_alphas", parse_sigmas(e.new)), "value")
+        p.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "alphas")
         n = field(s, "wc_n_sigma", number(s, "wc_n_sigma", width=px(self.state, 110)))
         horizon = field(s, "wc_horizon", number(s, "wc_horizon", step=50.0, width=px(self.state, 190)))
-        run, cancel, progress = job_buttons(p.worst_busy, p.worst_progress, "Compute", s.compute_worst_case,
-                                            s.cancel_worst_case, scale=text_scale(s))
-        note = pn.pane.Markdown(p.worst_note, margin=(0, 10))
+        run, cancel, progress = job_buttons(p.busy, p.progress, "Compute", s.worstcase.compute,
+                                            s.worstcase.cancel, scale=text_scale(s))
+        note = pn.pane.Markdown(p.note, margin=(0, 10))
         return pn.Column(pn.FlexBox(lo, hi, n, field(s, "wc_alphas", alphas), horizon, run, cancel, progress,
                                     flex_wrap="wrap",
                                     sizing_mode="stretch_width"), note,  # wraps on a narrow screen (1280 × 720)
