@@ -4,6 +4,8 @@ Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kal
 the ISL filter (A.16–A.18) and a compiled simulator of both on one Euler grid (B.30–B.34).
 Imports numpy, scipy and numba only — never a UI library.
 """
+__version__ = "0.2.0"  #: the project's one version string (pyproject.toml reads it; ``isl --version`` prints it)
+
 from .adaptive import adaptive_kbf
 from .baselines import BASELINES, baseline_filters, theory_ratios
 from .filters import AdaptiveGain, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
@@ -49,7 +51,7 @@ __all__ = [
     "Rolling", "ScenarioAverage", "ScenarioPlan", "average_scenario", "plan_scenario", "scenario_grid",
     "Costs", "filter_costs", "imm_kbf", "Period", "PeriodRatios", "paired_margin", "period_ratios", "scenario_periods",
     "TableRow", "table_from", "FAMILIES", "Tuning", "TuningGrids", "tune",
-    "clear_caches",
+    "clear_caches", "__version__",
 ]
 
 

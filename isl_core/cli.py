@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+from isl_core import __version__
 from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
 from isl_core.commands_scenario import cmd_scenario
 
@@ -99,6 +100,7 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
 
     top = _Parser(prog="isl", description="Kalman–Bucy vs the ISL filter: simulations, paper A's Fig. 2 sweep, "
                   "recommended nu, worst cases.")
+    top.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
     parsers: dict[str, argparse.ArgumentParser] = {}
 

@@ -26,6 +26,21 @@ def test_console_script_is_declared():
     assert meta["project"]["scripts"]["isl"] == "app.cli:main"
 
 
+def test_the_version_is_spelled_once_and_printed(capsys):
+    """One version string, ``isl_core.__version__``: pyproject.toml reads it (no version of its own), the installed
+    metadata carries it and ``isl --version`` prints it."""
+    import importlib.metadata
+
+    import isl_core
+
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))
+    assert "version" not in meta["project"] and meta["project"]["dynamic"] == ["version"]
+    assert meta["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "isl_core.__version__"}
+    assert importlib.metadata.version("isl") == isl_core.__version__
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"isl {isl_core.__version__}"
+
+
 def test_run_table_and_json(capsys):
     assert main(["run", "--sigma", "20", "--horizon", "3", "--seed", "2"]) == 0
     out = capsys.readouterr().out
