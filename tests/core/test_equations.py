@@ -10,7 +10,7 @@ import pytest
 
 from isl_core.filters import isl_gains
 
-CORE = Path(__file__).resolve().parent.parent / "isl_core"
+CORE = Path(__file__).resolve().parents[2] / "isl_core"
 
 #: equations the core computes, by their number in paper A (A.n) or paper B (B.n)
 USED = ["A.17", "A.21", "A.23", "A.24", "A.29", "A.30", "A.31", "B.4", "B.5", "B.6", "B.7", "B.23", "B.24", "B.25",

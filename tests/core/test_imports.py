@@ -33,7 +33,7 @@ def test_public_names_exist_and_are_documented():
             assert obj.__doc__ and obj.__doc__.strip(), f"isl_core.{name} has no docstring"
 
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MAX_MODULE_LINES = 400
 
 
