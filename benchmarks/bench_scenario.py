@@ -80,16 +80,16 @@ def loops_ns(n: int) -> tuple[float, float]:
     from isl_core.noise import LAW_GAUSSIAN, law_table
     from isl_core.scenario import clairvoyant_state
     from isl_core.scenario_kernel import advance_scenario
-    from isl_core.simulate import _pack, _start
+    from isl_core._engine import draw_start, pack
 
     kb = kalman_bucy(FIG3)
     specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, NU)]
     h = step_size(FIG3, kb, specs)
-    damp, coef, kind, table, ad = _pack(FIG3, specs)
+    damp, coef, kind, table, ad = pack(FIG3, specs)
     out = []
     for scenario, steps in ((False, 10), (True, 10), (False, n), (True, n)):  # first load both kernels: not timed
         rng = np.random.default_rng(1)
-        x, e0 = _start(FIG3, kb, rng, "stationary")
+        x, e0 = draw_start(FIG3, kb, rng, "stationary")
         e = np.tile(e0, (2, 1))
         t0 = time.perf_counter()
         if scenario:

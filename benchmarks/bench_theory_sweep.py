@@ -19,7 +19,7 @@ import numpy as np
 
 from isl_core import Model, predicted_ratios, predicted_ratios_grid, sweep
 from isl_core.sweep import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
-from isl_core.theory import _kb
+from isl_core.riccati import _solved as _kb
 
 
 def bench_one(reps: int = 2000) -> None:

@@ -3,7 +3,7 @@
 Matrix form of SPEC §4 on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors, SPEC §8:
 the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of ``rng.standard_normal((n, 2))``
 drawn in bulk right after the initial state and the filters' common start error
-(:func:`isl_core.simulate.initial_state`, :func:`isl_core.simulate.initial_error`, ``draw_noise``):
+(``initial_state``, ``initial_error``, ``draw_noise`` of the engine, :mod:`isl_core._engine`):
 
     Y_{k+1} − Y_k = h·C·X_k + σ·√h·ε_k                                      (B.34)
     KBF (linear φ = K):  Ẑ_{k+1} = Ẑ_k + h·A_f·Ẑ_k + K·[Y_{k+1} − Y_k − h·C·Ẑ_k]        (B.30)
@@ -25,11 +25,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ._engine import draw_noise, initial_error, initial_state
 from .filters import FilterSpec
 from .model import Model
 from .nonlinearity import phi
 from .riccati import kalman_bucy
-from .simulate import draw_noise, initial_error, initial_state
 
 __all__ = ["reference_sigma_hat", "reference_trajectories"]
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._engine import CHUNK, DivergenceError, draw_start, pack
 from .filters import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
 from .grid import MAX_STEPS, check_filters, check_specs, run_plan
 from .imm import imm_state
@@ -37,7 +38,6 @@ from .riccati import kalman_bucy
 from .robust import huber_kappa
 from .scenario import Scenario, clairvoyant_state
 from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
-from .simulate import CHUNK, DivergenceError, _pack, _start
 from .validate import check_int, check_real
 
 __all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",
@@ -179,7 +179,7 @@ class ScenarioPlan:
         ad = ad.copy()
         vb_P, vb_ab, vb_par = (a.copy() for a in self.learning_state)
         rng = np.random.default_rng(seed)
-        x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
+        x, e0 = draw_start(model, kalman_bucy(model), rng, "stationary")
         e = np.tile(e0, (nf, 1))
         state = (*clairvoyant_state(self.delta, self.q), scenario.noise_variance)  # its P_0: Δ at σ(0)
         adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
@@ -285,7 +285,7 @@ def plan_scenario(
                        np.zeros(model.m), False)
     constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
     filters = (clair, constant, isl_filter(model, nu), *specs[1:])
-    damp, coef, kind, table, ad = _pack(model, filters, scenario=True)
+    damp, coef, kind, table, ad = pack(model, filters, scenario=True)
     kind[0] = KIND_CLAIRVOYANT
     learning = _learning_state(model, filters, ad)
     q = scenario.sensor_steps(h, r_min)

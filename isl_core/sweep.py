@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._engine import freeze
 from .baselines import model_aware_isl
 from .filters import isl_filter, optimal_kbf
 from .grid import MAX_STEPS, settling_rate, step_size
@@ -94,18 +95,6 @@ def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: flo
     n_b = sq.shape[0]
     half = student_t.ppf(0.5 + level / 2.0, n_b - 1) * y.std(axis=0, ddof=1) / math.sqrt(n_b)
     return np.sqrt(pooled) / s, np.sqrt(np.maximum(pooled - half, 0.0)) / s, np.sqrt(pooled + half) / s
-
-
-def _freeze(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.flags.writeable = False
-    return a
-
-
-def _frozen_int(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=np.int64)
-    a.flags.writeable = False
-    return a
 
 
 @dataclass(frozen=True)
@@ -264,14 +253,14 @@ def sweep(
                                                          model_aware, beta)
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
-    return dataclasses.replace(res, stretch=_freeze(stretch), model_aware=model_aware, beta=beta)
+    return dataclasses.replace(res, stretch=freeze(stretch), model_aware=model_aware, beta=beta)
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
     return SweepResult(
-        _freeze(alphas), _freeze(sigmas), _freeze(nob), m, w, horizon, seeds, batches, level,
-        _freeze(ratio[:, :, 1:]), _freeze(low[:, :, 1:]), _freeze(high[:, :, 1:]),
-        _freeze(ratio[:, :, 0]), _freeze(low[:, :, 0]), _freeze(high[:, :, 0]),
-        _freeze(theory), _freeze(s), _freeze(r_min), _freeze(h), _frozen_int(steps),
+        freeze(alphas), freeze(sigmas), freeze(nob), m, w, horizon, seeds, batches, level,
+        freeze(ratio[:, :, 1:]), freeze(low[:, :, 1:]), freeze(high[:, :, 1:]),
+        freeze(ratio[:, :, 0]), freeze(low[:, :, 0]), freeze(high[:, :, 0]),
+        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64),
     )

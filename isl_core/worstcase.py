@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._engine import freeze
 from .adaptive import MEMORY, check_sigma_range
 from .baselines import BASELINES, baseline_filters, check_names, design_sigma, theory_ratios
 from .baselines import LABELS as BASE_LABELS
@@ -50,12 +51,6 @@ FILTERS = (*BASELINES[:2], "isl_a31", *BASELINES[2:])
 #: column labels: each filter AND where its tuning comes from
 LABELS = {**BASE_LABELS, "isl": "ISL, minimax ν", "isl_a31": "ISL, ν from table A.31",
           "isl_model": "ISL model-aware, minimax ν"}
-
-
-def _frozen(a, dtype=float) -> np.ndarray:
-    a = np.array(a, dtype=dtype)
-    a.flags.writeable = False
-    return a
 
 
 @dataclass(frozen=True)
@@ -261,6 +256,6 @@ def worst_case(
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
-        _frozen(alphas), _frozen(sigmas), names, m, w, horizon, seeds, batches, level, _frozen(ratio),
-        _frozen(low), _frozen(high), _frozen(theory), _frozen(nu), _frozen(design), _frozen(best[0]),
-        _frozen(best[1]), _frozen(r_min), _frozen(h), _frozen(steps, np.int64), _frozen(stretch))
+        freeze(alphas), freeze(sigmas), names, m, w, horizon, seeds, batches, level, freeze(ratio),
+        freeze(low), freeze(high), freeze(theory), freeze(nu), freeze(design), freeze(best[0]),
+        freeze(best[1]), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch))

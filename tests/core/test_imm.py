@@ -11,7 +11,7 @@ from isl_core import Model, Scenario, kalman_bucy, simulate, simulate_scenario
 from isl_core.imm import imm_kbf
 from isl_core.noise import DRAWS, LAWS, draw_ahead, law_table
 from isl_core.scenario import sigma_path
-from isl_core.simulate import _start
+from isl_core._engine import draw_start
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)
 
@@ -32,7 +32,7 @@ def _imm_reference(model, spec, scenario, h, n, seed, q):
     Returns the squared errors of Σ_j μ_j X̂_j summed over the steps, and the sum of Σ_j μ_j σ_j."""
     kb = kalman_bucy(model)
     rng = np.random.default_rng(seed)
-    x, e0 = _start(model, kb, rng, "stationary")
+    x, e0 = draw_start(model, kb, rng, "stationary")
     m, bank = model.m, spec.imm
     J, p = len(bank.sigmas), bank.switch
     T = np.full((J, J), p / (J - 1) if J > 1 else 0.0)  # T[i, j] = P(mode j after mode i)

@@ -17,7 +17,7 @@ from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, kern
 from isl_core.adaptive import adaptive_kbf
 from isl_core.kernels import FLUSH, _root, advance, fast_cbrt
 from isl_core.reference import reference_sigma_hat
-from isl_core.simulate import _pack, _start
+from isl_core._engine import draw_start, pack
 
 EPS = np.finfo(float).eps
 AGREE = 1e-10  # kernel vs reference, relative to the size of each trajectory (rounding only: ~1e-15 seen)
@@ -100,7 +100,7 @@ def test_kernel_matches_numpy_reference(alpha, beta, sigma, m):
 
 def _fresh(model, specs, seed):
     rng = np.random.default_rng(seed)
-    x, e0 = _start(model, kalman_bucy(model), rng, "stationary")
+    x, e0 = draw_start(model, kalman_bucy(model), rng, "stationary")
     return rng, x, np.tile(e0, (len(specs), 1))
 
 
@@ -117,7 +117,7 @@ def test_chunked_calls_batches_and_burn_match_stored_errors():
     E = np.empty((2, n + 1, 3))
     X[0], E[:, 0] = x, e
     sq_one = np.zeros((nb, 2, 3))
-    args = (h, model.alpha, model.beta, model.sigma, *_pack(model, specs))
+    args = (h, model.alpha, model.beta, model.sigma, *pack(model, specs))
     assert advance(x, e, rng, n, *args, 0, burn, batch_len, sq_one, no_sigma[0], X, E, no_sigma[1], True, 0) == n
     # the same run in uneven chunks, nothing stored: only X_m of the truth is advanced
     rng, x, e = _fresh(model, specs, 5)
@@ -143,7 +143,7 @@ def test_stored_chunks_can_start_at_an_offset():
     """``out0``: a chunk's rows go to ``X_out[k − out0]`` (a buffer reused chunk after chunk)."""
     model = Model(0.0, 2.0, 3.0, 4)
     specs = [isl_filter(model, 2.0)]
-    args = (0.01, model.alpha, model.beta, model.sigma, *_pack(model, specs))
+    args = (0.01, model.alpha, model.beta, model.sigma, *pack(model, specs))
     rng, x, e = _fresh(model, specs, 3)
     X, E, S = np.empty((301, 4)), np.empty((1, 301, 4)), np.empty((0, 301))
     X[0], E[:, 0] = x, e
@@ -164,7 +164,7 @@ def test_kernel_stops_at_the_first_non_finite_step():
     rng, x, e = _fresh(model, specs, 1)
     sq = np.zeros((1, 2, 3))
     dummy_x, dummy_e, dummy_s = np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1))
-    done = advance(x, e, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, *_pack(model, specs),
+    done = advance(x, e, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, *pack(model, specs),
                    0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_e, dummy_s, False, 0)
     assert 0 < done < 100_000
     assert not (np.all(np.isfinite(e)) and np.all(np.isfinite(x[-1])))

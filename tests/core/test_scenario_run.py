@@ -12,7 +12,7 @@ from isl_core.noise import DRAWS, LAWS, draw_ahead, law_table
 from isl_core.robust import huber_kappa, robust_kbf
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
 from isl_core.scenario_run import plan_scenario, simulate_scenario
-from isl_core.simulate import _pack, _start
+from isl_core._engine import draw_start, pack
 from isl_core.variational import variational_kbf
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
@@ -38,9 +38,9 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     """The scenario step written out in numpy, one filter at a time (module docstring of scenario_kernel)."""
     kb = kalman_bucy(model)
     rng = np.random.default_rng(seed)
-    x, e0 = _start(model, kb, rng, "stationary")
+    x, e0 = draw_start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    _, _, _, table, ad = _pack(model, filters, scenario=True)
+    _, _, _, table, ad = pack(model, filters, scenario=True)
     sig = sigma_path(scenario, model, kb.r_min, h, n)
     acc = np.zeros(len(filters))
     sq = np.zeros((len(filters), model.m))
@@ -90,7 +90,7 @@ def _vb_loop(model, spec, scenario, h, n, seed, q):
     Euler truth X and the readings y = ΔY/√(qh): errors X̂ − X squared and summed."""
     kb = kalman_bucy(model)
     rng = np.random.default_rng(seed)
-    x, e0 = _start(model, kb, rng, "stationary")
+    x, e0 = draw_start(model, kb, rng, "stationary")
     X = np.zeros(model.m)
     X[-1] = x[-1]
     Xh = X + e0

@@ -26,9 +26,10 @@ from isl_core import (
 )
 from isl_core.filters import linearized_matrix
 from isl_core.grid import H_RATE, MAX_STORED_STEPS
+from isl_core.kernels import advance
 from isl_core.theory import lyapunov
 
-sim = importlib.import_module("isl_core.simulate")  # the module (``isl_core.simulate`` is also the function)
+engine = importlib.import_module("isl_core._engine")
 
 EPS = np.finfo(float).eps
 FIG3 = Model(0.5, 3.0, 20.0, 3)
@@ -108,7 +109,7 @@ def test_start_error_has_the_optimal_covariance(model):
     kb = kalman_bucy(model)
     rng = np.random.default_rng(0)
     n = 20_000
-    draws = np.array([sim.initial_error(kb, rng) for _ in range(n)])
+    draws = np.array([engine.initial_error(kb, rng) for _ in range(n)])
     cov = draws.T @ draws / n
     d = np.asarray(kb.delta)
     se = np.sqrt((d**2 + np.outer(np.diag(d), np.diag(d))) / n)  # Var of a Wishart entry / n²
@@ -213,12 +214,12 @@ def test_errors_keep_their_digits_whatever_the_signal_size():
     out = []
     for shift in (0.0, 1e15):
         rng = np.random.default_rng(4)
-        x, e0 = sim._start(model, kb, rng, "stationary")
+        x, e0 = engine.draw_start(model, kb, rng, "stationary")
         x[:-1] += shift
         e = np.tile(e0, (2, 1))
         X, E = np.empty((n + 1, 6)), np.empty((2, n + 1, 6))
-        sim.advance(x, e, rng, n, h, model.alpha, model.beta, model.sigma, *sim._pack(model, specs), 0, 0, n,
-                    np.zeros((1, 2, 6)), np.empty((1, 0)), X, E, np.empty((0, n + 1)), True, 0)
+        advance(x, e, rng, n, h, model.alpha, model.beta, model.sigma, *engine.pack(model, specs), 0, 0, n,
+                np.zeros((1, 2, 6)), np.empty((1, 0)), X, E, np.empty((0, n + 1)), True, 0)
         out.append((X, E))
     np.testing.assert_array_equal(out[0][1][:, 1:], out[1][1][:, 1:])
     assert np.min(np.abs(out[1][0][1:, 0])) > 1e14
@@ -227,7 +228,7 @@ def test_errors_keep_their_digits_whatever_the_signal_size():
 # --------------------------------------------------------------------------------------- simulate_rmse
 
 def test_simulate_rmse_matches_stored_run_across_chunks(monkeypatch):
-    monkeypatch.setattr(sim, "CHUNK", 97)  # many kernel calls: batch and burn counters cross chunk edges
+    monkeypatch.setattr(engine, "CHUNK", 97)  # many kernel calls: batch and burn counters cross chunk edges
     kb = kalman_bucy(FIG3)
     run = simulate(FIG3, 3.0, seed=9, T=200.0)
     burn, batches = 7.3, 6
@@ -244,7 +245,7 @@ def test_simulate_rmse_matches_stored_run_across_chunks(monkeypatch):
 
 
 def test_progress_is_reported_and_can_cancel(monkeypatch):
-    monkeypatch.setattr(sim, "CHUNK", 1000)
+    monkeypatch.setattr(engine, "CHUNK", 1000)
     seen = []
     res = simulate_rmse(FIG3, [isl_filter(FIG3, 3.0)], T=100.0, progress=seen.append)
     assert len(seen) > 2 and seen == sorted(seen) and seen[-1] == 1.0 and np.all(np.isfinite(res.sq))
