@@ -22,7 +22,7 @@ import numpy as np
 import param
 
 from isl_core import BASELINES, Model, WorstCaseTable, baseline_filters, theory_ratios, worst_case
-from isl_core.baselines import LABELS
+from isl_core.filters.baselines import LABELS
 from isl_core.sweep import BURN
 from isl_core.worstcase import FILTERS
 

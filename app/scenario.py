@@ -39,7 +39,7 @@ from isl_core import (
     variational_kbf,
     who_wins_map,
 )
-from isl_core.baselines import model_aware_isl
+from isl_core.filters.isl import model_aware_isl
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario_map import MAPS

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, step_size
-from isl_core.adaptive import adaptive_kbf
+from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.kernels import advance
 from isl_core._engine import draw_start, initial_state, pack
 

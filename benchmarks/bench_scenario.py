@@ -75,7 +75,7 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
-    from isl_core.imm import imm_state
+    from isl_core.filters.imm import imm_state
     from isl_core.kernels import advance
     from isl_core.noise import LAW_GAUSSIAN, law_table
     from isl_core.scenario import clairvoyant_state

@@ -6,19 +6,28 @@ Imports numpy, scipy and numba only — never a UI library.
 """
 __version__ = "0.2.0"  #: the project's one version string (pyproject.toml reads it; ``isl --version`` prints it)
 
-from .adaptive import adaptive_kbf
-from .baselines import BASELINES, baseline_filters, theory_ratios
-from .filters import AdaptiveGain, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .filters import (
+    BASELINES,
+    AdaptiveGain,
+    FilterSpec,
+    adaptive_kbf,
+    baseline_filters,
+    imm_kbf,
+    isl_filter,
+    linearized_matrix,
+    mismatched_kbf,
+    optimal_kbf,
+    robust_kbf,
+    variational_kbf,
+)
 from .cost import Costs, filter_costs
 from .grid import RunPlan, run_plan, settling_rate, step_size
-from .imm import imm_kbf
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
 from .periods import Period, PeriodRatios, paired_margin, period_ratios, scenario_periods
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
-from .robust import robust_kbf
 from .scenario import Clairvoyant, Scenario, clairvoyant
 from .scenario_map import WhoWinsMap, who_wins_map
 from .scenario_average import Rolling, ScenarioAverage, average_scenario
@@ -28,13 +37,12 @@ from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 from .theory import (
-    mismatched_kbf,
     mismatched_kbf_ratios,
     predicted_covariance,
     predicted_ratios,
     predicted_ratios_grid,
+    theory_ratios,
 )
-from .variational import variational_kbf
 from .worstcase import WorstCaseTable, worst_case
 
 __all__ = [
@@ -59,7 +67,8 @@ def clear_caches() -> None:
     """Forget the core's cached solutions (normalized CAREs, Kalman–Bucy filters, adaptive gain tables, ISL
     moments): each is recomputed when next needed. A server calls it when its sessions have ended, so that what a
     class computed does not stay in memory (and pin the allocator's arenas it lies in)."""
-    from . import adaptive, nonlinearity, riccati
+    from . import nonlinearity, riccati
+    from .filters import adaptive
 
-    for cached in (riccati._normalized_care, riccati._solved, adaptive._table, nonlinearity.gamma_moments):
+    for cached in (riccati.normalized_care, riccati._solved, adaptive._table, nonlinearity.gamma_moments):
         cached.cache_clear()

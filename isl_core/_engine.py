@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .filters import KIND_ADAPTIVE, FilterSpec
+from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .kernels import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
 from .model import Model
 from .riccati import KalmanBucy

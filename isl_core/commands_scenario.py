@@ -62,7 +62,8 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
     import dataclasses
 
     from .cost import filter_costs
-    from .filters import isl_filter, optimal_kbf
+    from .filters.isl import isl_filter
+    from .filters.kalman import optimal_kbf
     from .model import Model
     from .riccati import kalman_bucy
     from .tuning import _paper_nu

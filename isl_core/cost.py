@@ -17,7 +17,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .filters import FilterSpec
+from .filters.base import FilterSpec
 from .model import Model
 from .scenario import Scenario
 from .scenario_run import plan_scenario

@@ -22,7 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .filters.base import FilterSpec, linearized_matrix
+from .filters.isl import isl_filter
+from .filters.kalman import optimal_kbf
 from .model import Model
 from .riccati import KalmanBucy, kalman_bucy
 from .theory import lyapunov

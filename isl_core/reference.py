@@ -26,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ._engine import draw_noise, initial_error, initial_state
-from .filters import FilterSpec
+from .filters.base import FilterSpec
 from .model import Model
 from .nonlinearity import phi
 from .riccati import kalman_bucy

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._engine import check_progress, check_start, run_chunks
-from .filters import KIND_ADAPTIVE, FilterSpec
+from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .grid import MAX_STEPS, check_specs, grid
 from .model import Model
 from .riccati import kalman_bucy

@@ -20,7 +20,8 @@ import numpy as np
 
 from ._engine import Tracked, check_progress, check_start, freeze, run_chunks
 from .decimate import DISPLAY_POINTS, MinMax
-from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
+from .filters.base import KIND_ADAPTIVE, FilterSpec
+from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
 from .kernels import minmax_block
 from .model import Model

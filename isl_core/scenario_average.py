@@ -28,7 +28,7 @@ from statistics import NormalDist
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from .filters import FilterSpec
+from .filters.base import FilterSpec
 from .model import Model
 from .scenario import Scenario
 from .scenario_run import ScenarioRun, plan_scenario

@@ -47,7 +47,7 @@ from numba import njit
 
 from .kernels import AD_INV_MEMORY, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
 from .noise import DRAWS, draw_ahead
-from .imm import imm_step
+from .filters.imm import imm_step
 from .scenario import clairvoyant_step
 
 __all__ = ["KIND_CLAIRVOYANT", "advance_scenario"]

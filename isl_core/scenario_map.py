@@ -26,19 +26,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .adaptive import adaptive_kbf
-from .baselines import model_aware_isl
-from .filters import isl_filter
-from .imm import imm_kbf
+from .filters.adaptive import adaptive_kbf
+from .filters.imm import imm_kbf
+from .filters.isl import model_aware_isl
+from .filters.robust import robust_kbf
+from .filters.variational import variational_kbf
 from .model import Model
 from .paper import M, W
 from .periods import Period, edge_times, paired_margin, per_seed
-from .robust import robust_kbf
 from .scenario import Scenario
 from .scenario_average import average_scenario
 from .tuning import SIGMA_RANGE, Tuning, _paper_nu, tune
 from .validate import check_int, check_real, check_reals
-from .variational import variational_kbf
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
 

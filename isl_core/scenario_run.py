@@ -28,14 +28,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._engine import CHUNK, DivergenceError, draw_start, pack
-from .filters import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec, isl_filter, optimal_kbf
+from .filters.base import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
+from .filters.imm import imm_state
+from .filters.isl import isl_filter
+from .filters.kalman import optimal_kbf
+from .filters.robust import huber_kappa
 from .grid import MAX_STEPS, check_filters, check_specs, run_plan
-from .imm import imm_state
 from .kernels import AD_SIGMA
 from .model import Model
 from .noise import LAWS, law_table
 from .riccati import kalman_bucy
-from .robust import huber_kappa
 from .scenario import Scenario, clairvoyant_state
 from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
 from .validate import check_int, check_real

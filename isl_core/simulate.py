@@ -22,7 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._engine import CHUNK, DivergenceError, Tracked, check_progress, check_start, freeze, run_chunks
-from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
+from .filters.base import KIND_ADAPTIVE, FilterSpec
+from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
 from .model import Model
 from .riccati import kalman_bucy

@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._engine import freeze
-from .baselines import model_aware_isl
-from .filters import isl_filter, optimal_kbf
+from .filters.isl import isl_filter, model_aware_isl
+from .filters.kalman import optimal_kbf
 from .grid import MAX_STEPS, settling_rate, step_size
 from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model

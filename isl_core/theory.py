@@ -39,15 +39,17 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .filters import FilterSpec, isl_filter
+from .filters.base import FilterSpec
+from .filters.isl import isl_filter
+from .filters.kalman import mismatched_kbf
 from .model import Model
 from .nonlinearity import gamma_moments
 from .riccati import kalman_bucy
 from .validate import check_real, check_reals, short
 
 __all__ = [
-    "predicted_covariance", "predicted_ratios", "predicted_ratios_grid", "mismatched_kbf",
-    "mismatched_kbf_ratios", "lyapunov",
+    "lyapunov", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
+    "theory_ratios",
 ]
 
 
@@ -175,14 +177,6 @@ def predicted_ratios_grid(model: Model, nus: Sequence[float], *, damp: float | N
     return np.sqrt(np.diagonal(P, axis1=-2, axis2=-1)) / _optimal_s(model)
 
 
-def mismatched_kbf(model: Model, sigma_design: float) -> FilterSpec:
-    """Kalman–Bucy filter whose gain K̄ solves the CARE (A.23) for σ̄ = ``sigma_design`` instead of σ."""
-    sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
-    design = Model(model.alpha, model.beta, sigma_design, model.m)
-    K = np.array(kalman_bucy(design).K, dtype=float)
-    return FilterSpec("kbf_mismatched", f"Kalman–Bucy designed for σ̄ = {sigma_design:.4g}", model.alpha, K, False)
-
-
 def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
     """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (SPEC §7).
 
@@ -191,4 +185,13 @@ def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     spec = mismatched_kbf(model, sigma_design)
+    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
+
+
+def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
+    """Predicted RMSE ratios ``√P_ii / s_i`` (m,) of ``spec`` on ``model`` (table in the module docstring).
+
+    Exact (Lyapunov) for a fixed linear gain, statistical linearization (SPEC §6) for the power law; ``nan``
+    for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
+    """
     return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)

@@ -34,19 +34,19 @@ from pathlib import Path
 
 import numpy as np
 
-from .adaptive import adaptive_kbf
-from .baselines import model_aware_isl
-from .filters import FilterSpec, isl_filter
-from .imm import imm_kbf
+from .filters.adaptive import adaptive_kbf
+from .filters.base import FilterSpec
+from .filters.imm import imm_kbf
+from .filters.isl import isl_filter, model_aware_isl
+from .filters.robust import robust_kbf
+from .filters.variational import variational_kbf
 from .kernels import sources_digest
 from .model import Model
 from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
 from .presets import PRESETS
-from .robust import robust_kbf
 from .scenario import Scenario
 from .scenario_run import plan_scenario
 from .validate import check_int, check_real
-from .variational import variational_kbf
 
 __all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "tune", "variant_name"]
 

@@ -32,17 +32,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._engine import freeze
-from .adaptive import MEMORY, check_sigma_range
-from .baselines import BASELINES, baseline_filters, check_names, design_sigma, theory_ratios
-from .baselines import LABELS as BASE_LABELS
-from .filters import isl_filter
+from .filters.adaptive import MEMORY
+from .filters.baselines import BASELINES, baseline_filters, check_names
+from .filters.baselines import LABELS as BASE_LABELS
+from .filters.isl import isl_filter
+from .filters.kalman import design_sigma
 from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model
 from .paper import FIG2_ALPHAS, a31_nu_over_beta
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
 from .sweep import BURN, group_length, group_seed, pooled_ratios
-from .validate import check_int, check_real, check_reals, short
+from .theory import theory_ratios
+from .validate import check_int, check_real, check_reals, check_sigma_range, short
 
 __all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
 

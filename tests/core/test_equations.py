@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from isl_core.filters import isl_gains
+from isl_core.nonlinearity import isl_gains
 
 CORE = Path(__file__).resolve().parents[2] / "isl_core"
 

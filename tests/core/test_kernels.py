@@ -14,10 +14,10 @@ import pytest
 
 import isl_core
 from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, kernels, optimal_kbf, simulate
-from isl_core.adaptive import adaptive_kbf
+from isl_core._engine import draw_start, pack
+from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.kernels import FLUSH, _root, advance, fast_cbrt
 from isl_core.reference import reference_sigma_hat
-from isl_core._engine import draw_start, pack
 
 EPS = np.finfo(float).eps
 AGREE = 1e-10  # kernel vs reference, relative to the size of each trajectory (rounding only: ~1e-15 seen)

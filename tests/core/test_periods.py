@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from isl_core import Model, Scenario, average_scenario
-from isl_core.adaptive import adaptive_kbf
+from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.periods import edge_times, paired_margin, ratios_from, scenario_periods
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from isl_core import Model, Scenario, average_scenario, simulate_scenario, who_wins_map
-from isl_core.adaptive import adaptive_kbf
+from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.scenario_average import margin_low, resampled, worst_ratio
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)

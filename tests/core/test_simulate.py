@@ -24,7 +24,7 @@ from isl_core import (
     simulate_rmse,
     step_size,
 )
-from isl_core.filters import linearized_matrix
+from isl_core.filters.base import linearized_matrix
 from isl_core.grid import H_RATE, MAX_STORED_STEPS
 from isl_core.kernels import advance
 from isl_core.theory import lyapunov

@@ -20,9 +20,9 @@ from isl_core import (
     optimal_kbf,
     simulate_rmse,
 )
+from isl_core.filters.kalman import mismatched_kbf
 from isl_core.theory import (
     lyapunov,
-    mismatched_kbf,
     mismatched_kbf_ratios,
     predicted_covariance,
     predicted_ratios,
@@ -32,6 +32,7 @@ from isl_core.theory import (
 EPS = np.finfo(float).eps
 BATCHES = 20
 LEVEL = 0.95  # two-sided confidence level of the batch-means intervals
+FIG3 = Model.from_w(0.5, 3.0, 20.0, 3)  # paper A, Fig. 3 (σ = 20)
 
 
 def test_b52_white_noise_m1():
@@ -202,3 +203,16 @@ def test_linear_filter_on_a0_matches_simulation():
     pred = np.sqrt(np.diag(predicted_covariance(model, spec))) / kb.s
     assert np.all(pred > 1.0)
     assert np.all(np.abs(sim[0] - pred) <= half[0] + 0.02 * pred), (sim[0], pred, half[0])
+
+
+def test_euler_grid_covariance_is_the_discrete_lyapunov_solution():
+    """``predicted_covariance(h=...)``: P = F P Fᵀ + h·Q for the error recursion of a linear filter on the grid."""
+    from scipy.linalg import solve_discrete_lyapunov
+
+    spec = mismatched_kbf(FIG3, 3.0)
+    h = 0.01
+    F = np.eye(3) + h * (FIG3.A - np.outer(spec.coef, FIG3.C[0]))  # e ← (I + h(A − K̄C))e + K̄σ√h ε − βE√h v
+    Q = h * (FIG3.beta**2 * (FIG3.E @ FIG3.E.T) + FIG3.sigma**2 * np.outer(spec.coef, spec.coef))
+    np.testing.assert_allclose(predicted_covariance(FIG3, spec, h=h), solve_discrete_lyapunov(F, Q), rtol=1e-10)
+    with pytest.raises(ValueError, match=r"^h must be a finite number > 0"):
+        predicted_covariance(FIG3, spec, h=0.0)

@@ -7,7 +7,7 @@ import pytest
 from isl_core import Model, Scenario, average_scenario
 from isl_core.periods import edge_times, per_seed
 from isl_core.riccati import kalman_bucy
-from isl_core.tuning import FAMILIES, TuningGrids, _MEMORY_CACHE, tune, variant_name
+from isl_core.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune, variant_name
 
 PRESETS = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
            "constant": ("constant σ", 20.0, Scenario())}

@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import isl_core as core
+from isl_core.filters.adaptive import sigma_limit
 from isl_core.validate import check_int, check_real, read_int, read_real
 
 M = core.Model(0.5, 3.0, 20.0, 3)
@@ -86,7 +87,7 @@ def _many(ok):
 
 def _range_pair(v) -> bool:
     """A σ range the adaptive filter's table can cover for M (up to the Riccati domain's σ, isl_core.riccati)."""
-    top = core.adaptive.sigma_limit(M)
+    top = sigma_limit(M)
     return _flat(v) and len(v) == 2 and _real(v[0], 0.0, top, lo_open=True) and _real(v[1], float(v[0]), top)
 
 

@@ -39,16 +39,15 @@ Symbols: J = ``modes``, p = ``switch``, σ_j = ``IMMBank.sigmas``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 from numba import njit
 
-from .filters import FilterSpec, IMMBank
-from .kernels import CACHE
-from .model import Model
-from .riccati import kalman_bucy
-from .validate import check_int, check_real
+from ..kernels import CACHE
+from ..model import Model
+from ..riccati import kalman_bucy
+from ..validate import check_int, check_real, check_sigma_range
+from .adaptive import sigma_limit
+from .base import FilterSpec, IMMBank
 
 __all__ = ["MODES", "SIGMA_RANGE", "SWITCH", "imm_kbf", "imm_state", "imm_step"]
 
@@ -63,8 +62,6 @@ def imm_kbf(model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, mod
             switch: float = SWITCH) -> FilterSpec:
     """The IMM filter (module docstring) for ``model``'s α, β, m (σ is not used): ``modes`` σ_j log-spaced over
     ``sigma_range`` (its ends included), switch probability ``switch`` per reading (10⁻¹² ≤ p < 1)."""
-    from .adaptive import check_sigma_range, sigma_limit
-
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     lo, hi = check_sigma_range(sigma_range)

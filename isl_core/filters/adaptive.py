@@ -45,13 +45,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from .filters import AdaptiveGain, FilterSpec
-from .model import Model
-from .riccati import A_MAX, _normalized_care
-from .validate import check_real, short
+from ..model import Model
+from ..riccati import A_MAX, normalized_care
+from ..validate import check_real, check_sigma_range, short
+from .base import AdaptiveGain, FilterSpec
 
 __all__ = [
-    "MEMORY", "TABLE_MARGIN", "TABLE_PER_DECADE", "adaptive_kbf", "check_sigma_range", "gain_table", "normalized_gains",
+    "MEMORY", "TABLE_MARGIN", "TABLE_PER_DECADE", "adaptive_kbf", "gain_table", "normalized_gains",
     "sigma_hat_sd", "sigma_limit",
 ]
 
@@ -63,7 +63,7 @@ TABLE_MARGIN = 100.0  #: the table reaches this factor beyond each end of the σ
 def normalized_gains(m: int, a: np.ndarray) -> np.ndarray:
     """First columns Δ'_{i1} (len(a), m) of the normalized CARE ``A'Δ' + Δ'A'ᵀ + EEᵀ − Δ'CᵀCΔ' = 0``,
     ``A' = A0 − a·EEᵀ`` (:mod:`isl_core.riccati`), for every a ≥ 0 in ``a``."""
-    return np.array([_normalized_care(m, float(x))[:, 0] for x in np.atleast_1d(a)])
+    return np.array([normalized_care(m, float(x))[:, 0] for x in np.atleast_1d(a)])
 
 
 @lru_cache(maxsize=64)
@@ -124,17 +124,6 @@ def sigma_limit(model: Model) -> float:
         return math.inf
     with np.errstate(over="ignore"):
         return float(model.beta * np.float64(A_MAX / model.alpha) ** model.m)
-
-
-def check_sigma_range(sigma_range) -> tuple[float, float]:
-    """``(σ_min, σ_max)`` with 0 < σ_min ≤ σ_max finite, or a ``ValueError`` naming ``sigma_range``."""
-    if not (isinstance(sigma_range, list | tuple | np.ndarray) and len(sigma_range) == 2):
-        raise ValueError(
-            f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {short(sigma_range)}")
-    lo, hi = sigma_range
-    lo = check_real("sigma_range[0]", lo, lo=0.0, lo_open=True)
-    hi = check_real("sigma_range[1]", hi, lo=lo)
-    return lo, hi
 
 
 def sigma_hat_sd(memory: float = MEMORY) -> float:

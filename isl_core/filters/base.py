@@ -1,4 +1,5 @@
-"""Filters as interchangeable parts of one fused simulation (B.30, B.32, A.18).
+"""What every filter is: a :class:`FilterSpec` for the fused simulation, and the kernels' codes of its kind (B.30, B.32,
+A.18).
 
 Every filter here has the form (on the grid t_k = k·h, innovation u_k = ΔY_k/√h − √h·Z_1(t_k))
 
@@ -7,14 +8,20 @@ Every filter here has the form (on the grid t_k = k·h, innovation u_k = ΔY_k/�
 with a propagation damping ``a`` (0 → A0 as in paper A's ISL filter; α → the true A) and φ either
 linear, ``φ(u) = K u`` (then the step is the Kalman–Bucy scheme B.30), or the power law of (A.17),
 ``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18), or linear with a gain ``K(σ̂_k)`` that follows an
-online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.adaptive`, described by an
+online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.filters.adaptive`, described by an
 :class:`AdaptiveGain`), or — in scenario runs only — the variational-Bayes adaptive Kalman filter of
-:mod:`isl_core.variational` (a :class:`VariationalGain`), which carries its own covariance, or the bank of Kalman
-filters of the interacting-multiple-model filter of :mod:`isl_core.imm` (an :class:`IMMBank`).
+:mod:`isl_core.filters.variational` (a :class:`VariationalGain`), which carries its own covariance, or the bank of Kalman
+filters of the interacting-multiple-model filter of :mod:`isl_core.filters.imm` (an :class:`IMMBank`).
+
+The constructors are the family modules of :mod:`isl_core.filters`: :mod:`~isl_core.filters.kalman` (the
+Kalman–Bucy filters: optimal, mismatched, minimax), :mod:`~isl_core.filters.isl` (paper A's and the model-aware ISL
+filters), :mod:`~isl_core.filters.adaptive`, :mod:`~isl_core.filters.robust`, :mod:`~isl_core.filters.variational`,
+:mod:`~isl_core.filters.imm`; :mod:`~isl_core.filters.baselines` names the set a user without σ compares.
 
 Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law, ``adaptive`` the σ̂-driven gain;
-``kind`` is the kernel's code (:data:`KIND_LINEAR`, :data:`KIND_POWER`, :data:`KIND_ADAPTIVE`, :data:`KIND_VB`,
-:data:`KIND_ROBUST`, :data:`KIND_IMM`).
+``kind`` is the kernels' code of φ, one named constant each — :data:`KIND_LINEAR`, :data:`KIND_POWER`,
+:data:`KIND_ADAPTIVE`, :data:`KIND_CLAIRVOYANT`, :data:`KIND_VB`, :data:`KIND_ROBUST`, :data:`KIND_IMM` — module
+ints that the compiled kernels read as compile-time constants (never a bare number).
 """
 from __future__ import annotations
 
@@ -22,24 +29,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import Model
-from .nonlinearity import isl_exponents, isl_gains, linearization
-from .riccati import KalmanBucy
+from ..model import Model
+from ..nonlinearity import isl_exponents, linearization
 
 __all__ = [
-    "KIND_ADAPTIVE", "KIND_IMM", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB", "AdaptiveGain", "FilterSpec",
-    "IMMBank", "VariationalGain", "isl_filter", "linearized_matrix", "optimal_kbf",
+    "KIND_ADAPTIVE", "KIND_CLAIRVOYANT", "KIND_IMM", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB",
+    "AdaptiveGain", "FilterSpec", "IMMBank", "VariationalGain", "linearized_matrix",
 ]
 
-KIND_LINEAR, KIND_POWER, KIND_ADAPTIVE = 0, 1, 2  #: the kernel's codes for φ (see :attr:`FilterSpec.kind`)
-KIND_VB = 4  #: the variational-Bayes filter (3 is the scenario kernel's clairvoyant filter)
-KIND_ROBUST = 5  #: the adaptive filter with Huber-clipped innovations (:mod:`isl_core.robust`)
-KIND_IMM = 6  #: the interacting-multiple-model bank of Kalman filters (:mod:`isl_core.imm`)
+KIND_LINEAR = 0  #: φ linear, K u (B.30)
+KIND_POWER = 1  #: φ the power law of (A.17)
+KIND_ADAPTIVE = 2  #: φ linear with the gain K(σ̂) of an online σ estimate (:mod:`isl_core.filters.adaptive`)
+KIND_CLAIRVOYANT = 3  #: the scenario loop's Kalman filter that knows σ(t) (:mod:`isl_core.scenario`)
+KIND_VB = 4  #: the variational-Bayes filter (:mod:`isl_core.filters.variational`)
+KIND_ROBUST = 5  #: the adaptive filter with Huber-clipped innovations (:mod:`isl_core.filters.robust`)
+KIND_IMM = 6  #: the interacting-multiple-model bank of Kalman filters (:mod:`isl_core.filters.imm`)
 
 
 @dataclass(frozen=True)
 class IMMBank:
-    """The IMM filter's bank (:mod:`isl_core.imm`): its modes' σ_j (J,), the switch probability p per reading and
+    """The IMM filter's bank (:mod:`isl_core.filters.imm`): its modes' σ_j (J,), the switch probability p per reading and
     each mode's covariance at the start (J, m, m), the stationary Δ of its σ_j (A.23)."""
 
     sigmas: np.ndarray
@@ -49,7 +58,7 @@ class IMMBank:
 
 @dataclass(frozen=True)
 class VariationalGain:
-    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.variational`): memory W in sensor
+    """The variational-Bayes adaptive Kalman filter's settings (:mod:`isl_core.filters.variational`): memory W in sensor
     readings (forgetting factor ρ = 1 − 1/W per reading), σ̂ and the inverse-gamma shape α₀ before the first reading,
     fixed-point iterations per reading."""
 
@@ -66,7 +75,7 @@ class VariationalGain:
 
 @dataclass(frozen=True)
 class AdaptiveGain:
-    """The σ̂ → K(σ̂) map and the variance estimator of an adaptive Kalman–Bucy filter (:mod:`isl_core.adaptive`).
+    """The σ̂ → K(σ̂) map and the variance estimator of an adaptive Kalman–Bucy filter (:mod:`isl_core.filters.adaptive`).
 
     ``log_gain`` (n, m) holds ``log K_i`` of the stationary gain (A.21–A.23) on the equally spaced grid
     ``log σ_j = log_sigma0 + j·step``, j = 0..n−1; between grid points log K is linear in log σ, outside the
@@ -125,17 +134,6 @@ class FilterSpec:
         """Exponents q_i of φ: all 1 for a linear gain, ``1 − i/m`` for the power law (A.17)."""
         m = len(self.coef)
         return isl_exponents(m) if self.power else np.ones(m)
-
-
-def optimal_kbf(model: Model, kb: KalmanBucy) -> FilterSpec:
-    """The stationary Kalman–Bucy filter (A.21) with the true σ: linear gain K, propagation with A."""
-    return FilterSpec("kbf", "Kalman–Bucy (optimal, knows σ)", model.alpha, np.array(kb.K, dtype=float), False)
-
-
-def isl_filter(model: Model, nu: float) -> FilterSpec:
-    """Paper A's ISL filter (A.16–A.18): power-law φ tuned by ν, propagation with A0."""
-    coef = isl_gains(model.m, nu)  # validates nu
-    return FilterSpec("isl", f"ISL (ν = {float(nu):.4g})", 0.0, coef, True)
 
 
 def linearized_matrix(model: Model, spec: FilterSpec) -> np.ndarray:

@@ -19,10 +19,10 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from ..model import Model
+from ..validate import check_real
 from .adaptive import MEMORY, adaptive_kbf
-from .filters import FilterSpec
-from .model import Model
-from .validate import check_real
+from .base import FilterSpec
 
 __all__ = ["HUBER_C", "huber_kappa", "robust_kbf"]
 

@@ -30,11 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model import Model
+from ..riccati import kalman_bucy
+from ..validate import check_int, check_real
 from .adaptive import MEMORY
-from .filters import FilterSpec, VariationalGain
-from .model import Model
-from .riccati import kalman_bucy
-from .validate import check_int, check_real
+from .base import FilterSpec, VariationalGain
 
 __all__ = ["ITERATIONS", "SHAPE0", "variational_kbf"]
 

@@ -1,4 +1,4 @@
-"""The interacting-multiple-model filter (isl_core.imm) against a plain implementation of Blom & Bar-Shalom's cycle."""
+"""The interacting-multiple-model filter (isl_core.filters.imm) against a plain implementation of Blom & Bar-Shalom's cycle."""
 from __future__ import annotations
 
 import math
@@ -8,10 +8,10 @@ import pytest
 from scipy.stats import norm
 
 from isl_core import Model, Scenario, kalman_bucy, simulate, simulate_scenario
-from isl_core.imm import imm_kbf
+from isl_core._engine import draw_start
+from isl_core.filters.imm import imm_kbf
 from isl_core.noise import DRAWS, LAWS, draw_ahead, law_table
 from isl_core.scenario import sigma_path
-from isl_core._engine import draw_start
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)
 

@@ -4,7 +4,7 @@ Each is a :class:`isl_core.FilterSpec` for the fused kernel, so any set of them 
 (common random numbers, :func:`isl_core.simulate` ``extra=`` or :func:`isl_core.simulate_rmse`). Stable names:
 
 ============== ================================================================== ==================================
-name           filter                                                             theory (``theory_ratios``)
+name           filter                                                             theory (:func:`isl_core.theory_ratios`)
 ============== ================================================================== ==================================
 kbf            Kalman–Bucy with the true σ (A.21–A.24): the oracle                 1 (Δ itself)
 isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    statistical linearization (SPEC §6)
@@ -26,22 +26,18 @@ With α = 0 the model-aware ISL filter is paper A's filter, bit for bit (damp = 
 """
 from __future__ import annotations
 
-import dataclasses
-import math
 from collections.abc import Sequence
 
-import numpy as np
 
-from .adaptive import MEMORY, adaptive_kbf, check_sigma_range
-from .filters import FilterSpec, isl_filter, optimal_kbf
-from .model import Model
-from .riccati import kalman_bucy
-from .theory import _optimal_s, mismatched_kbf, predicted_covariance
-from .validate import short
+from ..model import Model
+from ..riccati import kalman_bucy
+from ..validate import check_sigma_range, short
+from .adaptive import MEMORY, adaptive_kbf
+from .base import FilterSpec
+from .isl import isl_filter, model_aware_isl
+from .kalman import design_sigma, minimax_kbf, mismatched_kbf, optimal_kbf
 
-__all__ = [
-    "BASELINES", "LABELS", "baseline_filters", "design_sigma", "minimax_kbf", "model_aware_isl", "theory_ratios",
-]
+__all__ = ["BASELINES", "LABELS", "baseline_filters", "check_names"]
 
 #: stable names of the filters, in the order tables list them
 BASELINES = ("kbf", "isl", "kbf_mismatched", "kbf_minimax", "kbf_adaptive", "isl_model")
@@ -55,26 +51,6 @@ LABELS = {
     "kbf_adaptive": "KBF adaptive",
     "isl_model": "ISL model-aware",
 }
-
-
-def design_sigma(sigma_range: tuple[float, float]) -> float:
-    """The mismatched filter's default guess: the geometric middle ``√(σ_min σ_max)`` of the range."""
-    lo, hi = check_sigma_range(sigma_range)
-    return math.sqrt(lo * hi)
-
-
-def model_aware_isl(model: Model, nu: float) -> FilterSpec:
-    """ISL filter with paper A's φ (A.17) that propagates with the true A = A0 − αEEᵀ (damp = α)."""
-    spec = isl_filter(model, nu)  # validates nu
-    return dataclasses.replace(spec, name="isl_model", label=f"ISL model-aware (ν = {float(nu):.4g})",
-                               damp=model.alpha)
-
-
-def minimax_kbf(model: Model, sigma_range: tuple[float, float]) -> FilterSpec:
-    """Kalman–Bucy filter designed for the top of the σ range, σ̄ = σ_max (module docstring)."""
-    _, hi = check_sigma_range(sigma_range)
-    return dataclasses.replace(mismatched_kbf(model, hi), name="kbf_minimax",
-                               label=f"Kalman–Bucy for the largest σ (σ̄ = {hi:.4g})")
 
 
 def baseline_filters(
@@ -121,10 +97,3 @@ def check_names(names, param: str = "names", allowed: Sequence[str] = BASELINES)
     return names
 
 
-def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
-    """Predicted RMSE ratios ``√P_ii / s_i`` (m,) of ``spec`` on ``model`` (table in the module docstring).
-
-    Exact (Lyapunov) for a fixed linear gain, statistical linearization (SPEC §6) for the power law; ``nan``
-    for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
-    """
-    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
