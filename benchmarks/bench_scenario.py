@@ -75,11 +75,11 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
-    from isl_core.filters.imm import imm_state
-    from isl_core.kernels import advance
+    from isl_core.kernels.clairvoyant import clairvoyant_state
+    from isl_core.kernels.euler import advance
+    from isl_core.kernels.imm import imm_state
+    from isl_core.kernels.scenario import advance_scenario
     from isl_core.noise import LAW_GAUSSIAN, law_table
-    from isl_core.scenario import clairvoyant_state
-    from isl_core.scenario_kernel import advance_scenario
     from isl_core._engine import draw_start, pack
 
     kb = kalman_bucy(FIG3)
@@ -120,7 +120,8 @@ def draws_ns(n: int) -> dict[str, float]:
     """ns per draw of ε_k as the loops draw them (isl_core.noise.fill): a normal, a Student-t (d = 3, the ziggurat of
     isl_core.noise), a normal and a uniform (outliers); and NumPy's ``standard_t`` (a normal over the root of a gamma
     draw)."""
-    from isl_core.noise import LAWS, fill, law_table
+    from isl_core.kernels.draws import fill
+    from isl_core.noise import LAWS, law_table
 
     out, eps = {}, np.empty(n)
     for name, law in (("normal", "gaussian"), ("Student-t", "student"), ("outliers", "outliers")):

@@ -13,7 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from .filters.base import KIND_ADAPTIVE, FilterSpec
-from .kernels import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH, advance
+from .kernels.common import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH
+from .kernels.euler import advance
 from .model import Model
 from .riccati import KalmanBucy
 from .validate import short

@@ -23,7 +23,7 @@ from .decimate import DISPLAY_POINTS, MinMax
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
-from .kernels import minmax_block
+from .kernels.euler import minmax_block
 from .model import Model
 from .riccati import kalman_bucy
 from .validate import check_int

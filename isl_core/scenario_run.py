@@ -28,18 +28,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._engine import CHUNK, DivergenceError, draw_start, pack
-from .filters.base import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
-from .filters.imm import imm_state
+from .filters.base import KIND_ADAPTIVE, KIND_CLAIRVOYANT, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
 from .filters.isl import isl_filter
 from .filters.kalman import optimal_kbf
 from .filters.robust import huber_kappa
 from .grid import MAX_STEPS, check_filters, check_specs, run_plan
-from .kernels import AD_SIGMA
+from .kernels.clairvoyant import clairvoyant_state
+from .kernels.common import AD_SIGMA
+from .kernels.imm import imm_state
+from .kernels.scenario import advance_scenario
 from .model import Model
 from .noise import LAWS, law_table
 from .riccati import kalman_bucy
-from .scenario import Scenario, clairvoyant_state
-from .scenario_kernel import KIND_CLAIRVOYANT, advance_scenario
+from .scenario import Scenario
 from .validate import check_int, check_real
 
 __all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",

@@ -40,7 +40,7 @@ from .filters.imm import imm_kbf
 from .filters.isl import isl_filter, model_aware_isl
 from .filters.robust import robust_kbf
 from .filters.variational import variational_kbf
-from .kernels import sources_digest
+from .kernels.cache import sources_digest
 from .model import Model
 from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
 from .presets import PRESETS

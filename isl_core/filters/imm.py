@@ -24,7 +24,7 @@ with σ_j: with one mode at the true constant σ the IMM filter is that Kalman f
 bank carries e_j = Ẑ_j − X, whose innovation ΔY − h Σ C Ẑ_j = √h·Σ(σ_k ε_k − √h e_j,1) depends on the errors only.
 Since Σ_i μ_i|j = 1 the mixing of estimates is the same mixing of errors (Ẑ_i − Ẑ0_j = e_i − e0_j), and the
 filter's error is Σ_j μ_j e_j. Between readings the modes only propagate, like the combined error; at a reading
-the bank hands the scenario loop the combined error's correction (:func:`imm_step`).
+the bank hands the scenario loop the combined error's correction (:func:`isl_core.kernels.imm.imm_step`).
 
 The weights are computed as c̄_j s_j^(−1/2) exp(−(r_j²/2s_j − min_l r_l²/2s_l)): the exponents shifted by the
 smallest (the log-sum-exp guard), so the best-fitting mode's factor is 1 and a reading far out for every mode (a
@@ -38,18 +38,15 @@ Symbols: J = ``modes``, p = ``switch``, σ_j = ``IMMBank.sigmas``.
 """
 from __future__ import annotations
 
-import math
 import numpy as np
-from numba import njit
 
-from ..kernels import CACHE
 from ..model import Model
 from ..riccati import kalman_bucy
 from ..validate import check_int, check_real, check_sigma_range
 from .adaptive import sigma_limit
 from .base import FilterSpec, IMMBank
 
-__all__ = ["MODES", "SIGMA_RANGE", "SWITCH", "imm_kbf", "imm_state", "imm_step"]
+__all__ = ["MODES", "SIGMA_RANGE", "SWITCH", "imm_kbf"]
 
 SIGMA_RANGE = (1.5, 500.0)  #: the default grid's ends: wider than the presets' σ, none of its points equal to one
 MODES = 11  #: default number of modes (grid density: ×1.79 apart over the default range)
@@ -79,161 +76,3 @@ def imm_kbf(model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, mod
     span = f"σ = {lo:g}" if modes == 1 else f"{modes} σ modes over [{lo:g}, {hi:g}]"
     return FilterSpec("imm", f"IMM ({span}, switch {switch:g} a reading)", model.alpha, np.zeros(model.m), False,
                       imm=bank)
-
-
-def imm_state(filters, m: int, q: int, h: float):
-    """The IMM banks' state for the scenario loop, one slot per IMM filter: (slot of each filter (−1: none), P (b, J,
-    m+1, m+1), e (b, J, m) to be filled with the start, a (b, J), μ (b, J), R (b, J) = q·h·σ_j², (p, J) (b, 2),
-    σ_j (b, J), scratch: W (J, J), V and W·V (J, m + m(m+1)/2), log-weights (J,), ē (m,)). Padded to the largest J
-    (μ = 0 there)."""
-    banks = [f.imm for f in filters if f.imm is not None]
-    nb, jm = len(banks), max([1] + [len(b.sigmas) for b in banks])
-    slot = np.full(len(filters), -1, dtype=np.int64)
-    P, mu = np.zeros((nb, jm, m + 1, m + 1)), np.zeros((nb, jm))
-    R, par, sig = np.ones((nb, jm)), np.zeros((nb, 2)), np.ones((nb, jm))
-    b = 0
-    for f, spec in enumerate(filters):
-        if spec.imm is None:
-            continue
-        slot[f] = b
-        J = len(spec.imm.sigmas)
-        P[b, :J, :m, :m] = spec.imm.cov
-        mu[b, :J] = 1.0 / J
-        R[b, :J] = q * h * spec.imm.sigmas**2
-        sig[b, :J] = spec.imm.sigmas
-        par[b] = spec.imm.switch, J
-        b += 1
-    nv = 4 * -(-(m + m * (m + 1) // 2) // 4)  # d_i and the upper triangle, padded to a multiple of 4 (_mix)
-    return (slot, P, np.zeros((nb, jm, m)), np.zeros((nb, jm)), mu, R, par, sig, np.zeros((jm, jm)),
-            np.zeros((jm, nv)), np.zeros((jm, nv)), np.zeros(jm), np.zeros(m))
-
-
-@njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
-def _predict(P, h, decay, q_var):
-    """P ← F_a P F_aᵀ + q_var·E Eᵀ on (X, S) in place (one mode's P): X_i += h X_{i+1}, X_m ·= decay, S += h X_1
-    (the clairvoyant recursion's prediction, :func:`isl_core.scenario.clairvoyant_step`)."""
-    a = P.shape[0]
-    m = a - 1
-    for c in range(a):  # rows: F_a P
-        P[m, c] += h * P[0, c]
-        for i in range(m - 1):
-            P[i, c] += h * P[i + 1, c]
-        P[m - 1, c] *= decay
-    for i in range(a):  # columns: (F_a P) F_aᵀ
-        P[i, m] += h * P[i, 0]
-        for c in range(m - 1):
-            P[i, c] += h * P[i, c + 1]
-        P[i, m - 1] *= decay
-    P[m - 1, m - 1] += q_var
-
-
-@njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
-def _update(P, e, r, s):
-    """One mode's reading in place: e += P C_aᵀ r / s, P ← P − P C_aᵀ C_a P / s, then S restarts at 0 (known)."""
-    a = P.shape[0]
-    m = a - 1
-    for i in range(m):
-        e[i] += P[i, m] / s * r
-    for i in range(m):
-        for c in range(m):
-            P[i, c] -= P[i, m] * P[c, m] / s
-    for i in range(a):
-        P[m, i] = 0.0
-        P[i, m] = 0.0
-
-
-@njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
-def _mix(P, e, mu, b, p, J, mean, W, V, out):
-    """Mixing (module docstring) in place: μ ← c̄, e_j ← e0_j, P_j ← P0_j on the X block (S is 0 after a reading).
-
-    With d_i = e_i − ē (ē = ``mean``, the filter's error) and the weights W_ji = p_ij μ_i / c̄_j (Σ_i W_ji = 1):
-    e0_j = ē + δ_j, δ_j = Σ_i W_ji d_i, and P0_j = Σ_i W_ji (P_i + d_i d_iᵀ) − δ_j δ_jᵀ — the paper's
-    Σ_i W_ji [P_i + (e_i − e0_j)(e_i − e0_j)ᵀ] expanded about ē: one product of W with the rows
-    V_i = (d_i, upper triangle of P_i + d_i d_iᵀ) instead of two passes, and no common part of the errors in the
-    products (no cancellation when all are large).
-    """
-    m = e.shape[2]
-    nv = V.shape[1]  # a multiple of 4
-    stay, move = 1.0 - p, p / (J - 1)
-    for j in range(J):
-        inv = 1.0 / (stay * mu[b, j] + move * (1.0 - mu[b, j]))  # 1/c̄_j, c̄_j = Σ_i p_ij μ_i (Σ_i μ_i = 1)
-        for i in range(J):
-            W[j, i] = (stay if i == j else move) * mu[b, i] * inv
-    for i in range(J):
-        for k in range(m):
-            V[i, k] = e[b, i, k] - mean[k]
-        c = m
-        for k in range(m):
-            for l in range(k, m):
-                V[i, c] = P[b, i, k, l] + V[i, k] * V[i, l]
-                c += 1
-    for j in range(J):  # out = W·V, four columns at a time in registers (V is padded with zero columns)
-        for c in range(0, nv, 4):
-            s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
-            for i in range(J):
-                w = W[j, i]
-                s0 += w * V[i, c]
-                s1 += w * V[i, c + 1]
-                s2 += w * V[i, c + 2]
-                s3 += w * V[i, c + 3]
-            out[j, c], out[j, c + 1], out[j, c + 2], out[j, c + 3] = s0, s1, s2, s3
-    for j in range(J):
-        mu[b, j] = stay * mu[b, j] + move * (1.0 - mu[b, j])  # c̄_j: the next reading's prior weights
-        c = m
-        for k in range(m):
-            e[b, j, k] = mean[k] + out[j, k]
-            for l in range(k, m):
-                P[b, j, k, l] = out[j, c] - out[j, k] * out[j, l]
-                P[b, j, l, k] = P[b, j, k, l]
-                c += 1
-
-
-@njit(cache=CACHE, nogil=True, fastmath={"contract"}, inline="always")
-def imm_step(P, e, a, mu, R, par, sig, b, W, V, out, lw, mean, el, f, noise, sqh, h, decay, q_var, shock,
-             reading, corr):
-    """Step k → k+1 of IMM bank ``b`` (module docstring), in place; returns σ̂ = Σ μ_j σ_j after a reading, else −1.
-
-    Per bank (first index b, :func:`imm_state`): ``P`` (J, m+1, m+1), ``e`` (J, m), ``a`` (J,) the modes' covariances
-    on (X, S), errors and innovations summed since the last reading, ``mu`` (J,) the weights (c̄ between readings),
-    ``R`` (J,) q·h·σ_j², ``par`` = (p, J); ``W``, ``V``, ``out``, ``lw``, ``mean`` scratch (:func:`_mix`);
-    ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a reading ``corr`` (m,) gets what the scenario
-    loop adds to the filter's propagated error ``el[:, f]`` (at t_k on entry) to make it Σ_j μ_j e_j: the lane
-    of the filter propagates it as the modes (A_f = A), and takes in ``corr`` as its update.
-    """
-    J = int(par[b, 1])
-    m = e.shape[2]
-    for j in range(J):
-        a[b, j] += noise - sqh * e[b, j, 0]  # the innovation uses e at t_k, before it moves
-        for i in range(m - 1):
-            e[b, j, i] += h * e[b, j, i + 1]
-        e[b, j, m - 1] = decay * e[b, j, m - 1] - shock
-        _predict(P[b, j], h, decay, q_var)  # a view: inlined, it costs no call
-    if not reading:
-        return -1.0
-    least = math.inf
-    for j in range(J):  # c̄_j N(r_j; 0, s_j) ∝ c̄_j/√s_j · exp(−r_j²/(2 s_j)); the modes take in their reading
-        r = sqh * a[b, j]
-        s = P[b, j, m, m] + R[b, j]
-        lw[j] = 0.5 * r * r / s
-        least = min(least, lw[j])
-        a[b, j] = mu[b, j] / math.sqrt(s)  # a_j restarts at 0 below: it holds c̄_j/√s_j until then
-        _update(P[b, j], e[b, j], r, s)
-    total = 0.0
-    for j in range(J):  # exponents shifted by the smallest (log-sum-exp): that mode's is exp(0), none underflows all
-        lw[j] = a[b, j] * math.exp(least - lw[j])
-        a[b, j] = 0.0
-        total += lw[j]
-    sigma_hat = 0.0
-    for i in range(m):
-        mean[i] = 0.0
-    for j in range(J):
-        mu[b, j] = lw[j] / total
-        sigma_hat += mu[b, j] * sig[b, j]
-        for i in range(m):
-            mean[i] += mu[b, j] * e[b, j, i]
-    for i in range(m - 1):  # the filter's error minus the lane's propagation of el (the same arithmetic)
-        corr[i] = mean[i] - (el[i, f] + h * el[i + 1, f])
-    corr[m - 1] = mean[m - 1] - (decay * el[m - 1, f] - shock)
-    if J > 1:
-        _mix(P, e, mu, b, par[b, 0], J, mean, W, V, out)
-    return sigma_hat

@@ -5,12 +5,11 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 from scipy.linalg import solve_discrete_are
 
 from isl_core import Model, kalman_bucy
-from isl_core.noise import student_table
-from isl_core.scenario import Scenario, _riccati, clairvoyant, clairvoyant_state, sigma_path
+from isl_core.kernels.clairvoyant import clairvoyant_state, riccati_path
+from isl_core.scenario import Scenario, clairvoyant, sigma_path
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 
@@ -59,85 +58,6 @@ def test_sigma_path_is_sigma_at_the_grid_times_in_units_of_one_over_r_min():
     h = 0.5 / kb.r_min
     path = sigma_path(Scenario(sigma_knots=((1.0, 2.0),)), MODEL, kb.r_min, h, 5)
     assert np.array_equal(path, [20.0, 20.0, 2.0, 2.0, 2.0])  # t_k r_min = 0, 0.5, 1, 1.5, 2
-
-
-@pytest.mark.parametrize(("scenario", "variance"), [
-    (Scenario(noise="student", dof=3.0), 1.0),
-    (Scenario(noise="student", dof=10.0), 1.0),
-    (Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0), 0.99 + 0.01 * 900.0),
-])
-def test_noise_laws_have_the_documented_variance(scenario, variance):
-    eps = scenario.draw_noise(np.random.default_rng(7), 400_000)
-    assert scenario.noise_variance == pytest.approx(variance)
-    # 6 standard errors of the sample variance (its fourth moment measured; for t_3 it is infinite, so the
-    # batch of 400 000 only bounds it loosely: use the median-based check below instead)
-    if scenario.noise == "student" and scenario.dof <= 4:
-        # t_3 scaled to unit variance: its median |ε| is √(1/3)·0.7649 (the t_3 quartile)
-        assert np.median(np.abs(eps)) == pytest.approx(math.sqrt(1 / 3) * 0.764892, rel=0.01)
-    else:
-        se = np.std(eps**2) / math.sqrt(len(eps))
-        assert abs(np.mean(eps**2) - variance) < 6 * se
-    if scenario.noise == "outliers":
-        assert np.mean(np.abs(eps) > 8.0) == pytest.approx(0.01 * math.erfc(8 / 30 / math.sqrt(2)), rel=0.1)
-
-
-@pytest.mark.parametrize("dof", [2.1, 3.0, 7.5, 40.0])
-def test_student_noise_has_the_t_law_in_the_tails_too(dof):
-    """The ziggurat's draws against scipy's t_d: the whole law (Kolmogorov–Smirnov, 10⁶ draws; a layer's wrong edge
-    or height moves the statistic far beyond its 1e-4 quantile) and the two tails where a heavy-tailed law differs
-    from a Gaussian of the same variance: beyond the 10⁻³ quantile, and beyond the 10⁻⁴ one, past the ziggurat's
-    base edge r, drawn from its envelope there (a tail cut at the base layer's width leaves none)."""
-    scale = math.sqrt((dof - 2.0) / dof)
-    t = Scenario(noise="student", dof=dof).draw_noise(np.random.default_rng(3), 1_000_000) / scale
-    assert stats.kstest(t, stats.t(dof).cdf).pvalue > 1e-4
-    for p, tolerance in ((1e-3, 0.1), (1e-4, 0.35)):  # about 3.2 and 3.5 standard errors (2000 and 200 expected)
-        far = stats.t(dof).isf(p / 2.0)
-        assert np.mean(np.abs(t) > far) == pytest.approx(p, rel=tolerance)
-    assert stats.t(dof).isf(5e-5) > student_table(dof)[1, 0]  # the second tail is beyond r
-
-
-@pytest.mark.parametrize("rate", [0.3, 0.01])
-def test_outliers_fall_on_independent_steps_at_the_rate(rate):
-    """Each step is an outlier with probability p, independently (isl_core.noise): the rate, the rate of two in a
-    row (p²) and the first step's rate over many runs — each within 4 standard errors."""
-    scenario = Scenario(noise="outliers", outlier_rate=rate, outlier_scale=3.0)
-    unscaled = Scenario(noise="outliers", outlier_rate=rate, outlier_scale=1.0)  # the same draws, k = 1
-
-    def outliers(seed, n):  # exactly the steps scaled by k: which ones does not depend on k
-        drawn, plain = (s.draw_noise(np.random.default_rng(seed), n) for s in (scenario, unscaled))
-        assert np.all((drawn == plain) | (drawn == 3.0 * plain))  # every ε is N(0,1) or k times it
-        return drawn != plain
-
-    hit = outliers(5, 400_000)
-    n = hit.size
-
-    def close(x, p, m):
-        return abs(x - p) < 4.0 * math.sqrt(p * (1.0 - p) / m)
-
-    assert close(hit.mean(), rate, n) and close(np.mean(hit[1:] & hit[:-1]), rate * rate, n)
-    first = [outliers(seed, 1)[0] for seed in range(4000)]
-    assert close(np.mean(first), rate, 4000)
-
-
-@pytest.mark.parametrize("dof", [2.1, 3.0, 7.5, 40.0, 1e4])
-def test_the_student_ziggurat_has_layers_of_equal_area_under_the_density(dof):
-    """Each of the 256 layers (width × height) has the base layer's area v = r·f(r) + ∫_r^∞ f, its inner edge where
-    f reaches its top, and the layers stack from f(r) to f(0) = 1 — with f = t_d's density over its value at 0,
-    the tail from scipy. A narrower layer, a raised inner edge or a wrong height each breaks one of these."""
-    tab = student_table(dof)
-    law = stats.t(dof)
-
-    def f(x):
-        return law.pdf(x) / law.pdf(0.0)
-
-    width, inner, low, high = tab
-    r = inner[0]
-    v = r * f(r) + law.sf(r) / law.pdf(0.0)
-    assert width[0] * high[0] == pytest.approx(v, rel=1e-12) and high[0] == pytest.approx(f(r), rel=1e-12)
-    assert np.allclose(width[1:] * (high[1:] - low[1:]), v, rtol=1e-9, atol=0.0)
-    assert width[1] == r and np.array_equal(width[2:], inner[1:-1]) and np.array_equal(low[1:], high[:-1])
-    assert np.allclose(f(inner[1:-1]), high[1:-1], rtol=1e-12, atol=0.0)
-    assert inner[-1] == 0.0 and high[-1] == 1.0 and np.all(np.diff(inner[:-1]) < 0.0)
 
 
 def _reference(model: Model, scenario: Scenario, h: float, n: int):
@@ -202,7 +122,7 @@ def test_a_settled_recursion_repeats_exactly_and_goes_on_when_sigma_changes(sens
     q = scenario.sensor_steps(h, kb.r_min)
     state = clairvoyant_state(np.array(kb.delta, dtype=float), q)
     noise = h * sigma_path(scenario, MODEL, kb.r_min, h, 2400) ** 2
-    _riccati(*state, h, MODEL.alpha, MODEL.beta**2, noise, q, np.zeros((2400, MODEL.m)), np.zeros((2401, MODEL.m)))
+    riccati_path(*state, h, MODEL.alpha, MODEL.beta**2, noise, q, np.zeros((2400, MODEL.m)), np.zeros((2401, MODEL.m)))
     assert state[1][1] == 1.0  # settled before the first step
     c = clairvoyant(MODEL, scenario, h, n)
     gains, var, _ = _reference(MODEL, scenario, h, n)

@@ -19,171 +19,31 @@ stored (``store``); the squared errors and the innovations never need them.
 
 φ_f has one of three kinds (``kind[f]``, :data:`isl_core.filters.KIND_LINEAR` …): linear ``K u`` (B.30), the
 power law of (A.17), or adaptive — linear with the gain K(σ̂_{k−1}) of an online estimate of σ, after which
-the estimate takes in u_k (:mod:`isl_core.adaptive`):
+the estimate takes in u_k (:mod:`isl_core.filters.adaptive`):
 
     v_k = v_{k−1} + λ_k (u_k² − v_{k−1}),  λ_k = max(1/k, 1/W)       (innovation variance, Mehra 1970)
     σ̂_k² = v_k / (1 + h·K_1(σ̂_{k−1}))                                 (E u² = σ² + h·E e_1², e_1 ≈ Δ_11 = σ²K_1)
     log K_i(σ̂_k): linear interpolation in log σ̂ on a table, held at its ends
-
-The power law uses its fixed exponents: with r = |u|^{1/m}, ``|u|^{1−i/m} = r^{m−i}``, so one root a step
-and filter replaces m calls to ``pow``. For m = 3 the root is :func:`fast_cbrt` (division-free, a few ulp),
-m = 2, 4, 6 use ``sqrt`` and that cube root, m = 5 ``pow``.
 
 Squared errors e_f,i² are summed per batch: into a per-call accumulator that is flushed into ``sq`` every
 :data:`FLUSH` steps and at every batch edge, so a sum over n steps carries a rounding error of at most
 ≈ (FLUSH + n/FLUSH)·eps relative (≈ 6e-12 for 2·10⁸ steps), not n·eps. The kernel trusts its inputs (validated
 in :mod:`isl_core.simulate`).
 
-Caching: the kernels are compiled once and cached on disk (numba's ``cache=True``), in a directory named by a
-digest of this package's sources, ``isl-<digest>`` under ``NUMBA_CACHE_DIR`` or else under this package's
-``__pycache__``. numba keys a cached kernel by its own file only, yet compiles into it the functions it calls from
-other files: after a change to one of those alone (``noise.py`` under the scenario loop, say) it would run the old
-code; a new digest compiles afresh. (Each set of sources keeps its directory: a few MB each.) A container may allow
-no writable place (an arbitrary UID in group 0, a read-only root file system): numba would then refuse to load this
-module ("cannot cache function …: no locator available"). :func:`_cache_flag` checks that first; if the place is
-not writable it points numba at a directory under the system's temporary directory (``/tmp``, a tmpfs in such
-containers), and if even that fails it compiles without a cache (each process then compiles once, ≈ 10 s). Either
-fallback is said in one log line (logger ``isl_core``).
-
-``fastmath={"contract"}`` only lets LLVM fuse ``a*b + c`` into one FMA (one rounding instead of two); it
-keeps IEEE nan/inf semantics, so a diverging filter still shows up as non-finite. Results are bit-identical
-from run to run on one machine.
+The root of the power law, the adaptive gain's table lookup and the flush interval are shared with the scenario
+loop (:mod:`isl_core.kernels.common`); how the kernels are compiled and cached: :mod:`isl_core.kernels.cache`.
 """
 from __future__ import annotations
 
-import hashlib
-import logging
 import math
-import os
-import tempfile
 
-import numba
 import numpy as np
 from numba import njit
 
-__all__ = [
-    "AD_INV_MEMORY", "AD_INV_STEP", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "advance", "fast_cbrt",
-    "minmax_block", "sources_digest",
-]
+from .cache import CACHE, FASTMATH
+from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
 
-#: steps between flushes of the squared-error accumulator into the batch sums (see the module docstring)
-FLUSH = 1024
-
-#: columns of the per-filter adaptive state ``ad`` (nf, AD_WIDTH): table origin log σ_0, 1/(grid step),
-#: 1/W (W the memory in readings; a reading is a step here), then the state carried from call to call: the
-#: innovation variance v and σ̂
-AD_LOG_SIGMA0, AD_INV_STEP, AD_INV_MEMORY, AD_VAR, AD_SIGMA = range(5)
-AD_WIDTH = 5
-
-#: FMA contraction only: no reassociation, nan/inf kept (see the module docstring)
-_FASTMATH = {"contract"}
-
-
-def _probe() -> None:  # a function of this file, to ask numba whether it can cache this file's functions
-    pass
-
-
-def sources_digest(folder: str | None = None) -> str:
-    """A digest of the ``*.py`` files of ``folder`` (default: this package), names and contents."""
-    folder = folder or os.path.dirname(os.path.abspath(__file__))
-    digest = hashlib.sha256()
-    for name in sorted(n for n in os.listdir(folder) if n.endswith(".py")):
-        with open(os.path.join(folder, name), "rb") as source:
-            digest.update(name.encode() + b"\0" + source.read() + b"\0")
-    return digest.hexdigest()[:16]
-
-
-def _writable(path: str) -> bool:
-    try:
-        os.makedirs(path, exist_ok=True)
-        tempfile.TemporaryFile(dir=path).close()
-        return True
-    except OSError:
-        return False
-
-
-def _cache_flag() -> bool:
-    """Whether the kernels can be cached on disk, and where (module docstring) — after falling back to a temporary
-    directory if need be."""
-    here = f"isl-{sources_digest()}"
-    place = os.path.join(numba.config.CACHE_DIR or os.path.join(os.path.dirname(os.path.abspath(__file__)),
-                                                                "__pycache__"), here)
-    fallback = os.path.join(tempfile.gettempdir(), f"isl-numba-cache-{os.getuid() if hasattr(os, 'getuid') else 0}",
-                            here)
-    for where in (place, fallback):
-        if _writable(where):
-            numba.config.CACHE_DIR = where
-            try:
-                njit(cache=True)(_probe)
-            except RuntimeError:  # "cannot cache function …: no locator available"
-                continue
-            if where == fallback:
-                logging.getLogger("isl_core").warning("numba: the cache directory is not writable (%s); caching in %s",
-                                                      place, fallback)
-            return True
-    numba.config.CACHE_DIR = ""
-    logging.getLogger("isl_core").warning(
-        "numba: no writable cache directory (%s; %s neither): the kernels are compiled in each process", place,
-        fallback)
-    return False
-
-
-CACHE = _cache_flag()  #: whether the compiled kernels are cached on disk (see the module docstring)
-
-#: bit pattern such that ``MAGIC − bits(a)/3`` approximates ``a^{-1/3}`` within |1 − a·y³| < 0.11
-_RCBRT_MAGIC = np.uint64(0x553EE978D4FDF3B7)
-
-
-@njit(cache=CACHE, nogil=True, inline="always", fastmath=_FASTMATH)
-def fast_cbrt(a):
-    """Cube root of a ≥ 0 without a division (a few ulp from ``np.cbrt``).
-
-    y ≈ a^{-1/3} from the bit pattern, then two steps of ``y ← y·(1 − e)^{-1/3}``, e = 1 − a·y³, by its
-    series ``1 + e/3 + 2e²/9 + 14e³/81 + 35e⁴/243`` (error ∝ e⁵, then e³): 0.11 → 5e-6 → 1e-16.
-    Finally a^{1/3} = a·y². Zero, subnormal, huge, inf and nan arguments go to libm.
-    """
-    if not 1e-300 < a < 1e300:
-        return np.cbrt(a)
-    y = np.uint64(_RCBRT_MAGIC - np.float64(a).view(np.uint64) // np.uint64(3)).view(np.float64)
-    e = 1.0 - (a * y) * (y * y)
-    y = y * (1.0 + e * (1.0 / 3.0 + e * (2.0 / 9.0 + e * (14.0 / 81.0 + e * (35.0 / 243.0)))))
-    e = 1.0 - (a * y) * (y * y)
-    y = y * (1.0 + e * (1.0 / 3.0 + e * (2.0 / 9.0)))
-    return (a * y) * y
-
-
-@njit(cache=CACHE, nogil=True, inline="always", fastmath=_FASTMATH)
-def _root(a, m):
-    """``a^{1/m}`` for a ≥ 0 by the cheapest route for each m."""
-    if m == 3:
-        return fast_cbrt(a)
-    if m == 2:
-        return math.sqrt(a)
-    if m == 1:
-        return a
-    if m == 4:
-        return math.sqrt(math.sqrt(a))
-    if m == 6:
-        return math.sqrt(fast_cbrt(a))
-    return a ** (1.0 / m)
-
-
-@njit(cache=CACHE, nogil=True, inline="always", fastmath=_FASTMATH)
-def _table_gain(table, ad, f, gain, sqh):
-    """``gain[f] = √h·K(σ̂)`` with log K linear in log σ̂ on the table of filter f, held at its ends."""
-    nt = table.shape[1]
-    t = (math.log(ad[f, AD_SIGMA]) - ad[f, AD_LOG_SIGMA0]) * ad[f, AD_INV_STEP]
-    if not t > 0.0:  # below the grid (or nan: the divergence check sees it in Z)
-        t = 0.0
-    if t >= nt - 1:
-        j = nt - 2
-        w = 1.0
-    else:
-        j = int(t)
-        w = t - j
-    for i in range(table.shape[2]):
-        lo = table[f, j, i]
-        gain[f, i] = sqh * math.exp(lo + w * (table[f, j + 1, i] - lo))
+__all__ = ["advance", "minmax_block"]
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
@@ -199,7 +59,7 @@ def _flush(acc, sacc, sq, sig_sum, b, slot, kind):
             sacc[f] = 0.0
 
 
-@njit(cache=CACHE, nogil=True, fastmath=_FASTMATH)
+@njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
 def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0, burn, batch_len, sq, sig_sum,
             X_out, E_out, S_out, store, out0):
     """Advance truth ``x`` (m,) and the filters' errors ``e`` (nf, m) in place by ``n`` steps, noise from ``rng``.
@@ -232,7 +92,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
         if kind[f] == 2:
             slot[f] = na
             na += 1
-            _table_gain(table, ad, f, gain, sqh)  # K(σ̂) of the state carried in
+            table_gain(table, ad, f, gain, sqh)  # K(σ̂) of the state carried in
     # batch of the next step, and the last step of that batch (counters instead of a division per step)
     b = min(max(k0 - burn, 0) // batch_len, nb - 1)
     edge = burn + (b + 1) * batch_len
@@ -251,7 +111,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
             e[f, m - 1] = zdecay[f] * e[f, m - 1] + couple[f] * xm - shock
             if kind[f] == 1:
                 p = np.float64(u > 0.0) - np.float64(u < 0.0)  # sign(u), branch-free
-                r = _root(abs(u), m)
+                r = root(abs(u), m)
                 for i in range(m - 1, -1, -1):  # c_i sign(u)|u|^{1-(i+1)/m} = c_i sign(u) r^{m-1-i}   (A.17)
                     e[f, i] += gain[f, i] * p
                     total += e[f, i]
@@ -271,7 +131,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
                     ad[f, AD_VAR] = var
                     s_hat = math.sqrt(var / (1.0 + sqh * gain[f, 0]))  # σ̂² = v/(1 + h K_1)
                     ad[f, AD_SIGMA] = s_hat
-                    _table_gain(table, ad, f, gain, sqh)
+                    table_gain(table, ad, f, gain, sqh)
                     if k > burn:
                         sacc[f] += s_hat
                     if store:

@@ -1,71 +1,20 @@
-"""The compiled kernel against the plain-numpy reference (same noise), its cube root, batching and chunking."""
+"""The compiled Euler loop (isl_core.kernels.euler) against the plain-numpy reference (same noise), batching, chunking."""
 from __future__ import annotations
 
 import itertools
-import math
-import os
-import shutil
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import isl_core
-from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, kernels, optimal_kbf, simulate
+from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, optimal_kbf, simulate
 from isl_core._engine import draw_start, pack
 from isl_core.filters.adaptive import adaptive_kbf
-from isl_core.kernels import FLUSH, _root, advance, fast_cbrt
+from isl_core.kernels.common import FLUSH
+from isl_core.kernels.euler import advance
 from isl_core.reference import reference_sigma_hat
 
 EPS = np.finfo(float).eps
 AGREE = 1e-10  # kernel vs reference, relative to the size of each trajectory (rounding only: ~1e-15 seen)
-
-
-def ulps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.abs(a - b) / np.spacing(np.abs(b))
-
-
-def exact_root(a: np.ndarray, m: int) -> np.ndarray:
-    """``a^{1/m}`` in extended precision (x87 long double: 64-bit mantissa), rounded to float64."""
-    return (a.astype(np.longdouble) ** (np.longdouble(1) / np.longdouble(m))).astype(np.float64)
-
-
-# the division-free cube root: y ≈ a^{-1/3} to ~3 ulp after two series steps, r = a·y² doubles that and
-# adds two roundings
-ROOT_ULPS = 8
-
-
-def test_fast_cbrt_within_a_few_ulp():
-    rng = np.random.default_rng(0)
-    a = np.concatenate([np.exp(rng.uniform(-690.0, 690.0, 20_000)), rng.uniform(0.0, 10.0, 20_000),
-                        [1.0, 8.0, 27.0, 1e-299, 9.9e299, 2.0**-1022, 0.125]])
-    a = a[a > 0]
-    got = np.array([fast_cbrt(x) for x in a])
-    assert ulps(got, exact_root(a, 3)).max() <= ROOT_ULPS
-    assert ulps(got, np.cbrt(a)).max() <= ROOT_ULPS + 1
-
-
-@pytest.mark.parametrize("a", [1e-310, 5e-324, 1e300, 1.7e308])
-def test_fast_cbrt_edges(a):
-    assert ulps(np.array(fast_cbrt(a)), np.cbrt(a)) <= 2  # left to the compiled libm route
-
-
-@pytest.mark.parametrize("a, expected", [(0.0, 0.0), (math.inf, math.inf), (8.0, 2.0), (0.125, 0.5)])
-def test_fast_cbrt_special_values(a, expected):
-    assert fast_cbrt(a) == pytest.approx(expected, rel=ROOT_ULPS * EPS)
-
-
-def test_fast_cbrt_nan():
-    assert math.isnan(fast_cbrt(math.nan))
-
-
-@pytest.mark.parametrize("m", range(1, 7))
-def test_root_is_the_mth_root(m):
-    a = np.exp(np.random.default_rng(m).uniform(-50.0, 50.0, 2000))
-    got = np.array([_root(x, m) for x in a])
-    assert ulps(got, exact_root(a, m)).max() <= ROOT_ULPS
 
 
 def model_aware_isl(model: Model, nu: float) -> FilterSpec:
@@ -168,29 +117,3 @@ def test_kernel_stops_at_the_first_non_finite_step():
                    0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_e, dummy_s, False, 0)
     assert 0 < done < 100_000
     assert not (np.all(np.isfinite(e)) and np.all(np.isfinite(x[-1])))
-
-
-def test_the_kernel_cache_follows_every_source_file_of_the_package(tmp_path):
-    """numba keys a cached kernel by its own file, yet compiles into it what it calls from other files (the scenario
-    loop inlines noise.py's draws): after an edit of noise.py alone it ran the old draws. The cache directory is
-    named by a digest of all the package's sources: an edit anywhere in it moves the cache, nothing else does."""
-    tree = tmp_path / "tree"
-    shutil.copytree(Path(isl_core.__file__).parent, tree / "isl_core", ignore=shutil.ignore_patterns("__pycache__"))
-    code = "import numba, isl_core.kernels as k; print(k.CACHE, numba.config.CACHE_DIR)"
-    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-
-    def cache_dir() -> str:
-        done = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
-                              check=True)
-        flag, where = done.stdout.split()
-        assert flag == "True" and Path(where).parent == tmp_path / "cache"
-        return where
-
-    first = cache_dir()
-    assert cache_dir() == first  # the same sources: the same cache
-    noise = tree / "isl_core" / "noise.py"
-    source = noise.read_text()
-    assert "DRAWS = 256" in source
-    noise.write_text(source.replace("DRAWS = 256", "DRAWS = 128"))
-    assert cache_dir() != first
-    assert kernels.sources_digest(str(tree / "isl_core")) in cache_dir()

@@ -45,14 +45,14 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import AD_INV_MEMORY, AD_SIGMA, AD_VAR, CACHE, FLUSH, _root, _table_gain
-from .noise import DRAWS, draw_ahead
-from .filters.imm import imm_step
-from .scenario import clairvoyant_step
+from .cache import CACHE, FASTMATH
+from .clairvoyant import clairvoyant_step
+from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
+from .draws import DRAWS, draw_ahead
+from .imm import imm_step
 
-__all__ = ["KIND_CLAIRVOYANT", "advance_scenario"]
+__all__ = ["advance_scenario"]
 
-KIND_CLAIRVOYANT = 3
 LANES = 4  #: filters advanced side by side (:func:`advance_scenario`)
 IDLE = -1  #: the kind of a lane without a filter, or whose filter died
 
@@ -139,7 +139,7 @@ def _pr(kind, u, raw, sqh, own, lim, m):
     """(p, r) of a lane's update at a reading, e_i += G_i·p·r^(m−i) for i = m … 1 (module docstring); ``raw`` the
     innovation before its normalization by √q, ``own`` the learning filters' u (taken before the lanes' pass)."""
     if kind == 1:
-        return np.float64(u > 0.0) - np.float64(u < 0.0), _root(abs(u), m)
+        return np.float64(u > 0.0) - np.float64(u < 0.0), root(abs(u), m)
     if kind == 0:
         return u, 1.0
     if kind == 3:
@@ -151,7 +151,7 @@ def _pr(kind, u, raw, sqh, own, lim, m):
     return own, 1.0
 
 
-@njit(cache=CACHE, nogil=True, fastmath={"contract"})
+@njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
 def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k_out, q, damp, coef, kind, table, ad,
                      clair, acc, k0, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
@@ -202,7 +202,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         for i in range(m):
             el[i, f] = e[f, i]
         if kind[f] == 2 or kind[f] == 5:
-            _table_gain(table, ad, f, gain, sqqh)
+            table_gain(table, ad, f, gain, sqqh)
         if kind[f] == 3:
             clairs[nc] = f
             nc += 1
@@ -367,7 +367,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
                 var += max(1.0 / r_k, ad[f, AD_INV_MEMORY]) * (uu - var)
                 ad[f, AD_VAR] = var
                 ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
-                _table_gain(table, ad, f, gain, sqqh)
+                table_gain(table, ad, f, gain, sqqh)
                 G[:, f] = gain[f]
             wsig[w, a] += ad[f, AD_SIGMA]
         pending += 1
