@@ -26,6 +26,7 @@ import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate, simulate_rmse, step_size
 from isl_core.kernels import advance
+from isl_core.kernels.bundles import Batches, Grid, Trajectory
 from isl_core.reference import reference_trajectories
 from isl_core._engine import draw_start, pack
 
@@ -48,8 +49,8 @@ def kernel_ns_per_step(n: int) -> float:
     e = np.tile(e0, (2, 1))
     sq = np.zeros((1, 2, 3))
     t0 = time.perf_counter()
-    advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *packed, 0, 0, n, sq, np.empty((1, 0)),
-            np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)), False, 0)
+    advance(x, e, rng, n, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, packed, Batches(0, n, sq, np.empty((1, 0))),
+            Trajectory.none(2, 0, 3))
     return (time.perf_counter() - t0) / n * 1e9
 
 

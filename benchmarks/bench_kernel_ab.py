@@ -31,6 +31,7 @@ import numpy as np
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, step_size
 from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.kernels import advance
+from isl_core.kernels.bundles import Batches, Grid, Trajectory
 from isl_core._engine import draw_start, initial_state, pack
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)
@@ -61,9 +62,8 @@ def run_current(n: int, adaptive: bool = False) -> float:
     e = np.tile(e0, (len(specs), 1))
     na = int(adaptive)
     t0 = time.thread_time()
-    advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *pack(FIG3, specs), 0, 0, n,
-            np.zeros((1, len(specs), 3)), np.zeros((1, na)), np.empty((1, 3)), np.empty((len(specs), 1, 3)),
-            np.empty((na, 1)), False, 0)
+    advance(x, e, rng, n, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, pack(FIG3, specs),
+            Batches(0, n, np.zeros((1, len(specs), 3)), np.zeros((1, na))), Trajectory.none(len(specs), na, 3))
     return (time.thread_time() - t0) / n * 1e9
 
 

@@ -8,12 +8,13 @@ run with tracks answers (:class:`Tracked`) and read-only result arrays (:func:`f
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .kernels.common import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH
+from .kernels.bundles import Batches, FilterBank, Grid, Trajectory
 from .kernels.euler import advance
 from .model import Model
 from .riccati import KalmanBucy
@@ -106,8 +107,8 @@ def check_progress(progress) -> None:
         raise ValueError(f"progress must be a callable or None, got {short(progress)}")
 
 
-def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False):
-    """Kernel arguments of ``filters``: ``(damp, coef, kind, table, ad)`` (see :func:`isl_core.kernels.advance`).
+def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False) -> FilterBank:
+    """``filters`` packed for a kernel (:class:`isl_core.kernels.bundles.FilterBank`).
 
     ``ad`` is the adaptive filters' fresh state (v = σ̂² = σ_init²); ``table`` is padded with its last row to
     the longest table (the same value held beyond the end) and is a 2-row dummy when no filter is adaptive.
@@ -132,49 +133,49 @@ def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False):
         table[f, len(gt.log_gain):] = gt.log_gain[-1]
         ad[f, AD_LOG_SIGMA0], ad[f, AD_INV_STEP], ad[f, AD_INV_MEMORY] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.memory
         ad[f, AD_VAR], ad[f, AD_SIGMA] = gt.sigma_init**2, gt.sigma_init
-    return damp, coef, kind, table, ad
+    return FilterBank(damp, coef, kind, table, ad)
 
 
-def run_chunks(model, kb, filters, h, n, seed, *, start, burn, batches, X_out, E_out, S_out, store, progress=None,
-          on_block=None, chunk=None):
-    """Run the kernel over ``n`` steps chunk by chunk.
+def run_chunks(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec], h: float, n: int, seed: int, *,
+               start: str, burn: int, batches: int, out: Trajectory, progress: Callable[[float], None] | None = None,
+               on_block: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+               chunk: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the constant-σ kernel (:func:`isl_core.kernels.euler.advance`) over ``n`` steps, chunk by chunk.
 
-    ``store``: the trajectories are written to ``X_out`` (n+1, m), ``E_out`` (nf, n+1, m), ``S_out`` (na, n+1);
-    or, with ``on_block``, each chunk is written to those buffers (chunk+1 rows) and handed over as
-    ``on_block(X, E, S)`` — rows of the samples it added (the first call also gets sample 0) — so that no array
-    of n rows ever exists. Returns squared-error sums (batches, nf, m), the adaptive filters' σ̂ sums
-    (batches, na) and their final σ̂ (na,). ``progress(fraction)`` is called after every chunk; an exception it
-    raises (e.g. to cancel) propagates.
+    ``out`` (:class:`isl_core.kernels.bundles.Trajectory`): if ``store``, the trajectories are written to ``X``
+    (n+1, m), ``E`` (nf, n+1, m), ``S`` (na, n+1); or, with ``on_block``, each chunk is written to those buffers
+    (chunk+1 rows) and handed over as ``on_block(X, E, S)`` — rows of the samples it added (the first call also gets
+    sample 0) — so that no array of n rows ever exists. Returns squared-error sums (batches, nf, m) after ``burn``
+    steps, the adaptive filters' σ̂ sums (batches, na) and their final σ̂ (na,). ``progress(fraction)`` is called
+    after every chunk; an exception it raises (e.g. to cancel) propagates.
     """
     rng = np.random.default_rng(seed)
     x, e0 = draw_start(model, kb, rng, start)
     e = np.tile(e0, (len(filters), 1))
-    damp, coef, kind, table, ad = pack(model, filters)
-    adaptive = kind == KIND_ADAPTIVE
-    if store:
-        X_out[0] = x
-        E_out[:, 0] = e
-        S_out[:, 0] = ad[adaptive, AD_SIGMA]
+    bank = pack(model, filters)
+    adaptive = bank.kind == KIND_ADAPTIVE
+    if out.store:
+        out.X[0], out.E[:, 0], out.S[:, 0] = x, e, bank.ad[adaptive, AD_SIGMA]
         if on_block is not None:
-            on_block(X_out[:1], E_out[:, :1], S_out[:, :1])
-    sq = np.zeros((batches, len(filters), model.m))
-    sig_sum = np.zeros((batches, int(adaptive.sum())))
-    batch_len = (n - burn) // batches  # the remainder goes to the last batch
+            on_block(out.X[:1], out.E[:, :1], out.S[:, :1])
+    sums = Batches(burn, (n - burn) // batches,  # the remainder goes to the last batch
+                   np.zeros((batches, len(filters), model.m)), np.zeros((batches, int(adaptive.sum()))))
+    grid = Grid(float(h), model.alpha, model.beta)
     chunk = chunk or CHUNK
     k = 0
     while k < n:
         todo = min(chunk, n - k)
-        out0 = k if on_block is not None else 0
-        done = advance(x, e, rng, todo, h, model.alpha, model.beta, model.sigma, damp, coef, kind, table, ad,
-                       k, burn, batch_len, sq, sig_sum, X_out, E_out, S_out, store, out0)
-        if done < todo:
-            raise divergence(model, filters, x if store else x[-1:], e, k + done, n, h)
         if on_block is not None:
-            on_block(X_out[1:done + 1], E_out[:, 1:done + 1], S_out[:, 1:done + 1])
+            out = out._replace(first=k)
+        done = advance(x, e, rng, todo, k, grid, model.sigma, bank, sums, out)
+        if done < todo:
+            raise divergence(model, filters, x if out.store else x[-1:], e, k + done, n, h)
+        if on_block is not None:
+            on_block(out.X[1:done + 1], out.E[:, 1:done + 1], out.S[:, 1:done + 1])
         k += done
         if progress is not None:
             progress(k / n)
-    return sq, sig_sum, ad[adaptive, AD_SIGMA]
+    return sums.sq, sums.sig_sum, bank.ad[adaptive, AD_SIGMA]
 
 
 def divergence(model: Model, filters, x, e, k: int, n: int, h: float) -> DivergenceError:

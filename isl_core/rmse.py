@@ -13,6 +13,7 @@ import numpy as np
 from ._engine import check_progress, check_start, run_chunks
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .grid import MAX_STEPS, check_specs, grid
+from .kernels.bundles import Trajectory
 from .model import Model
 from .riccati import kalman_bucy
 from .validate import check_int, check_real
@@ -82,11 +83,10 @@ def simulate_rmse(
     burn_steps = min(int(check_real("burn", burn, lo=0.0, hi=T) / h), n - batches)
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
-    dummy_x, dummy_e = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
     adaptive = np.array([f.kind == KIND_ADAPTIVE for f in filters])
-    dummy_s = np.empty((int(adaptive.sum()), 1))
     sq, sig_sum, sig_final = run_chunks(model, kb, filters, h, n, seed, start=start, burn=burn_steps, batches=batches,
-                                   X_out=dummy_x, E_out=dummy_e, S_out=dummy_s, store=False, progress=progress)
+                                        out=Trajectory.none(len(filters), int(adaptive.sum()), model.m),
+                                        progress=progress)
     counts = np.full(batches, float((n - burn_steps) // batches))
     counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
     sigma_hat = np.full((batches, len(filters)), np.nan)

@@ -23,6 +23,7 @@ from .decimate import DISPLAY_POINTS, MinMax
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
+from .kernels.bundles import Buckets, Trajectory, Tube
 from .kernels.euler import minmax_block
 from .model import Model
 from .riccati import kalman_bucy
@@ -95,9 +96,9 @@ class _Collector:
         self.sigma_sum = np.zeros(na)
 
     def __call__(self, X: np.ndarray, E: np.ndarray, S: np.ndarray) -> None:
-        lo_v, lo_i, hi_v, hi_i, ends = self.reducer.state
-        minmax_block(X, E, S, self.reducer.seen, self.n, self.reducer.size, lo_v, lo_i, hi_v, hi_i, ends,
-                     self.bound, self.inside, self.sigma_sum)  # steps k ≥ 1 counted: the RMSE's k = 1..N
+        buckets = Buckets(self.reducer.size, *self.reducer.state)
+        tube = Tube(self.bound, self.inside, self.sigma_sum)
+        minmax_block(X, E, S, self.reducer.seen, self.n, buckets, tube)  # steps k ≥ 1 counted: the RMSE's k = 1..N
         self.reducer.advanced(len(X))
 
     def trace(self, column: int, h: float) -> Trace:
@@ -133,8 +134,8 @@ def simulate_view(
     rows = min(DISPLAY_CHUNK, n) + 1
     X, E, S = np.empty((rows, m)), np.empty((nf, rows, m)), np.empty((len(adaptive), rows))
     collect = _Collector(n, m, nf, len(adaptive), np.asarray(kb.s), points)
-    sq, _, _ = run_chunks(model, kb, filters, plan.h, n, seed, start=start, burn=0, batches=1, X_out=X, E_out=E,
-                          S_out=S, store=True, progress=progress, on_block=collect, chunk=DISPLAY_CHUNK)
+    sq, _, _ = run_chunks(model, kb, filters, plan.h, n, seed, start=start, burn=0, batches=1,
+                          out=Trajectory(True, 0, X, E, S), progress=progress, on_block=collect, chunk=DISPLAY_CHUNK)
     s = freeze(np.array(kb.s))
     truth = tuple(collect.trace(i, plan.h) for i in range(m))
     tracks = []

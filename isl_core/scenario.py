@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kernels.bundles import NoiseLaw
 from .kernels.clairvoyant import clairvoyant_state, riccati_path
 from .kernels.draws import fill
 from .model import Model
@@ -136,9 +137,13 @@ class Scenario:
     def draw_noise(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """ε_0 … ε_{n−1} of the noise law, from ``rng``, as the scenario loop draws them (:mod:`isl_core.noise`)."""
         eps = np.empty(n)
-        fill(rng, LAWS[self.noise], self.dof, law_table(self.noise, self.dof), self.outlier_rate,
-             self.outlier_scale, eps)
+        fill(rng, self.noise_law(), eps)
         return eps
+
+    def noise_law(self) -> NoiseLaw:
+        """The noise law as the compiled loops take it (:class:`isl_core.kernels.bundles.NoiseLaw`)."""
+        return NoiseLaw(LAWS[self.noise], self.dof, law_table(self.noise, self.dof), self.outlier_rate,
+                        self.outlier_scale, self.noise_variance)
 
 
 def sigma_path(scenario: Scenario, model: Model, r_min: float, h: float, n: int) -> np.ndarray:
@@ -165,6 +170,6 @@ def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoya
     sigmas = sigma_path(scenario, model, kb.r_min, h, n)
     gain, var = np.zeros((n, model.m)), np.zeros((n + 1, model.m))
     q = scenario.sensor_steps(h, kb.r_min)
-    riccati_path(*clairvoyant_state(np.array(kb.delta, dtype=float), q), float(h), model.alpha, model.beta**2,
-             h * sigmas**2 * scenario.noise_variance, q, gain, var)
+    riccati_path(clairvoyant_state(np.array(kb.delta, dtype=float), q), float(h), model.alpha, model.beta**2,
+                 h * sigmas**2 * scenario.noise_variance, q, gain, var)
     return Clairvoyant(gain, var, q)

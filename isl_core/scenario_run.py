@@ -2,7 +2,7 @@
 
 :func:`simulate_scenario` runs the truth, the clairvoyant filter (first), the Kalman–Bucy filter that is optimal
 for σ(0) (second), the ISL filter with tuning ν and any ``extra`` filters on one grid with one noise (compiled loop:
-:func:`isl_core.scenario_kernel.advance_scenario`). It keeps, per time window, each filter's mean squared error and
+:func:`isl_core.kernels.scenario.advance_scenario`). It keeps, per time window, each filter's mean squared error and
 the clairvoyant filter's mean exact variance P_ii, so that
 
     ratio_f,i(window) = √(mean e_f,i² / mean P_ii)                                              (SPEC §9)
@@ -35,10 +35,10 @@ from .filters.robust import huber_kappa
 from .grid import MAX_STEPS, check_filters, check_specs, run_plan
 from .kernels.clairvoyant import clairvoyant_state
 from .kernels.common import AD_SIGMA
+from .kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
 from .kernels.imm import imm_state
 from .kernels.scenario import advance_scenario
 from .model import Model
-from .noise import LAWS, law_table
 from .riccati import kalman_bucy
 from .scenario import Scenario
 from .validate import check_int, check_real
@@ -162,10 +162,10 @@ class ScenarioPlan:
     r_min: float
     edges: np.ndarray
     filters: tuple[FilterSpec, ...]
-    packed: tuple
-    learning_state: tuple
+    packed: FilterBank
+    learning_state: tuple[np.ndarray, np.ndarray, np.ndarray]
     delta: np.ndarray
-    imm: tuple
+    imm: IMMState
 
     def memory_time(self, memory: float) -> float:
         """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
@@ -175,24 +175,25 @@ class ScenarioPlan:
     def run(self, seed: int = 0, progress: Callable[[float], None] | None = None) -> ScenarioRun:
         """The run with noise from ``seed`` (module docstring); ``progress`` gets the fraction of steps done."""
         seed = check_int("seed", seed, lo=0)
-        model, scenario, h, n, r_min, edges = self.model, self.scenario, self.h, self.N, self.r_min, self.edges
-        windows = len(edges) - 1
-        filters, nf = self.filters, len(self.filters)
-        damp, coef, kind, table, ad = self.packed
-        ad = ad.copy()
-        vb_P, vb_ab, vb_par = (a.copy() for a in self.learning_state)
+        model, nf, nw = self.model, len(self.filters), len(self.edges) - 1
         rng = np.random.default_rng(seed)
         x, e0 = draw_start(model, kalman_bucy(model), rng, "stationary")
         e = np.tile(e0, (nf, 1))
-        state = (*clairvoyant_state(self.delta, self.q), scenario.noise_variance)  # its P_0: Δ at σ(0)
-        adaptive = (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
-        imm = tuple(a.copy() for a in self.imm)
-        imm[2][:] = e0  # every mode of every bank at the common start
-        wsq, wsig = np.zeros((windows, nf, model.m)), np.zeros((windows, int(adaptive.sum())))
-        wref = np.zeros((windows, model.m + 1))
-        acc = np.zeros(nf)
-        died = np.full(nf, -1, dtype=np.int64)
-        law, ztab = LAWS[scenario.noise], law_table(scenario.noise, scenario.dof)
+        bank = self.packed._replace(ad=self.packed.ad.copy())  # the σ-learners' state is the run's own
+        learning = _learning(bank.kind)
+        state = FilterState(np.zeros(nf), np.full(nf, -1, dtype=np.int64), *(a.copy() for a in self.learning_state))
+        imm = IMMState(*(a.copy() for a in self.imm))
+        imm.e[:] = e0  # every mode of every bank at the common start
+        windows = Windows(self.edges, np.zeros((nw, nf, model.m)), np.zeros((nw, int(learning.sum()))),
+                          np.zeros((nw, model.m + 1)))
+        clair = clairvoyant_state(self.delta, self.q)  # its P_0: Δ at σ(0)
+        self._advance(x, e, rng, bank, state, clair, imm, windows, progress)
+        return self._result(seed, windows, state.died, learning)
+
+    def _advance(self, x, e, rng, bank, state, clair, imm, windows, progress) -> None:
+        """The scenario loop over the whole run, chunk by chunk, σ_k of each chunk from the scenario."""
+        model, scenario, h, n, r_min = self.model, self.scenario, self.h, self.N, self.r_min
+        grid, law = Grid(h, model.alpha, model.beta), scenario.noise_law()
         k = 0
         while k < n:
             todo = min(CHUNK, n - k)
@@ -201,30 +202,38 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.array([t0]))
             else:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
-            done = advance_scenario(x, e, rng, todo, h, model.alpha, model.beta, sig, law, scenario.dof, ztab,
-                                    scenario.outlier_rate, scenario.outlier_scale, self.q, damp, coef, kind, table, ad,
-                                    state, acc, k, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm)
+            done = advance_scenario(x, e, rng, todo, k, grid, Observation(sig, law, self.q), bank, state, clair, imm,
+                                    windows)
             if done < todo:
                 raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
                                       f"(step {k + done:,} of {n:,}, h = {h:.3g})")
             k += done
             if progress is not None:
                 progress(k / n)
+
+    def _result(self, seed: int, windows: Windows, died: np.ndarray, learning: np.ndarray) -> ScenarioRun:
+        """The run's windowed figures from the loop's sums; a diverged filter's from its window on are inf (σ̂ nan)."""
+        h, edges, filters = self.h, self.edges, self.filters
         steps = np.diff(edges)
-        mse, sigma_hat = wsq / steps[:, None, None], wsig / steps[:, None]
-        slots = np.cumsum(adaptive) - 1
+        mse, sigma_hat = windows.sq / steps[:, None, None], windows.sigma_hat / steps[:, None]
+        slots = np.cumsum(learning) - 1
         for f in np.flatnonzero(died >= 0):  # from its window on, a diverged filter's error is infinite
             w_died = int(np.searchsorted(edges, died[f], side="right")) - 1
             mse[w_died:, f, :] = np.inf
-            if adaptive[f]:
+            if learning[f]:
                 sigma_hat[w_died:, slots[f]] = np.nan
         # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}; and σ_k
-        ref_var, mean_sigma = wref[:, :-1] / steps[:, None], wref[:, -1] / steps
-        return ScenarioRun(model, scenario, self.nu, seed, h, n, self.q, r_min,
+        ref_var, mean_sigma = windows.ref[:, :-1] / steps[:, None], windows.ref[:, -1] / steps
+        return ScenarioRun(self.model, self.scenario, self.nu, seed, h, self.N, self.q, self.r_min,
                            tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
                            mse, ref_var, mean_sigma, sigma_hat, steps,
                            tuple(float(d * h) if d >= 0 else None for d in died),
-                           tuple(f.name for f, a in zip(filters, adaptive, strict=True) if a))
+                           tuple(f.name for f, a in zip(filters, learning, strict=True) if a))
+
+
+def _learning(kind: np.ndarray) -> np.ndarray:
+    """Which filters learn σ (and have a σ̂ column): the adaptive, variational, robust and IMM filters."""
+    return (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
 
 
 def _edge_times(horizon: float, windows: int, edges) -> np.ndarray:
@@ -288,13 +297,12 @@ def plan_scenario(
                        np.zeros(model.m), False)
     constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
     filters = (clair, constant, isl_filter(model, nu), *specs[1:])
-    damp, coef, kind, table, ad = pack(model, filters, scenario=True)
-    kind[0] = KIND_CLAIRVOYANT
-    learning = _learning_state(model, filters, ad)
+    bank = pack(model, filters, scenario=True)
+    bank.kind[0] = KIND_CLAIRVOYANT
+    learning = _learning_state(model, filters, bank.ad)
     q = scenario.sensor_steps(h, r_min)
     return ScenarioPlan(model, scenario, float(nu), h, n, q, r_min, window_edges(times, h * r_min, n), filters,
-                        (damp, coef, kind, table, ad), learning, np.array(kb.delta, dtype=float),
-                        imm_state(filters, model.m, q, h))
+                        bank, learning, np.array(kb.delta, dtype=float), imm_state(filters, model.m, q, h))
 
 
 def simulate_scenario(

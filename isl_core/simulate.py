@@ -25,6 +25,7 @@ from ._engine import CHUNK, DivergenceError, Tracked, check_progress, check_star
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
+from .kernels.bundles import Trajectory
 from .model import Model
 from .riccati import kalman_bucy
 from .validate import check_int
@@ -126,15 +127,16 @@ def simulate(
     na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
     if every == 1:
         X, E, S = np.empty((n + 1, model.m)), np.empty((len(filters), n + 1, model.m)), np.empty((na, n + 1))
-        sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, X_out=X, E_out=E, S_out=S,
-                         store=True, progress=progress)
+        sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1,
+                              out=Trajectory(True, 0, X, E, S), progress=progress)
         kept = np.arange(n + 1)
     else:
         keep = _Stride(every, n, model.m, len(filters), na)
         rows = min(CHUNK, n) + 1
-        sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, X_out=np.empty((rows, model.m)),
-                         E_out=np.empty((len(filters), rows, model.m)), S_out=np.empty((na, rows)), store=True,
-                         progress=progress, on_block=keep)
+        buffers = Trajectory(True, 0, np.empty((rows, model.m)), np.empty((len(filters), rows, model.m)),
+                             np.empty((na, rows)))
+        sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, out=buffers,
+                              progress=progress, on_block=keep)
         X, E, S, kept = keep.X, keep.E, keep.S, keep.index
     s = freeze(kb.s.copy())
     X = freeze(X)

@@ -1,15 +1,16 @@
 """How the kernels are compiled: numba's on-disk cache (:data:`CACHE`) and the floating-point flags (:data:`FASTMATH`).
 
-The kernels are compiled once and cached on disk (numba's ``cache=True``), in a directory named by a
-digest of every ``*.py`` under ``isl_core/`` (:func:`sources_digest`, subpackages included), ``isl-<digest>`` under ``NUMBA_CACHE_DIR`` or else under the package's
-``isl_core/__pycache__``. numba keys a cached kernel by its own file only, yet compiles into it the functions it calls from
-other files: after a change to one of those alone (``kernels/draws.py`` under the scenario loop, say) it would run the old
-code; a new digest compiles afresh. (Each set of sources keeps its directory: a few MB each.) A container may allow
-no writable place (an arbitrary UID in group 0, a read-only root file system): numba would then refuse to load this
-module ("cannot cache function …: no locator available"). :func:`_cache_flag` checks that first; if the place is
-not writable it points numba at a directory under the system's temporary directory (``/tmp``, a tmpfs in such
-containers), and if even that fails it compiles without a cache (each process then compiles once, ≈ 10 s). Either
-fallback is said in one log line (logger ``isl_core``).
+The kernels are compiled once and cached on disk (numba's ``cache=True``), in a directory ``isl-<digest>`` named by
+a digest of every ``*.py`` under ``isl_core/`` (:func:`sources_digest`, subpackages included), under
+``NUMBA_CACHE_DIR`` or else under the package's ``isl_core/__pycache__``. numba keys a cached kernel by its own file
+only, yet compiles into it the functions it calls from other files: after a change to one of those alone
+(``kernels/draws.py`` under the scenario loop, say) it would run the old code; a new digest compiles afresh. (Each
+set of sources keeps its directory: a few MB each.) A container may allow no writable place (an arbitrary UID in
+group 0, a read-only root file system): numba would then refuse to load the kernels' modules ("cannot cache function
+…: no locator available"). :func:`_cache_flag` checks that first; if the place is not writable it points numba at a
+directory under the system's temporary directory (``/tmp``, a tmpfs in such containers), and if even that fails it
+compiles without a cache (each process then compiles once, ≈ 10 s). Either fallback is said in one log line (logger
+``isl_core``).
 
 ``fastmath={"contract"}`` only lets LLVM fuse ``a*b + c`` into one FMA (one rounding instead of two); it
 keeps IEEE nan/inf semantics, so a diverging filter still shows up as non-finite. Results are bit-identical

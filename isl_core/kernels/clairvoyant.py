@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .bundles import ClairvoyantState
 from .cache import CACHE
 
 __all__ = ["CYCLE_MAX", "SETTLED", "clairvoyant_state", "clairvoyant_step", "riccati_path"]
@@ -18,15 +19,16 @@ CYCLE_MAX = 4096  #: longest sensor cycle (steps) whose settled covariance is ke
 
 
 @njit(cache=CACHE, nogil=True)
-def clairvoyant_step(P, st, cg, cvar, cyc, cyc_r, h, decay, beta2, noise, k, q, phase):
+def clairvoyant_step(state, h, decay, beta2, noise, k, q, phase):
     """Step k → k+1 of the clairvoyant recursion on the state (X, S), in place; returns whether step k is a reading.
     ``phase`` = k mod q (counted by the caller: no division per step), a reading when it is q − 1.
 
-    ``P`` (m+1, m+1) the covariance of (X, S); ``st`` = (R, settled, the previous step's noise, the largest change
-    in the current sensor cycle, whether the noise changed in it), R the variance of the observation noise since
-    the last reading; ``cg`` (m,) the gain of the latest reading (its innovation ``ΔY − h·Σ C·X̂`` times ``cg``);
-    ``cvar`` (m,) the diagonal of P, at t_{k+1} on return; ``noise`` = h·σ_k²·E ε²; ``cyc`` (q, m+1, m+1) and
-    ``cyc_r`` (q,) P and R after each step of the last sensor cycle (q > 1; empty otherwise: :func:`clairvoyant_state`).
+    ``state`` (:class:`~isl_core.kernels.bundles.ClairvoyantState`): ``P`` (m+1, m+1) the covariance of (X, S);
+    ``flags`` = (R, settled, the previous step's noise, the largest change in the current sensor cycle, whether the
+    noise changed in it), R the variance of the observation noise since the last reading; ``gain`` (m,) the gain of
+    the latest reading (its innovation ``ΔY − h·Σ C·X̂`` times ``gain``); ``var`` (m,) the diagonal of P, at t_{k+1}
+    on return; ``cycle_P`` (q, m+1, m+1) and ``cycle_R`` (q,) P and R after each step of the last sensor cycle
+    (q > 1; empty otherwise: :func:`clairvoyant_state`). ``noise`` = h·σ_k²·E ε².
 
     F_a = I + h·A_a is bidiagonal (X_i += h·X_{i+1}, X_m ·= 1 − hα) and S += h·X_1, so P ← F_a P F_aᵀ is a pass over
     the rows and one over the columns (S's first: it reads the old X_1), without allocating. While σ_k stays, the
@@ -37,6 +39,7 @@ def clairvoyant_step(P, st, cg, cvar, cyc, cyc_r, h, decay, beta2, noise, k, q, 
     σ_k changes, and the recursion goes on from the state of the step before. The scenario loop
     (:mod:`isl_core.kernels.scenario`) runs this step in line, and :func:`clairvoyant` over a whole run.
     """
+    P, st, cg, cvar, cyc, cyc_r = state
     m = cg.shape[0]
     a = m + 1
     reading = phase == q - 1
@@ -105,7 +108,7 @@ def clairvoyant_step(P, st, cg, cvar, cyc, cyc_r, h, decay, beta2, noise, k, q, 
     return reading
 
 
-def clairvoyant_state(P0: np.ndarray, q: int = 1):
+def clairvoyant_state(P0: np.ndarray, q: int = 1) -> ClairvoyantState:
     """The recursion's state at t_0 (:func:`clairvoyant_step`) for a reading every ``q`` steps: P on (X, S),
     (R, settled, noise, cycle change, cycle noise changed), gain, diag P, and the cycle's P and R (kept for
     1 < q ≤ :data:`CYCLE_MAX`; beyond, the recursion runs at every step)."""
@@ -113,18 +116,20 @@ def clairvoyant_state(P0: np.ndarray, q: int = 1):
     P = np.zeros((m + 1, m + 1))
     P[:m, :m] = P0
     qc = q if 1 < q <= CYCLE_MAX else 0
-    return (P, np.array([0.0, 0.0, np.nan, 0.0, 0.0]), np.zeros(m), np.diagonal(P0).copy(),
-            np.zeros((qc, m + 1, m + 1)), np.zeros(qc))
+    return ClairvoyantState(P, np.array([0.0, 0.0, np.nan, 0.0, 0.0]), np.zeros(m), np.diagonal(P0).copy(),
+                            np.zeros((qc, m + 1, m + 1)), np.zeros(qc))
 
 
 @njit(cache=CACHE, nogil=True)
-def riccati_path(P, st, cg, cvar, cyc, cyc_r, h, alpha, beta2, noise, q, gain, var):
-    """:func:`clairvoyant_step` over ``noise`` (n,): the gains of the readings (zero between) and diag P_k."""
+def riccati_path(state, h, alpha, beta2, noise, q, gain, var):
+    """:func:`clairvoyant_step` from ``state`` over ``noise`` (n,): the gains of the readings (zero between) into
+    ``gain`` (n, m) and diag P_k into ``var`` (n + 1, m)."""
+    cg, cvar = state.gain, state.var
     decay = 1.0 - h * alpha
     var[0] = cvar
     phase = 0
     for k in range(noise.shape[0]):
-        reading = clairvoyant_step(P, st, cg, cvar, cyc, cyc_r, h, decay, beta2, noise[k], k, q, phase)
+        reading = clairvoyant_step(state, h, decay, beta2, noise[k], k, q, phase)
         phase = 0 if reading else phase + 1
         for i in range(cg.shape[0]):
             gain[k, i] = cg[i] if reading else 0.0

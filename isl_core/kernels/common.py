@@ -14,8 +14,8 @@ from numba import njit
 
 from .cache import CACHE, FASTMATH
 
-__all__ = ["AD_INV_MEMORY", "AD_INV_STEP", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "fast_cbrt", "root",
-           "table_gain"]
+__all__ = ["AD_INV_MEMORY", "AD_INV_STEP", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "fast_cbrt",
+           "root", "table_gain"]
 
 #: steps between flushes of the squared-error accumulator into the batch sums (see the module docstring)
 FLUSH = 1024

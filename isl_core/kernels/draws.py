@@ -64,14 +64,16 @@ def _gap(rng, p, cap):
 
 
 @njit(cache=CACHE, nogil=True)
-def _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, with_v):
-    """The next ``count`` ε_k of ``law`` into ``eps``; if ``with_v``, each after a normal v_k into ``vs``.
+def _draw(rng, law, vs, eps, count, with_v):
+    """The next ``count`` ε_k of ``law`` (:class:`~isl_core.kernels.bundles.NoiseLaw`) into ``eps``; if ``with_v``,
+    each after a normal v_k into ``vs``.
 
     A Student-t draw: one uniform gives the layer (8 bits), the sign (1) and the position in the layer; inside the
     layer's inner part (≈ 98 % of draws) that is T_d, the rest goes to :func:`_student_retry`, out of line. One loop
     per law, written out: the same draws through an inlined draw function with the retry loop in it cost 10.5–11.5 ns
     a draw against 5–7 ns (loops of 5·10⁶)."""
-    if law == LAW_STUDENT:
+    code, dof, tab, p_out, k_out, _ = law
+    if code == LAW_STUDENT:
         scale = math.sqrt((dof - 2.0) / dof)  # unit variance
         for j in range(count):
             if with_v:
@@ -88,7 +90,7 @@ def _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, with_v):
         return
     # outliers: the steps between two are geometric, drawn once an outlier (a uniform a step cost 5 ns a step in the
     # scenario loop); from this call's first step on, afresh: the steps are independent, so the law is the same
-    nxt = _gap(rng, p_out, count) if law == LAW_OUTLIERS else count
+    nxt = _gap(rng, p_out, count) if code == LAW_OUTLIERS else count
     for j in range(count):
         if with_v:
             vs[j] = rng.standard_normal()
@@ -100,12 +102,14 @@ def _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, with_v):
 
 
 @njit(cache=CACHE, nogil=True)
-def draw_ahead(rng, law, dof, tab, p_out, k_out, vs, eps, count):
-    """The next ``count`` steps' v_k (a normal) and ε_k into ``vs`` and ``eps``, drawn v_0, ε_0, v_1, ε_1, …"""
-    _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, True)
+def draw_ahead(rng, law, vs, eps, count):
+    """The next ``count`` steps' v_k (a normal) and ε_k of ``law`` (:class:`~isl_core.kernels.bundles.NoiseLaw`) into
+    ``vs`` and ``eps``, drawn v_0, ε_0, v_1, ε_1, …"""
+    _draw(rng, law, vs, eps, count, True)
 
 
 @njit(cache=CACHE, nogil=True)
-def fill(rng, law, dof, tab, p_out, k_out, eps):
-    """``eps`` filled with ε_k of ``law`` alone (:meth:`isl_core.scenario.Scenario.draw_noise`)."""
-    _draw(rng, law, dof, tab, p_out, k_out, eps, eps, eps.shape[0], False)
+def fill(rng, law, eps):
+    """``eps`` filled with ε_k of ``law`` (:class:`~isl_core.kernels.bundles.NoiseLaw`) alone
+    (:meth:`isl_core.scenario.Scenario.draw_noise`)."""
+    _draw(rng, law, eps, eps, eps.shape[0], False)

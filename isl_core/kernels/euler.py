@@ -40,10 +40,14 @@ import math
 import numpy as np
 from numba import njit
 
+from ..filters.base import KIND_ADAPTIVE, KIND_POWER
 from .cache import CACHE, FASTMATH
 from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
 
-__all__ = ["advance", "minmax_block"]
+__all__ = ["TRACE_ERROR", "TRACE_ESTIMATE", "TRACE_SIGMA", "TRACE_TRUTH", "advance", "minmax_block"]
+
+#: the traces of a display run, in column order (:func:`minmax_block`): X_i, X_i + e_f,i, e_f,i, σ̂ of a σ-learner
+TRACE_TRUTH, TRACE_ESTIMATE, TRACE_ERROR, TRACE_SIGMA = range(4)
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
@@ -54,26 +58,31 @@ def _flush(acc, sacc, sq, sig_sum, b, slot, kind):
         for i in range(m):
             sq[b, f, i] += acc[f, i]
             acc[f, i] = 0.0
-        if kind[f] == 2:
+        if kind[f] == KIND_ADAPTIVE:
             sig_sum[b, slot[f]] += sacc[f]
             sacc[f] = 0.0
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0, burn, batch_len, sq, sig_sum,
-            X_out, E_out, S_out, store, out0):
-    """Advance truth ``x`` (m,) and the filters' errors ``e`` (nf, m) in place by ``n`` steps, noise from ``rng``.
+def advance(x, e, rng, n, k0, grid, sigma, bank, batches, out):
+    """Advance truth ``x`` (m,) and the filters' errors ``e`` (nf, m) in place by ``n`` steps k0 → k0 + n on the
+    :class:`~isl_core.kernels.bundles.Grid` ``grid``, with the observation noise σ·ε_k, noise from ``rng``.
 
-    ``kind`` (nf,) selects φ (0 linear gain ``coef``, 1 power law with ``coef``, 2 adaptive). An adaptive
-    filter f reads its gain table ``table[f]`` (nt ≥ 2, m) of log K and carries its state in ``ad[f]``
-    (columns ``AD_*``); the a-th adaptive filter (in filter order) is slot a of ``sig_sum`` and ``S_out``.
-    Global step index of the first row is ``k0``. For every new step k+1 > ``burn``, adds the squared
-    errors to ``sq[b, f, i]`` (and σ̂ to ``sig_sum[b, a]``) with ``b = min((k+1−burn−1) // batch_len, nb−1)``.
-    If ``store``, integrates the whole truth and writes X(t_{k+1}) to ``X_out[k+1−out0]``, e_f(t_{k+1}) to
-    ``E_out[f, k+1−out0]`` and σ̂ to ``S_out[a, k+1−out0]``; otherwise only X_m is advanced (x[:m−1] is left
-    as it was). Returns the number of steps done; it stops early at the first step that leaves a non-finite
-    value in the truth or an error.
+    ``bank`` (:class:`~isl_core.kernels.bundles.FilterBank`): ``kind[f]`` selects φ — :data:`KIND_LINEAR` gain
+    ``coef``, :data:`KIND_POWER` power law with ``coef``, :data:`KIND_ADAPTIVE` — and an adaptive filter reads its
+    table of log K ``table[f]`` (nt ≥ 2, m) and carries its state in ``ad[f]`` (columns ``AD_*``); the a-th
+    adaptive filter (in filter order) is slot a of the σ̂ sums and rows. ``batches``
+    (:class:`~isl_core.kernels.bundles.Batches`): for every new step k+1 > ``burn``, the squared errors go to
+    ``sq[b, f, i]`` (and σ̂ to ``sig_sum[b, a]``) with ``b = min((k+1−burn−1) // length, nb−1)``. ``out``
+    (:class:`~isl_core.kernels.bundles.Trajectory`): if ``store``, the whole truth is integrated and X(t_{k+1}),
+    e_f(t_{k+1}) and σ̂ are written to row k+1−``first`` of ``X``, ``E[f]`` and ``S[a]``; otherwise only X_m is
+    advanced (x[:m−1] is left as it was). Returns the number of steps done; it stops early at the first step that
+    leaves a non-finite value in the truth or an error.
     """
+    h, alpha, beta = grid
+    damp, coef, kind, table, ad = bank
+    burn, batch_len, sq, sig_sum = batches
+    store, out0, X_out, E_out, S_out = out
     m = x.shape[0]
     nf = e.shape[0]
     nb = sq.shape[0]
@@ -89,7 +98,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
     sacc = np.zeros(nf)
     na = 0
     for f in range(nf):
-        if kind[f] == 2:
+        if kind[f] == KIND_ADAPTIVE:
             slot[f] = na
             na += 1
             table_gain(table, ad, f, gain, sqh)  # K(σ̂) of the state carried in
@@ -109,7 +118,7 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
             for i in range(m - 1):  # (I + h A0) e: ascending order uses the old e_{i+1}
                 e[f, i] += h * e[f, i + 1]
             e[f, m - 1] = zdecay[f] * e[f, m - 1] + couple[f] * xm - shock
-            if kind[f] == 1:
+            if kind[f] == KIND_POWER:
                 p = np.float64(u > 0.0) - np.float64(u < 0.0)  # sign(u), branch-free
                 r = root(abs(u), m)
                 for i in range(m - 1, -1, -1):  # c_i sign(u)|u|^{1-(i+1)/m} = c_i sign(u) r^{m-1-i}   (A.17)
@@ -120,11 +129,11 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
                 for i in range(m):  # linear gain: K(ΔY − h Z_1) = √h·K·u   (B.30)
                     e[f, i] += gain[f, i] * u
                     total += e[f, i]
-                if kind[f] == 2:
+                if kind[f] == KIND_ADAPTIVE:
                     uu[f] = u  # its σ̂ update runs below, outside this loop: the KBF/ISL path stays lean
         if na > 0:  # adaptive filters: take u_k into σ̂, then the gain of the next step
             for f in range(nf):
-                if kind[f] == 2:
+                if kind[f] == KIND_ADAPTIVE:
                     u = uu[f]
                     var = ad[f, AD_VAR]
                     var += max(1.0 / k, ad[f, AD_INV_MEMORY]) * (u * u - var)  # EWMA of u²
@@ -169,43 +178,46 @@ def advance(x, e, rng, n, h, alpha, beta, sigma, damp, coef, kind, table, ad, k0
 
 @njit(cache=CACHE, nogil=True, inline="always")
 def _source(c, m, nf):
-    """What trace (column) ``c`` is: (kind, f, i) — 0 X_i, 1 X_i + e_f,i, 2 e_f,i, 3 σ̂ of adaptive filter f."""
+    """What trace (column) ``c`` is: (kind, f, i), kind one of ``TRACE_*``."""
     if c < m:
-        return 0, 0, c
+        return TRACE_TRUTH, 0, c
     if c < m * (1 + nf):
         f, i = divmod(c - m, m)
-        return 1, f, i
+        return TRACE_ESTIMATE, f, i
     if c < m * (1 + 2 * nf):
         f, i = divmod(c - m * (1 + nf), m)
-        return 2, f, i
-    return 3, c - m * (1 + 2 * nf), 0
+        return TRACE_ERROR, f, i
+    return TRACE_SIGMA, c - m * (1 + 2 * nf), 0
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
 def _sample(X, E, S, kind, f, i, r):
     """Value at row r of the trace (kind, f, i) of :func:`_source`."""
-    if kind == 0:
+    if kind == TRACE_TRUTH:
         return X[r, i]
-    if kind == 1:
+    if kind == TRACE_ESTIMATE:
         return X[r, i] + E[f, r, i]
-    if kind == 2:
+    if kind == TRACE_ERROR:
         return E[f, r, i]
     return S[f, r]
 
 
 @njit(cache=CACHE, nogil=True)
-def minmax_block(X, E, S, k0, n, size, lo_v, lo_i, hi_v, hi_i, ends, bound, inside, sig_sum):
+def minmax_block(X, E, S, k0, n, buckets, tube):
     """Fold one chunk of a display run into its min/max buckets (:class:`isl_core.decimate.MinMax`), without the GIL.
 
     Rows r of ``X`` (rows, m), ``E`` (nf, rows, m), ``S`` (na, rows) are the samples k = k0 + r of n in all. The
-    traces, in column order: X_i; the estimates X_i + e_f,i; the errors e_f,i; σ̂ of each adaptive filter. Sample 0
-    and n − 1 go to ``ends``; interior sample k to bucket (k − 1) // size, where a strictly smaller (larger) value
-    replaces the bucket's min (max): ties keep the earlier sample, as ``argmin`` does. For k ≥ 1, counts
-    ``|e_f,i| ≤ bound_i`` into ``inside`` (nf, m) and sums σ̂ into ``sig_sum`` (na,).
+    traces, in column order (``TRACE_*``): X_i; the estimates X_i + e_f,i; the errors e_f,i; σ̂ of each adaptive
+    filter. ``buckets`` (:class:`~isl_core.kernels.bundles.Buckets`): sample 0 and n − 1 go to ``ends``; interior
+    sample k to bucket (k − 1) // size, where a strictly smaller (larger) value replaces the bucket's min (max): ties
+    keep the earlier sample, as ``argmin`` does. ``tube`` (:class:`~isl_core.kernels.bundles.Tube`): for k ≥ 1,
+    counts ``|e_f,i| ≤ bound_i`` into ``inside`` (nf, m) and sums σ̂ into ``sig_sum`` (na,).
 
     Each trace is walked through the chunk with its current bucket's extremes in registers (written back when the
     bucket ends and at the end of the chunk), and the bucket advanced by a counter, not a division per sample.
     """
+    size, lo_v, lo_i, hi_v, hi_i, ends = buckets
+    bound, inside, sig_sum = tube
     rows, m = X.shape
     nf = E.shape[0]
     na = S.shape[0]

@@ -7,20 +7,23 @@ which the scenario loop runs in line for every IMM filter (:mod:`isl_core.kernel
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numba import njit
 
+from ..filters.base import FilterSpec
+from .bundles import IMMState
 from .cache import CACHE, FASTMATH
 
 __all__ = ["imm_state", "imm_step"]
 
 
-def imm_state(filters, m: int, q: int, h: float):
-    """The IMM banks' state for the scenario loop, one slot per IMM filter: (slot of each filter (−1: none), P (b, J,
-    m+1, m+1), e (b, J, m) to be filled with the start, a (b, J), μ (b, J), R (b, J) = q·h·σ_j², (p, J) (b, 2),
-    σ_j (b, J), scratch: W (J, J), V and W·V (J, m + m(m+1)/2), log-weights (J,), ē (m,)). Padded to the largest J
-    (μ = 0 there)."""
+def imm_state(filters: Sequence[FilterSpec], m: int, q: int, h: float) -> IMMState:
+    """The IMM banks' state for the scenario loop (:class:`~isl_core.kernels.bundles.IMMState`), one bank per IMM
+    filter of ``filters``, at the start of a sensor interval of ``q`` steps of ``h``: every mode at the stationary
+    covariance of its σ_j, weights 1/J, its errors ``e`` (b, J, m) to be filled with the run's start; scratch ``V``
+    and ``out`` are (J, m + m(m+1)/2) padded to a multiple of 4. Padded to the largest J (μ = 0 there)."""
     banks = [f.imm for f in filters if f.imm is not None]
     nb, jm = len(banks), max([1] + [len(b.sigmas) for b in banks])
     slot = np.full(len(filters), -1, dtype=np.int64)
@@ -39,8 +42,8 @@ def imm_state(filters, m: int, q: int, h: float):
         par[b] = spec.imm.switch, J
         b += 1
     nv = 4 * -(-(m + m * (m + 1) // 2) // 4)  # d_i and the upper triangle, padded to a multiple of 4 (_mix)
-    return (slot, P, np.zeros((nb, jm, m)), np.zeros((nb, jm)), mu, R, par, sig, np.zeros((jm, jm)),
-            np.zeros((jm, nv)), np.zeros((jm, nv)), np.zeros(jm), np.zeros(m))
+    return IMMState(slot, P, np.zeros((nb, jm, m)), np.zeros((nb, jm)), mu, R, par, sig, np.zeros((jm, jm)),
+                    np.zeros((jm, nv)), np.zeros((jm, nv)), np.zeros(jm), np.zeros(m))
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
@@ -78,8 +81,10 @@ def _update(P, e, r, s):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def _mix(P, e, mu, b, p, J, mean, W, V, out):
-    """Mixing (module docstring) in place: μ ← c̄, e_j ← e0_j, P_j ← P0_j on the X block (S is 0 after a reading).
+def _mix(bank, b, p, J):
+    """Mixing (module docstring) of bank ``b`` of ``bank`` (:class:`~isl_core.kernels.bundles.IMMState`) in place:
+    μ ← c̄, e_j ← e0_j, P_j ← P0_j on the X block (S is 0 after a reading), with its scratch ``mean``, ``W``, ``V``
+    and ``out``.
 
     With d_i = e_i − ē (ē = ``mean``, the filter's error) and the weights W_ji = p_ij μ_i / c̄_j (Σ_i W_ji = 1):
     e0_j = ē + δ_j, δ_j = Σ_i W_ji d_i, and P0_j = Σ_i W_ji (P_i + d_i d_iᵀ) − δ_j δ_jᵀ — the paper's
@@ -87,6 +92,7 @@ def _mix(P, e, mu, b, p, J, mean, W, V, out):
     V_i = (d_i, upper triangle of P_i + d_i d_iᵀ) instead of two passes, and no common part of the errors in the
     products (no cancellation when all are large).
     """
+    P, e, mu, mean, W, V, out = bank.P, bank.e, bank.mu, bank.mean, bank.W, bank.V, bank.out
     m = e.shape[2]
     nv = V.shape[1]  # a multiple of 4
     stay, move = 1.0 - p, p / (J - 1)
@@ -124,17 +130,18 @@ def _mix(P, e, mu, b, p, J, mean, W, V, out):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def imm_step(P, e, a, mu, R, par, sig, b, W, V, out, lw, mean, el, f, noise, sqh, h, decay, q_var, shock,
-             reading, corr):
-    """Step k → k+1 of IMM bank ``b`` (module docstring), in place; returns σ̂ = Σ μ_j σ_j after a reading, else −1.
+def imm_step(bank, b, el, f, noise, sqh, h, decay, q_var, shock, reading, corr):
+    """Step k → k+1 of bank ``b`` of ``bank`` (module docstring), in place; returns σ̂ = Σ μ_j σ_j after a reading,
+    else −1.
 
-    Per bank (first index b, :func:`imm_state`): ``P`` (J, m+1, m+1), ``e`` (J, m), ``a`` (J,) the modes' covariances
-    on (X, S), errors and innovations summed since the last reading, ``mu`` (J,) the weights (c̄ between readings),
-    ``R`` (J,) q·h·σ_j², ``par`` = (p, J); ``W``, ``V``, ``out``, ``lw``, ``mean`` scratch (:func:`_mix`);
-    ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a reading ``corr`` (m,) gets what the scenario
+    Per bank (first index b of :class:`~isl_core.kernels.bundles.IMMState`, :func:`imm_state`): ``P`` (J, m+1,
+    m+1), ``e`` (J, m), ``a`` (J,) the modes' covariances on (X, S), errors and innovations summed since the last
+    reading, ``mu`` (J,) the weights (c̄ between readings), ``R`` (J,) q·h·σ_j², ``par`` = (p, J); ``W``, ``V``,
+    ``out``, ``lw``, ``mean`` scratch (:func:`_mix`); ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a reading ``corr`` (m,) gets what the scenario
     loop adds to the filter's propagated error ``el[:, f]`` (at t_k on entry) to make it Σ_j μ_j e_j: the lane
     of the filter propagates it as the modes (A_f = A), and takes in ``corr`` as its update.
     """
+    P, e, a, mu, R, par, sig, lw, mean = bank.P, bank.e, bank.a, bank.mu, bank.R, bank.par, bank.sigma, bank.lw, bank.mean
     J = int(par[b, 1])
     m = e.shape[2]
     for j in range(J):
@@ -170,5 +177,5 @@ def imm_step(P, e, a, mu, R, par, sig, b, W, V, out, lw, mean, el, f, noise, sqh
         corr[i] = mean[i] - (el[i, f] + h * el[i + 1, f])
     corr[m - 1] = mean[m - 1] - (decay * el[m - 1, f] - shock)
     if J > 1:
-        _mix(P, e, mu, b, par[b, 0], J, mean, W, V, out)
+        _mix(bank, b, par[b, 0], J)
     return sigma_hat

@@ -1,8 +1,8 @@
 """The compiled time loop of a scenario run (SPEC §8–§9): σ_k per step, the noise law, the sensor interval.
 
-The same error coordinates as :func:`isl_core.kernels.advance` — e_f = Z_f − X per filter, the truth's X_m only —
-with three changes. σ_k comes from the scenario's path (``sig``, one value per step); ε_k from its law (``law``:
-0 Gaussian, 1 Student-t scaled to unit variance, 2 Gaussian with outliers); and the filters take in an
+The same error coordinates as :func:`isl_core.kernels.euler.advance` — e_f = Z_f − X per filter, the truth's X_m
+only — with three changes. σ_k comes from the scenario's path (``sigma``, one value per step); ε_k from its law
+(``law``: ``LAW_GAUSSIAN``, ``LAW_STUDENT`` scaled to unit variance, ``LAW_OUTLIERS``); and the filters take in an
 observation only every ``q`` steps, the increment of Y over those steps. Each filter f accumulates
 
     a_f += σ_k·ε_k − √h·e_f,1          (so that √h·a_f = ΔY − the increment its estimates predict, B.34)
@@ -10,22 +10,22 @@ observation only every ``q`` steps, the increment of Y over those steps. Each fi
 and at a reading (global step k with (k + 1) mod q = 0) takes in the normalized innovation u = a_f/√q, the
 innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
 
-    linear (kind 0):       e_f += √(qh)·K·u                                       (B.30)
-    power law (kind 1):    e_f += √(qh)·φ(u)                                      (A.17–A.18)
-    adaptive (kind 2):     e_f += √(qh)·K(σ̂)·u, then σ̂ takes in u                 (isl_core.adaptive)
-    clairvoyant (kind 3):  e_f += √h·a_f·K_k, K_k its recursion's gain at step k  (isl_core.scenario.clairvoyant)
-    variational (kind 4):  e_f += F·K·u, K from a few fixed-point iterations      (isl_core.variational)
-    robust (kind 5):       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.robust)
-    IMM (kind 6):          e_f += the bank's correction to Σ_j μ_j e_j            (isl_core.imm.imm_step)
+    KIND_LINEAR:       e_f += √(qh)·K·u                                       (B.30)
+    KIND_POWER:        e_f += √(qh)·φ(u)                                      (A.17–A.18)
+    KIND_ADAPTIVE:     e_f += √(qh)·K(σ̂)·u, then σ̂ takes in u                 (isl_core.filters.adaptive)
+    KIND_CLAIRVOYANT:  e_f += √h·a_f·K_k, K_k its recursion's gain at step k  (isl_core.scenario.clairvoyant)
+    KIND_VB:           e_f += F·K·u, K from a few fixed-point iterations      (isl_core.filters.variational)
+    KIND_ROBUST:       e_f += √(qh)·K(σ̂)·ψ(u), ψ Huber's clip at ±c·σ̂       (isl_core.filters.robust)
+    KIND_IMM:          e_f += the bank's correction to Σ_j μ_j e_j            (isl_core.kernels.imm.imm_step)
 
 The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
 its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ = 1 − 1/W at each reading), ``vb_par[f]`` = (ρ per
 reading, iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
-power-law and linear updates are those of :func:`isl_core.kernels.advance`. The σ-learning filters' memory W counts
+power-law and linear updates are those of :func:`isl_core.kernels.euler.advance`. The σ-learning filters' memory W counts
 readings: the adaptive and robust estimators forget with λ = max(1/r, 1/W) at the r-th reading, the variational one
-with ρ = 1 − 1/W (:mod:`isl_core.adaptive`).
+with ρ = 1 − 1/W (:mod:`isl_core.filters.adaptive`).
 
 Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of
 the reading (:func:`_pr`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for the
@@ -45,59 +45,26 @@ import math
 import numpy as np
 from numba import njit
 
+from ..filters.base import (
+    KIND_ADAPTIVE,
+    KIND_CLAIRVOYANT,
+    KIND_IMM,
+    KIND_LINEAR,
+    KIND_POWER,
+    KIND_ROBUST,
+    KIND_VB,
+)
 from .cache import CACHE, FASTMATH
 from .clairvoyant import clairvoyant_step
 from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
 from .draws import DRAWS, draw_ahead
 from .imm import imm_step
+from .variational import predict_cov, vb_update
 
 __all__ = ["advance_scenario"]
 
 LANES = 4  #: filters advanced side by side (:func:`advance_scenario`)
 IDLE = -1  #: the kind of a lane without a filter, or whose filter died
-
-
-@njit(cache=CACHE, nogil=True)
-def _predict_cov(P, h, a, q_var):
-    """P ← F P Fᵀ + q_var·E Eᵀ, F = I + h·(A0 − a·E Eᵀ), in place (F is bidiagonal: O(m²))."""
-    m = P.shape[0]
-    for j in range(m):  # rows: F P
-        for i in range(m - 1):
-            P[i, j] += h * P[i + 1, j]
-        P[m - 1, j] *= 1.0 - h * a
-    for i in range(m):  # columns: (F P) Fᵀ
-        for j in range(m - 1):
-            P[i, j] += h * P[i, j + 1]
-        P[i, m - 1] *= 1.0 - h * a
-    P[m - 1, m - 1] += q_var
-
-
-@njit(cache=CACHE, nogil=True)
-def _vb_update(P, ab, par, u, H, h, a_f, gvec):
-    """One reading of the variational-Bayes filter: updates P and (a, b) in place, writes F·K into ``gvec``;
-    returns σ̂ = √(b/a)."""
-    m = P.shape[0]
-    a = par[0] * ab[0] + 0.5  # a⁻ = ρa, b⁻ = ρb: ρ per reading
-    b_pr = par[0] * ab[1]
-    b = b_pr
-    p11 = P[0, 0]
-    k1 = 0.0
-    s = 1.0
-    for _ in range(int(par[1])):
-        s = H * H * p11 + b / a
-        k1 = P[0, 0] * H / s
-        resid = u * (1.0 - H * k1)
-        b = b_pr + 0.5 * resid * resid + 0.5 * H * H * (p11 - k1 * s * k1)
-    for i in range(m):
-        gvec[i] = P[i, 0] * H / s
-    for i in range(m):
-        for j in range(m):
-            P[i, j] -= gvec[i] * s * gvec[j]
-    for i in range(m - 1):  # F·K
-        gvec[i] += h * gvec[i + 1]
-    gvec[m - 1] *= 1.0 - h * a_f
-    ab[0], ab[1] = a, b
-    return np.sqrt(b / a)
 
 
 @njit(cache=CACHE, nogil=True)
@@ -138,13 +105,13 @@ def _bury(e, died, lane, k):
 def _pr(kind, u, raw, sqh, own, lim, m):
     """(p, r) of a lane's update at a reading, e_i += G_i·p·r^(m−i) for i = m … 1 (module docstring); ``raw`` the
     innovation before its normalization by √q, ``own`` the learning filters' u (taken before the lanes' pass)."""
-    if kind == 1:
+    if kind == KIND_POWER:
         return np.float64(u > 0.0) - np.float64(u < 0.0), root(abs(u), m)
-    if kind == 0:
+    if kind == KIND_LINEAR:
         return u, 1.0
-    if kind == 3:
+    if kind == KIND_CLAIRVOYANT:
         return sqh * raw, 1.0
-    if kind == 5:
+    if kind == KIND_ROBUST:
         return min(max(own, -lim), lim), 1.0
     if kind == IDLE:
         return 0.0, 1.0
@@ -152,26 +119,32 @@ def _pr(kind, u, raw, sqh, own, lim, m):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k_out, q, damp, coef, kind, table, ad,
-                     clair, acc, k0, edges, wsq, wsig, wref, vb_P, vb_ab, vb_par, died, imm):
+def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windows):
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
-    ``sig`` (n,) is this chunk's σ_k, or (1,) its one σ while σ is constant; ``clair`` = (P, st, cg, cvar, cycle P,
-    cycle R, E ε²) the clairvoyant recursion's state (:func:`isl_core.scenario.clairvoyant_step`, run here in line, once
-    per step: its gain ``cg`` serves the clairvoyant filter, kind 3), and ``wref`` (nw, m + 1) sums its diag P at
-    t_{k+1} and σ_k per window; ``acc`` (nf,) the filters' accumulated innovations carried from chunk to chunk;
-    ``ad`` the adaptive filters' state (as in :func:`isl_core.kernels.advance`). A filter whose error leaves the
-    finite numbers at step k is stopped there: ``died[f] = k`` (−1 while it lives), its lane goes idle (what it sums
-    from then on lands in windows the run sets to inf), the others go on. Returns the number of steps done (fewer
-    only if the truth itself leaves the finite numbers).
+    The arguments are bundles (:mod:`isl_core.kernels.bundles`): ``grid`` the truth's Euler grid; ``obs`` this
+    chunk's σ_k (n,) — or (1,), its one σ while σ is constant —, the noise law and the sensor steps q; ``bank`` the
+    filters (``ad`` the σ-learners' state, as in :func:`isl_core.kernels.euler.advance`); ``state`` what each filter
+    carries from chunk to chunk (innovations since its last reading, death, the variational filters' state);
+    ``clair`` the clairvoyant recursion's state (:func:`isl_core.kernels.clairvoyant.clairvoyant_step`, run here in
+    line, once per step: its gain serves the clairvoyant filter, :data:`KIND_CLAIRVOYANT`); ``imm`` the IMM banks;
+    ``windows`` the sums per window, ``ref`` the clairvoyant diag P at t_{k+1} and σ_k. A filter whose error leaves
+    the finite numbers at step k is stopped there: ``died[f] = k`` (−1 while it lives), its lane goes idle (what it
+    sums from then on lands in windows the run sets to inf), the others go on. Returns the number of steps done
+    (fewer only if the truth itself leaves the finite numbers).
 
     The filters run in lanes of four (the last ones padded with idle lanes): errors ``el`` (m, lanes),
     gains ``G`` (m, lanes: √(qh)·K, the power law's coefficients, the clairvoyant gain, the variational filter's
     F·K). The σ-learning filters take their reading's u before the lanes' pass (the variational filter's gain of
     this reading needs it) and take in u² after it (their gain at a reading uses the σ̂ before it). The IMM banks
-    (``imm``: :func:`isl_core.imm.imm_state`) step before the lanes' pass, and at a reading give their lane its
+    (``imm``: :func:`isl_core.kernels.imm.imm_state`) step before the lanes' pass, and at a reading give their lane its
     update (p = 1, G = the correction).
     """
+    h, alpha, beta = grid
+    sig, law, q = obs
+    damp, coef, kind, table, ad = bank
+    acc, died, vb_P, vb_ab, vb_par = state
+    edges, wsq, wsig, wref = windows
     m = x.shape[0]
     nf = e.shape[0]
     nw = wsq.shape[0]
@@ -190,7 +163,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
     learn = np.zeros(nf, dtype=np.int64)  # the σ-learning filters, in order: slot a is learn[a]
     clairs = np.zeros(nf, dtype=np.int64)
     imms = np.zeros(nf, dtype=np.int64)
-    islot, iP, ie, ia, imu, iR, ipar, isig, i_W, i_V, i_out, i_w, i_mean = imm
+    islot = imm.slot
     corr = np.zeros(m)
     na, nc, ni = 0, 0, 0
     for f in range(nf):
@@ -201,20 +174,20 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         lane[f] = kind[f]
         for i in range(m):
             el[i, f] = e[f, i]
-        if kind[f] == 2 or kind[f] == 5:
+        if kind[f] == KIND_ADAPTIVE or kind[f] == KIND_ROBUST:
             table_gain(table, ad, f, gain, sqqh)
-        if kind[f] == 3:
+        if kind[f] == KIND_CLAIRVOYANT:
             clairs[nc] = f
             nc += 1
-        if kind[f] == 6:
+        if kind[f] == KIND_IMM:
             imms[ni] = f
             ni += 1
             own[f] = 1.0
-        if kind[f] == 2 or kind[f] == 4 or kind[f] == 5 or kind[f] == 6:
+        if kind[f] == KIND_ADAPTIVE or kind[f] == KIND_VB or kind[f] == KIND_ROBUST or kind[f] == KIND_IMM:
             learn[na] = f
             na += 1
         G[:, f] = gain[f]
-    cP, cst, cg, cvar, cyc, cyc_r, nv = clair
+    cst, cg, cvar, cyc, nv = clair.flags, clair.gain, clair.var, clair.cycle_P, law.variance
     for c in range(nc):
         G[:, clairs[c]] = cg
     gvec = np.zeros(m)
@@ -241,7 +214,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
             edge = edges[w + 1] if w < nw - 1 else k0 + n + 1
         b = j % DRAWS
         if b == 0:
-            draw_ahead(rng, law, dof, ztab, p_out, k_out, vbuf, ebuf, min(DRAWS, n - j))
+            draw_ahead(rng, law, vbuf, ebuf, min(DRAWS, n - j))
         s_k = sig[j * stride]
         noise = s_k * ebuf[b]
         c_noise = h * (s_k * s_k) * nv
@@ -261,7 +234,7 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
         else:
             _pour(wref, w, cvar, s_cur, same)  # the steps since the last change, then the new one
             same, s_cur = 1, s_k
-            clairvoyant_step(cP, cst, cg, cvar, cyc, cyc_r, h, decay, beta2, c_noise, k, q, q - left)
+            clairvoyant_step(clair, h, decay, beta2, c_noise, k, q, q - left)
             for c in range(nc):
                 G[:, clairs[c]] = cg
         xm = x[m - 1]
@@ -272,24 +245,23 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
             f = imms[c]
             if lane[f] != IDLE:
                 bk = islot[f]
-                s_hat = imm_step(iP, ie, ia, imu, iR, ipar, isig, bk, i_W, i_V, i_out, i_w, i_mean, el, f, noise, sqh,
-                                 h, decay, q_var, shock, reading, corr)
+                s_hat = imm_step(imm, bk, el, f, noise, sqh, h, decay, q_var, shock, reading, corr)
                 if reading:
                     G[:, f] = corr
                     ad[f, AD_SIGMA] = s_hat
         if reading:  # the σ-learning filters' u, before the lanes move: the variational filter's gain needs it
             for a in range(na):
                 f = learn[a]
-                if lane[f] == IDLE or kind[f] == 6:
+                if lane[f] == IDLE or kind[f] == KIND_IMM:
                     continue
                 u = noise - sqh * el[0, f]
                 if q > 1:
                     u = (accl[f] + u) / sqq
                 own[f] = u
-                if kind[f] == 4:
-                    ad[f, AD_SIGMA] = _vb_update(vb_P[f], vb_ab[f], vb_par[f], u, sqqh, h, damp[f], gvec)
+                if kind[f] == KIND_VB:
+                    ad[f, AD_SIGMA] = vb_update(vb_P[f], vb_ab[f], vb_par[f], u, sqqh, h, damp[f], gvec)
                     G[:, f] = gvec
-                elif kind[f] == 5:  # Huber: clip at ±c·σ̂ (the estimate before this reading)
+                elif kind[f] == KIND_ROBUST:  # Huber: clip at ±c·σ̂ (the estimate before this reading)
                     lim[f] = vb_par[f, 0] * ad[f, AD_SIGMA]
         total = 0.0
         # four lanes side by side, written out lane by lane: four independent chains of arithmetic in registers,
@@ -355,12 +327,12 @@ def advance_scenario(x, e, rng, n, h, alpha, beta, sig, law, dof, ztab, p_out, k
             f = learn[a]
             if lane[f] == IDLE:
                 continue
-            if kind[f] == 4:
-                _predict_cov(vb_P[f], h, damp[f], q_var)
-            elif reading and kind[f] != 6:
+            if kind[f] == KIND_VB:
+                predict_cov(vb_P[f], h, damp[f], q_var)
+            elif reading and kind[f] != KIND_IMM:
                 u = own[f]
                 uu = u * u
-                if kind[f] == 5:
+                if kind[f] == KIND_ROBUST:
                     uu = min(uu, lim[f] * lim[f]) / vb_par[f, 1]
                 r_k = (k + 1) // q
                 var = ad[f, AD_VAR]

@@ -122,8 +122,8 @@ def test_a_settled_recursion_repeats_exactly_and_goes_on_when_sigma_changes(sens
     q = scenario.sensor_steps(h, kb.r_min)
     state = clairvoyant_state(np.array(kb.delta, dtype=float), q)
     noise = h * sigma_path(scenario, MODEL, kb.r_min, h, 2400) ** 2
-    riccati_path(*state, h, MODEL.alpha, MODEL.beta**2, noise, q, np.zeros((2400, MODEL.m)), np.zeros((2401, MODEL.m)))
-    assert state[1][1] == 1.0  # settled before the first step
+    riccati_path(state, h, MODEL.alpha, MODEL.beta**2, noise, q, np.zeros((2400, MODEL.m)), np.zeros((2401, MODEL.m)))
+    assert state.flags[1] == 1.0  # settled before the first step
     c = clairvoyant(MODEL, scenario, h, n)
     gains, var, _ = _reference(MODEL, scenario, h, n)
     np.testing.assert_allclose(c.gain, gains, rtol=1e-10, atol=0.0)

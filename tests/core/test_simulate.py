@@ -27,6 +27,7 @@ from isl_core import (
 from isl_core.filters.base import linearized_matrix
 from isl_core.grid import H_RATE, MAX_STORED_STEPS
 from isl_core.kernels import advance
+from isl_core.kernels.bundles import Batches, Grid, Trajectory
 from isl_core.theory import lyapunov
 
 engine = importlib.import_module("isl_core._engine")
@@ -218,8 +219,8 @@ def test_errors_keep_their_digits_whatever_the_signal_size():
         x[:-1] += shift
         e = np.tile(e0, (2, 1))
         X, E = np.empty((n + 1, 6)), np.empty((2, n + 1, 6))
-        advance(x, e, rng, n, h, model.alpha, model.beta, model.sigma, *engine.pack(model, specs), 0, 0, n,
-                np.zeros((1, 2, 6)), np.empty((1, 0)), X, E, np.empty((0, n + 1)), True, 0)
+        advance(x, e, rng, n, 0, Grid(h, model.alpha, model.beta), model.sigma, engine.pack(model, specs),
+                Batches(0, n, np.zeros((1, 2, 6)), np.empty((1, 0))), Trajectory(True, 0, X, E, np.empty((0, n + 1))))
         out.append((X, E))
     np.testing.assert_array_equal(out[0][1][:, 1:], out[1][1][:, 1:])
     assert np.min(np.abs(out[1][0][1:, 0])) > 1e14

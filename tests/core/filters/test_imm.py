@@ -21,8 +21,7 @@ def _draws(rng, scenario: Scenario, n: int):
     """v_k and ε_k as the scenario loop draws them (blocks of DRAWS steps; the laws are tested in test_scenario)."""
     v, eps = np.empty(n), np.empty(n)
     for k in range(0, n, DRAWS):
-        draw_ahead(rng, LAWS[scenario.noise], scenario.dof, law_table(scenario.noise, scenario.dof),
-                   scenario.outlier_rate, scenario.outlier_scale, v[k:], eps[k:], min(DRAWS, n - k))
+        draw_ahead(rng, scenario.noise_law(), v[k:], eps[k:], min(DRAWS, n - k))
     return v, eps
 
 

@@ -10,6 +10,7 @@ from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, opti
 from isl_core._engine import draw_start, pack
 from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.kernels.common import FLUSH
+from isl_core.kernels.bundles import Batches, Grid, Trajectory
 from isl_core.kernels.euler import advance
 from isl_core.reference import reference_sigma_hat
 
@@ -66,15 +67,16 @@ def test_chunked_calls_batches_and_burn_match_stored_errors():
     E = np.empty((2, n + 1, 3))
     X[0], E[:, 0] = x, e
     sq_one = np.zeros((nb, 2, 3))
-    args = (h, model.alpha, model.beta, model.sigma, *pack(model, specs))
-    assert advance(x, e, rng, n, *args, 0, burn, batch_len, sq_one, no_sigma[0], X, E, no_sigma[1], True, 0) == n
+    grid, bank = Grid(h, model.alpha, model.beta), pack(model, specs)
+    stored = Trajectory(True, 0, X, E, no_sigma[1])
+    assert advance(x, e, rng, n, 0, grid, model.sigma, bank, Batches(burn, batch_len, sq_one, no_sigma[0]), stored) == n
     # the same run in uneven chunks, nothing stored: only X_m of the truth is advanced
     rng, x, e = _fresh(model, specs, 5)
     sq = np.zeros((nb, 2, 3))
     k = 0
     for todo in (1, 136, 1, 250, 123, 489, 4000):
-        assert advance(x, e, rng, todo, *args, k, burn, batch_len, sq, no_sigma[0], X[:1], E[:, :1], no_sigma[1],
-                       False, 0) == todo
+        assert advance(x, e, rng, todo, k, grid, model.sigma, bank, Batches(burn, batch_len, sq, no_sigma[0]),
+                       Trajectory.none(2, 0, 3)) == todo
         k += todo
     assert k == n
     assert x[-1] == X[n, -1]
@@ -89,19 +91,20 @@ def test_chunked_calls_batches_and_burn_match_stored_errors():
 
 
 def test_stored_chunks_can_start_at_an_offset():
-    """``out0``: a chunk's rows go to ``X_out[k − out0]`` (a buffer reused chunk after chunk)."""
+    """``Trajectory.first``: a chunk's rows go to ``X[k − first]`` (a buffer reused chunk after chunk)."""
     model = Model(0.0, 2.0, 3.0, 4)
     specs = [isl_filter(model, 2.0)]
-    args = (0.01, model.alpha, model.beta, model.sigma, *pack(model, specs))
+    grid, bank = Grid(0.01, model.alpha, model.beta), pack(model, specs)
     rng, x, e = _fresh(model, specs, 3)
     X, E, S = np.empty((301, 4)), np.empty((1, 301, 4)), np.empty((0, 301))
     X[0], E[:, 0] = x, e
     sq, sig = np.zeros((1, 1, 4)), np.empty((1, 0))
-    advance(x, e, rng, 300, *args, 0, 0, 300, sq, sig, X, E, S, True, 0)
+    advance(x, e, rng, 300, 0, grid, model.sigma, bank, Batches(0, 300, sq, sig), Trajectory(True, 0, X, E, S))
     rng, x, e = _fresh(model, specs, 3)
     buf_x, buf_e = np.empty((101, 4)), np.empty((1, 101, 4))
     for k0 in (0, 100, 200):
-        advance(x, e, rng, 100, *args, k0, 0, 300, sq, sig, buf_x, buf_e, S, True, k0)
+        advance(x, e, rng, 100, k0, grid, model.sigma, bank, Batches(0, 300, sq, sig),
+                Trajectory(True, k0, buf_x, buf_e, S))
         np.testing.assert_array_equal(buf_x[1:], X[k0 + 1:k0 + 101])
         np.testing.assert_array_equal(buf_e[:, 1:], E[:, k0 + 1:k0 + 101])
 
@@ -112,8 +115,7 @@ def test_kernel_stops_at_the_first_non_finite_step():
     specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
     rng, x, e = _fresh(model, specs, 1)
     sq = np.zeros((1, 2, 3))
-    dummy_x, dummy_e, dummy_s = np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1))
-    done = advance(x, e, rng, 100_000, 50.0, model.alpha, model.beta, model.sigma, *pack(model, specs),
-                   0, 0, 100_000, sq, np.empty((1, 0)), dummy_x, dummy_e, dummy_s, False, 0)
+    done = advance(x, e, rng, 100_000, 0, Grid(50.0, model.alpha, model.beta), model.sigma, pack(model, specs),
+                   Batches(0, 100_000, sq, np.empty((1, 0))), Trajectory.none(2, 0, 3))
     assert 0 < done < 100_000
     assert not (np.all(np.isfinite(e)) and np.all(np.isfinite(x[-1])))

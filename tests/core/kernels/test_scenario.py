@@ -23,8 +23,7 @@ def _draws(rng, scenario: Scenario, n: int):
     are tested in test_scenario), in its blocks of DRAWS steps — the filters are what this loop checks."""
     v, eps = np.empty(n), np.empty(n)
     for k in range(0, n, DRAWS):
-        draw_ahead(rng, LAWS[scenario.noise], scenario.dof, law_table(scenario.noise, scenario.dof),
-                   scenario.outlier_rate, scenario.outlier_scale, v[k:], eps[k:], min(DRAWS, n - k))
+        draw_ahead(rng, scenario.noise_law(), v[k:], eps[k:], min(DRAWS, n - k))
     return v, eps
 
 
@@ -34,7 +33,7 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     rng = np.random.default_rng(seed)
     x, e0 = draw_start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    _, _, _, table, ad = pack(model, filters, scenario=True)
+    table, ad = pack(model, filters, scenario=True)[3:]
     sig = sigma_path(scenario, model, kb.r_min, h, n)
     acc = np.zeros(len(filters))
     sq = np.zeros((len(filters), model.m))
