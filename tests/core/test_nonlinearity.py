@@ -132,3 +132,10 @@ def test_m_validated(m):
         isl_exponents(m)
     with pytest.raises(ValueError, match="^m must be an integer"):
         isl_gains(m, 1.0)
+
+
+@pytest.mark.parametrize("beta", [0.5, 3.0, 20.0])
+def test_the_m3_gains_at_nu_equal_beta_are_paper_bs_explicit_filter_b54(beta):
+    gamma = lambda p: 2 ** (p / 2) * math.gamma((p + 1) / 2) / math.sqrt(math.pi)  # noqa: E731  E|U|^p
+    b54 = [2 * beta ** (1 / 3) * gamma(4 / 3) ** -0.5, 2 * beta ** (2 / 3) * gamma(2 / 3) ** -0.5, beta]
+    assert list(isl_gains(3, beta)) == pytest.approx(b54, rel=1e-12)
