@@ -42,8 +42,8 @@ from isl_core import (
 from isl_core.filters.isl import model_aware_isl
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
-from isl_core.scenario_map import MAPS
-from isl_core.scenario_table import PRESETS as TABLE_PRESETS
+from isl_core.scenario.map import MAPS
+from isl_core.scenario.table import PRESETS as TABLE_PRESETS
 
 from .text import R_MIN, num, per_r_min
 
@@ -78,7 +78,7 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
             "sc_sensor": scenario.sensor_interval}
 
 
-#: the columns of the scenario table (isl_core.scenario_table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
+#: the columns of the scenario table (isl_core.scenario.table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
 #: ν of table (A.31), as the table runs them
 PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
 

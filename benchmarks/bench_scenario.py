@@ -3,7 +3,7 @@
     PYTHONPATH=. python benchmarks/bench_scenario.py [--steps 1000000] [--repeats 5] [--before CHECKOUT]
 
 "Today's run" is :func:`isl_core.simulate_rmse` of the Kalman–Bucy and ISL filters (squared errors only, no
-trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scenario_run.simulate_scenario` with the
+trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scenario.run.simulate_scenario` with the
 same two filters plus the clairvoyant one it always carries, over the same number of steps, for the constant
 Gaussian scenario, a σ step 20 → 2, Student-t noise (d = 3), 1 % outliers × 30 and a sensor read every 0.1/r_min.
 Its time includes the clairvoyant filter and its Riccati recursion, run in line at every step (settled, at no cost,
@@ -73,13 +73,13 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
+    from isl_core._engine import draw_start, pack
     from isl_core.kernels.bundles import Batches, FilterState, Grid, NoiseLaw, Observation, Trajectory, Windows
     from isl_core.kernels.clairvoyant import clairvoyant_state
     from isl_core.kernels.euler import advance
     from isl_core.kernels.imm import imm_state
     from isl_core.kernels.scenario import advance_scenario
     from isl_core.noise import LAW_GAUSSIAN, law_table
-    from isl_core._engine import draw_start, pack
 
     kb = kalman_bucy(FIG3)
     specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, NU)]

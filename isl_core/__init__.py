@@ -20,22 +20,44 @@ from .filters import (
     robust_kbf,
     variational_kbf,
 )
-from .cost import Costs, filter_costs
 from .grid import RunPlan, run_plan, settling_rate, step_size
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
-from .periods import Period, PeriodRatios, paired_margin, period_ratios, scenario_periods
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
-from .scenario import Clairvoyant, Scenario, clairvoyant
-from .scenario_map import WhoWinsMap, who_wins_map
-from .scenario_average import Rolling, ScenarioAverage, average_scenario
-from .scenario_run import ScenarioPlan, ScenarioRun, plan_scenario, scenario_grid, simulate_scenario
-from .scenario_table import ScenarioTable, TableRow, scenario_table, table_from
+from .scenario import (
+    FAMILIES,
+    Clairvoyant,
+    Costs,
+    Period,
+    PeriodRatios,
+    Rolling,
+    Scenario,
+    ScenarioAverage,
+    ScenarioPlan,
+    ScenarioRun,
+    ScenarioTable,
+    TableRow,
+    Tuning,
+    TuningGrids,
+    WhoWinsMap,
+    average_scenario,
+    clairvoyant,
+    filter_costs,
+    paired_margin,
+    period_ratios,
+    plan_scenario,
+    scenario_grid,
+    scenario_periods,
+    scenario_table,
+    simulate_scenario,
+    table_from,
+    tune,
+    who_wins_map,
+)
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
-from .tuning import FAMILIES, Tuning, TuningGrids, tune
 from .theory import (
     mismatched_kbf_ratios,
     predicted_covariance,

@@ -118,7 +118,7 @@ def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False) ->
     for f in filters:
         if (f.variational is not None or f.huber is not None or f.imm is not None) and not scenario:
             raise ValueError(f"the filter {f.label!r} runs in scenario runs only "
-                             "(isl_core.scenario_run.simulate_scenario)")
+                             "(isl_core.scenario.run.simulate_scenario)")
     damp = np.array([f.damp for f in filters], dtype=np.float64)
     coef = np.array([f.coef for f in filters], dtype=np.float64).reshape(nf, model.m)
     kind = np.array([f.kind for f in filters], dtype=np.int8)

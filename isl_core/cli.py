@@ -176,7 +176,7 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_worstcase)
     parsers["worstcase"] = p
 
-    from isl_core.scenario_table import PRESETS
+    from isl_core.scenario.table import PRESETS
 
     p = sub.add_parser("scenario", help="beyond constant sigma: the fair table of every filter's period ratio to the "
                        "clairvoyant Kalman filter, each family tuned by one rule; --tune: the tuning curves")

@@ -19,7 +19,7 @@ from bokeh.models import ColumnDataSource, Legend, LegendItem, LogTicker, Range1
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
-from isl_core.scenario_map import AXIS_LABELS
+from isl_core.scenario.map import AXIS_LABELS
 
 from ..colors import EXTRA_COLORS, ISL, KBF, text_on, tint
 from ..scenario import BURN, CHOICE_LABELS, PRESETS, Picture

@@ -17,11 +17,11 @@ argument: with fine sampling ΔY/√h ≈ σ·ε, so σ is identifiable from the
 
 **Memory W counts sensor readings** (k above is the reading's number, u_k its normalized innovation): one meaning
 for every σ-learning filter (this one, :mod:`isl_core.robust`, :mod:`isl_core.variational`), whatever the grid's
-step h or the sensor interval of a scenario (:mod:`isl_core.scenario_kernel`). In paper A's runs
+step h or the sensor interval of a scenario (:mod:`isl_core.kernels.scenario`). In paper A's runs
 (:func:`isl_core.simulate`) the filters read Y at every step, so there a reading is a step. As a time, W readings
 of a sensor read every q steps of h are ``W·q·h`` (``W·q·h·r_min`` in units of 1/r_min:
 :meth:`isl_core.ScenarioPlan.memory_time`) — the same W is a different time in every scenario, and the tuning of
-:mod:`isl_core.tuning` chooses it per family by one rule.
+:mod:`isl_core.scenario.tuning` chooses it per family by one rule.
 
 In steady state v is an exponentially weighted mean (weight λ = 1/W) of nearly independent u² with
 Var u² = 2σ⁴, so ``Var v = λ/(2 − λ)·2σ⁴ = 2σ⁴/(2W − 1)`` and ``sd(σ̂)/σ ≈ 1/√(2(2W − 1)) ≈ 1/(2√W)``: the

@@ -20,7 +20,7 @@ the filtered ones followed by the prediction: every mode has the same F, so mixi
 spread term included). Each mode is then exactly the clairvoyant Kalman filter of the grid (:func:`clairvoyant`)
 with σ_j: with one mode at the true constant σ the IMM filter is that Kalman filter, step for step.
 
-**Error coordinates**, as every filter of the scenario loop (:mod:`isl_core.scenario_kernel`): the
+**Error coordinates**, as every filter of the scenario loop (:mod:`isl_core.kernels.scenario`): the
 bank carries e_j = Ẑ_j − X, whose innovation ΔY − h Σ C Ẑ_j = √h·Σ(σ_k ε_k − √h e_j,1) depends on the errors only.
 Since Σ_i μ_i|j = 1 the mixing of estimates is the same mixing of errors (Ẑ_i − Ẑ0_j = e_i − e0_j), and the
 filter's error is Σ_j μ_j e_j. Between readings the modes only propagate, like the combined error; at a reading

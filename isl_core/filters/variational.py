@@ -3,7 +3,7 @@ filtering by variational Bayesian approximations", IEEE Trans. Automatic Control
 
 The observation noise variance σ² is unknown and given an inverse-gamma law IG(a, b) that the filter carries with
 its Gaussian state (mean, covariance P): a conjugate pair updated by a few fixed-point iterations per reading.
-On the grid of a scenario run (:mod:`isl_core.scenario_kernel`) the reading is the normalized innovation
+On the grid of a scenario run (:mod:`isl_core.kernels.scenario`) the reading is the normalized innovation
 u = y − H·X̂⁻ of y = ΔY/√(qh) with H = √(qh)·C (q steps per sensor reading); per step
 
     predict   X̂⁻ = F X̂,  P⁻ = F P Fᵀ + h β² E Eᵀ                             (F = I + h A)

@@ -1,4 +1,4 @@
-"""Each filter's cost (isl_core.cost): measured per step on one grid — what is reported, never how fast it is."""
+"""Each filter's cost (isl_core.scenario.cost): measured per step on one grid — what is reported, never how fast it is."""
 from __future__ import annotations
 
 import dataclasses
@@ -7,7 +7,7 @@ import math
 import pytest
 
 from isl_core import Model, filter_costs, imm_kbf, isl_filter
-from isl_core.scenario_run import plan_scenario
+from isl_core.scenario.run import plan_scenario
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)
 

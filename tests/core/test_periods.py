@@ -1,4 +1,4 @@
-"""The period statistic (isl_core.periods): fixed periods, pooled over seeds; the clairvoyant filter reads 1 on it."""
+"""The period statistic (isl_core.scenario.periods): fixed periods, pooled over seeds; the clairvoyant filter reads 1 on it."""
 from __future__ import annotations
 
 import math
@@ -11,7 +11,7 @@ from hypothesis.extra.numpy import arrays
 
 from isl_core import Model, Scenario, average_scenario
 from isl_core.filters.adaptive import adaptive_kbf
-from isl_core.periods import edge_times, paired_margin, ratios_from, scenario_periods
+from isl_core.scenario.periods import edge_times, paired_margin, ratios_from, scenario_periods
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)
 DROP = Scenario(sigma_knots=((3.0, 2.0),))

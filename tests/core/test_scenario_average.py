@@ -1,4 +1,4 @@
-"""Scenario runs over seeds in time (isl_core.scenario_average) and the who-wins map's ties."""
+"""Scenario runs over seeds in time (isl_core.scenario.average) and the who-wins map's ties."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 from isl_core import Model, Scenario, average_scenario, simulate_scenario, who_wins_map
 from isl_core.filters.adaptive import adaptive_kbf
-from isl_core.scenario_average import margin_low, resampled, worst_ratio
+from isl_core.scenario.average import margin_low, resampled, worst_ratio
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)
 DROP = Scenario(sigma_knots=((6.0, 2.0),))

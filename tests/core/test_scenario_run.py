@@ -1,4 +1,4 @@
-"""Scenario runs (isl_core.scenario_run, isl_core.kernels.scenario): an independent loop, today's runs, the reference."""
+"""Scenario runs (isl_core.scenario.run, isl_core.kernels.scenario): an independent loop, today's runs, the reference."""
 from __future__ import annotations
 
 import math
@@ -10,7 +10,7 @@ from isl_core import Model, adaptive_kbf, simulate
 from isl_core.filters.robust import robust_kbf
 from isl_core.filters.variational import variational_kbf
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
-from isl_core.scenario_run import plan_scenario, simulate_scenario
+from isl_core.scenario.run import plan_scenario, simulate_scenario
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 

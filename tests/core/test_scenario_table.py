@@ -1,4 +1,4 @@
-"""The fair table (isl_core.scenario_table), the who-wins maps (isl_core.scenario_map) and ``isl scenario``."""
+"""The fair table (isl_core.scenario.table), the who-wins maps (isl_core.scenario.map) and ``isl scenario``."""
 from __future__ import annotations
 
 import csv
@@ -10,9 +10,9 @@ import pytest
 
 from isl_core import Scenario
 from isl_core.cli import main
-from isl_core.scenario_map import who_wins_map
-from isl_core.scenario_table import PRESETS, table_from
-from isl_core.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune
+from isl_core.scenario.map import who_wins_map
+from isl_core.scenario.table import PRESETS, table_from
+from isl_core.scenario.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune
 
 SMALL = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
          "constant": ("constant σ", 20.0, Scenario())}

@@ -1,13 +1,13 @@
-"""One tuning rule for every family (isl_core.tuning): the minimax of the period statistic, on common noise, cached."""
+"""One tuning rule for every family (isl_core.scenario.tuning): the minimax of the period statistic, on common noise, cached."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from isl_core import Model, Scenario, average_scenario
-from isl_core.periods import edge_times, per_seed
 from isl_core.riccati import kalman_bucy
-from isl_core.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune, variant_name
+from isl_core.scenario.periods import edge_times, per_seed
+from isl_core.scenario.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune, variant_name
 
 PRESETS = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
            "constant": ("constant σ", 20.0, Scenario())}

@@ -9,7 +9,7 @@ import pytest
 from isl_core import Model, adaptive_kbf
 from isl_core.filters.robust import huber_kappa, robust_kbf
 from isl_core.scenario import Scenario
-from isl_core.scenario_run import simulate_scenario
+from isl_core.scenario.run import simulate_scenario
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 

@@ -11,7 +11,7 @@ from isl_core._engine import draw_start
 from isl_core.filters.robust import robust_kbf
 from isl_core.filters.variational import variational_kbf
 from isl_core.scenario import Scenario, sigma_path
-from isl_core.scenario_run import simulate_scenario
+from isl_core.scenario.run import simulate_scenario
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 

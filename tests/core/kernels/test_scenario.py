@@ -13,7 +13,7 @@ from isl_core.filters.robust import huber_kappa, robust_kbf
 from isl_core.kernels.draws import DRAWS, draw_ahead
 from isl_core.noise import LAWS, law_table
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
-from isl_core.scenario_run import simulate_scenario
+from isl_core.scenario.run import simulate_scenario
 
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 

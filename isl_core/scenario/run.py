@@ -27,21 +27,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._engine import CHUNK, DivergenceError, draw_start, pack
-from .filters.base import KIND_ADAPTIVE, KIND_CLAIRVOYANT, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
-from .filters.isl import isl_filter
-from .filters.kalman import optimal_kbf
-from .filters.robust import huber_kappa
-from .grid import MAX_STEPS, check_filters, check_specs, run_plan
-from .kernels.clairvoyant import clairvoyant_state
-from .kernels.common import AD_SIGMA
-from .kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
-from .kernels.imm import imm_state
-from .kernels.scenario import advance_scenario
-from .model import Model
-from .riccati import kalman_bucy
-from .scenario import Scenario
-from .validate import check_int, check_real
+from .._engine import CHUNK, DivergenceError, draw_start, pack
+from ..filters.base import KIND_ADAPTIVE, KIND_CLAIRVOYANT, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
+from ..filters.isl import isl_filter
+from ..filters.kalman import optimal_kbf
+from ..filters.robust import huber_kappa
+from ..grid import MAX_STEPS, check_filters, check_specs, run_plan
+from ..kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
+from ..kernels.clairvoyant import clairvoyant_state
+from ..kernels.common import AD_SIGMA
+from ..kernels.imm import imm_state
+from ..kernels.scenario import advance_scenario
+from ..model import Model
+from ..riccati import kalman_bucy
+from ..validate import check_int, check_real
+from .base import Scenario
 
 __all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",
            "scenario_grid", "simulate_scenario"]
@@ -278,7 +278,7 @@ def plan_scenario(
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
     over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
-    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.periods`), checked and set up once for any number of
+    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.scenario.periods`), checked and set up once for any number of
     seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
     value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
     errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set

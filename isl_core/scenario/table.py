@@ -1,13 +1,13 @@
 """Who wins where, in a fair contest: every family at its minimax tuning, on the period statistic, per scenario.
 
-:func:`scenario_table` takes the tuning of :func:`isl_core.tuning.tune` (one run per preset and seed with every
+:func:`scenario_table` takes the tuning of :func:`isl_core.scenario.tuning.tune` (one run per preset and seed with every
 variant of every family on the same noise; cached) and reports, per row and cell (preset × period of
-:func:`isl_core.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates, pooled
+:func:`isl_core.scenario.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates, pooled
 over the seeds, over the clairvoyant filter's exact variance — with Student's interval over the seeds:
 
 * **references** — the clairvoyant filter (knows σ(t); reads 1 up to sampling error: the check of the denominator)
   and the Kalman–Bucy filter optimal for σ(0) (knows σ at the start, learns nothing);
-* **tuned** — each family of :data:`isl_core.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one tuning
+* **tuned** — each family of :data:`isl_core.scenario.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one tuning
   rule: the least, over the knob's grid, of the largest ratio over every cell of the table;
 * **paper** — paper A's ISL filter at table (A.31)'s ν, the paper's own value (where the table has this α);
 * **oracle-tuned** — each family at the best knob *per preset* (a reference: the tuning one would pick knowing the
@@ -16,7 +16,7 @@ over the seeds, over the clairvoyant filter's exact variance — with Student's 
 Every row says its tuning and its origin. Each tuned row *is* its variant's column of the tuning run, so it sits
 at its tuning curve's minimax point. A preset's number is a row's largest ratio over the preset's periods; the
 winner of a cell is the lowest of the tuned and paper rows, with the paired margin over the runner-up
-(:func:`isl_core.periods.paired_margin`) — a tie where its lower bound is ≤ 1.
+(:func:`isl_core.scenario.periods.paired_margin`) — a tie where its lower bound is ≤ 1.
 Times are in units of 1/r_min of the model at σ(0).
 """
 from __future__ import annotations
@@ -26,12 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .paper import M, W
+from ..paper import M, W
+from ..validate import check_real
+from .base import Scenario
 from .periods import paired_margin
 from .presets import PRESETS
-from .scenario import Scenario
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
-from .validate import check_real
 
 __all__ = ["PRESETS", "ScenarioTable", "TableRow", "knob_text", "scenario_table", "table_from"]
 
@@ -111,7 +111,7 @@ def _rows(tuning: Tuning) -> list[TableRow]:
 
 
 def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
-    """The fair table (module docstring) of a :class:`isl_core.tuning.Tuning`."""
+    """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`."""
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     rows = _rows(tuning)
     r, lo, hi = tuning.stats(level)
@@ -147,7 +147,7 @@ def scenario_table(
     cache: bool = True,
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
-    tuning of :func:`isl_core.tuning.tune` with these arguments (cached), then :func:`table_from` at ``level``."""
+    tuning of :func:`isl_core.scenario.tuning.tune` with these arguments (cached), then :func:`table_from` at ``level``."""
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     res = tune(alpha, m=m, w=w, presets=scenarios, seeds=seeds, horizon=horizon, burn=burn, grids=grids,
                workers=workers, progress=progress, cache=cache)

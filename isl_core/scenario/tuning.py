@@ -6,7 +6,7 @@ model-aware one ν (ν/β = 2^ℓ), the adaptive and the variational-Bayes filte
 estimate averages, so the best W depends on c), the IMM filter its switch probability per reading and its number of
 modes (jointly: a denser grid needs less switching to follow a change). On a grid of each knob
 (:class:`TuningGrids`), every variant rides in **one** scenario run per preset and seed — common random numbers:
-the same noise for all — and the period statistic of :mod:`isl_core.periods` is taken per variant and cell (preset ×
+the same noise for all — and the period statistic of :mod:`isl_core.scenario.periods` is taken per variant and cell (preset ×
 period). A variant's **tuning curve** is its statistic per cell against the knob; the family's knob is
 
     θ* = argmin_θ  max_cells ratio_θ(cell)                  (the minimax over the table's scenarios and periods)
@@ -34,19 +34,19 @@ from pathlib import Path
 
 import numpy as np
 
-from .filters.adaptive import adaptive_kbf
-from .filters.base import FilterSpec
-from .filters.imm import imm_kbf
-from .filters.isl import isl_filter, model_aware_isl
-from .filters.robust import robust_kbf
-from .filters.variational import variational_kbf
-from .kernels.cache import sources_digest
-from .model import Model
+from ..filters.adaptive import adaptive_kbf
+from ..filters.base import FilterSpec
+from ..filters.imm import imm_kbf
+from ..filters.isl import isl_filter, model_aware_isl
+from ..filters.robust import robust_kbf
+from ..filters.variational import variational_kbf
+from ..kernels.cache import sources_digest
+from ..model import Model
+from ..validate import check_int, check_real
+from .base import Scenario
 from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
 from .presets import PRESETS
-from .scenario import Scenario
-from .scenario_run import plan_scenario
-from .validate import check_int, check_real
+from .run import plan_scenario
 
 __all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "tune", "variant_name"]
 
@@ -123,7 +123,7 @@ class Tuning:
     Filters (``names``, ``family``, ``knobs``): the clairvoyant reference, the Kalman–Bucy filter for σ(0), paper A's
     ISL filter at its table's ν (``family`` "isl_paper"; ν = β where table (A.31) has no value for this α), then every
     variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters) the seeds'
-    contributions (:func:`isl_core.periods.per_seed`). Per preset: ``reading_time`` one reading in units of 1/r_min
+    contributions (:func:`isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of 1/r_min
     at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
     """
 
@@ -184,7 +184,7 @@ class Tuning:
         return [self.filter(self.minimax(f), model) for f in FAMILIES]
 
     def grid_filters(self, model: Model) -> list[FilterSpec]:
-        """Every variant for ``model``: given as ``grid_filters`` to :func:`isl_core.scenario_run.plan_scenario`, a run
+        """Every variant for ``model``: given as ``grid_filters`` to :func:`isl_core.scenario.run.plan_scenario`, a run
         of a few filters gets the tuning's grid h — so W readings of a sensor read at every step span the time they
         spanned in the tuning (``reading_time``) — and, with the same seeds, its noise."""
         return [self.filter(j, model) for j in range(3, len(self.names))]
@@ -209,7 +209,7 @@ def variant_name(family: str, knob: Mapping) -> str:
 
 
 def _paper_nu(model: Model, alpha: float, m: int, w: float) -> tuple[float, str]:
-    from .paper import a31_nu_over_beta
+    from ..paper import a31_nu_over_beta
 
     nob = a31_nu_over_beta(alpha, m, w)
     if nob is None:
@@ -298,9 +298,9 @@ def tune(
     cache: bool = True,
     compute: bool = True,
 ) -> Tuning | None:
-    """The tuning of every family over ``presets`` (default the table's, :data:`isl_core.presets.PRESETS`) for
+    """The tuning of every family over ``presets`` (default the table's, :data:`isl_core.scenario.presets.PRESETS`) for
     paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
-    periods of :func:`isl_core.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the CPUs).
+    periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the CPUs).
     Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) — or,
     with ``compute`` False, None."""
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
@@ -310,7 +310,7 @@ def tune(
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     presets = dict(PRESETS if presets is None else presets)
     if not presets or not isinstance(grids, TuningGrids):
-        raise ValueError("presets must name at least one scenario and grids must be an isl_core.tuning.TuningGrids")
+        raise ValueError("presets must name at least one scenario and grids must be an isl_core.scenario.tuning.TuningGrids")
     key = _key(alpha, m, w, seeds, horizon, burn, presets, grids)
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"tuning-{digest}.npz"

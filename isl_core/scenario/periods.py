@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import t as student
 
-from .scenario import Scenario
-from .scenario_run import ScenarioRun, first_step
-from .validate import check_real
+from ..validate import check_real
+from .base import Scenario
+from .run import ScenarioRun, first_step
 
 __all__ = ["BURN", "Period", "PeriodRatios", "edge_times", "paired_margin", "per_seed", "period_ratios", "ratios_from",
            "scenario_periods"]
@@ -80,7 +80,7 @@ def scenario_periods(scenario: Scenario, horizon: float, *, burn: float = BURN) 
 
 def edge_times(periods: tuple[Period, ...], horizon: float) -> tuple[float, ...]:
     """Window edges (0, …, horizon) at every period's start and end: a plan with them sums each period exactly
-    (:func:`isl_core.scenario_run.plan_scenario` ``edges``)."""
+    (:func:`isl_core.scenario.run.plan_scenario` ``edges``)."""
     return tuple(sorted({0.0, float(horizon), *(p.start for p in periods), *(p.end for p in periods)}))
 
 

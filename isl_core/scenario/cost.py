@@ -6,7 +6,7 @@ says otherwise) with the loop's own three filters — the clairvoyant, the σ(0)
 
     ns/step(f) = (min over repeats of t(base + copies of f) − min over repeats of t(base)) / (copies · N)
 
-and the base's own ns/step. Copies fill the loop's lanes of four (:mod:`isl_core.scenario_kernel`) as a table with
+and the base's own ns/step. Copies fill the loop's lanes of four (:mod:`isl_core.kernels.scenario`) as a table with
 several filters does, so a lane filter's figure is its share of a full lane, not the cost of an idle lane's
 padding; the IMM filter's bank runs outside the lanes and costs per mode. Timings depend on the machine and on what
 else runs on it: they are figures to compare side by side in one call, not constants.
@@ -17,11 +17,11 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .filters.base import FilterSpec
-from .model import Model
-from .scenario import Scenario
-from .scenario_run import plan_scenario
-from .validate import check_int, check_real
+from ..filters.base import FilterSpec
+from ..model import Model
+from ..validate import check_int, check_real
+from .base import Scenario
+from .run import plan_scenario
 
 __all__ = ["Costs", "filter_costs"]
 

@@ -1,11 +1,11 @@
 """Who wins where, as maps over a scenario's parameter: the filter with the lowest ratio to the clairvoyant one.
 
 :func:`who_wins_map` sweeps one parameter of a scenario (paper A's model with this α, σ(0) = 20, ``seeds``
-independent noises per cell) with the table's filters (:mod:`isl_core.scenario_table`): the clairvoyant reference,
-the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.tuning.FAMILIES` at its tuned knob — the
+independent noises per cell) with the table's filters (:mod:`isl_core.scenario.table`): the clairvoyant reference,
+the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.scenario.tuning.FAMILIES` at its tuned knob — the
 ``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else (said in each label and in
 ``origin``) the constructors' defaults. Per cell it reports every filter's period statistic
-(:mod:`isl_core.periods`: the normalized RMSE over the coordinates, pooled over the seeds, over the clairvoyant
+(:mod:`isl_core.scenario.periods`: the normalized RMSE over the coordinates, pooled over the seeds, over the clairvoyant
 variance), the filter with the lowest one (the clairvoyant filter aside) and its margin over the runner-up, paired
 over the seeds, with a tie where the margin's lower 95 % bound is ≤ 1:
 
@@ -26,18 +26,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .filters.adaptive import adaptive_kbf
-from .filters.imm import imm_kbf
-from .filters.isl import model_aware_isl
-from .filters.robust import robust_kbf
-from .filters.variational import variational_kbf
-from .model import Model
-from .paper import M, W
+from ..filters.adaptive import adaptive_kbf
+from ..filters.imm import imm_kbf
+from ..filters.isl import model_aware_isl
+from ..filters.robust import robust_kbf
+from ..filters.variational import variational_kbf
+from ..model import Model
+from ..paper import M, W
+from ..validate import check_int, check_real, check_reals
+from .average import average_scenario
+from .base import Scenario
 from .periods import Period, edge_times, paired_margin, per_seed
-from .scenario import Scenario
-from .scenario_average import average_scenario
 from .tuning import SIGMA_RANGE, Tuning, _paper_nu, tune
-from .validate import check_int, check_real, check_reals
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
 
@@ -57,7 +57,7 @@ class WhoWinsMap:
     """``ratio[row, col, f]`` per cell and filter; ``x`` the swept values (columns); ``rows`` the times since the
     step (period starts, 1/r_min) for ``"sigma_step"``, else one row (nan); ``winner[row, col]`` the index in
     ``filters`` of the lowest ratio but the clairvoyant filter's, ``margin`` the runner-up's ratio over it, and
-    ``margin_low`` the margin's lower 95 % bound (paired over the seeds, :func:`isl_core.periods.paired_margin`); a
+    ``margin_low`` the margin's lower 95 % bound (paired over the seeds, :func:`isl_core.scenario.periods.paired_margin`); a
     cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot tell the winner from the runner-up.
     ``origin``: where the filters' knobs came from."""
 

@@ -1,6 +1,6 @@
 """A scenario run repeated over seeds, in time: rolling RMSE ratios to the clairvoyant reference, with intervals.
 
-:func:`average_scenario` runs :func:`isl_core.scenario_run.simulate_scenario` once per seed (the same grid and the
+:func:`average_scenario` runs :func:`isl_core.scenario.run.simulate_scenario` once per seed (the same grid and the
 same clairvoyant variance in every run: only the noise differs) and keeps each run's windowed squared errors and
 σ̂. :meth:`ScenarioAverage.rolling` gives the time-resolved picture, for a window of ``width``/r_min sliding over the
 runs' short windows:
@@ -17,7 +17,7 @@ where in time a filter loses, and :meth:`ScenarioAverage.periods` is the statist
 :func:`worst_ratio` is the earlier table's summary, kept for the dashboard's picture: the largest ratio over windows
 and coordinates, with the basic bootstrap interval over seeds — biased above 1 for the reference (1.10–1.35 at 32–64
 seeds) and its interval can exclude its own estimate; the table and the maps now use the period statistic
-(:mod:`isl_core.periods`). :func:`margin_low` says whether the lowest of them is told apart from the next one.
+(:mod:`isl_core.scenario.periods`). :func:`margin_low` says whether the lowest of them is told apart from the next one.
 """
 from __future__ import annotations
 
@@ -28,11 +28,11 @@ from statistics import NormalDist
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from .filters.base import FilterSpec
-from .model import Model
-from .scenario import Scenario
-from .scenario_run import ScenarioRun, plan_scenario
-from .validate import check_int, check_real
+from ..filters.base import FilterSpec
+from ..model import Model
+from ..validate import check_int, check_real
+from .base import Scenario
+from .run import ScenarioRun, plan_scenario
 
 __all__ = ["Rolling", "ScenarioAverage", "average_scenario", "margin_low", "resampled", "worst_ratio"]
 
@@ -151,10 +151,10 @@ class ScenarioAverage:
                        sigma_hat, float(edges[k] - edges[0]))
 
     def periods(self, periods=None, *, burn: float = 2.0, level: float = 0.95):
-        """The period statistic (:func:`isl_core.periods.period_ratios`): every filter's normalized RMSE ratio over
-        ``periods`` (default :func:`isl_core.periods.scenario_periods` of the run's scenario after ``burn``), pooled
+        """The period statistic (:func:`isl_core.scenario.periods.period_ratios`): every filter's normalized RMSE ratio over
+        ``periods`` (default :func:`isl_core.scenario.periods.scenario_periods` of the run's scenario after ``burn``), pooled
         over the seeds, with Student's interval over them. Periods should start and end at window edges (plan the
-        runs with :func:`isl_core.periods.edge_times`, or with windows short enough): a period takes the windows
+        runs with :func:`isl_core.scenario.periods.edge_times`, or with windows short enough): a period takes the windows
         that lie within it."""
         from .periods import period_ratios, scenario_periods
 
@@ -193,9 +193,9 @@ def average_scenario(
     edges: Sequence[float] | None = None,
     grid_filters: Sequence[FilterSpec] | None = None,
 ) -> ScenarioAverage:
-    """One :func:`isl_core.scenario_run.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
-    once: :func:`isl_core.scenario_run.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
-    :meth:`isl_core.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total."""
+    """One :func:`isl_core.scenario.run.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
+    once: :func:`isl_core.scenario.run.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
+    :meth:`isl_core.scenario.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total."""
     seeds = tuple(check_int("seed", s, lo=0) for s in seeds)
     if not seeds:
         raise ValueError("seeds must name at least one seed")

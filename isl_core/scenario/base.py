@@ -40,13 +40,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels.bundles import NoiseLaw
-from .kernels.clairvoyant import clairvoyant_state, riccati_path
-from .kernels.draws import fill
-from .model import Model
-from .noise import LAWS, law_table
-from .riccati import kalman_bucy
-from .validate import check_real
+from ..kernels.bundles import NoiseLaw
+from ..kernels.clairvoyant import clairvoyant_state, riccati_path
+from ..kernels.draws import fill
+from ..model import Model
+from ..noise import LAWS, law_table
+from ..riccati import kalman_bucy
+from ..validate import check_real
 
 __all__ = ["NOISE_LAWS", "SIGMA_SHAPES", "Clairvoyant", "Scenario", "clairvoyant", "sigma_path"]
 
