@@ -1,6 +1,6 @@
-"""The compute commands of ``isl`` (run, sweep, recommend, worstcase; scenario: :mod:`isl_core.commands_scenario`):
+"""The compute commands of ``isl`` (run, sweep, recommend, worstcase; scenario: :mod:`isl_core.cli.scenario`):
 what each computes through the core's public functions and how it prints or writes the result. The command line
-itself (arguments, exit codes) is :mod:`isl_core.cli`.
+itself (arguments, exit codes) is :mod:`isl_core.cli.parser`.
 """
 from __future__ import annotations
 

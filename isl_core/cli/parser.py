@@ -20,8 +20,8 @@ from pathlib import Path
 from types import MappingProxyType
 
 from isl_core import __version__
-from isl_core.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
-from isl_core.commands_scenario import cmd_scenario
+from isl_core.cli.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
+from isl_core.cli.scenario import cmd_scenario
 
 __all__ = ["Extension", "UsageError", "build_parser", "main", "positive", "seed_number"]
 

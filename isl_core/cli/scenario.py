@@ -19,8 +19,8 @@ def _ratio(x: float) -> str:
 
 
 def _tuning(args, *, quiet: bool):
-    from .scenario.table import PRESETS
-    from .scenario.tuning import tune
+    from ..scenario.table import PRESETS
+    from ..scenario.tuning import tune
 
     names = _flat(args.scenarios)
     unknown = [n for n in names if n not in PRESETS]
@@ -61,12 +61,12 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
         return {}, {}
     import dataclasses
 
-    from .filters.isl import isl_filter
-    from .filters.kalman import optimal_kbf
-    from .model import Model
-    from .riccati import kalman_bucy
-    from .scenario.cost import filter_costs
-    from .scenario.tuning import _paper_nu
+    from ..filters.isl import isl_filter
+    from ..filters.kalman import optimal_kbf
+    from ..model import Model
+    from ..riccati import kalman_bucy
+    from ..scenario.cost import filter_costs
+    from ..scenario.tuning import _paper_nu
 
     model = Model.from_w(res.alpha, res.w, 20.0, res.m)
     specs = {row.name: res.filter(row.columns[0], model) for row in tab.rows if row.role == "tuned"}
@@ -78,7 +78,7 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
 
 
 def _table_out(args, res) -> int:
-    from .scenario.table import table_from
+    from ..scenario.table import table_from
 
     tab = table_from(res, args.level)
     ns, cost_meta = _costs(res, tab, args)
@@ -115,7 +115,7 @@ def _table_out(args, res) -> int:
 
 
 def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
-    from .scenario.table import knob_text
+    from ..scenario.table import knob_text
 
     print(f"fair table: the normalized RMSE ratio to the clairvoyant Kalman filter per period (coordinates averaged, "
           f"pooled over seeds {res.seeds[0]}-{res.seeds[-1]}), {100 * tab.level:g} % Student interval over the "
@@ -145,8 +145,8 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
 
 
 def _tune_out(args, res) -> int:
-    from .scenario.table import knob_text
-    from .scenario.tuning import FAMILIES
+    from ..scenario.table import knob_text
+    from ..scenario.tuning import FAMILIES
 
     r, lo, hi = res.stats(args.level)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
@@ -192,7 +192,7 @@ def _tune_out(args, res) -> int:
 def _scenario_map(args) -> int:
     """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin —
     with the table's tuning (computed if not cached; ``--untuned``: the constructors' defaults)."""
-    from .scenario.map import AXIS_LABELS, STEP_AT, who_wins_map
+    from ..scenario.map import AXIS_LABELS, STEP_AT, who_wins_map
 
     after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
     if after < args.window:
@@ -200,7 +200,7 @@ def _scenario_map(args) -> int:
                          f"for the sigma_step map, got {args.horizon:g}")
     tuning = None
     if not args.untuned:
-        from .scenario.tuning import tune
+        from ..scenario.tuning import tune
 
         tuning = tune(args.alpha, m=args.m, w=args.w, workers=args.workers, cache=not args.no_cache,
                       progress=progress_bar("tuning", not (args.quiet or args.json)))
