@@ -11,7 +11,8 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["UsageError", "cmd_recommend", "cmd_run", "cmd_sweep", "cmd_worstcase", "nan_to_none", "progress_bar"]
+__all__ = ["UsageError", "cmd_recommend", "cmd_run", "cmd_sweep", "cmd_worstcase", "flat", "nan_to_none",
+           "progress_bar", "write_csv"]
 
 
 class UsageError(Exception):
@@ -213,7 +214,7 @@ def _window_line(horizon: float, stretch, seeds) -> str:
             f"filters start at X(0) - e0, e0 ~ N(0, Delta)")
 
 
-def _flat(values) -> list:
+def flat(values) -> list:
     """``nargs="+"`` of comma-separated lists → one flat list."""
     return [x for group in values for x in group]
 
@@ -224,9 +225,9 @@ def cmd_worstcase(args) -> int:
 
     client = _client(args.dask)
     try:
-        res = worst_case(_flat(args.alphas), sigma_range=(args.sigma_min, args.sigma_max), n_sigma=args.n_sigma,
-                         m=args.m, w=args.w, filters=_flat(args.filters), sigma_design=args.sigma_design,
-                         memory=args.memory, horizon=args.horizon, seeds=_flat(args.seeds), batches=args.batches,
+        res = worst_case(flat(args.alphas), sigma_range=(args.sigma_min, args.sigma_max), n_sigma=args.n_sigma,
+                         m=args.m, w=args.w, filters=flat(args.filters), sigma_design=args.sigma_design,
+                         memory=args.memory, horizon=args.horizon, seeds=flat(args.seeds), batches=args.batches,
                          executor=client, workers=args.workers,
                          progress=progress_bar("worstcase", not (args.quiet or args.json)))
     finally:

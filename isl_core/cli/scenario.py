@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import math
 
-from .commands import UsageError, _flat, nan_to_none, progress_bar, write_csv
+from .commands import UsageError, flat, nan_to_none, progress_bar, write_csv
 
 __all__ = ["cmd_scenario"]
 
@@ -22,7 +22,7 @@ def _tuning(args, *, quiet: bool):
     from ..scenario.table import PRESETS
     from ..scenario.tuning import tune
 
-    names = _flat(args.scenarios)
+    names = flat(args.scenarios)
     unknown = [n for n in names if n not in PRESETS]
     if unknown:
         raise UsageError(f"isl scenario: unknown scenario {unknown[0]!r}; choose from {', '.join(PRESETS)}")
@@ -66,12 +66,12 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
     from ..model import Model
     from ..riccati import kalman_bucy
     from ..scenario.cost import filter_costs
-    from ..scenario.tuning import _paper_nu
+    from ..scenario.tuning import paper_nu
 
     model = Model.from_w(res.alpha, res.w, 20.0, res.m)
     specs = {row.name: res.filter(row.columns[0], model) for row in tab.rows if row.role == "tuned"}
     specs["kbf"] = optimal_kbf(model, kalman_bucy(model))
-    specs["isl_a31"] = isl_filter(model, _paper_nu(model, res.alpha, res.m, res.w)[0])
+    specs["isl_a31"] = isl_filter(model, paper_nu(model, res.alpha, res.m, res.w)[0])
     costs = filter_costs(model, [dataclasses.replace(s, name=n) for n, s in specs.items()])
     meta = {"how": costs.how, "loop_with_clairvoyant_kbf_isl_ns_per_step": costs.base, "model_sigma": 20.0}
     return costs.ns_per_step, meta
@@ -204,7 +204,7 @@ def _scenario_map(args) -> int:
 
         tuning = tune(args.alpha, m=args.m, w=args.w, workers=args.workers, cache=not args.no_cache,
                       progress=progress_bar("tuning", not (args.quiet or args.json)))
-    res = who_wins_map(args.map, args.alpha, values=None if args.values is None else _flat(args.values), m=args.m,
+    res = who_wins_map(args.map, args.alpha, values=None if args.values is None else flat(args.values), m=args.m,
                        w=args.w, seeds=32 if args.seeds is None else args.seeds, window=args.window, after=after,
                        burn=args.burn, tuning=tuning, untuned=args.untuned,
                        progress=progress_bar("scenario map", not (args.quiet or args.json)))

@@ -37,7 +37,7 @@ from ..validate import check_int, check_real, check_reals
 from .average import average_scenario
 from .base import Scenario
 from .periods import Period, edge_times, paired_margin, per_seed
-from .tuning import SIGMA_RANGE, Tuning, _paper_nu, tune
+from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
 
@@ -106,7 +106,7 @@ def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | N
         specs = tuning.tuned_filters(model)
         nu = model.beta * 2.0 ** tuning.knobs[tuning.minimax("isl")]["ell"]
         return nu, specs[0].label, specs[1:], f"tuned: {tuning.origin}"
-    nu, label = _paper_nu(model, alpha, m, w)
+    nu, label = paper_nu(model, alpha, m, w)
     guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
     extra = [model_aware_isl(model, nu), adaptive_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
              variational_kbf(model, sigma_init=guess), robust_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),

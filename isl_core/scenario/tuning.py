@@ -48,7 +48,8 @@ from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
 from .presets import PRESETS
 from .run import plan_scenario
 
-__all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "tune", "variant_name"]
+__all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "paper_nu", "tune",
+           "variant_name"]
 
 SIGMA_RANGE = (2.0, 200.0)  #: the σ range of the σ-learners' gain tables; they start at its geometric middle
 #: family: (its label, its knobs in order)
@@ -208,7 +209,9 @@ def variant_name(family: str, knob: Mapping) -> str:
     return f"{family}@" + ",".join(f"{k}={v:g}" for k, v in knob.items())
 
 
-def _paper_nu(model: Model, alpha: float, m: int, w: float) -> tuple[float, str]:
+def paper_nu(model: Model, alpha: float, m: int, w: float) -> tuple[float, str]:
+    """Paper A's ν for ``model``: β times table (A.31)'s ν/β at (``alpha``, ``m``, ``w``), or β where the table has
+    none; and a line that says which."""
     from ..paper import a31_nu_over_beta
 
     nob = a31_nu_over_beta(alpha, m, w)
@@ -221,7 +224,7 @@ def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids):
     model = Model.from_w(alpha, w, sigma0, m)
     periods = scenario_periods(scenario, horizon, burn=burn)
     extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in _variants(grids)]
-    nu, _ = _paper_nu(model, alpha, m, w)
+    nu, _ = paper_nu(model, alpha, m, w)
     return plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edge_times(periods, horizon)), periods
 
 
@@ -250,7 +253,7 @@ def _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers, progres
 def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, periods, seconds) -> Tuning:
     cells = tuple((p, per) for p, pers in enumerate(periods) for per in pers)
     plan = plans[0]
-    _, paper = _paper_nu(plan.model, alpha, m, w)
+    _, paper = paper_nu(plan.model, alpha, m, w)
     variants = _variants(grids)
     return Tuning(float(alpha), m, float(w), tuple(seeds), float(horizon), float(burn), grids, tuple(presets),
                   tuple(v[0] for v in presets.values()), cells, tuple(f.name for f in plan.filters),

@@ -91,6 +91,18 @@ def test_the_core_has_no_import_cycle():
         pytest.fail(f"import cycle in isl_core: {' -> '.join(exc.args[1])}")
 
 
+def test_no_module_imports_a_private_name_of_another():
+    """What modules share is public in the module that defines it (the engine's internals live in the private
+    module ``isl_core._engine``, whose names need no underscore): ``from .x import _y`` is not written."""
+    offences = []
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                offences += [f"{module}: {a.name}" for a in node.names
+                             if a.name.startswith("_") and not a.name.endswith("__")]  # __version__ is public
+    assert offences == []
+
+
 def test_the_kernels_compare_filter_kinds_by_name():
     """``kind[f] == KIND_ADAPTIVE``, never ``kind[f] == 2``: a comparison of a kind or a lane with a bare number."""
     bare = []
