@@ -25,10 +25,10 @@ import tracemalloc
 import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate, simulate_rmse, step_size
+from isl_core._engine import draw_start, pack
 from isl_core.kernels import advance
 from isl_core.kernels.bundles import Batches, Grid, Trajectory
 from isl_core.reference import reference_trajectories
-from isl_core._engine import draw_start, pack
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)  # paper A, Fig. 3 (σ = 20)
 NU = 3.0

@@ -9,7 +9,7 @@ then advance m = 3, truth + Kalman–Bucy + ISL (paper A, Fig. 3, σ = 20) by ``
 times, and the current kernel with an adaptive Kalman–Bucy filter added (the cost of that filter alone).
 
 The default base, 44a0182, is the last kernel that integrated the truth and the estimates in state coordinates
-(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (SPEC §8; arguments
+(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (:ref:`error-coordinates`; arguments
 ``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run mode),
 which is where the current kernel advances only X_m of the truth.
 """
@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, step_size
+from isl_core._engine import draw_start, initial_state, pack
 from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.kernels import advance
 from isl_core.kernels.bundles import Batches, Grid, Trajectory
-from isl_core._engine import draw_start, initial_state, pack
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 ROOT = Path(__file__).resolve().parents[1]

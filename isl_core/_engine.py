@@ -1,7 +1,7 @@
 """The simulation engine's shared internals: one definition each, used by the simulation and scenario modules.
 
 Private (its one public name, :class:`DivergenceError`, is re-exported by :mod:`isl_core`): how a run starts (the
-truth at X(0), every filter's common start error e(0) = −e₀, SPEC §4), how filters are packed for the compiled
+truth at X(0), every filter's common start error e(0) = −e₀, :ref:`start`), how filters are packed for the compiled
 kernel (:func:`pack`), the chunked loop over the kernel with progress and cancellation (:func:`run_chunks`), what a
 run with tracks answers (:class:`Tracked`) and read-only result arrays (:func:`freeze`).
 """
@@ -66,7 +66,7 @@ def draw_noise(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 def initial_state(model: Model, rng: np.random.Generator) -> np.ndarray:
-    """Truth at t = 0: zero except X_m(0) ~ N(0, β²/(2α)) when α > 0 (SPEC §4)."""
+    """Truth at t = 0: zero except X_m(0) ~ N(0, β²/(2α)) when α > 0 (:ref:`start`)."""
     x = np.zeros(model.m)
     if model.alpha > 0.0:
         x[-1] = math.sqrt(model.stationary_var) * rng.standard_normal()
@@ -85,7 +85,7 @@ def _cholesky(delta: np.ndarray) -> np.ndarray:
 
 
 def initial_error(kb: KalmanBucy, rng: np.random.Generator) -> np.ndarray:
-    """The filters' common start error ``e(0) = Z(0) − X(0) = −e₀``, ``e₀ = L ξ ~ N(0, Δ)``, ξ ~ N(0, I_m) (SPEC §4)."""
+    """The filters' common start error ``e(0) = Z(0) − X(0) = −e₀``, ``e₀ = L ξ ~ N(0, Δ)``, ξ ~ N(0, I_m) (:ref:`start`)."""
     return -(_cholesky(np.asarray(kb.delta)) @ rng.standard_normal(len(kb.s)))
 
 

@@ -1,4 +1,4 @@
-"""The observation noise's laws on the Euler grid and their tables (SPEC §9, :mod:`isl_core.scenario`); the compiled
+"""The observation noise's laws on the Euler grid and their tables (:ref:`noise-laws`, :mod:`isl_core.scenario`); the compiled
 loops draw them (:mod:`isl_core.kernels.draws`).
 
 ``law`` is an int for the loops: :data:`LAW_GAUSSIAN` ε_k ~ N(0, 1); :data:`LAW_STUDENT` √((d − 2)/d)·T_d, Student's t

@@ -1,6 +1,6 @@
 """A slow, plain-numpy twin of the compiled kernel, written straight from the equations (tests and benchmarks).
 
-Matrix form of SPEC §4 on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors, SPEC §8:
+Matrix form of :ref:`simulation` on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors, :ref:`error-coordinates`:
 the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of ``rng.standard_normal((n, 2))``
 drawn in bulk right after the initial state and the filters' common start error
 (``initial_state``, ``initial_error``, ``draw_noise`` of the engine, :mod:`isl_core._engine`):
@@ -61,7 +61,7 @@ def reference_sigma_hat(
     X = np.empty((n + 1, m))
     Z = np.zeros((len(filters), n + 1, m))
     X[0] = x
-    Z[:, 0] = x + e0  # every filter starts at X(0) − e₀ (SPEC §4)
+    Z[:, 0] = x + e0  # every filter starts at X(0) − e₀ (:ref:`start`)
     S = np.full((len(filters), n + 1), np.nan)
     var = {}
     for f, spec in enumerate(filters):

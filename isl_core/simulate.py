@@ -1,13 +1,13 @@
-"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30, SPEC §4, §8).
+"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30, :ref:`simulation`, :ref:`error-coordinates`).
 
 The truth is simulated by Euler–Maruyama **on the filters' grid** (B.33–B.34): an exact-in-continuous-time
-truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (SPEC §4). The filters
-are integrated in error coordinates e = Z − X (SPEC §8, :mod:`isl_core.kernels`): their errors keep every digit
+truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (:ref:`euler-pitfall`). The filters
+are integrated in error coordinates e = Z − X (:ref:`error-coordinates`, :mod:`isl_core.kernels`): their errors keep every digit
 whatever the size of the signal; the estimates are rebuilt as ``Z = X + e`` for display only.
 
 Step size (B.47) and length (B.46): :mod:`isl_core.grid`.
 
-Start (SPEC §4): the truth at X(0) = 0 except X_m(0) ~ N(0, β²/(2α)) when α > 0; every filter at
+Start (:ref:`start`): the truth at X(0) = 0 except X_m(0) ~ N(0, β²/(2α)) when α > 0; every filter at
 ``Z(0) = X(0) − e₀`` with ONE common draw ``e₀ ~ N(0, Δ)`` (``start="stationary"``): the optimal filter's error is
 then stationary from t = 0, so its measured ratio is ≈ 1 at any horizon. ``start="truth"`` starts every filter at
 the truth, as the papers do (its measured ratio is then below 1 on short runs).

@@ -1,4 +1,4 @@
-"""Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, SPEC §5).
+"""Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, :ref:`empirical-rmse`).
 
 For every (α, σ) with β = w·√(2α) (A.25) — or one β for every α (``beta=``: any model, α = 0 included) — and every
 seed, ONE long run carries the optimal Kalman–Bucy filter and the ISL filters of all ν together (common random
@@ -9,7 +9,7 @@ kernel releases the GIL), on any ``concurrent.futures.Executor`` or on a ``dask.
 
 Conventions, all documented choices:
 
-* step h of a group: the SPEC §4 rule over all filters of the group (:func:`isl_core.step_size`), so one
+* step h of a group: the :ref:`step-size` rule over all filters of the group (:func:`isl_core.step_size`), so one
   grid serves every ν. Length: ``horizon`` and a burn-in of BURN = 10 are counted in units of the settling time
   of the group's slowest filter (:func:`isl_core.grid.settling_rate`, B.46) — 1/r_min unless a filter settles
   more than 10 % slower (an ISL filter at small ν: up to ≈ 6× at m = 3); then the group's run is lengthened by
@@ -104,7 +104,7 @@ class SweepResult:
     ``ratio`` (nα, nσ, nν, m) simulated š_i/s_i (A.30) pooled over seeds and batches, with the interval
     ``[ratio_low, ratio_high]`` at ``level``; nan where a filter diverged. ``kbf_ratio`` (nα, nσ, m) the optimal
     filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
-    statistical-linearization prediction (B.48, SPEC §6). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
+    statistical-linearization prediction (B.48, :ref:`linearized-covariance`). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
     ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
     ``BURN·stretch/r_min`` then an average over ``horizon·stretch/r_min``. ``model_aware``: the ISL filter
     propagated with A instead of A0. ``beta``: the one β of every α (a sweep of any model), else None and β follows
@@ -231,7 +231,7 @@ def sweep(
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
-    instead of paper A's (A0); its theory is SPEC §6 with A. ``beta``: sweep any model — the same β at every α
+    instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β at every α
     (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
     """
     if beta is None:

@@ -1,4 +1,4 @@
-"""Statistical-linearization theory of a filter's stationary error (B.40–B.48, SPEC §6).
+"""Statistical-linearization theory of a filter's stationary error (B.40–B.48, :ref:`theory`).
 
 Every filter of :mod:`isl_core.filters` is ``dZ = (A0 − a·EEᵀ) Z dt + φ(innovation)``. Over one Euler step
 the innovation is ``u = −√h·e_1 + σε`` with ``e = Z − X``, and for small h
@@ -22,13 +22,13 @@ equation ``M P + P Mᵀ + Q = 0``. The predicted RMSE of coordinate i is ``√P_
 * a = α (a filter that propagates with the true A: the optimal or a mismatched Kalman–Bucy filter, a
   model-aware ISL filter) — the coupling vanishes and the e-block alone is (B.48):
   ``Λ Δ̌ + Δ̌ Λᵀ + β² EEᵀ + Φ = 0``; for a linear φ = K̄u this is the mismatched-gain equation
-  ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` (SPEC §7).
+  ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` (:ref:`mismatched-kbf`).
 * α = 0, a = 0 (paper B) — the same m×m equation (B.48); m = 1, ν = β gives Δ̌/Q = √(π/2) (B.52).
 * α > 0, a ≠ α (paper A's ISL filter propagates with A0, a = 0) — the full (m+1)-system above.
 * α = 0, a ≠ 0 — X_m is a Brownian motion that the error follows: no stationary error (ratio inf).
 
 When Λ (or M) is not Hurwitz there is no stationary error: the prediction is ``inf``.
-The prediction is accurate near the best ν; it under-predicts badly when the filter loses lock (SPEC §6).
+The prediction is accurate near the best ν; it under-predicts badly when the filter loses lock (:ref:`theory-accuracy`).
 
 Symbols: ``spec.damp`` = a, ``L``, ``Phi`` = Φ, ``lam`` = Λ, ``P`` the (m+1) covariance.
 """
@@ -125,7 +125,7 @@ def _check_spec(model: Model, spec: FilterSpec) -> None:
 
 
 def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = None) -> np.ndarray:
-    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48, SPEC §6).
+    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48, :ref:`linearized-covariance`).
 
     Solves the (m+1)-dimensional Lyapunov equation of the (e, X_m) system in the module docstring
     (m-dimensional (B.48) when ``spec.damp == model.alpha``). All entries are ``inf`` when the linearized
@@ -156,7 +156,7 @@ def _isl_spec(model: Model, nu: float, damp: float | None) -> FilterSpec:
 
 
 def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> np.ndarray:
-    """Predicted RMSE ratios ``š_i/s_i`` (m,) of the ISL filter with tuning ``nu`` (B.48, SPEC §6).
+    """Predicted RMSE ratios ``š_i/s_i`` (m,) of the ISL filter with tuning ``nu`` (B.48, :ref:`linearized-covariance`).
 
     ``damp`` is the filter's propagation damping a: ``None`` (default) is paper A's filter with A0 (a = 0);
     ``damp=model.alpha`` is an ISL filter that propagates with the true A. ``inf`` when unstable.
@@ -178,7 +178,7 @@ def predicted_ratios_grid(model: Model, nus: Sequence[float], *, damp: float | N
 
 
 def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
-    """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (SPEC §7).
+    """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (:ref:`mismatched-kbf`).
 
     P solves ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` with the true σ; it equals Δ (ratio 1) when σ̄ = σ.
     """
@@ -191,7 +191,7 @@ def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
 def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
     """Predicted RMSE ratios ``√P_ii / s_i`` (m,) of ``spec`` on ``model`` (table in the module docstring).
 
-    Exact (Lyapunov) for a fixed linear gain, statistical linearization (SPEC §6) for the power law; ``nan``
+    Exact (Lyapunov) for a fixed linear gain, statistical linearization (:ref:`linearization`) for the power law; ``nan``
     for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
     """
     return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)

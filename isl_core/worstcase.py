@@ -1,4 +1,4 @@
-"""Worst case over an unknown σ: each filter's largest RMSE ratio over a σ range, per α (SPEC §5–§7).
+"""Worst case over an unknown σ: each filter's largest RMSE ratio over a σ range, per α (:ref:`worst-case`).
 
 For a user who knows only that σ lies in ``[σ_min, σ_max]``, the number that matters for a filter is
 
@@ -15,7 +15,7 @@ numbers). Choices, all documented:
 * mismatched KBF: σ̄ = √(σ_min σ_max) unless ``sigma_design`` is given; minimax KBF: σ̄ = σ_max;
   adaptive KBF: its table and start from the same range, memory ``memory`` (readings = steps here).
 * simulation: the sweep machinery of :mod:`isl_core.sweep` — one group per (α, σ, seed) with the step h of
-  the SPEC §4 rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
+  the :ref:`step-size` rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
   group's slowest filter (:func:`isl_core.sweep.group_length`: 1/r_min, or ``stretch``/r_min where a fixed gain
   far from its design σ or an ISL filter settles slower), the group's seed from
   :func:`isl_core.sweep.group_seed` (independent of chunking and executor), batch-means intervals.

@@ -7,11 +7,11 @@ Each is a :class:`isl_core.FilterSpec` for the fused kernel, so any set of them 
 name           filter                                                             theory (:func:`isl_core.theory_ratios`)
 ============== ================================================================== ==================================
 kbf            Kalman–Bucy with the true σ (A.21–A.24): the oracle                 1 (Δ itself)
-isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    statistical linearization (SPEC §6)
-kbf_mismatched Kalman–Bucy with the gain K̄ of the CARE for a guessed σ̄           Lyapunov, exact (SPEC §7)
-kbf_minimax    Kalman–Bucy designed for the top of the σ range, σ̄ = σ_max         Lyapunov, exact (SPEC §7)
+isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    statistical linearization (:ref:`linearized-covariance`)
+kbf_mismatched Kalman–Bucy with the gain K̄ of the CARE for a guessed σ̄           Lyapunov, exact (:ref:`mismatched-kbf`)
+kbf_minimax    Kalman–Bucy designed for the top of the σ range, σ̄ = σ_max         Lyapunov, exact (:ref:`minimax-kbf`)
 kbf_adaptive   Kalman–Bucy with σ̂ estimated online (:mod:`isl_core.adaptive`)     none (nan)
-isl_model      model-aware ISL: the same φ, propagation with A = A0 − αEEᵀ         SPEC §6 with A: no X_m coupling
+isl_model      model-aware ISL: the same φ, propagation with A = A0 − αEEᵀ         :ref:`model-aware-isl`: no X_m coupling
 ============== ================================================================== ==================================
 
 The mismatched filter's default guess is the geometric middle ``σ̄ = √(σ_min σ_max)`` of the σ range: the

@@ -5,7 +5,7 @@ for a guessed σ̄).
 
 With σ̄ = σ the gain is the optimal K (:func:`optimal_kbf`); otherwise the filter is *mismatched*
 (:func:`mismatched_kbf`), its stationary error the exact Lyapunov solution of :func:`isl_core.theory.predicted_covariance`
-(SPEC §7). The geometric middle of a σ range is the default guess (:func:`design_sigma`); "assume the largest noise"
+(:ref:`mismatched-kbf`). The geometric middle of a σ range is the default guess (:func:`design_sigma`); "assume the largest noise"
 is :func:`minimax_kbf`. Every one propagates with the true A (damp = α).
 """
 from __future__ import annotations

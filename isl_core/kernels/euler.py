@@ -1,9 +1,9 @@
-"""The compiled time loop: truth, observation and every filter's error in one pass (B.30, B.32–B.34, A.18, SPEC §8).
+"""The compiled time loop: truth, observation and every filter's error in one pass (B.30, B.32–B.34, A.18, :ref:`error-coordinates`).
 
 One step k → k+1 on the grid t_k = k·h, with v_k, ε_k ~ N(0, 1) drawn from the caller's
 ``numpy.random.Generator`` inside the loop (numba reproduces NumPy's stream bit for bit: v_k, ε_k are the
 rows of ``rng.standard_normal((n, 2))``). The filters are integrated in **error coordinates** e_f = Z_f − X
-(SPEC §8): the innovation depends on the error only,
+(:ref:`error-coordinates`): the innovation depends on the error only,
 
     ΔY_k/√h − √h·Z_f,1 = −√h·e_f,1 + σ·ε_k =: u                      (B.34, A.18)
 
@@ -114,7 +114,7 @@ def advance(x, e, rng, n, k0, grid, sigma, bank, batches, out):
         shock = beta_sqh * v  # −β√h·v·E: the signal's step that no filter predicts   (B.33)
         total = 0.0
         for f in range(nf):
-            u = noise - sqh * e[f, 0]  # innovation of (A.18) in error coordinates (SPEC §8)
+            u = noise - sqh * e[f, 0]  # innovation of (A.18) in error coordinates (:ref:`error-coordinates`)
             for i in range(m - 1):  # (I + h A0) e: ascending order uses the old e_{i+1}
                 e[f, i] += h * e[f, i + 1]
             e[f, m - 1] = zdecay[f] * e[f, m - 1] + couple[f] * xm - shock

@@ -1,4 +1,4 @@
-"""The compiled time loop of a scenario run (SPEC §8–§9): σ_k per step, the noise law, the sensor interval.
+"""The compiled time loop of a scenario run (:ref:`error-coordinates`, :ref:`scenarios`): σ_k per step, the noise law, the sensor interval.
 
 The same error coordinates as :func:`isl_core.kernels.euler.advance` — e_f = Z_f − X per filter, the truth's X_m
 only — with three changes. σ_k comes from the scenario's path (``sigma``, one value per step); ε_k from its law

@@ -5,7 +5,7 @@ same clairvoyant variance in every run: only the noise differs) and keeps each r
 σ̂. :meth:`ScenarioAverage.rolling` gives the time-resolved picture, for a window of ``width``/r_min sliding over the
 runs' short windows:
 
-    ratio_f,i(t) = √( mean over seeds of the window's mean e_f,i² / the window's mean clairvoyant P_ii )   (SPEC §9)
+    ratio_f,i(t) = √( mean over seeds of the window's mean e_f,i² / the window's mean clairvoyant P_ii )   (:ref:`rolling-ratio`)
 
 at the window's centre t, with a 95 % interval from the seeds' spread (the mean over S independent runs of the
 window's mean square, ± z·s/√S, under the square root: the central limit theorem over seeds; no interval from a

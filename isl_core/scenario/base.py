@@ -1,4 +1,4 @@
-"""Scenarios beyond constant σ, and the clairvoyant reference that knows them (SPEC §9).
+"""Scenarios beyond constant σ, and the clairvoyant reference that knows them (:ref:`scenarios`).
 
 A :class:`Scenario` is one value that says what the world does beyond paper A's model; ``Scenario()`` is that model
 (σ constant, Gaussian noise, a sensor that is read at every step) and :attr:`Scenario.is_default` says so.

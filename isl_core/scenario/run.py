@@ -5,7 +5,7 @@ for σ(0) (second), the ISL filter with tuning ν and any ``extra`` filters on o
 :func:`isl_core.kernels.scenario.advance_scenario`). It keeps, per time window, each filter's mean squared error and
 the clairvoyant filter's mean exact variance P_ii, so that
 
-    ratio_f,i(window) = √(mean e_f,i² / mean P_ii)                                              (SPEC §9)
+    ratio_f,i(window) = √(mean e_f,i² / mean P_ii)                                              (:ref:`rolling-ratio`)
 
 is the time-resolved picture, and the same over the whole run after ``burn`` the summary. The clairvoyant filter's
 own ratio is ≈ 1 in every scenario (its P is exact on the grid): that is the check that the denominator is right.

@@ -1,11 +1,11 @@
-"""Long runs at high order (m = 5, 6) keep every digit of the errors (SPEC §8): the optimal filter measures ≈ 1.
+"""Long runs at high order (m = 5, 6) keep every digit of the errors (:ref:`error-coordinates`): the optimal filter measures ≈ 1.
 
 Before the errors were integrated in error coordinates, m = 6, α = 0 at 2000/r_min measured ratios of 1262–2575
 for the optimal filter: X₁ ~ t^{m−½} had swallowed the observation noise in float64. Here, on every model of the
 grid below at the longest horizon the dashboard offers (2000/r_min, its sweep's maximum): the optimal filter's
 measured ratio lies within its 95 % batch-means interval of 1, or within ±3 % (the Euler grid alone contributes up
 to EULER_BIAS = 1 %, exactly known); and the ISL filter's ratio agrees with the statistical-linearization theory
-(SPEC §6) within its interval + 10 %. The seed is fixed, so the test is deterministic.
+(:ref:`linearized-covariance`) within its interval + 10 %. The seed is fixed, so the test is deterministic.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Scenarios beyond constant σ and the clairvoyant reference (isl_core.scenario, SPEC §9)."""
+"""Scenarios beyond constant σ and the clairvoyant reference (isl_core.scenario, :ref:`scenarios`)."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""Simulation on one Euler grid (SPEC §4): reproducibility, the Run object, long-run RMSE ratios, guard rails.
+"""Simulation on one Euler grid (:ref:`simulation`): reproducibility, the Run object, long-run RMSE ratios, guard rails.
 
 Monte-Carlo tolerances come from batch means: a long run is cut into B batches much longer than the
 filter's settling time 1/r_min, so the batch means of the squared error are nearly independent and
@@ -147,7 +147,7 @@ def test_step_size_is_h_rate_over_the_fastest_rate():
     kb = kalman_bucy(FIG3)
     specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, 3.0)]
     h = step_size(FIG3, kb, specs)
-    assert h * max(np.abs(kb.eig).max(), FIG3.alpha) <= H_RATE * (1 + EPS)  # (B.47) with the SPEC's margin
+    assert h * max(np.abs(kb.eig).max(), FIG3.alpha) <= H_RATE * (1 + EPS)  # (B.47) with the margin of :ref:`step-size`
     assert step_size(FIG3, kb, specs[:1]) >= h
 
 
@@ -206,7 +206,7 @@ def test_a_slower_isl_filter_lengthens_the_run():
 
 
 def test_errors_keep_their_digits_whatever_the_signal_size():
-    """SPEC §8: the errors depend on X only through X_m (and not at all where α = a_f): the same noise with a signal
+    """:ref:`error-coordinates`: the errors depend on X only through X_m (and not at all where α = a_f): the same noise with a signal
     shifted by 10¹⁵ gives the same errors, bit for bit — where X − Z computed from states would keep no digit."""
     model = Model(0.0, 1.0, 20.0, 6)
     kb = kalman_bucy(model)

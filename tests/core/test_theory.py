@@ -1,4 +1,4 @@
-"""Statistical-linearization theory (B.40–B.52, SPEC §6–§7): closed forms, residuals, and simulation."""
+"""Statistical-linearization theory (B.40–B.52, :ref:`theory`, :ref:`mismatched-kbf`): closed forms, residuals, and simulation."""
 from __future__ import annotations
 
 import math
@@ -85,7 +85,7 @@ def test_b48_residual_alpha0():
     m=st.integers(1, 6),
 )
 def test_mismatched_kbf_with_true_sigma_is_optimal(alpha, beta, sigma, m):
-    """σ̄ = σ: the mismatched-gain Lyapunov equation (SPEC §7) has the CARE solution Δ as its root."""
+    """σ̄ = σ: the mismatched-gain Lyapunov equation (:ref:`mismatched-kbf`) has the CARE solution Δ as its root."""
     model = Model(alpha, beta, sigma, m)
     kb = kalman_bucy(model)
     assert np.allclose(mismatched_kbf_ratios(model, sigma), 1.0, rtol=1e-7, atol=0)
@@ -108,7 +108,7 @@ def test_mismatched_kbf_residual_and_worse_than_optimal():
 
 
 def test_mismatched_kbf_worst_case_about_2_9():
-    """SPEC §7: the best fixed design σ̄ still loses ≈ 2.9× somewhere in σ ∈ [2, 200] (m = 3, w = 3)."""
+    """:ref:`minimax-kbf`: the best fixed design σ̄ still loses ≈ 2.9× somewhere in σ ∈ [2, 200] (m = 3, w = 3)."""
     sigmas = np.geomspace(2.0, 200.0, 13)
     designs = np.geomspace(2.0, 200.0, 25)
     for alpha in [0.04, 1.0, 25.0]:

@@ -4,7 +4,7 @@ theory per filter. The filters themselves are tested by family (``test_kalman``,
 Statistics: ratios come with batch-means Student intervals (:func:`isl_core.sweep.ratio_interval`) at LEVEL.
 Fixed-gain filters are linear, so the stationary covariance of their Euler recursion
 (``predicted_covariance(..., h=run.h)``) is *exact* for the simulated scheme: simulation must cover it.
-It differs from the continuous Lyapunov answer (the SPEC's theory) by O(h·rate), checked separately.
+It differs from the continuous Lyapunov answer (:ref:`theory`) by O(h·rate), checked separately.
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def test_registry_rejects_bad_input(kwargs, pattern):
 
 
 def test_theory_per_filter():
-    """Fixed gains: the mismatched-gain Lyapunov equation (SPEC §7); oracle 1; adaptive: no theory (nan)."""
+    """Fixed gains: the mismatched-gain Lyapunov equation (:ref:`mismatched-kbf`); oracle 1; adaptive: no theory (nan)."""
     specs = {s.name: s for s in baseline_filters(FIG3, nu=3.0, sigma_design=5.0)}
     np.testing.assert_allclose(theory_ratios(FIG3, specs["kbf"]), 1.0, rtol=1e-9)
     np.testing.assert_allclose(theory_ratios(FIG3, specs["kbf_mismatched"]), mismatched_kbf_ratios(FIG3, 5.0),

@@ -9,8 +9,8 @@ import pytest
 from isl_core import FilterSpec, Model, isl_filter, isl_gains, kalman_bucy, optimal_kbf, simulate
 from isl_core._engine import draw_start, pack
 from isl_core.filters.adaptive import adaptive_kbf
-from isl_core.kernels.common import FLUSH
 from isl_core.kernels.bundles import Batches, Grid, Trajectory
+from isl_core.kernels.common import FLUSH
 from isl_core.kernels.euler import advance
 from isl_core.reference import reference_sigma_hat
 
