@@ -94,26 +94,22 @@ def _comma(kind):
 
 
 
-def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
-    """The ``isl`` parser: the core's commands and what ``extension`` adds."""
-    from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
+def _execution(p: argparse.ArgumentParser) -> None:
+    """The sweep's and the worst case's batches and where their runs go."""
+    p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
+    p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
+    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
 
-    top = _Parser(prog="isl", description="Kalman–Bucy vs the ISL filter: simulations, paper A's Fig. 2 sweep, "
-                  "recommended nu, worst cases.")
-    top.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    parsers: dict[str, argparse.ArgumentParser] = {}
 
-    def execution(p):  # the sweep's and the worst case's batches and where their runs go
-        p.add_argument("--batches", type=_whole, default=10, help="batches per seed for the intervals (default 10)")
-        p.add_argument("--workers", type=_whole, default=None, help="local threads (default: CPU count)")
-        p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on a dask.distributed scheduler")
+def _common(p: argparse.ArgumentParser, *, horizon: float) -> None:
+    """The options every command shares: ``--m``, ``--w`` and ``--horizon`` (default ``horizon``)."""
+    p.add_argument("--m", type=_whole, default=3, help="state dimension 1..6 (default 3)")
+    p.add_argument("--w", type=positive, default=3.0, help="stationary std of X_m: β = w√(2α) (default 3)")
+    p.add_argument("--horizon", type=positive, default=horizon, help=f"in units of 1/r_min (default {horizon:g})")
 
-    def common(p, *, horizon: float):
-        p.add_argument("--m", type=_whole, default=3, help="state dimension 1..6 (default 3)")
-        p.add_argument("--w", type=positive, default=3.0, help="stationary std of X_m: β = w√(2α) (default 3)")
-        p.add_argument("--horizon", type=positive, default=horizon, help=f"in units of 1/r_min (default {horizon:g})")
 
+def _add_run(sub) -> argparse.ArgumentParser:
+    """``isl run``: one trajectory."""
     p = sub.add_parser("run", help="one trajectory: s, measured RMSEs and ratios, r_min, h, T")
     p.add_argument("--alpha", type=_nonneg, default=0.5, help="OU rate α >= 0 (default 0.5)")
     p.add_argument("--beta", type=positive, default=None, help="β (default w√(2α); required when α = 0)")
@@ -121,9 +117,14 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--nu", type=positive, default=None, help="ISL tuning ν (default β)")
     p.add_argument("--seed", type=seed_number, default=0)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    common(p, horizon=10.0)
+    _common(p, horizon=10.0)
     p.set_defaults(func=cmd_run)
-    parsers["run"] = p
+    return p
+
+
+def _add_sweep(sub) -> argparse.ArgumentParser:
+    """``isl sweep``: paper A's Fig. 2 grid."""
+    from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
 
     p = sub.add_parser("sweep", help="paper A's Fig. 2 grid (or any model's): CSV and JSON (the dashboard's isl adds "
                             "HTML and PNG)")
@@ -135,12 +136,17 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--ell-min", type=_whole, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
     p.add_argument("--ell-max", type=_whole, default=2, help="largest ℓ (default 2)")
     p.add_argument("--seeds", type=seed_number, nargs="+", default=[0, 1])
-    execution(p)
+    _execution(p)
     p.add_argument("--out", default="isl-fig2", help="output directory (default ./isl-fig2)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    common(p, horizon=1000.0)
+    _common(p, horizon=1000.0)
     p.set_defaults(func=cmd_sweep)
-    parsers["sweep"] = p
+    return p
+
+
+def _add_recommend(sub) -> argparse.ArgumentParser:
+    """``isl recommend``: ν per α."""
+    from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
 
     p = sub.add_parser("recommend", help="recommended ν per α beside paper A's table (A.31)")
     p.add_argument("--alphas", type=positive, nargs="+", default=list(FIG2_ALPHAS))
@@ -150,10 +156,14 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--no-verify", action="store_true", help="theory only, no simulation")
     p.add_argument("--json", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    common(p, horizon=1000.0)
+    _common(p, horizon=1000.0)
     p.set_defaults(func=cmd_recommend)
-    parsers["recommend"] = p
+    return p
 
+
+def _add_worstcase(sub) -> argparse.ArgumentParser:
+    """``isl worstcase``: each filter's worst case over a σ range."""
+    from isl_core.sweep import FIG2_ALPHAS
     from isl_core.worstcase import FILTERS
 
     p = sub.add_parser("worstcase", help="each filter's worst-case ratio over a sigma range, per alpha")
@@ -169,13 +179,16 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--memory", type=positive, default=1000.0,
                    help="adaptive KBF memory W in readings (= steps in these runs; default 1000)")
     p.add_argument("--seeds", type=_comma(seed_number), nargs="+", default=[[0, 1]])
-    execution(p)
+    _execution(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    common(p, horizon=1000.0)
+    _common(p, horizon=1000.0)
     p.set_defaults(func=cmd_worstcase)
-    parsers["worstcase"] = p
+    return p
 
+
+def _add_scenario(sub) -> argparse.ArgumentParser:
+    """``isl scenario``: the fair table, the tuning curves, the who-wins maps."""
     from isl_core.scenario.table import PRESETS
 
     p = sub.add_parser("scenario", help="beyond constant sigma: the fair table of every filter's period ratio to the "
@@ -204,12 +217,22 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.add_argument("--csv", type=Path, default=None, help="also write the table (or the curves) as CSV to this file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    common(p, horizon=30.0)
+    _common(p, horizon=30.0)
     p.set_defaults(func=cmd_scenario)
-    parsers["scenario"] = p
+    return p
 
+
+def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
+    """The ``isl`` parser: the core's commands and what ``extension`` adds."""
+    top = _Parser(prog="isl", description="Kalman–Bucy vs the ISL filter: simulations, paper A's Fig. 2 sweep, "
+                  "recommended nu, worst cases.")
+    top.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parsers = {name: add(sub) for name, add in (("run", _add_run), ("sweep", _add_sweep),
+                                                ("recommend", _add_recommend), ("worstcase", _add_worstcase),
+                                                ("scenario", _add_scenario))}
     if extension is not None and extension.add is not None:
-        extension.add(sub, parsers, common)
+        extension.add(sub, parsers, _common)
     return top
 
 

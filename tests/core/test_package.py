@@ -39,6 +39,7 @@ def test_public_names_exist_and_are_documented():
 ROOT = Path(__file__).resolve().parents[2]
 CORE = ROOT / "isl_core"
 MAX_MODULE_LINES = 400
+MAX_FUNCTION_LINES = 80
 
 
 def _name(path: Path) -> str:
@@ -103,6 +104,22 @@ def test_no_module_imports_a_private_name_of_another():
     assert offences == []
 
 
+def _njit(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    """Whether ``node`` is compiled by numba (``@njit``, ``@numba.njit(...)``, ``@jit``)."""
+    return any(re.search(r"\b(njit|jit)\b", ast.unparse(d)) for d in node.decorator_list)
+
+
+def test_no_function_is_over_80_lines_outside_the_numba_kernels():
+    long = {}
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and not _njit(node):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > MAX_FUNCTION_LINES:
+                    long[f"{module}.{node.name}"] = lines
+    assert long == {}
+
+
 def test_the_kernels_compare_filter_kinds_by_name():
     """``kind[f] == KIND_ADAPTIVE``, never ``kind[f] == 2``: a comparison of a kind or a lane with a bare number."""
     bare = []
@@ -140,6 +157,13 @@ def test_no_module_is_over_400_lines():
              for folder in ("app", "isl_core", "scripts", "benchmarks") for p in (ROOT / folder).rglob("*.py")}
     assert sizes, "no module found"
     assert {name: n for name, n in sizes.items() if n > MAX_MODULE_LINES} == {}
+
+
+def test_no_function_check_is_fooled_by_a_kernel_decorator():
+    code = ("import numba\nfrom numba import njit\n@njit(cache=True)\ndef f():\n    pass\ndef g():\n    pass\n"
+            "@numba.jit\ndef h():\n    pass\n@adjust\ndef k():\n    pass\n")
+    flags = [_njit(n) for n in ast.parse(code).body if isinstance(n, ast.FunctionDef)]
+    assert flags == [True, False, True, False]
 
 
 #: equations the core computes, by their number in paper A (A.n) or paper B (B.n)
