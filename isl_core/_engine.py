@@ -13,8 +13,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from .filters.base import KIND_ADAPTIVE, FilterSpec
-from .kernels.common import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH
 from .kernels.bundles import Batches, FilterBank, Grid, Trajectory
+from .kernels.common import AD_INV_MEMORY, AD_INV_STEP, AD_LOG_SIGMA0, AD_SIGMA, AD_VAR, AD_WIDTH
 from .kernels.euler import advance
 from .model import Model
 from .riccati import KalmanBucy
@@ -85,7 +85,8 @@ def _cholesky(delta: np.ndarray) -> np.ndarray:
 
 
 def initial_error(kb: KalmanBucy, rng: np.random.Generator) -> np.ndarray:
-    """The filters' common start error ``e(0) = Z(0) − X(0) = −e₀``, ``e₀ = L ξ ~ N(0, Δ)``, ξ ~ N(0, I_m) (:ref:`start`)."""
+    """The filters' common start error ``e(0) = Z(0) − X(0) = −e₀``, ``e₀ = L ξ ~ N(0, Δ)``, ξ ~ N(0, I_m)
+    (:ref:`start`)."""
     return -(_cholesky(np.asarray(kb.delta)) @ rng.standard_normal(len(kb.s)))
 
 
@@ -180,7 +181,7 @@ def run_chunks(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec], h: f
 
 def divergence(model: Model, filters, x, e, k: int, n: int, h: float) -> DivergenceError:
     """The error for a run that left the finite numbers at step ``k``: who diverged, when, and why."""
-    bad = [f"filter {f.label}" for f, row in zip(filters, e) if not np.all(np.isfinite(row))]
+    bad = [f"filter {f.label}" for f, row in zip(filters, e, strict=False) if not np.all(np.isfinite(row))]
     if not np.all(np.isfinite(x)):
         bad.insert(0, "the simulated truth")
     hint = "a smaller step h or a different nu keeps it finite"

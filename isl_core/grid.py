@@ -56,8 +56,8 @@ def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
 
 
 def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
-    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, :ref:`step-size`), shrunk until the grid
-    biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
+    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, :ref:`step-size`), shrunk until the
+    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
     rate = max(float(np.max(np.abs(kb.eig))), model.alpha, kb.r_min)
     for spec in filters:
         rate = max(rate, float(np.max(np.abs(np.linalg.eigvals(linearized_matrix(model, spec))))))
@@ -90,10 +90,12 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
 
 def grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: float | None = None):
     """``(T, h, N)`` with ``N·h = T``: ``T`` (default ``default_T``, else 10/r_min), ``h`` by :func:`step_size`."""
-    if T is None:
-        T = 10.0 / kb.r_min if default_T is None else default_T
-    else:
+    if T is not None:
         T = check_real("T", T, lo=0.0, lo_open=True)
+    elif default_T is not None:
+        T = default_T
+    else:
+        T = 10.0 / kb.r_min
     if h is None:
         h = min(step_size(model, kb, filters), T)
     else:

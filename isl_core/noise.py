@@ -1,5 +1,5 @@
-"""The observation noise's laws on the Euler grid and their tables (:ref:`noise-laws`, :mod:`isl_core.scenario`); the compiled
-loops draw them (:mod:`isl_core.kernels.draws`).
+"""The observation noise's laws on the Euler grid and their tables (:ref:`noise-laws`, :mod:`isl_core.scenario`); the
+compiled loops draw them (:mod:`isl_core.kernels.draws`).
 
 ``law`` is an int for the loops: :data:`LAW_GAUSSIAN` ε_k ~ N(0, 1); :data:`LAW_STUDENT` √((d − 2)/d)·T_d, Student's t
 with d > 2 degrees of freedom scaled to unit variance; :data:`LAW_OUTLIERS` N(0, 1), times k with probability p.

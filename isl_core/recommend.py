@@ -4,8 +4,8 @@ Paper A reads a recommended ν/β per α off its Fig. 2 by eye (table A.31). Her
 
     ν* = argmin_ν  max_{σ ∈ sigmas, i = 1..m}  š_i(ν, σ)/s_i(σ)
 
-is found on the statistical-linearization prediction (B.48, :ref:`linearized-covariance`): a grid in log₂(ν/β) then a bounded
-scalar refinement around its best point. The answer is then *verified* by simulation (:func:`isl_core.sweep`)
+is found on the statistical-linearization prediction (B.48, :ref:`linearized-covariance`): a grid in log₂(ν/β) then a
+bounded scalar refinement around its best point. The answer is then *verified* by simulation (:func:`isl_core.sweep`)
 and returned with its simulated worst-case ratio and interval. For comparison the best fixed-gain
 Kalman–Bucy filter (designed for one σ̄ ∈ [min σ, max σ], :ref:`mismatched-kbf`) has its own predicted worst case.
 """

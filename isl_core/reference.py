@@ -1,7 +1,8 @@
 """A slow, plain-numpy twin of the compiled kernel, written straight from the equations (tests and benchmarks).
 
-Matrix form of :ref:`simulation` on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors, :ref:`error-coordinates`:
-the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of ``rng.standard_normal((n, 2))``
+Matrix form of :ref:`simulation` on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors,
+:ref:`error-coordinates`: the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of
+``rng.standard_normal((n, 2))``
 drawn in bulk right after the initial state and the filters' common start error
 (``initial_state``, ``initial_error``, ``draw_noise`` of the engine, :mod:`isl_core._engine`):
 
@@ -55,8 +56,8 @@ def reference_sigma_hat(
     x = initial_state(model, rng)
     e0 = initial_error(kalman_bucy(model), rng) if start == "stationary" else np.zeros(m)
     noise = draw_noise(rng, n)
-    I, A0, E, C = np.eye(m), model.A0, model.E, model.C
-    truth_step = I + h * model.A  # (B.33)
+    eye, A0, E, C = np.eye(m), model.A0, model.E, model.C
+    truth_step = eye + h * model.A  # (B.33)
     A_f = [A0 - spec.damp * (E @ E.T) for spec in filters]
     X = np.empty((n + 1, m))
     Z = np.zeros((len(filters), n + 1, m))
@@ -81,7 +82,7 @@ def reference_sigma_hat(
                 S[f, k + 1] = math.sqrt(var[f] / (1.0 + h * gain[0]))
             elif spec.power:  # ISL (A.18)
                 u = dY / sqh - sqh * (C @ z)[0]
-                Z[f, k + 1] = (I + h * A_f[f]) @ z + sqh * phi(u, spec.coef, spec.exponents())
+                Z[f, k + 1] = (eye + h * A_f[f]) @ z + sqh * phi(u, spec.coef, spec.exponents())
             else:  # Kalman–Bucy (B.30)
                 Z[f, k + 1] = z + h * (A_f[f] @ z) + spec.coef * (dY - h * (C @ z)[0])
         X[k + 1] = truth_step @ X[k] + model.beta * E[:, 0] * sqh * v  # (B.33)

@@ -149,9 +149,9 @@ def _solved(model: Model) -> KalmanBucy:
     a = model.alpha / rho if rho > 0 else np.inf
     if model.m > 1 and not a <= A_MAX:
         raise ValueError(
-            f"alpha = {model.alpha:g} with beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the normalized "
-            f"damping alpha·(sigma/beta)^(1/m) = {a:.3g} is above {A_MAX:g}, beyond which the Riccati equation (A.23) "
-            "is not solved to 1e-9 here; lower alpha or sigma, or raise beta")
+            f"alpha = {model.alpha:g} with beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the "
+            f"normalized damping alpha·(sigma/beta)^(1/m) = {a:.3g} is above {A_MAX:g}, beyond which the Riccati "
+            "equation (A.23) is not solved to 1e-9 here; lower alpha or sigma, or raise beta")
     scale = rho ** np.arange(1, model.m + 1)
     delta1 = normalized_care(model.m, a)
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):

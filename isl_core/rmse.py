@@ -1,4 +1,5 @@
-"""Long runs that keep only squared errors (for sweeps and worst cases): :func:`simulate_rmse` (A.30, :ref:`empirical-rmse`).
+"""Long runs that keep only squared errors (for sweeps and worst cases): :func:`simulate_rmse` (A.30,
+:ref:`empirical-rmse`).
 
 The same kernel, grid and start as :func:`isl_core.simulate`, without stored trajectories: per-batch sums of the
 squared errors after a burn-in, for batch-means confidence intervals.

@@ -1,8 +1,11 @@
-"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30, :ref:`simulation`, :ref:`error-coordinates`).
+"""Simulation of the truth and the filters on one Euler grid (B.30–B.34, A.18, A.29–A.30, :ref:`simulation`,
+:ref:`error-coordinates`).
 
 The truth is simulated by Euler–Maruyama **on the filters' grid** (B.33–B.34): an exact-in-continuous-time
-truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (:ref:`euler-pitfall`). The filters
-are integrated in error coordinates e = Z − X (:ref:`error-coordinates`, :mod:`isl_core.kernels`): their errors keep every digit
+truth would make ΔY/h the step average of X_1 and bias every Euler filter by ≈ (h/2)·X_2 (:ref:`euler-pitfall`). The
+filters
+are integrated in error coordinates e = Z − X (:ref:`error-coordinates`, :mod:`isl_core.kernels`): their errors keep
+every digit
 whatever the size of the signal; the estimates are rebuilt as ``Z = X + e`` for display only.
 
 Step size (B.47) and length (B.46): :mod:`isl_core.grid`.

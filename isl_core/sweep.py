@@ -104,8 +104,8 @@ class SweepResult:
     ``ratio`` (nα, nσ, nν, m) simulated š_i/s_i (A.30) pooled over seeds and batches, with the interval
     ``[ratio_low, ratio_high]`` at ``level``; nan where a filter diverged. ``kbf_ratio`` (nα, nσ, m) the optimal
     filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
-    statistical-linearization prediction (B.48, :ref:`linearized-covariance`). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
-    ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
+    statistical-linearization prediction (B.48, :ref:`linearized-covariance`). ``s`` (nα, nσ, m) optimal RMSE;
+    ``r_min``, ``h``, ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
     ``BURN·stretch/r_min`` then an average over ``horizon·stretch/r_min``. ``model_aware``: the ISL filter
     propagated with A instead of A0. ``beta``: the one β of every α (a sweep of any model), else None and β follows
     from ``w`` (A.25; ``w`` is nan in a fixed-β sweep).
@@ -171,9 +171,9 @@ class SweepResult:
 def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False, beta=None):
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
-    s, r_min, h, steps = np.empty(shape + (m,)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
+    s, r_min, h, steps = np.empty((*shape, m)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
     stretch = np.empty(shape)
-    theory = np.empty(shape + (len(nob), m))
+    theory = np.empty((*shape, len(nob), m))
     tasks = []
     for a, alpha in enumerate(alphas):
         for b, sigma in enumerate(sigmas):
@@ -231,8 +231,8 @@ def sweep(
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
-    instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β at every α
-    (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
+    instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β
+    at every α (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
     """
     if beta is None:
         alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)

@@ -66,8 +66,8 @@ def lyapunov(M: np.ndarray, Q: np.ndarray, h: float = 0.0) -> np.ndarray:
     K = np.einsum("...ik,jl->...ijkl", M, eye) + np.einsum("ik,...jl->...ijkl", eye, M)
     if h:
         K = K + h * np.einsum("...ik,...jl->...ijkl", M, M)
-    K = K.reshape(M.shape[:-2] + (n * n, n * n))
-    q = np.broadcast_to(Q, M.shape).reshape(M.shape[:-2] + (n * n, 1))
+    K = K.reshape((*M.shape[:-2], n * n, n * n))
+    q = np.broadcast_to(Q, M.shape).reshape((*M.shape[:-2], n * n, 1))
     P = np.linalg.solve(K, -q).reshape(M.shape)
     return 0.5 * (P + np.swapaxes(P, -1, -2))
 
@@ -93,7 +93,7 @@ def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray, h: f
     """Stationary error covariances (..., m, m) of filters with gains ``coef`` (..., m); inf if none exists."""
     m, alpha, beta, sigma = model.m, model.alpha, model.beta, model.sigma
     L, Phi = _moments(coef, q, sigma)
-    lam = np.broadcast_to(model.A0, L.shape + (m,)).copy()
+    lam = np.broadcast_to(model.A0, (*L.shape, m)).copy()
     lam[..., -1, -1] -= damp
     lam[..., :, 0] -= L / sigma**2  # Λ = A0 − a EEᵀ − σ⁻² L C   (B.46)
     stable = np.all(np.linalg.eigvals(lam).real < 0.0, axis=-1)
@@ -101,8 +101,8 @@ def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray, h: f
     if coupled and alpha == 0.0:
         return np.full(lam.shape, np.inf)
     n = m + 1 if coupled else m
-    M = np.zeros(L.shape[:-1] + (n, n))
-    Q = np.zeros(L.shape[:-1] + (n, n))
+    M = np.zeros((*L.shape[:-1], n, n))
+    Q = np.zeros((*L.shape[:-1], n, n))
     M[..., :m, :m] = lam
     Q[..., :m, :m] = Phi
     Q[..., m - 1, m - 1] += beta**2  # β² EEᵀ + Φ   (B.48)
@@ -125,7 +125,8 @@ def _check_spec(model: Model, spec: FilterSpec) -> None:
 
 
 def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = None) -> np.ndarray:
-    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48, :ref:`linearized-covariance`).
+    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48,
+    :ref:`linearized-covariance`).
 
     Solves the (m+1)-dimensional Lyapunov equation of the (e, X_m) system in the module docstring
     (m-dimensional (B.48) when ``spec.damp == model.alpha``). All entries are ``inf`` when the linearized
@@ -191,7 +192,7 @@ def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
 def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
     """Predicted RMSE ratios ``√P_ii / s_i`` (m,) of ``spec`` on ``model`` (table in the module docstring).
 
-    Exact (Lyapunov) for a fixed linear gain, statistical linearization (:ref:`linearization`) for the power law; ``nan``
-    for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
+    Exact (Lyapunov) for a fixed linear gain, statistical linearization (:ref:`linearization`) for the power law;
+    ``nan`` for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
     """
     return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)

@@ -256,7 +256,7 @@ def _ratio(x: float) -> str:
 def _print_worstcase(res) -> None:
     worst, low, high, theory = res.worst, res.worst_low, res.worst_high, res.theory_worst
     width = [max(len(label), 20) for label in res.labels]
-    head = f"{'alpha':>6} | " + " | ".join(f"{label:>{w}}" for label, w in zip(res.labels, width))
+    head = f"{'alpha':>6} | " + " | ".join(f"{label:>{w}}" for label, w in zip(res.labels, width, strict=False))
     lo, hi = res.sigma_range
     print(f"worst case of the RMSE ratio š_i/s_i over sigma in [{lo:g}, {hi:g}] ({len(res.sigmas)} log-spaced values) "
           f"and i = 1..{res.m}; m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min x seeds {list(res.seeds)}")
@@ -282,8 +282,9 @@ def _print_worstcase(res) -> None:
     tunings = []
     for f, name in enumerate(res.names):
         if name in ("isl", "isl_model", "isl_a31"):
-            tunings.append(f"{name} nu/beta = " + ", ".join(
-                f"{nu / (res.w * math.sqrt(2.0 * alpha)):.3g}" for nu, alpha in zip(res.nu[:, f], res.alphas)))
+            pairs = zip(res.nu[:, f], res.alphas, strict=False)
+            tunings.append(f"{name} nu/beta = " + ", ".join(f"{nu / (res.w * math.sqrt(2.0 * alpha)):.3g}"
+                                                             for nu, alpha in pairs))
         elif name in ("kbf_mismatched", "kbf_minimax"):
             tunings.append(f"{name} sigma_design = {res.sigma_design[0, f]:g}")
     if tunings:

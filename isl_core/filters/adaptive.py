@@ -95,8 +95,8 @@ def adaptive_kbf(
     """The adaptive Kalman–Bucy filter of this module for ``model``'s α, β, m (σ is not used).
 
     ``sigma_range`` (σ_min, σ_max): the plausible range of σ; the gain table spans it widened by TABLE_MARGIN
-    on each side. ``memory``: W in sensor readings (≥ 1; module docstring). ``sigma_init``: σ̂ before the first innovation (default
-    the geometric middle √(σ_min σ_max); after the first step the data take over, λ_1 = 1).
+    on each side. ``memory``: W in sensor readings (≥ 1; module docstring). ``sigma_init``: σ̂ before the first
+    innovation (default the geometric middle √(σ_min σ_max); after the first step the data take over, λ_1 = 1).
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
@@ -106,8 +106,9 @@ def adaptive_kbf(
                                                                           lo_open=True)
     top = sigma_limit(model)
     if hi > top:
-        raise ValueError(f"sigma_range must end at or below {top:.4g} for alpha = {model.alpha:g}, beta = {model.beta:g}, "
-                         f"m = {model.m} (the Riccati equation's domain, isl_core.riccati.A_MAX), got {short(sigma_range)}")
+        raise ValueError(f"sigma_range must end at or below {top:.4g} for alpha = {model.alpha:g}, "
+                         f"beta = {model.beta:g}, m = {model.m} (the Riccati equation's domain, "
+                         f"isl_core.riccati.A_MAX), got {short(sigma_range)}")
     log_lo, log_hi = math.log(lo / TABLE_MARGIN), math.log(min(hi * TABLE_MARGIN, top))
     n = max(2, math.ceil(TABLE_PER_DECADE * (log_hi - log_lo) / math.log(10.0)) + 1)
     step = (log_hi - log_lo) / (n - 1)

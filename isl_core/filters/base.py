@@ -10,8 +10,8 @@ linear, ``φ(u) = K u`` (then the step is the Kalman–Bucy scheme B.30), or the
 ``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18), or linear with a gain ``K(σ̂_k)`` that follows an
 online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.filters.adaptive`, described by an
 :class:`AdaptiveGain`), or — in scenario runs only — the variational-Bayes adaptive Kalman filter of
-:mod:`isl_core.filters.variational` (a :class:`VariationalGain`), which carries its own covariance, or the bank of Kalman
-filters of the interacting-multiple-model filter of :mod:`isl_core.filters.imm` (an :class:`IMMBank`).
+:mod:`isl_core.filters.variational` (a :class:`VariationalGain`), which carries its own covariance, or the bank of
+Kalman filters of the interacting-multiple-model filter of :mod:`isl_core.filters.imm` (an :class:`IMMBank`).
 
 The constructors are the family modules of :mod:`isl_core.filters`: :mod:`~isl_core.filters.kalman` (the
 Kalman–Bucy filters: optimal, mismatched, minimax), :mod:`~isl_core.filters.isl` (paper A's and the model-aware ISL
@@ -48,8 +48,8 @@ KIND_IMM = 6  #: the interacting-multiple-model bank of Kalman filters (:mod:`is
 
 @dataclass(frozen=True)
 class IMMBank:
-    """The IMM filter's bank (:mod:`isl_core.filters.imm`): its modes' σ_j (J,), the switch probability p per reading and
-    each mode's covariance at the start (J, m, m), the stationary Δ of its σ_j (A.23)."""
+    """The IMM filter's bank (:mod:`isl_core.filters.imm`): its modes' σ_j (J,), the switch probability p per reading
+    and each mode's covariance at the start (J, m, m), the stationary Δ of its σ_j (A.23)."""
 
     sigmas: np.ndarray
     switch: float

@@ -4,14 +4,14 @@ Each is a :class:`isl_core.FilterSpec` for the fused kernel, so any set of them 
 (common random numbers, :func:`isl_core.simulate` ``extra=`` or :func:`isl_core.simulate_rmse`). Stable names:
 
 ============== ================================================================== ==================================
-name           filter                                                             theory (:func:`isl_core.theory_ratios`)
+name           filter                                                             theory, :func:`isl_core.theory_ratios`
 ============== ================================================================== ==================================
 kbf            Kalman–Bucy with the true σ (A.21–A.24): the oracle                 1 (Δ itself)
-isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    statistical linearization (:ref:`linearized-covariance`)
-kbf_mismatched Kalman–Bucy with the gain K̄ of the CARE for a guessed σ̄           Lyapunov, exact (:ref:`mismatched-kbf`)
-kbf_minimax    Kalman–Bucy designed for the top of the σ range, σ̄ = σ_max         Lyapunov, exact (:ref:`minimax-kbf`)
+isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    :ref:`linearized-covariance`
+kbf_mismatched Kalman–Bucy with the gain K̄ of the CARE for a guessed σ̄           Lyapunov (:ref:`mismatched-kbf`)
+kbf_minimax    Kalman–Bucy designed for the top of the σ range, σ̄ = σ_max         Lyapunov (:ref:`minimax-kbf`)
 kbf_adaptive   Kalman–Bucy with σ̂ estimated online (:mod:`isl_core.adaptive`)     none (nan)
-isl_model      model-aware ISL: the same φ, propagation with A = A0 − αEEᵀ         :ref:`model-aware-isl`: no X_m coupling
+isl_model      model-aware ISL: the same φ, propagation with A = A0 − αEEᵀ         :ref:`linearized-covariance` with A
 ============== ================================================================== ==================================
 
 The mismatched filter's default guess is the geometric middle ``σ̄ = √(σ_min σ_max)`` of the σ range: the
@@ -27,7 +27,6 @@ With α = 0 the model-aware ISL filter is paper A's filter, bit for bit (damp = 
 from __future__ import annotations
 
 from collections.abc import Sequence
-
 
 from ..model import Model
 from ..riccati import kalman_bucy

@@ -4,9 +4,10 @@ for a guessed σ̄).
     Ẑ ← (I + h·A)·Ẑ + K̄·(ΔY − h·C·Ẑ),    K̄ = σ̄⁻² Δ̄ Cᵀ,  Δ̄ the CARE's solution at σ̄          (B.30, A.21–A.23)
 
 With σ̄ = σ the gain is the optimal K (:func:`optimal_kbf`); otherwise the filter is *mismatched*
-(:func:`mismatched_kbf`), its stationary error the exact Lyapunov solution of :func:`isl_core.theory.predicted_covariance`
-(:ref:`mismatched-kbf`). The geometric middle of a σ range is the default guess (:func:`design_sigma`); "assume the largest noise"
-is :func:`minimax_kbf`. Every one propagates with the true A (damp = α).
+(:func:`mismatched_kbf`), its stationary error the exact Lyapunov solution of
+:func:`isl_core.theory.predicted_covariance` (:ref:`mismatched-kbf`). The geometric middle of a σ range is the default
+guess (:func:`design_sigma`); "assume the largest noise" is :func:`minimax_kbf`. Every one propagates with the true A
+(damp = α).
 """
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The clairvoyant reference's recursion, compiled: the Kalman filter of the Euler grid that knows σ_k (:ref:`clairvoyant`).
+"""The clairvoyant reference's recursion, compiled: the Kalman filter of the Euler grid that knows σ_k
+(:ref:`clairvoyant`).
 
 The filter and its equations are :mod:`isl_core.scenario`'s (:func:`isl_core.scenario.clairvoyant`); here is its
 recursion on the state (X, S), one step at a time (:func:`clairvoyant_step`, which the scenario loop runs in line),

@@ -1,4 +1,5 @@
-"""The compiled time loop: truth, observation and every filter's error in one pass (B.30, B.32–B.34, A.18, :ref:`error-coordinates`).
+"""The compiled time loop: truth, observation and every filter's error in one pass (B.30, B.32–B.34, A.18,
+:ref:`error-coordinates`).
 
 One step k → k+1 on the grid t_k = k·h, with v_k, ε_k ~ N(0, 1) drawn from the caller's
 ``numpy.random.Generator`` inside the loop (numba reproduces NumPy's stream bit for bit: v_k, ε_k are the

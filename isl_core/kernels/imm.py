@@ -105,8 +105,8 @@ def _mix(bank, b, p, J):
             V[i, k] = e[b, i, k] - mean[k]
         c = m
         for k in range(m):
-            for l in range(k, m):
-                V[i, c] = P[b, i, k, l] + V[i, k] * V[i, l]
+            for k2 in range(k, m):
+                V[i, c] = P[b, i, k, k2] + V[i, k] * V[i, k2]
                 c += 1
     for j in range(J):  # out = W·V, four columns at a time in registers (V is padded with zero columns)
         for c in range(0, nv, 4):
@@ -123,9 +123,9 @@ def _mix(bank, b, p, J):
         c = m
         for k in range(m):
             e[b, j, k] = mean[k] + out[j, k]
-            for l in range(k, m):
-                P[b, j, k, l] = out[j, c] - out[j, k] * out[j, l]
-                P[b, j, l, k] = P[b, j, k, l]
+            for k2 in range(k, m):
+                P[b, j, k, k2] = out[j, c] - out[j, k] * out[j, k2]
+                P[b, j, k2, k] = P[b, j, k, k2]
                 c += 1
 
 
@@ -137,11 +137,13 @@ def imm_step(bank, b, el, f, noise, sqh, h, decay, q_var, shock, reading, corr):
     Per bank (first index b of :class:`~isl_core.kernels.bundles.IMMState`, :func:`imm_state`): ``P`` (J, m+1,
     m+1), ``e`` (J, m), ``a`` (J,) the modes' covariances on (X, S), errors and innovations summed since the last
     reading, ``mu`` (J,) the weights (c̄ between readings), ``R`` (J,) q·h·σ_j², ``par`` = (p, J); ``W``, ``V``,
-    ``out``, ``lw``, ``mean`` scratch (:func:`_mix`); ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a reading ``corr`` (m,) gets what the scenario
-    loop adds to the filter's propagated error ``el[:, f]`` (at t_k on entry) to make it Σ_j μ_j e_j: the lane
-    of the filter propagates it as the modes (A_f = A), and takes in ``corr`` as its update.
+    ``out``, ``lw``, ``mean`` scratch (:func:`_mix`); ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a
+    reading ``corr`` (m,) gets what the scenario loop adds to the filter's propagated error ``el[:, f]`` (at t_k on
+    entry) to make it Σ_j μ_j e_j: the lane of the filter propagates it as the modes (A_f = A), and takes in ``corr`` as
+    its update.
     """
-    P, e, a, mu, R, par, sig, lw, mean = bank.P, bank.e, bank.a, bank.mu, bank.R, bank.par, bank.sigma, bank.lw, bank.mean
+    P, e, a, mu, R, par = bank.P, bank.e, bank.a, bank.mu, bank.R, bank.par
+    sig, lw, mean = bank.sigma, bank.lw, bank.mean
     J = int(par[b, 1])
     m = e.shape[2]
     for j in range(J):

@@ -1,4 +1,5 @@
-"""The compiled time loop of a scenario run (:ref:`error-coordinates`, :ref:`scenarios`): σ_k per step, the noise law, the sensor interval.
+"""The compiled time loop of a scenario run (:ref:`error-coordinates`, :ref:`scenarios`): σ_k per step, the noise law,
+the sensor interval.
 
 The same error coordinates as :func:`isl_core.kernels.euler.advance` — e_f = Z_f − X per filter, the truth's X_m
 only — with three changes. σ_k comes from the scenario's path (``sigma``, one value per step); ε_k from its law
@@ -23,9 +24,9 @@ its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ = 1 − 1/W at 
 reading, iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
-power-law and linear updates are those of :func:`isl_core.kernels.euler.advance`. The σ-learning filters' memory W counts
-readings: the adaptive and robust estimators forget with λ = max(1/r, 1/W) at the r-th reading, the variational one
-with ρ = 1 − 1/W (:mod:`isl_core.filters.adaptive`).
+power-law and linear updates are those of :func:`isl_core.kernels.euler.advance`. The σ-learning filters' memory W
+counts readings: the adaptive and robust estimators forget with λ = max(1/r, 1/W) at the r-th reading, the variational
+one with ρ = 1 − 1/W (:mod:`isl_core.filters.adaptive`).
 
 Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of
 the reading (:func:`_pr`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for the

@@ -3,9 +3,9 @@
 :func:`average_scenario` runs :func:`isl_core.scenario.run.simulate_scenario` once per seed (the same grid and the
 same clairvoyant variance in every run: only the noise differs) and keeps each run's windowed squared errors and
 σ̂. :meth:`ScenarioAverage.rolling` gives the time-resolved picture, for a window of ``width``/r_min sliding over the
-runs' short windows:
+runs' short windows (:ref:`rolling-ratio`):
 
-    ratio_f,i(t) = √( mean over seeds of the window's mean e_f,i² / the window's mean clairvoyant P_ii )   (:ref:`rolling-ratio`)
+    ratio_f,i(t) = √( mean over seeds of the window's mean e_f,i² / the window's mean clairvoyant P_ii )
 
 at the window's centre t, with a 95 % interval from the seeds' spread (the mean over S independent runs of the
 window's mean square, ± z·s/√S, under the square root: the central limit theorem over seeds; no interval from a
@@ -54,7 +54,7 @@ def margin_low(point: np.ndarray, boot: np.ndarray, level: float = 0.95) -> np.n
     every filter (a paired bootstrap), so what the filters share — the same noise — cancels in the ratio. A bound
     ≤ 1 means the seeds cannot tell the winner from the runner-up: a tie."""
     ranked = np.argsort(point[..., 1:], axis=-1)[..., :2] + 1
-    pair = np.take_along_axis(boot, np.broadcast_to(ranked, boot.shape[:-1] + (2,)), axis=-1)
+    pair = np.take_along_axis(boot, np.broadcast_to(ranked, (*boot.shape[:-1], 2)), axis=-1)
     return np.quantile(pair[..., 1] / pair[..., 0], (1 - level) / 2, axis=0)
 
 
@@ -151,11 +151,11 @@ class ScenarioAverage:
                        sigma_hat, float(edges[k] - edges[0]))
 
     def periods(self, periods=None, *, burn: float = 2.0, level: float = 0.95):
-        """The period statistic (:func:`isl_core.scenario.periods.period_ratios`): every filter's normalized RMSE ratio over
-        ``periods`` (default :func:`isl_core.scenario.periods.scenario_periods` of the run's scenario after ``burn``), pooled
-        over the seeds, with Student's interval over them. Periods should start and end at window edges (plan the
-        runs with :func:`isl_core.scenario.periods.edge_times`, or with windows short enough): a period takes the windows
-        that lie within it."""
+        """The period statistic (:func:`isl_core.scenario.periods.period_ratios`): every filter's normalized RMSE ratio
+        over ``periods`` (default :func:`isl_core.scenario.periods.scenario_periods` of the run's scenario after
+        ``burn``), pooled over the seeds, with Student's interval over them. Periods should start and end at window
+        edges (plan the runs with :func:`isl_core.scenario.periods.edge_times`, or with windows short enough): a period
+        takes the windows that lie within it."""
         from .periods import period_ratios, scenario_periods
 
         run = self.run

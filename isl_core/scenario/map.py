@@ -57,8 +57,9 @@ class WhoWinsMap:
     """``ratio[row, col, f]`` per cell and filter; ``x`` the swept values (columns); ``rows`` the times since the
     step (period starts, 1/r_min) for ``"sigma_step"``, else one row (nan); ``winner[row, col]`` the index in
     ``filters`` of the lowest ratio but the clairvoyant filter's, ``margin`` the runner-up's ratio over it, and
-    ``margin_low`` the margin's lower 95 % bound (paired over the seeds, :func:`isl_core.scenario.periods.paired_margin`); a
-    cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot tell the winner from the runner-up.
+    ``margin_low`` the margin's lower 95 % bound (paired over the seeds,
+    :func:`isl_core.scenario.periods.paired_margin`); a cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot
+    tell the winner from the runner-up.
     ``origin``: where the filters' knobs came from."""
 
     kind: str

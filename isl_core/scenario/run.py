@@ -278,8 +278,8 @@ def plan_scenario(
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
     over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
-    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.scenario.periods`), checked and set up once for any number of
-    seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
+    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.scenario.periods`), checked and set up once for any number
+    of seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
     value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
     errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set
     of runs that must share one grid."""

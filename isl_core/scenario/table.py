@@ -2,13 +2,13 @@
 
 :func:`scenario_table` takes the tuning of :func:`isl_core.scenario.tuning.tune` (one run per preset and seed with every
 variant of every family on the same noise; cached) and reports, per row and cell (preset × period of
-:func:`isl_core.scenario.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates, pooled
-over the seeds, over the clairvoyant filter's exact variance — with Student's interval over the seeds:
+:func:`isl_core.scenario.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates,
+pooled over the seeds, over the clairvoyant filter's exact variance — with Student's interval over the seeds:
 
 * **references** — the clairvoyant filter (knows σ(t); reads 1 up to sampling error: the check of the denominator)
   and the Kalman–Bucy filter optimal for σ(0) (knows σ at the start, learns nothing);
-* **tuned** — each family of :data:`isl_core.scenario.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one tuning
-  rule: the least, over the knob's grid, of the largest ratio over every cell of the table;
+* **tuned** — each family of :data:`isl_core.scenario.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one
+  tuning rule: the least, over the knob's grid, of the largest ratio over every cell of the table;
 * **paper** — paper A's ISL filter at table (A.31)'s ν, the paper's own value (where the table has this α);
 * **oracle-tuned** — each family at the best knob *per preset* (a reference: the tuning one would pick knowing the
   scenario; its knob is given per preset).
@@ -147,7 +147,8 @@ def scenario_table(
     cache: bool = True,
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
-    tuning of :func:`isl_core.scenario.tuning.tune` with these arguments (cached), then :func:`table_from` at ``level``."""
+    tuning of :func:`isl_core.scenario.tuning.tune` with these arguments (cached), then :func:`table_from` at
+    ``level``."""
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     res = tune(alpha, m=m, w=w, presets=scenarios, seeds=seeds, horizon=horizon, burn=burn, grids=grids,
                workers=workers, progress=progress, cache=cache)

@@ -6,8 +6,8 @@ model-aware one ν (ν/β = 2^ℓ), the adaptive and the variational-Bayes filte
 estimate averages, so the best W depends on c), the IMM filter its switch probability per reading and its number of
 modes (jointly: a denser grid needs less switching to follow a change). On a grid of each knob
 (:class:`TuningGrids`), every variant rides in **one** scenario run per preset and seed — common random numbers:
-the same noise for all — and the period statistic of :mod:`isl_core.scenario.periods` is taken per variant and cell (preset ×
-period). A variant's **tuning curve** is its statistic per cell against the knob; the family's knob is
+the same noise for all — and the period statistic of :mod:`isl_core.scenario.periods` is taken per variant and cell
+(preset × period). A variant's **tuning curve** is its statistic per cell against the knob; the family's knob is
 
     θ* = argmin_θ  max_cells ratio_θ(cell)                  (the minimax over the table's scenarios and periods)
 
@@ -124,8 +124,8 @@ class Tuning:
     Filters (``names``, ``family``, ``knobs``): the clairvoyant reference, the Kalman–Bucy filter for σ(0), paper A's
     ISL filter at its table's ν (``family`` "isl_paper"; ν = β where table (A.31) has no value for this α), then every
     variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters) the seeds'
-    contributions (:func:`isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of 1/r_min
-    at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
+    contributions (:func:`isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of
+    1/r_min at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
     """
 
     alpha: float
@@ -303,9 +303,9 @@ def tune(
 ) -> Tuning | None:
     """The tuning of every family over ``presets`` (default the table's, :data:`isl_core.scenario.presets.PRESETS`) for
     paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
-    periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the CPUs).
-    Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) — or,
-    with ``compute`` False, None."""
+    periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the
+    CPUs). Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) —
+    or, with ``compute`` False, None."""
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     m = check_int("m", m, lo=1, hi=6)
     w = check_real("w", w, lo=0.0, lo_open=True)
@@ -313,7 +313,8 @@ def tune(
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     presets = dict(PRESETS if presets is None else presets)
     if not presets or not isinstance(grids, TuningGrids):
-        raise ValueError("presets must name at least one scenario and grids must be an isl_core.scenario.tuning.TuningGrids")
+        raise ValueError("presets must name at least one scenario and grids must be an "
+                         "isl_core.scenario.tuning.TuningGrids")
     key = _key(alpha, m, w, seeds, horizon, burn, presets, grids)
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"tuning-{digest}.npz"

@@ -1,5 +1,6 @@
 """Smoke tests of the core's ``isl`` command line (``python -m isl_core``, small horizons): outputs exist and parse;
-bad input → exit 2, one line. The dashboard's commands (``figure3``, ``serve``, the sweep's figures) are the app's tests."""
+bad input → exit 2, one line. The dashboard's commands (``figure3``, ``serve``, the sweep's figures) are the app's
+tests."""
 from __future__ import annotations
 
 import json

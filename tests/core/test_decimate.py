@@ -89,5 +89,5 @@ def test_block_reducer_refuses_misuse():
     red = MinMax(10_000, 2, 100)
     with pytest.raises(ValueError, match="only 0 of 10000 samples"):
         red.result(0)
-    with pytest.raises(ValueError, match="expected rows 0..9999 of 2 traces"):
+    with pytest.raises(ValueError, match=r"expected rows 0..9999 of 2 traces"):
         red.add(np.zeros((5, 3)))

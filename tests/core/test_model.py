@@ -55,7 +55,7 @@ def test_from_w_rejects_alpha_zero_with_a_clear_message():
 
 
 @pytest.mark.parametrize("name", ["alpha", "beta", "sigma"])
-@pytest.mark.parametrize("value", BAD_REAL + [-1.0, -1e-300])
+@pytest.mark.parametrize("value", [*BAD_REAL, -1.0, -1e-300])
 def test_bad_real_parameters_raise_naming_them(name, value):
     kwargs = {"alpha": 0.5, "beta": 3.0, "sigma": 20.0, "m": 3}
     kwargs[name] = value

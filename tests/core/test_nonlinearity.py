@@ -110,27 +110,27 @@ def test_phi_is_odd_zero_at_zero_and_vectorized():
 
 @pytest.mark.parametrize("p", [-1.0, -2.0, math.nan, math.inf, None, "1", True])
 def test_gamma_rejects_bad_p(p):
-    with pytest.raises(ValueError, match="^p must be a finite number > -1"):
+    with pytest.raises(ValueError, match=r"^p must be a finite number > -1"):
         gamma_abs(p)
 
 
 @pytest.mark.parametrize("nu", [0.0, -1.0, math.nan, math.inf, None, "3", False])
 def test_isl_gains_rejects_bad_nu(nu):
-    with pytest.raises(ValueError, match="^nu must be a finite number > 0"):
+    with pytest.raises(ValueError, match=r"^nu must be a finite number > 0"):
         isl_gains(3, nu)
 
 
 @pytest.mark.parametrize("sigma", [0.0, -1.0, math.nan, None])
 def test_linearization_rejects_bad_sigma(sigma):
-    with pytest.raises(ValueError, match="^sigma must be a finite number > 0"):
+    with pytest.raises(ValueError, match=r"^sigma must be a finite number > 0"):
         linearization(np.ones(2), np.ones(2), sigma)
 
 
 @pytest.mark.parametrize("m", [0, 7, 1.5, None])
 def test_m_validated(m):
-    with pytest.raises(ValueError, match="^m must be an integer"):
+    with pytest.raises(ValueError, match=r"^m must be an integer"):
         isl_exponents(m)
-    with pytest.raises(ValueError, match="^m must be an integer"):
+    with pytest.raises(ValueError, match=r"^m must be an integer"):
         isl_gains(m, 1.0)
 
 

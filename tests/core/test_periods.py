@@ -1,4 +1,5 @@
-"""The period statistic (isl_core.scenario.periods): fixed periods, pooled over seeds; the clairvoyant filter reads 1 on it."""
+"""The period statistic (isl_core.scenario.periods): fixed periods, pooled over seeds; the clairvoyant filter reads 1 on
+it."""
 from __future__ import annotations
 
 import math
@@ -64,7 +65,7 @@ def test_the_statistic_is_the_pooled_mean_square_over_the_clairvoyant_variance_a
 def test_the_clairvoyant_filter_reads_one_within_its_sampling_error_in_every_period(scenario):
     """Its squared error averages to P exactly, so each period's ratio² is an unbiased estimate of 1: within 4.5
     standard errors of the seeds' mean (a chance of ~7e-6 per period to miss), and the 95 % interval is that wide."""
-    periods, avg = _average(scenario, edges=edge_times(scenario_periods(scenario, 8.0), 8.0))
+    _periods, avg = _average(scenario, edges=edge_times(scenario_periods(scenario, 8.0), 8.0))
     stat = avg.periods()
     y = stat.y[:, :, 0]
     se = y.std(axis=0, ddof=1) / math.sqrt(SEEDS)

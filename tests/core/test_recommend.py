@@ -1,4 +1,5 @@
-"""Computed ν recommendation (A.31, :ref:`worst-case`): optimal in theory, no worse than the paper's table in simulation."""
+"""Computed ν recommendation (A.31, :ref:`worst-case`): optimal in theory, no worse than the paper's table in
+simulation."""
 from __future__ import annotations
 
 import math

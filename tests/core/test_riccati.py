@@ -1,4 +1,5 @@
-"""Stationary Kalman–Bucy filter: CARE (A.23), closed form for α = 0 (B.16–B.18), paper values (:ref:`reference-values`)."""
+"""Stationary Kalman–Bucy filter: CARE (A.23), closed form for α = 0 (B.16–B.18), paper values
+(:ref:`reference-values`)."""
 from __future__ import annotations
 
 import math
@@ -113,13 +114,13 @@ def test_results_are_read_only():
 
 @pytest.mark.parametrize("bad", [None, "model", 3, (0.5, 3.0, 20.0, 3)])
 def test_kalman_bucy_rejects_non_models(bad):
-    with pytest.raises(ValueError, match="^model must be an isl_core.Model"):
+    with pytest.raises(ValueError, match=r"^model must be an isl_core.Model"):
         kalman_bucy(bad)
 
 
 @pytest.mark.parametrize("m", [0, 7, 2.5, None, "3", True])
 def test_G_matrix_rejects_bad_m(m):
-    with pytest.raises(ValueError, match="^m must be an integer"):
+    with pytest.raises(ValueError, match=r"^m must be an integer"):
         G_matrix(m)
 
 

@@ -14,7 +14,8 @@ FIG3 = Model(0.5, 3.0, 20.0, 3)
 
 
 @pytest.mark.parametrize("model, horizon, points", [(FIG3, 10.0, 2400), (FIG3, 300.0, 400),
-                                                     (Model(0.0, 1.0, 5.0, 6), 40.0, 1000), (Model(1.0, 0.5, 3.0, 1), 50.0, 64)])
+                                                     (Model(0.0, 1.0, 5.0, 6), 40.0, 1000),
+                                                     (Model(1.0, 0.5, 3.0, 1), 50.0, 64)])
 def test_the_view_is_the_simulated_run_decimated(model, horizon, points):
     extra = [adaptive_kbf(model, sigma_range=(1.0, 30.0), memory=100)]
     run = simulate(model, 0.7 * model.beta, horizon=horizon, seed=5, extra=extra)
@@ -56,5 +57,5 @@ def test_the_optimal_filter_keeps_the_signal_in_its_tube_as_theory_says():
     """Over a long run the signal spends 99.73 % of the time inside X̂ ± 3 s (a Gaussian error of sd s_i), up to
     sampling: the count of steps outside is ~ N·0.27 % with correlated steps; ±0.25 % covers it at 5000/r_min."""
     view = simulate_view(FIG3, 3.0, horizon=5000.0, seed=2)
-    assert TUBE_THEORY == pytest.approx(0.9973, abs=1e-4)
+    assert pytest.approx(0.9973, abs=1e-4) == TUBE_THEORY
     np.testing.assert_allclose(view.tracks[0].inside, TUBE_THEORY, atol=0.0025)

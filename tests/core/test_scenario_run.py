@@ -1,4 +1,5 @@
-"""Scenario runs (isl_core.scenario.run, isl_core.kernels.scenario): an independent loop, today's runs, the reference."""
+"""Scenario runs (isl_core.scenario.run, isl_core.kernels.scenario): an independent loop, today's runs, the
+reference."""
 from __future__ import annotations
 
 import math

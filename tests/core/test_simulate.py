@@ -66,9 +66,9 @@ def test_run_layout_and_empirical_rmse():
     run = simulate(FIG3, 3.0, seed=3)
     kb = kalman_bucy(FIG3)
     specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, 3.0)]
-    assert run.T == pytest.approx(10.0 / kb.r_min, rel=EPS) and run.r_min == kb.r_min  # T = 10/r_min (Fig. 3)
+    assert pytest.approx(10.0 / kb.r_min, rel=EPS) == run.T and run.r_min == kb.r_min  # T = 10/r_min (Fig. 3)
     assert run.h <= step_size(FIG3, kb, specs) and run.N * run.h == pytest.approx(run.T, rel=4 * EPS)
-    assert run.N == math.ceil(run.T / step_size(FIG3, kb, specs) - 1e-9)
+    assert math.ceil(run.T / step_size(FIG3, kb, specs) - 1e-9) == run.N
     assert run.t.shape == (run.N + 1,) and run.t[0] == 0.0 and run.t[-1] == pytest.approx(run.T, rel=4 * EPS)
     assert run.X.shape == run.X_hat.shape == run.X_check.shape == (run.N + 1, 3)
     np.testing.assert_array_equal(run.X[0, :2], 0.0)  # the truth starts at 0 except X_m ~ N(0, β²/2α)
@@ -196,18 +196,19 @@ def test_a_slower_isl_filter_lengthens_the_run():
     """T = horizon/r with r the slower of the optimal and the ISL filter's settling rates (B.46), if > 10 % slower."""
     kb = kalman_bucy(FIG3)
     fig3 = simulate(FIG3, 3.0, seed=1)
-    assert fig3.stretch == 1.0 and fig3.T == pytest.approx(10.0 / kb.r_min, rel=EPS)  # paper A, Fig. 3
+    assert fig3.stretch == 1.0 and pytest.approx(10.0 / kb.r_min, rel=EPS) == fig3.T  # paper A, Fig. 3
     slow_nu = 3.0 / 64
     lam = np.linalg.eigvals(linearized_matrix(FIG3, isl_filter(FIG3, slow_nu)))
     run = simulate(FIG3, slow_nu, seed=1, horizon=10.0)
     assert run.stretch == pytest.approx(kb.r_min / np.min(-lam.real), rel=1e-12) and run.stretch > 3.0
-    assert run.T == pytest.approx(10.0 * run.stretch / kb.r_min, rel=4 * EPS)
+    assert pytest.approx(10.0 * run.stretch / kb.r_min, rel=4 * EPS) == run.T
     assert run.horizon == pytest.approx(10.0 * run.stretch)
 
 
 def test_errors_keep_their_digits_whatever_the_signal_size():
-    """:ref:`error-coordinates`: the errors depend on X only through X_m (and not at all where α = a_f): the same noise with a signal
-    shifted by 10¹⁵ gives the same errors, bit for bit — where X − Z computed from states would keep no digit."""
+    """:ref:`error-coordinates`: the errors depend on X only through X_m (and not at all where α = a_f): the same noise
+    with a signal shifted by 10¹⁵ gives the same errors, bit for bit — where X − Z computed from states would keep no
+    digit."""
     model = Model(0.0, 1.0, 20.0, 6)
     kb = kalman_bucy(model)
     specs = [optimal_kbf(model, kb), isl_filter(model, 1.0)]

@@ -1,4 +1,5 @@
-"""Sweeps (:ref:`empirical-rmse`): optimal filter at its own RMSE, theory alongside, and reproducibility across executors."""
+"""Sweeps (:ref:`empirical-rmse`): optimal filter at its own RMSE, theory alongside, and reproducibility across
+executors."""
 from __future__ import annotations
 
 import concurrent.futures as cf

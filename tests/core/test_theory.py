@@ -1,4 +1,5 @@
-"""Statistical-linearization theory (B.40–B.52, :ref:`theory`, :ref:`mismatched-kbf`): closed forms, residuals, and simulation."""
+"""Statistical-linearization theory (B.40–B.52, :ref:`theory`, :ref:`mismatched-kbf`): closed forms, residuals, and
+simulation."""
 from __future__ import annotations
 
 import math
@@ -141,7 +142,7 @@ def test_grid_matches_pointwise():
     nus = model.beta * 2.0 ** np.arange(-8, 3)
     grid = predicted_ratios_grid(model, nus)
     assert grid.shape == (len(nus), 3)
-    for row, nu in zip(grid, nus):
+    for row, nu in zip(grid, nus, strict=False):
         assert np.allclose(row, predicted_ratios(model, nu), rtol=1e-12)
 
 

@@ -1,4 +1,5 @@
-"""One tuning rule for every family (isl_core.scenario.tuning): the minimax of the period statistic, on common noise, cached."""
+"""One tuning rule for every family (isl_core.scenario.tuning): the minimax of the period statistic, on common noise,
+cached."""
 from __future__ import annotations
 
 import numpy as np
@@ -58,7 +59,7 @@ def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tunin
     avg = average_scenario(model, model.beta * 0.2, scenario, seeds=range(6), horizon=5.0,
                            edges=edge_times(periods, 5.0), extra=[tuning.filter(j, model) for j in chosen],
                            grid_filters=every)
-    assert avg.run.N == tuning.steps[0]
+    assert tuning.steps[0] == avg.run.N
     y = per_seed(avg.mse, avg.run, periods)
     np.testing.assert_allclose(y[:, :, 3:], tuning.y[:, :3, chosen], rtol=1e-12)
 

@@ -64,7 +64,8 @@ def test_registry_rejects_bad_input(kwargs, pattern):
 
 
 def test_theory_per_filter():
-    """Fixed gains: the mismatched-gain Lyapunov equation (:ref:`mismatched-kbf`); oracle 1; adaptive: no theory (nan)."""
+    """Fixed gains: the mismatched-gain Lyapunov equation (:ref:`mismatched-kbf`); oracle 1; adaptive: no theory
+    (nan)."""
     specs = {s.name: s for s in baseline_filters(FIG3, nu=3.0, sigma_design=5.0)}
     np.testing.assert_allclose(theory_ratios(FIG3, specs["kbf"]), 1.0, rtol=1e-9)
     np.testing.assert_allclose(theory_ratios(FIG3, specs["kbf_mismatched"]), mismatched_kbf_ratios(FIG3, 5.0),

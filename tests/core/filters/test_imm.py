@@ -1,4 +1,5 @@
-"""The interacting-multiple-model filter (isl_core.filters.imm) against a plain implementation of Blom & Bar-Shalom's cycle."""
+"""The interacting-multiple-model filter (isl_core.filters.imm) against a plain implementation of Blom & Bar-Shalom's
+cycle."""
 from __future__ import annotations
 
 import math
@@ -11,7 +12,6 @@ from isl_core import Model, Scenario, kalman_bucy, simulate, simulate_scenario
 from isl_core._engine import draw_start
 from isl_core.filters.imm import imm_kbf
 from isl_core.kernels.draws import DRAWS, draw_ahead
-from isl_core.noise import LAWS, law_table
 from isl_core.scenario import sigma_path
 
 MODEL = Model.from_w(1.0, 3.0, 20.0, 3)

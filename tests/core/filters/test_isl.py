@@ -33,7 +33,8 @@ def test_model_aware_isl_at_alpha0_is_the_paper_filter_bit_for_bit():
 
 @pytest.mark.parametrize("alpha, sigma", [(1.0, 20.0), (5.0, 2.0), (0.2, 200.0)])
 def test_model_aware_isl_theory_matches_simulation_near_its_best_nu(alpha, sigma):
-    """:ref:`linearized-covariance` with A in place of A0 (no X_m coupling): within the interval + 5 % at the predicted best ν."""
+    """:ref:`linearized-covariance` with A in place of A0 (no X_m coupling): within the interval + 5 % at the predicted
+    best ν."""
     model = Model.from_w(alpha, 3.0, sigma, 3)
     nus = model.beta * 2.0 ** np.arange(-9.0, 3.0, 0.25)
     pred = predicted_ratios_grid(model, nus, damp=alpha)

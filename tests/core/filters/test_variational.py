@@ -1,4 +1,5 @@
-"""The variational-Bayes adaptive Kalman filter: the compiled loop equals Särkkä & Nummenmaa's Algorithm 1 written out."""
+"""The variational-Bayes adaptive Kalman filter: the compiled loop equals Särkkä & Nummenmaa's Algorithm 1 written
+out."""
 from __future__ import annotations
 
 import math
@@ -62,7 +63,7 @@ def _vb_loop(model, spec, scenario, h, n, seed, q):
 @pytest.mark.parametrize("scenario", [Scenario(sigma_knots=((0.2, 2.0),)), Scenario(sensor_interval=0.03)])
 def test_the_compiled_variational_filter_equals_the_papers_algorithm(scenario, before):
     spec = variational_kbf(MODEL, sigma_init=60.0, memory=200.0)
-    extra = [adaptive_kbf(MODEL), robust_kbf(MODEL)][:before] + [spec]
+    extra = [*[adaptive_kbf(MODEL), robust_kbf(MODEL)][:before], spec]
     run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=9, extra=extra)
     sq = _vb_loop(MODEL, spec, scenario, run.h, run.N, 9, run.q)
     got = np.tensordot(run.steps.astype(float), run.mse, axes=1)[3 + before]

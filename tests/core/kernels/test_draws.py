@@ -1,4 +1,5 @@
-"""The noise laws as the compiled loops draw them (isl_core.kernels.draws): variances, the t law's tails, the outliers' steps."""
+"""The noise laws as the compiled loops draw them (isl_core.kernels.draws): variances, the t law's tails, the outliers'
+steps."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,5 @@
-"""The compiled Euler loop (isl_core.kernels.euler) against the plain-numpy reference (same noise), batching, chunking."""
+"""The compiled Euler loop (isl_core.kernels.euler) against the plain-numpy reference (same noise), batching,
+chunking."""
 from __future__ import annotations
 
 import itertools

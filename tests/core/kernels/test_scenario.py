@@ -1,4 +1,5 @@
-"""The compiled scenario loop (isl_core.kernels.scenario) against the same step written out in numpy, one filter at a time."""
+"""The compiled scenario loop (isl_core.kernels.scenario) against the same step written out in numpy, one filter at a
+time."""
 from __future__ import annotations
 
 import math
@@ -11,7 +12,6 @@ from isl_core._engine import draw_start, pack
 from isl_core.filters.base import FilterSpec
 from isl_core.filters.robust import huber_kappa, robust_kbf
 from isl_core.kernels.draws import DRAWS, draw_ahead
-from isl_core.noise import LAWS, law_table
 from isl_core.scenario import Scenario, clairvoyant, sigma_path
 from isl_core.scenario.run import simulate_scenario
 
@@ -33,7 +33,7 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     rng = np.random.default_rng(seed)
     x, e0 = draw_start(model, kb, rng, "stationary")
     e = np.tile(e0, (len(filters), 1))
-    table, ad = pack(model, filters, scenario=True)[3:]
+    _table, ad = pack(model, filters, scenario=True)[3:]
     sig = sigma_path(scenario, model, kb.r_min, h, n)
     acc = np.zeros(len(filters))
     sq = np.zeros((len(filters), model.m))
