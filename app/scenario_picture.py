@@ -10,7 +10,7 @@ after it) and returns, beside the runs:
   window, so it lies above 1 by its noise even for the reference (the plot says so);
 * each filter's **tuning** and where it came from. The filters that do not know σ(t) — the model-aware ISL filter,
   the adaptive, variational-Bayes, robust and IMM filters, and paper A's ISL filter at its tuned ν — take the knobs
-  of :func:`isl_core.tuning.tune` for the page's α, m and w when that tuning is cached (the minimax of the period
+  of :func:`isl_core.scenario.tuning.tune` for the page's α, m and w when that tuning is cached (the minimax of the period
   statistic over the scenario table's presets, the same rule for every family), and run on the tuning's grid so that
   a memory of W readings spans what it spanned there. Without it they run at their constructors' defaults, and say
   "untuned". The page's own ISL filter runs at the ν input, as everywhere on the page.
@@ -35,14 +35,14 @@ from isl_core import (
     robust_kbf,
     variational_kbf,
 )
-from isl_core.baselines import model_aware_isl
-from isl_core.cost import filter_costs
+from isl_core.filters.isl import model_aware_isl
+from isl_core.scenario.cost import filter_costs
 from isl_core.filters import FilterSpec
-from isl_core.imm import imm_kbf
-from isl_core.periods import PeriodRatios
-from isl_core.scenario_run import scenario_grid
-from isl_core.scenario_table import knob_text
-from isl_core.tuning import FAMILIES, Tuning, tune
+from isl_core.filters.imm import imm_kbf
+from isl_core.scenario.periods import PeriodRatios
+from isl_core.scenario.run import scenario_grid
+from isl_core.scenario.table import knob_text
+from isl_core.scenario.tuning import FAMILIES, Tuning, tune
 
 from .text import R_MIN, powers
 
@@ -95,7 +95,7 @@ class Picture:
 
 def tuning_for(req: ScenarioRequest) -> Tuning | None:
     """The cached tuning of paper A's model with the page's α, m and w = β/√(2α) (A.25), or None (α = 0, or not
-    tuned yet: :func:`isl_core.tuning.tune` computes it, ≈ 2 min on two cores)."""
+    tuned yet: :func:`isl_core.scenario.tuning.tune` computes it, ≈ 2 min on two cores)."""
     if req.alpha <= 0.0:
         return None
     return tune(req.alpha, m=req.m, w=req.beta / math.sqrt(2.0 * req.alpha), compute=False)
@@ -155,7 +155,7 @@ _COSTS: dict[tuple, dict[str, float]] = {}  #: measured costs by (m, the filters
 
 
 def costs(pic: Picture) -> dict[str, float]:
-    """ns a step of each filter of the picture beside the loop's own three (:func:`isl_core.cost.filter_costs`: the
+    """ns a step of each filter of the picture beside the loop's own three (:func:`isl_core.scenario.cost.filter_costs`: the
     least of three runs), measured once per server for each set of filters (a step's cost does not depend on σ); the
     loop's three (:data:`LOOP`) run together and cost its base, under the key ``"loop"``."""
     key = (pic.request.m, tuple(s.label for s in pic.filters))

@@ -25,9 +25,10 @@ import tracemalloc
 import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate, simulate_rmse, step_size
+from isl_core._engine import draw_start, pack
 from isl_core.kernels import advance
+from isl_core.kernels.bundles import Batches, Grid, Trajectory
 from isl_core.reference import reference_trajectories
-from isl_core.simulate import _pack, _start
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)  # paper A, Fig. 3 (σ = 20)
 NU = 3.0
@@ -42,14 +43,14 @@ def _setup():
 def kernel_ns_per_step(n: int) -> float:
     """One call of the compiled kernel over n steps (no trajectories stored), ns per step."""
     specs, h = _setup()
-    packed = _pack(FIG3, specs)
+    packed = pack(FIG3, specs)
     rng = np.random.default_rng(1)
-    x, e0 = _start(FIG3, kalman_bucy(FIG3), rng, "stationary")
+    x, e0 = draw_start(FIG3, kalman_bucy(FIG3), rng, "stationary")
     e = np.tile(e0, (2, 1))
     sq = np.zeros((1, 2, 3))
     t0 = time.perf_counter()
-    advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *packed, 0, 0, n, sq, np.empty((1, 0)),
-            np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)), False, 0)
+    advance(x, e, rng, n, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, packed, Batches(0, n, sq, np.empty((1, 0))),
+            Trajectory.none(2, 0, 3))
     return (time.perf_counter() - t0) / n * 1e9
 
 

@@ -1,4 +1,4 @@
-"""Each filter's cost per step in the scenario loop (isl_core.cost.filter_costs), and the IMM filter's per mode.
+"""Each filter's cost per step in the scenario loop (isl_core.scenario.cost.filter_costs), and the IMM filter's per mode.
 
     PYTHONPATH=. python benchmarks/bench_filter_cost.py [--repeats 7] [--horizon 200] [--save now.json]
                                                        [--compare before.json]
@@ -19,7 +19,7 @@ import os
 from pathlib import Path
 
 from isl_core import Model, filter_costs, imm_kbf
-from isl_core.tuning import FAMILIES, family_filter, tune
+from isl_core.scenario.tuning import FAMILIES, family_filter, tune
 
 KNOBS = {"isl": {"ell": -4.0}, "isl_model": {"ell": -4.0}, "kbf_adaptive": {"memory": 10.0}, "vb": {"memory": 10.0},
          "kbf_robust": {"c": 2.0, "memory": 10.0}, "imm": {"switch": 0.01, "modes": 16}}

@@ -9,7 +9,7 @@ then advance m = 3, truth + Kalman–Bucy + ISL (paper A, Fig. 3, σ = 20) by ``
 times, and the current kernel with an adaptive Kalman–Bucy filter added (the cost of that filter alone).
 
 The default base, 44a0182, is the last kernel that integrated the truth and the estimates in state coordinates
-(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (SPEC §8; arguments
+(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (:ref:`error-coordinates`; arguments
 ``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run mode),
 which is where the current kernel advances only X_m of the truth.
 """
@@ -29,9 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, step_size
-from isl_core.adaptive import adaptive_kbf
+from isl_core._engine import draw_start, initial_state, pack
+from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.kernels import advance
-from isl_core.simulate import _pack, _start, initial_state
+from isl_core.kernels.bundles import Batches, Grid, Trajectory
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,13 +58,12 @@ def _specs(adaptive: bool):
 def run_current(n: int, adaptive: bool = False) -> float:
     specs, h = _specs(adaptive)
     rng = np.random.default_rng(1)
-    x, e0 = _start(FIG3, kalman_bucy(FIG3), rng, "stationary")
+    x, e0 = draw_start(FIG3, kalman_bucy(FIG3), rng, "stationary")
     e = np.tile(e0, (len(specs), 1))
     na = int(adaptive)
     t0 = time.thread_time()
-    advance(x, e, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *_pack(FIG3, specs), 0, 0, n,
-            np.zeros((1, len(specs), 3)), np.zeros((1, na)), np.empty((1, 3)), np.empty((len(specs), 1, 3)),
-            np.empty((na, 1)), False, 0)
+    advance(x, e, rng, n, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, pack(FIG3, specs),
+            Batches(0, n, np.zeros((1, len(specs), 3)), np.zeros((1, na))), Trajectory.none(len(specs), na, 3))
     return (time.thread_time() - t0) / n * 1e9
 
 
@@ -76,7 +76,7 @@ def run_base(base, n: int) -> float:
     params = inspect.signature(base.py_func).parameters
     t0 = time.thread_time()
     if "kind" in params:
-        base(x, z, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *_pack(FIG3, specs), 0, 0, n, np.zeros((1, 2, 3)),
+        base(x, z, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *pack(FIG3, specs), 0, 0, n, np.zeros((1, 2, 3)),
              np.zeros((1, 0)), np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)), False)
     else:
         damp = np.array([f.damp for f in specs])

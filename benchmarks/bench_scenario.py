@@ -3,7 +3,7 @@
     PYTHONPATH=. python benchmarks/bench_scenario.py [--steps 1000000] [--repeats 5] [--before CHECKOUT]
 
 "Today's run" is :func:`isl_core.simulate_rmse` of the Kalman–Bucy and ISL filters (squared errors only, no
-trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scenario_run.simulate_scenario` with the
+trajectories) on paper A's Fig. 3 model; a scenario run is :func:`isl_core.scenario.run.simulate_scenario` with the
 same two filters plus the clairvoyant one it always carries, over the same number of steps, for the constant
 Gaussian scenario, a σ step 20 → 2, Student-t noise (d = 3), 1 % outliers × 30 and a sensor read every 0.1/r_min.
 Its time includes the clairvoyant filter and its Riccati recursion, run in line at every step (settled, at no cost,
@@ -32,9 +32,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, step_size
-from isl_core.scenario import Scenario
-from isl_core.scenario_run import simulate_scenario
+from isl_core import Model, Scenario, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse, simulate_scenario, step_size
 
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 NU = 3.0
@@ -75,35 +73,35 @@ def scenario_ns(scenario: Scenario, horizon: float) -> tuple[float, int]:
 
 def loops_ns(n: int) -> tuple[float, float]:
     """ns/step of today's kernel and of the scenario kernel on the same two filters (KBF, ISL), same noise."""
-    from isl_core.imm import imm_state
-    from isl_core.kernels import advance
+    from isl_core._engine import draw_start, pack
+    from isl_core.kernels.bundles import Batches, FilterState, Grid, NoiseLaw, Observation, Trajectory, Windows
+    from isl_core.kernels.clairvoyant import clairvoyant_state
+    from isl_core.kernels.euler import advance
+    from isl_core.kernels.imm import imm_state
+    from isl_core.kernels.scenario import advance_scenario
     from isl_core.noise import LAW_GAUSSIAN, law_table
-    from isl_core.scenario import clairvoyant_state
-    from isl_core.scenario_kernel import advance_scenario
-    from isl_core.simulate import _pack, _start
 
     kb = kalman_bucy(FIG3)
     specs = [optimal_kbf(FIG3, kb), isl_filter(FIG3, NU)]
     h = step_size(FIG3, kb, specs)
-    damp, coef, kind, table, ad = _pack(FIG3, specs)
+    bank = pack(FIG3, specs)
     out = []
     for scenario, steps in ((False, 10), (True, 10), (False, n), (True, n)):  # first load both kernels: not timed
         rng = np.random.default_rng(1)
-        x, e0 = _start(FIG3, kb, rng, "stationary")
+        x, e0 = draw_start(FIG3, kb, rng, "stationary")
         e = np.tile(e0, (2, 1))
         t0 = time.perf_counter()
         if scenario:
-            clair = (*clairvoyant_state(np.array(kb.delta, dtype=float), 1), 1.0)
-            advance_scenario(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, np.full(1, FIG3.sigma), LAW_GAUSSIAN,
-                             3.0, law_table("gaussian", 3.0), 0.0, 1.0, 1, damp, coef, kind, table, ad.copy(), clair,
-                             np.zeros(2), 0, np.array([0, steps]),
-                             np.zeros((1, 2, 3)), np.zeros((1, 0)), np.zeros((1, 4)), np.zeros((2, 3, 3)),
-                             np.zeros((2, 2)), np.zeros((2, 2)), np.full(2, -1), imm_state(specs, 3, 1, h))
+            clair = clairvoyant_state(np.array(kb.delta, dtype=float), 1)
+            law = NoiseLaw(LAW_GAUSSIAN, 3.0, law_table("gaussian", 3.0), 0.0, 1.0, 1.0)
+            advance_scenario(x, e, rng, steps, 0, Grid(h, FIG3.alpha, FIG3.beta),
+                             Observation(np.full(1, FIG3.sigma), law, 1), bank._replace(ad=bank.ad.copy()),
+                             FilterState(np.zeros(2), np.full(2, -1), np.zeros((2, 3, 3)), np.zeros((2, 2)),
+                                         np.zeros((2, 2))), clair, imm_state(specs, 3, 1, h),
+                             Windows(np.array([0, steps]), np.zeros((1, 2, 3)), np.zeros((1, 0)), np.zeros((1, 4))))
         else:
-            advance(x, e, rng, steps, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, kind, table, ad.copy(), 0, 0,
-                    steps,
-                    np.zeros((1, 2, 3)), np.empty((1, 0)), np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)),
-                    False, 0)
+            advance(x, e, rng, steps, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, bank._replace(ad=bank.ad.copy()),
+                    Batches(0, steps, np.zeros((1, 2, 3)), np.empty((1, 0))), Trajectory.none(2, 0, 3))
         out.append((time.perf_counter() - t0) / steps * 1e9)
     return out[2], out[3]
 
@@ -120,14 +118,17 @@ def draws_ns(n: int) -> dict[str, float]:
     """ns per draw of ε_k as the loops draw them (isl_core.noise.fill): a normal, a Student-t (d = 3, the ziggurat of
     isl_core.noise), a normal and a uniform (outliers); and NumPy's ``standard_t`` (a normal over the root of a gamma
     draw)."""
-    from isl_core.noise import LAWS, fill, law_table
+    from isl_core.kernels.bundles import NoiseLaw
+    from isl_core.kernels.draws import fill
+    from isl_core.noise import LAWS, law_table
 
     out, eps = {}, np.empty(n)
     for name, law in (("normal", "gaussian"), ("Student-t", "student"), ("outliers", "outliers")):
         tab = law_table(law, 3.0)
-        fill(np.random.default_rng(1), LAWS[law], 3.0, tab, 0.01, 30.0, eps[:10])
+        noise = NoiseLaw(LAWS[law], 3.0, tab, 0.01, 30.0, 1.0)
+        fill(np.random.default_rng(1), noise, eps[:10])
         t0 = time.perf_counter()
-        fill(np.random.default_rng(1), LAWS[law], 3.0, tab, 0.01, 30.0, eps)
+        fill(np.random.default_rng(1), noise, eps)
         out[name] = (time.perf_counter() - t0) / n * 1e9
     _numpy_t(np.random.default_rng(1), 10, 3.0)
     t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""Timings of the theory (SPEC §6) and of the simulated Fig. 2 sweep (paper A). Prints figures; asserts nothing.
+"""Timings of the theory (:ref:`theory`) and of the simulated Fig. 2 sweep (paper A). Prints figures; asserts nothing.
 
     PYTHONPATH=. python benchmarks/bench_theory_sweep.py [--horizon 1000] [--workers 2] [--serial]
 
@@ -6,7 +6,7 @@
    each call, so the CARE is solved too). Target ≤ 1 ms.
 2. The full theory grid of Fig. 2 with 111 ν values: 5 α × 3 σ × 111 ν × 3 coordinates. Target ≤ 1 s.
 3. The simulated Fig. 2 grid: 165 configurations (5 α × 3 σ × 11 ν), horizon 1000/r_min each after the
-   burn-in, one seed, h by the SPEC rule over each group's filters, on a local thread pool. Target ≤ 30 s on
+   burn-in, one seed, h by the :ref:`step-size` rule over each group's filters, on a local thread pool. Target ≤ 30 s on
    2 cores. "ns per configuration-step" = wall time / Σ_groups (steps × ν values of the group).
 """
 from __future__ import annotations
@@ -18,8 +18,8 @@ import time
 import numpy as np
 
 from isl_core import Model, predicted_ratios, predicted_ratios_grid, sweep
+from isl_core.riccati import _solved as _kb
 from isl_core.sweep import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
-from isl_core.theory import _kb
 
 
 def bench_one(reps: int = 2000) -> None:

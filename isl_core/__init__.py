@@ -4,52 +4,145 @@ Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kal
 the ISL filter (A.16–A.18) and a compiled simulator of both on one Euler grid (B.30–B.34).
 Imports numpy, scipy and numba only — never a UI library.
 """
-from .adaptive import adaptive_kbf
-from .baselines import BASELINES, baseline_filters, theory_ratios
-from .filters import AdaptiveGain, FilterSpec, isl_filter, linearized_matrix, optimal_kbf
-from .cost import Costs, filter_costs
+__version__ = "0.2.0"  #: the project's one version string (pyproject.toml reads it; ``isl --version`` prints it)
+
+from .filters import (
+    BASELINES,
+    AdaptiveGain,
+    FilterSpec,
+    adaptive_kbf,
+    baseline_filters,
+    imm_kbf,
+    isl_filter,
+    linearized_matrix,
+    mismatched_kbf,
+    optimal_kbf,
+    robust_kbf,
+    variational_kbf,
+)
 from .grid import RunPlan, run_plan, settling_rate, step_size
-from .imm import imm_kbf
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
 from .recommend import Recommendation, recommend_nu
-from .periods import Period, PeriodRatios, paired_margin, period_ratios, scenario_periods
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
-from .robust import robust_kbf
-from .scenario import Clairvoyant, Scenario, clairvoyant
-from .scenario_map import WhoWinsMap, who_wins_map
-from .scenario_average import Rolling, ScenarioAverage, average_scenario
-from .scenario_run import ScenarioPlan, ScenarioRun, plan_scenario, scenario_grid, simulate_scenario
-from .scenario_table import ScenarioTable, TableRow, scenario_table, table_from
+from .scenario import (
+    FAMILIES,
+    Clairvoyant,
+    Costs,
+    Period,
+    PeriodRatios,
+    Rolling,
+    Scenario,
+    ScenarioAverage,
+    ScenarioPlan,
+    ScenarioRun,
+    ScenarioTable,
+    TableRow,
+    Tuning,
+    TuningGrids,
+    WhoWinsMap,
+    average_scenario,
+    clairvoyant,
+    filter_costs,
+    paired_margin,
+    period_ratios,
+    plan_scenario,
+    scenario_grid,
+    scenario_periods,
+    scenario_table,
+    simulate_scenario,
+    table_from,
+    tune,
+    who_wins_map,
+)
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
-from .tuning import FAMILIES, Tuning, TuningGrids, tune
 from .theory import (
-    mismatched_kbf,
     mismatched_kbf_ratios,
     predicted_covariance,
     predicted_ratios,
     predicted_ratios_grid,
+    theory_ratios,
 )
-from .variational import variational_kbf
 from .worstcase import WorstCaseTable, worst_case
 
 __all__ = [
-    "M_MAX", "Model", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0",
-    "gamma_abs", "isl_exponents", "isl_gains", "linearization", "phi",
-    "FilterSpec", "isl_filter", "linearized_matrix", "optimal_kbf",
-    "DivergenceError", "RmseResult", "Run", "RunPlan", "Track", "run_plan", "settling_rate", "simulate", "simulate_rmse",
-    "step_size",
-    "mismatched_kbf", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
-    "SweepResult", "sweep", "Recommendation", "recommend_nu",
-    "AdaptiveGain", "BASELINES", "adaptive_kbf", "baseline_filters", "theory_ratios", "WorstCaseTable", "worst_case",
-    "Clairvoyant", "Scenario", "ScenarioRun", "ScenarioTable", "WhoWinsMap", "clairvoyant", "robust_kbf",
-    "scenario_table", "simulate_scenario", "variational_kbf", "who_wins_map",
-    "Rolling", "ScenarioAverage", "ScenarioPlan", "average_scenario", "plan_scenario", "scenario_grid",
-    "Costs", "filter_costs", "imm_kbf", "Period", "PeriodRatios", "paired_margin", "period_ratios", "scenario_periods",
-    "TableRow", "table_from", "FAMILIES", "Tuning", "TuningGrids", "tune",
+    "BASELINES",
+    "FAMILIES",
+    "M_MAX",
+    "AdaptiveGain",
+    "Clairvoyant",
+    "Costs",
+    "DivergenceError",
+    "FilterSpec",
+    "G_matrix",
+    "KalmanBucy",
+    "Model",
+    "Period",
+    "PeriodRatios",
+    "Recommendation",
+    "RmseResult",
+    "Rolling",
+    "Run",
+    "RunPlan",
+    "Scenario",
+    "ScenarioAverage",
+    "ScenarioPlan",
+    "ScenarioRun",
+    "ScenarioTable",
+    "SweepResult",
+    "TableRow",
+    "Track",
+    "Tuning",
+    "TuningGrids",
+    "WhoWinsMap",
+    "WorstCaseTable",
+    "__version__",
+    "adaptive_kbf",
+    "average_scenario",
+    "baseline_filters",
+    "care_residual",
+    "clairvoyant",
     "clear_caches",
+    "filter_costs",
+    "gamma_abs",
+    "imm_kbf",
+    "isl_exponents",
+    "isl_filter",
+    "isl_gains",
+    "kalman_bucy",
+    "kalman_bucy_alpha0",
+    "linearization",
+    "linearized_matrix",
+    "mismatched_kbf",
+    "mismatched_kbf_ratios",
+    "optimal_kbf",
+    "paired_margin",
+    "period_ratios",
+    "phi",
+    "plan_scenario",
+    "predicted_covariance",
+    "predicted_ratios",
+    "predicted_ratios_grid",
+    "recommend_nu",
+    "robust_kbf",
+    "run_plan",
+    "scenario_grid",
+    "scenario_periods",
+    "scenario_table",
+    "settling_rate",
+    "simulate",
+    "simulate_rmse",
+    "simulate_scenario",
+    "step_size",
+    "sweep",
+    "table_from",
+    "theory_ratios",
+    "tune",
+    "variational_kbf",
+    "who_wins_map",
+    "worst_case",
 ]
 
 
@@ -57,7 +150,8 @@ def clear_caches() -> None:
     """Forget the core's cached solutions (normalized CAREs, Kalman–Bucy filters, adaptive gain tables, ISL
     moments): each is recomputed when next needed. A server calls it when its sessions have ended, so that what a
     class computed does not stay in memory (and pin the allocator's arenas it lies in)."""
-    from . import adaptive, nonlinearity, riccati
+    from . import nonlinearity, riccati
+    from .filters import adaptive
 
-    for cached in (riccati._normalized_care, riccati._solved, adaptive._table, nonlinearity.gamma_moments):
+    for cached in (riccati.normalized_care, riccati._solved, adaptive._table, nonlinearity.gamma_moments):
         cached.cache_clear()

@@ -103,12 +103,13 @@ class MinMax:
 
     @property
     def state(self) -> tuple[np.ndarray, ...]:
-        """The arrays the compiled :func:`isl_core.kernels.minmax_block` folds chunks into (in place):
-        ``lo_v, lo_i, hi_v, hi_i, ends`` — call :meth:`advanced` after it."""
+        """The arrays the compiled :func:`isl_core.kernels.euler.minmax_block` folds chunks into (in place):
+        ``lo_v, lo_i, hi_v, hi_i, ends`` (with :attr:`size`, its :class:`isl_core.kernels.bundles.Buckets`) — call
+        :meth:`advanced` after it."""
         return self._lo_v, self._lo_i, self._hi_v, self._hi_i, self._ends
 
     def advanced(self, rows: int) -> None:
-        """``rows`` more samples were folded in by :func:`isl_core.kernels.minmax_block`."""
+        """``rows`` more samples were folded in by :func:`isl_core.kernels.euler.minmax_block`."""
         self.seen += rows
 
     def _merge(self, rows: slice, first: np.ndarray, block: np.ndarray) -> None:

@@ -1,4 +1,4 @@
-"""The grid of a simulation: its step size h, its length T and its number of steps N (B.46–B.47, SPEC §4).
+"""The grid of a simulation: its step size h, its length T and its number of steps N (B.46–B.47, :ref:`step-size`).
 
 Step size (B.47): every closed-loop rate must satisfy ``h·|λ| ≪ 1``. We take the fastest rate in play,
 ``max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` with Λ_f the linearized matrix of each filter (B.46), and set
@@ -22,7 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import FilterSpec, isl_filter, linearized_matrix, optimal_kbf
+from .filters.base import FilterSpec, linearized_matrix
+from .filters.isl import isl_filter
+from .filters.kalman import optimal_kbf
 from .model import Model
 from .riccati import KalmanBucy, kalman_bucy
 from .theory import lyapunov
@@ -33,7 +35,7 @@ __all__ = [
     "euler_bias", "grid", "run_plan", "settling_rate", "step_size",
 ]
 
-H_RATE = 0.02  #: h × (fastest rate): the SPEC's margin
+H_RATE = 0.02  #: h × (fastest rate): the margin of :ref:`step-size`
 EULER_BIAS = 0.01  #: largest relative bias the Euler grid may add to the optimal filter's RMSE (exact, see below)
 MAX_STORED_STEPS = 4_000_000  #: cap on N when trajectories are kept (memory 8·(m·(filters + 1) + 1)·N bytes)
 MAX_STEPS = 200_000_000  #: cap on N when only squared errors are accumulated
@@ -54,8 +56,8 @@ def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
 
 
 def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
-    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, SPEC §4), shrunk until the grid
-    biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
+    """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, :ref:`step-size`), shrunk until the
+    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
     rate = max(float(np.max(np.abs(kb.eig))), model.alpha, kb.r_min)
     for spec in filters:
         rate = max(rate, float(np.max(np.abs(np.linalg.eigvals(linearized_matrix(model, spec))))))
@@ -88,10 +90,12 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
 
 def grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: float | None = None):
     """``(T, h, N)`` with ``N·h = T``: ``T`` (default ``default_T``, else 10/r_min), ``h`` by :func:`step_size`."""
-    if T is None:
-        T = 10.0 / kb.r_min if default_T is None else default_T
-    else:
+    if T is not None:
         T = check_real("T", T, lo=0.0, lo_open=True)
+    elif default_T is not None:
+        T = default_T
+    else:
+        T = 10.0 / kb.r_min
     if h is None:
         h = min(step_size(model, kb, filters), T)
     else:

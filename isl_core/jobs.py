@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import FilterSpec
+from .filters.base import FilterSpec
 from .model import Model
 from .rmse import simulate_rmse
 from .simulate import DivergenceError

@@ -1,4 +1,5 @@
-"""The observation noise's laws on the Euler grid, drawn in the compiled loops (SPEC §9, :mod:`isl_core.scenario`).
+"""The observation noise's laws on the Euler grid and their tables (:ref:`noise-laws`, :mod:`isl_core.scenario`); the
+compiled loops draw them (:mod:`isl_core.kernels.draws`).
 
 ``law`` is an int for the loops: :data:`LAW_GAUSSIAN` ε_k ~ N(0, 1); :data:`LAW_STUDENT` √((d − 2)/d)·T_d, Student's t
 with d > 2 degrees of freedom scaled to unit variance; :data:`LAW_OUTLIERS` N(0, 1), times k with probability p.
@@ -19,11 +20,6 @@ method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log
 ``standard_t``'s 42. The scenario run at the Fig. 3 defaults (10⁶ steps, the same benchmark, before its filters ran
 in lanes): Student-t noise 45.4 ns a step, Gaussian 43.7, outliers 44.5 (before the draws were loops of their own per
 law and the outliers geometric: 49.7, 45.9, 48.4); with the lanes, 37.1, 35.2 and 35.4.
-
-The scenario loop draws its noise :data:`DRAWS` steps ahead, in a tight loop of its own (:func:`draw_ahead`), in the
-stream's order v_0, ε_0, v_1, ε_1, … (and the outliers' uniforms where they fall) — the order in which it used to
-draw them at each step, so its runs with Gaussian and Student-t noise are the same bit for bit — and its time loop
-is 4–5 ns a step faster (Gaussian noise: 50.5 → 46.1 ns, fastest of 60).
 """
 from __future__ import annotations
 
@@ -31,16 +27,11 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from numba import njit
 
-from .kernels import CACHE
-
-__all__ = ["DRAWS", "LAWS", "LAW_GAUSSIAN", "LAW_OUTLIERS", "LAW_STUDENT", "draw_ahead", "fill", "law_table",
-           "student_table"]
+__all__ = ["LAWS", "LAW_GAUSSIAN", "LAW_OUTLIERS", "LAW_STUDENT", "LAYERS", "law_table", "student_table"]
 
 LAW_GAUSSIAN, LAW_STUDENT, LAW_OUTLIERS = 0, 1, 2
 LAWS = {"gaussian": LAW_GAUSSIAN, "student": LAW_STUDENT, "outliers": LAW_OUTLIERS}  #: by :attr:`Scenario.noise`
-DRAWS = 256  #: steps whose noise the scenario loop draws at once
 LAYERS = 256  #: of the Student-t ziggurat
 
 
@@ -100,93 +91,3 @@ def law_table(noise: str, dof: float) -> np.ndarray:
     """What the loops need to draw ``noise`` (:data:`LAWS`): the ziggurat of t_d, or an empty table (read-only both,
     so that the loops are compiled once)."""
     return student_table(dof) if noise == "student" else _NO_TABLE
-
-
-@njit(cache=CACHE, nogil=True)
-def _student_slow(rng, tab, d, i, x):
-    """T_d outside a layer's inner part: a draw from the tail beyond r (layer 0), or ``x`` if its wedge test passes
-    (−1 if not)."""
-    p = -(d + 1.0) / 2.0
-    if i == 0:
-        r = tab[1, 0]
-        c = (d + 1.0) * r * r / (d + r * r)  # −d log f / d log x at r: the tangent Pareto envelope's exponent
-        while True:
-            x = r * math.exp(-math.log(1.0 - rng.random()) / (c - 1.0))
-            if rng.random() < math.exp(p * (math.log1p(x * x / d) - math.log1p(r * r / d)) + c * math.log(x / r)):
-                return x
-    if tab[2, i] + rng.random() * (tab[3, i] - tab[2, i]) < math.exp(p * math.log1p(x * x / d)):
-        return x
-    return -1.0
-
-
-@njit(cache=CACHE, nogil=True)
-def _student_retry(rng, tab, d, i, x, bits):
-    """T_d after a draw ``x`` of layer ``i`` fell outside its inner part: the slow path, then new draws until one is
-    accepted (each as in :func:`_draw`)."""
-    while True:
-        x = _student_slow(rng, tab, d, i, x)
-        if x >= 0.0:
-            return x if bits & 1 else -x
-        y = rng.random() * (2.0 * LAYERS)
-        bits = int(y)
-        i = bits >> 1
-        x = (y - bits) * tab[0, i]
-        if x < tab[1, i]:
-            return x if bits & 1 else -x
-
-
-@njit(cache=CACHE, nogil=True)
-def _gap(rng, p, cap):
-    """Steps before the next outlier, P(G ≥ g) = (1 − p)^g: ⌊log U / log(1 − p)⌋ with U uniform on (0, 1]; at most
-    ``cap`` (p = 0: ``cap``)."""
-    if not p > 0.0:
-        return cap
-    return int(min(math.log(1.0 - rng.random()) / math.log1p(-p), float(cap)))
-
-
-@njit(cache=CACHE, nogil=True)
-def _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, with_v):
-    """The next ``count`` ε_k of ``law`` into ``eps``; if ``with_v``, each after a normal v_k into ``vs``.
-
-    A Student-t draw: one uniform gives the layer (8 bits), the sign (1) and the position in the layer; inside the
-    layer's inner part (≈ 98 % of draws) that is T_d, the rest goes to :func:`_student_retry`, out of line. One loop
-    per law, written out: the same draws through an inlined draw function with the retry loop in it cost 10.5–11.5 ns
-    a draw against 5–7 ns (loops of 5·10⁶)."""
-    if law == LAW_STUDENT:
-        scale = math.sqrt((dof - 2.0) / dof)  # unit variance
-        for j in range(count):
-            if with_v:
-                vs[j] = rng.standard_normal()
-            y = rng.random() * (2.0 * LAYERS)
-            bits = int(y)
-            i = bits >> 1
-            x = (y - bits) * tab[0, i]
-            if x >= tab[1, i]:
-                x = _student_retry(rng, tab, dof, i, x, bits)
-            elif not bits & 1:
-                x = -x
-            eps[j] = scale * x
-        return
-    # outliers: the steps between two are geometric, drawn once an outlier (a uniform a step cost 5 ns a step in the
-    # scenario loop); from this call's first step on, afresh: the steps are independent, so the law is the same
-    nxt = _gap(rng, p_out, count) if law == LAW_OUTLIERS else count
-    for j in range(count):
-        if with_v:
-            vs[j] = rng.standard_normal()
-        z = rng.standard_normal()
-        if j == nxt:
-            z *= k_out
-            nxt += 1 + _gap(rng, p_out, count)
-        eps[j] = z
-
-
-@njit(cache=CACHE, nogil=True)
-def draw_ahead(rng, law, dof, tab, p_out, k_out, vs, eps, count):
-    """The next ``count`` steps' v_k (a normal) and ε_k into ``vs`` and ``eps``, drawn v_0, ε_0, v_1, ε_1, …"""
-    _draw(rng, law, dof, tab, p_out, k_out, vs, eps, count, True)
-
-
-@njit(cache=CACHE, nogil=True)
-def fill(rng, law, dof, tab, p_out, k_out, eps):
-    """``eps`` filled with ε_k of ``law`` alone (:meth:`isl_core.scenario.Scenario.draw_noise`)."""
-    _draw(rng, law, dof, tab, p_out, k_out, eps, eps, eps.shape[0], False)

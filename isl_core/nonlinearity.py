@@ -7,7 +7,7 @@ for every σ (B.24); with it the filter's equations (B.25) for i < m and (B.26) 
 m = 3 they are paper B's explicit filter (B.54): c = (2β^{1/3}γ_{4/3}^{-1/2}, 2β^{2/3}γ_{2/3}^{-1/2}, β) at ν = β.
     γ_p    = E|U|^p = 2^{p/2} Γ((p+1)/2) / √π,   U ~ N(0, 1)
 
-For ξ ~ N(0, σ²) the power law has closed-form moments (SPEC §6):
+For ξ ~ N(0, σ²) the power law has closed-form moments (:ref:`linearization`):
 
     L_i  = E[φ_i(ξ) ξ]  = c_i γ_{1+q_i} σ^{1+q_i}                  (B.40)
     Φ_ij = E[φ_i φ_j]   = c_i c_j γ_{q_i+q_j} σ^{q_i+q_j}           (B.43)

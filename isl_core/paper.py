@@ -19,8 +19,17 @@ import math
 from types import MappingProxyType
 
 __all__ = [
-    "A31_NU_OVER_BETA", "FIG2_ALPHAS", "FIG2_NU_OVER_BETA", "FIG2_SIGMAS", "FIG3", "M", "PAPER_A", "PAPER_B",
-    "PAPER_B_FIG2", "W", "a31_nu_over_beta",
+    "A31_NU_OVER_BETA",
+    "FIG2_ALPHAS",
+    "FIG2_NU_OVER_BETA",
+    "FIG2_SIGMAS",
+    "FIG3",
+    "PAPER_A",
+    "PAPER_B",
+    "PAPER_B_FIG2",
+    "M",
+    "W",
+    "a31_nu_over_beta",
 ]
 
 PAPER_A = ("N. A. Kuznetsov, M. V. Lebedev, K. V. Semenikhin. Nonlinear filter of a process with correlated derivative "

@@ -1,13 +1,13 @@
-"""Computed choice of the ISL tuning ν: minimise the worst-case RMSE ratio over a range of σ (A.31, SPEC §5–§6).
+"""Computed choice of the ISL tuning ν: minimise the worst-case RMSE ratio over a range of σ (A.31, :ref:`worst-case`).
 
 Paper A reads a recommended ν/β per α off its Fig. 2 by eye (table A.31). Here
 
     ν* = argmin_ν  max_{σ ∈ sigmas, i = 1..m}  š_i(ν, σ)/s_i(σ)
 
-is found on the statistical-linearization prediction (B.48, SPEC §6): a grid in log₂(ν/β) then a bounded
-scalar refinement around its best point. The answer is then *verified* by simulation (:func:`isl_core.sweep`)
+is found on the statistical-linearization prediction (B.48, :ref:`linearized-covariance`): a grid in log₂(ν/β) then a
+bounded scalar refinement around its best point. The answer is then *verified* by simulation (:func:`isl_core.sweep`)
 and returned with its simulated worst-case ratio and interval. For comparison the best fixed-gain
-Kalman–Bucy filter (designed for one σ̄ ∈ [min σ, max σ], SPEC §7) has its own predicted worst case.
+Kalman–Bucy filter (designed for one σ̄ ∈ [min σ, max σ], :ref:`mismatched-kbf`) has its own predicted worst case.
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ class WorstCase:
 class Recommendation:
     """Recommended ν for one α and its worst-case ratios (over ``sigmas`` and coordinates).
 
-    ``theory_worst`` predicted (SPEC §6); ``simulated_worst`` measured with interval
+    ``theory_worst`` predicted (:ref:`linearized-covariance`); ``simulated_worst`` measured with interval
     ``[simulated_low, simulated_high]`` (the max over σ, i of each bound), nan if not verified;
     ``worst_sigma``, ``worst_i`` where the simulated (else predicted) worst case sits;
     ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case;
@@ -108,7 +108,7 @@ def _search(alpha: float, sigmas, m: int, w: float, model_aware: bool = False) -
 
 def best_fixed_kbf(alpha: float, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0, n: int = 49):
     """Best design σ̄ (log grid of ``n`` points in [min σ, max σ]) of a fixed-gain Kalman–Bucy filter and its
-    predicted worst case ``max_{σ, i}`` ratio (SPEC §7). Returns ``(worst, sigma_design)``."""
+    predicted worst case ``max_{σ, i}`` ratio (:ref:`minimax-kbf`). Returns ``(worst, sigma_design)``."""
     designs = np.geomspace(min(sigmas), max(sigmas), n)
     worst = [max(float(mismatched_kbf_ratios(Model.from_w(alpha, w, s, m), d).max()) for s in sigmas)
              for d in designs]

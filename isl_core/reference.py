@@ -1,9 +1,10 @@
 """A slow, plain-numpy twin of the compiled kernel, written straight from the equations (tests and benchmarks).
 
-Matrix form of SPEC §4 on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors, SPEC §8:
-the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of ``rng.standard_normal((n, 2))``
+Matrix form of :ref:`simulation` on the grid t_k = k·h **in state coordinates** (the kernel integrates the errors,
+:ref:`error-coordinates`: the two agree to rounding while the signal is small), noise rows ``(v_k, ε_k)`` of
+``rng.standard_normal((n, 2))``
 drawn in bulk right after the initial state and the filters' common start error
-(:func:`isl_core.simulate.initial_state`, :func:`isl_core.simulate.initial_error`, ``draw_noise``):
+(``initial_state``, ``initial_error``, ``draw_noise`` of the engine, :mod:`isl_core._engine`):
 
     Y_{k+1} − Y_k = h·C·X_k + σ·√h·ε_k                                      (B.34)
     KBF (linear φ = K):  Ẑ_{k+1} = Ẑ_k + h·A_f·Ẑ_k + K·[Y_{k+1} − Y_k − h·C·Ẑ_k]        (B.30)
@@ -25,11 +26,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .filters import FilterSpec
+from ._engine import draw_noise, initial_error, initial_state
+from .filters.base import FilterSpec
 from .model import Model
 from .nonlinearity import phi
 from .riccati import kalman_bucy
-from .simulate import draw_noise, initial_error, initial_state
 
 __all__ = ["reference_sigma_hat", "reference_trajectories"]
 
@@ -55,13 +56,13 @@ def reference_sigma_hat(
     x = initial_state(model, rng)
     e0 = initial_error(kalman_bucy(model), rng) if start == "stationary" else np.zeros(m)
     noise = draw_noise(rng, n)
-    I, A0, E, C = np.eye(m), model.A0, model.E, model.C
-    truth_step = I + h * model.A  # (B.33)
+    eye, A0, E, C = np.eye(m), model.A0, model.E, model.C
+    truth_step = eye + h * model.A  # (B.33)
     A_f = [A0 - spec.damp * (E @ E.T) for spec in filters]
     X = np.empty((n + 1, m))
     Z = np.zeros((len(filters), n + 1, m))
     X[0] = x
-    Z[:, 0] = x + e0  # every filter starts at X(0) − e₀ (SPEC §4)
+    Z[:, 0] = x + e0  # every filter starts at X(0) − e₀ (:ref:`start`)
     S = np.full((len(filters), n + 1), np.nan)
     var = {}
     for f, spec in enumerate(filters):
@@ -81,7 +82,7 @@ def reference_sigma_hat(
                 S[f, k + 1] = math.sqrt(var[f] / (1.0 + h * gain[0]))
             elif spec.power:  # ISL (A.18)
                 u = dY / sqh - sqh * (C @ z)[0]
-                Z[f, k + 1] = (I + h * A_f[f]) @ z + sqh * phi(u, spec.coef, spec.exponents())
+                Z[f, k + 1] = (eye + h * A_f[f]) @ z + sqh * phi(u, spec.coef, spec.exponents())
             else:  # Kalman–Bucy (B.30)
                 Z[f, k + 1] = z + h * (A_f[f] @ z) + spec.coef * (dY - h * (C @ z)[0])
         X[k + 1] = truth_step @ X[k] + model.beta * E[:, 0] * sqh * v  # (B.33)

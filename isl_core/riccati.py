@@ -37,7 +37,7 @@ from scipy.linalg import solve_continuous_are
 from .model import M_MAX, Model, shift_matrix
 from .validate import check_int
 
-__all__ = ["A_MAX", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0"]
+__all__ = ["A_MAX", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0", "normalized_care"]
 
 A_MAX = 1e5  #: largest normalized damping α/ϱ (ϱ = (β/σ)^{1/m}) solved; see the module docstring
 
@@ -67,7 +67,7 @@ def _hamiltonian_care(a1: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=4096)
-def _normalized_care(m: int, a: float) -> np.ndarray:
+def normalized_care(m: int, a: float) -> np.ndarray:
     """Solution Δ' of ``A'Δ' + Δ'A'ᵀ + EEᵀ − Δ'CᵀCΔ' = 0`` with ``A' = A0 − a EEᵀ`` (A.10 when a = 0).
 
     The normalized CARE is well conditioned, so the eigenvectors of its 2m×2m Hamiltonian give Δ'
@@ -90,7 +90,7 @@ def _normalized_care(m: int, a: float) -> np.ndarray:
 
 
 def _G(m: int) -> np.ndarray:
-    return _normalized_care(m, 0.0)  # (A.10)
+    return normalized_care(m, 0.0)  # (A.10)
 
 
 def G_matrix(m: int) -> np.ndarray:
@@ -149,11 +149,11 @@ def _solved(model: Model) -> KalmanBucy:
     a = model.alpha / rho if rho > 0 else np.inf
     if model.m > 1 and not a <= A_MAX:
         raise ValueError(
-            f"alpha = {model.alpha:g} with beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the normalized "
-            f"damping alpha·(sigma/beta)^(1/m) = {a:.3g} is above {A_MAX:g}, beyond which the Riccati equation (A.23) "
-            "is not solved to 1e-9 here; lower alpha or sigma, or raise beta")
+            f"alpha = {model.alpha:g} with beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the "
+            f"normalized damping alpha·(sigma/beta)^(1/m) = {a:.3g} is above {A_MAX:g}, beyond which the Riccati "
+            "equation (A.23) is not solved to 1e-9 here; lower alpha or sigma, or raise beta")
     scale = rho ** np.arange(1, model.m + 1)
-    delta1 = _normalized_care(model.m, a)
+    delta1 = normalized_care(model.m, a)
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
         delta = model.sigma**2 / rho * scale[:, None] * delta1 * scale[None, :]  # (A.23), normalized form
         closed1 = shift_matrix(model.m)

@@ -1,4 +1,5 @@
-"""Long runs that keep only squared errors (for sweeps and worst cases): :func:`simulate_rmse` (A.30, SPEC §4).
+"""Long runs that keep only squared errors (for sweeps and worst cases): :func:`simulate_rmse` (A.30,
+:ref:`empirical-rmse`).
 
 The same kernel, grid and start as :func:`isl_core.simulate`, without stored trajectories: per-batch sums of the
 squared errors after a burn-in, for batch-means confidence intervals.
@@ -10,11 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .filters import KIND_ADAPTIVE, FilterSpec
+from ._engine import check_progress, check_start, run_chunks
+from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .grid import MAX_STEPS, check_specs, grid
+from .kernels.bundles import Trajectory
 from .model import Model
 from .riccati import kalman_bucy
-from .simulate import _check_progress, _check_start, _loop
 from .validate import check_int, check_real
 
 __all__ = ["RmseResult", "simulate_rmse"]
@@ -73,20 +75,19 @@ def simulate_rmse(
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     filters = check_specs("filters", model, filters, allow_empty=False)
     grid_only = check_specs("step_filters", model, step_filters, allow_empty=True)
-    _check_progress(progress)
+    check_progress(progress)
     seed = check_int("seed", seed, lo=0)
     batches = check_int("batches", batches, lo=1, hi=10_000)
-    start = _check_start(start)
+    start = check_start(start)
     kb = kalman_bucy(model)
     T, h, n = grid(model, kb, [*filters, *grid_only], check_real("T", T, lo=0.0, lo_open=True), h, MAX_STEPS)
     burn_steps = min(int(check_real("burn", burn, lo=0.0, hi=T) / h), n - batches)
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
-    dummy_x, dummy_e = np.empty((1, model.m)), np.empty((len(filters), 1, model.m))
     adaptive = np.array([f.kind == KIND_ADAPTIVE for f in filters])
-    dummy_s = np.empty((int(adaptive.sum()), 1))
-    sq, sig_sum, sig_final = _loop(model, kb, filters, h, n, seed, start=start, burn=burn_steps, batches=batches,
-                                   X_out=dummy_x, E_out=dummy_e, S_out=dummy_s, store=False, progress=progress)
+    sq, sig_sum, sig_final = run_chunks(model, kb, filters, h, n, seed, start=start, burn=burn_steps, batches=batches,
+                                        out=Trajectory.none(len(filters), int(adaptive.sum()), model.m),
+                                        progress=progress)
     counts = np.full(batches, float((n - burn_steps) // batches))
     counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
     sigma_hat = np.full((batches, len(filters)), np.nan)

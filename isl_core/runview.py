@@ -18,13 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._engine import Tracked, check_progress, check_start, freeze, run_chunks
 from .decimate import DISPLAY_POINTS, MinMax
-from .filters import KIND_ADAPTIVE, FilterSpec, optimal_kbf
+from .filters.base import KIND_ADAPTIVE, FilterSpec
+from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
-from .kernels import minmax_block
+from .kernels.bundles import Buckets, Trajectory, Tube
+from .kernels.euler import minmax_block
 from .model import Model
 from .riccati import kalman_bucy
-from .simulate import _check_progress, _check_start, _freeze, _loop, _Tracked
 from .validate import check_int
 
 __all__ = ["DISPLAY_CHUNK", "TUBE_THEORY", "RunView", "Trace", "TrackView", "simulate_view"]
@@ -59,7 +61,7 @@ class TrackView:
 
 
 @dataclass(frozen=True)
-class RunView(_Tracked):
+class RunView(Tracked):
     """A simulated run, decimated for display: ``truth`` (per coordinate), ``tracks`` (Kalman–Bucy, ISL, extras).
 
     The same fields as :class:`isl_core.Run` where they are numbers (``s``, ``r_min``, ``h``, ``T``, ``N``,
@@ -94,14 +96,14 @@ class _Collector:
         self.sigma_sum = np.zeros(na)
 
     def __call__(self, X: np.ndarray, E: np.ndarray, S: np.ndarray) -> None:
-        lo_v, lo_i, hi_v, hi_i, ends = self.reducer.state
-        minmax_block(X, E, S, self.reducer.seen, self.n, self.reducer.size, lo_v, lo_i, hi_v, hi_i, ends,
-                     self.bound, self.inside, self.sigma_sum)  # steps k ≥ 1 counted: the RMSE's k = 1..N
+        buckets = Buckets(self.reducer.size, *self.reducer.state)
+        tube = Tube(self.bound, self.inside, self.sigma_sum)
+        minmax_block(X, E, S, self.reducer.seen, self.n, buckets, tube)  # steps k ≥ 1 counted: the RMSE's k = 1..N
         self.reducer.advanced(len(X))
 
     def trace(self, column: int, h: float) -> Trace:
         idx, val = self.reducer.result(column)
-        return Trace(_freeze(idx * h), _freeze(val))
+        return Trace(freeze(idx * h), freeze(val))
 
 
 def simulate_view(
@@ -123,8 +125,8 @@ def simulate_view(
     plan = run_plan(model, nu, horizon=horizon, T=T, h=h, extra=extra, step_filters=step_filters)
     seed = check_int("seed", seed, lo=0)
     points = check_int("points", points, lo=4, hi=10**6)
-    start = _check_start(start)
-    _check_progress(progress)
+    start = check_start(start)
+    check_progress(progress)
     kb = kalman_bucy(model)
     filters = [optimal_kbf(model, kb), *check_filters(model, nu, extra)]
     m, nf, n = model.m, len(filters), plan.N
@@ -132,9 +134,9 @@ def simulate_view(
     rows = min(DISPLAY_CHUNK, n) + 1
     X, E, S = np.empty((rows, m)), np.empty((nf, rows, m)), np.empty((len(adaptive), rows))
     collect = _Collector(n, m, nf, len(adaptive), np.asarray(kb.s), points)
-    sq, _, _ = _loop(model, kb, filters, plan.h, n, seed, start=start, burn=0, batches=1, X_out=X, E_out=E,
-                     S_out=S, store=True, progress=progress, on_block=collect, chunk=DISPLAY_CHUNK)
-    s = _freeze(np.array(kb.s))
+    sq, _, _ = run_chunks(model, kb, filters, plan.h, n, seed, start=start, burn=0, batches=1,
+                          out=Trajectory(True, 0, X, E, S), progress=progress, on_block=collect, chunk=DISPLAY_CHUNK)
+    s = freeze(np.array(kb.s))
     truth = tuple(collect.trace(i, plan.h) for i in range(m))
     tracks = []
     for f, spec in enumerate(filters):
@@ -145,7 +147,7 @@ def simulate_view(
         if f in adaptive:
             sig = collect.trace(m * (1 + 2 * nf) + adaptive.index(f), plan.h)
             mean = float(collect.sigma_sum[adaptive.index(f)] / n)
-        tracks.append(TrackView(spec.name, spec.label, est, err, _freeze(rmse), _freeze(rmse / s),
-                                _freeze(collect.inside[f] / n), sig, mean))
+        tracks.append(TrackView(spec.name, spec.label, est, err, freeze(rmse), freeze(rmse / s),
+                                freeze(collect.inside[f] / n), sig, mean))
     return RunView(model, float(nu), seed, n, plan.h, plan.T, kb.r_min, s, plan.stretch, start, truth,
                    tuple(tracks), points)

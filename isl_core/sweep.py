@@ -1,4 +1,4 @@
-"""Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, SPEC §5).
+"""Sweeps of the RMSE ratio š_i/s_i over (α, σ, ν) — paper A's Fig. 2 (A.25, A.29–A.30, :ref:`empirical-rmse`).
 
 For every (α, σ) with β = w·√(2α) (A.25) — or one β for every α (``beta=``: any model, α = 0 included) — and every
 seed, ONE long run carries the optimal Kalman–Bucy filter and the ISL filters of all ν together (common random
@@ -9,7 +9,7 @@ kernel releases the GIL), on any ``concurrent.futures.Executor`` or on a ``dask.
 
 Conventions, all documented choices:
 
-* step h of a group: the SPEC §4 rule over all filters of the group (:func:`isl_core.step_size`), so one
+* step h of a group: the :ref:`step-size` rule over all filters of the group (:func:`isl_core.step_size`), so one
   grid serves every ν. Length: ``horizon`` and a burn-in of BURN = 10 are counted in units of the settling time
   of the group's slowest filter (:func:`isl_core.grid.settling_rate`, B.46) — 1/r_min unless a filter settles
   more than 10 % slower (an ISL filter at small ν: up to ≈ 6× at m = 3); then the group's run is lengthened by
@@ -32,8 +32,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .baselines import model_aware_isl
-from .filters import isl_filter, optimal_kbf
+from ._engine import freeze
+from .filters.isl import isl_filter, model_aware_isl
+from .filters.kalman import optimal_kbf
 from .grid import MAX_STEPS, settling_rate, step_size
 from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model
@@ -96,18 +97,6 @@ def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: flo
     return np.sqrt(pooled) / s, np.sqrt(np.maximum(pooled - half, 0.0)) / s, np.sqrt(pooled + half) / s
 
 
-def _freeze(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.flags.writeable = False
-    return a
-
-
-def _frozen_int(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=np.int64)
-    a.flags.writeable = False
-    return a
-
-
 @dataclass(frozen=True)
 class SweepResult:
     """Simulated and predicted ratios on the grid ``alphas × sigmas × nu_over_beta`` (coordinates last).
@@ -115,8 +104,8 @@ class SweepResult:
     ``ratio`` (nα, nσ, nν, m) simulated š_i/s_i (A.30) pooled over seeds and batches, with the interval
     ``[ratio_low, ratio_high]`` at ``level``; nan where a filter diverged. ``kbf_ratio`` (nα, nσ, m) the optimal
     filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
-    statistical-linearization prediction (B.48, SPEC §6). ``s`` (nα, nσ, m) optimal RMSE; ``r_min``, ``h``,
-    ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
+    statistical-linearization prediction (B.48, :ref:`linearized-covariance`). ``s`` (nα, nσ, m) optimal RMSE;
+    ``r_min``, ``h``, ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
     ``BURN·stretch/r_min`` then an average over ``horizon·stretch/r_min``. ``model_aware``: the ISL filter
     propagated with A instead of A0. ``beta``: the one β of every α (a sweep of any model), else None and β follows
     from ``w`` (A.25; ``w`` is nan in a fixed-β sweep).
@@ -182,9 +171,9 @@ class SweepResult:
 def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False, beta=None):
     """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
     shape = (len(alphas), len(sigmas))
-    s, r_min, h, steps = np.empty(shape + (m,)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
+    s, r_min, h, steps = np.empty((*shape, m)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
     stretch = np.empty(shape)
-    theory = np.empty(shape + (len(nob), m))
+    theory = np.empty((*shape, len(nob), m))
     tasks = []
     for a, alpha in enumerate(alphas):
         for b, sigma in enumerate(sigmas):
@@ -242,8 +231,8 @@ def sweep(
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
-    instead of paper A's (A0); its theory is SPEC §6 with A. ``beta``: sweep any model — the same β at every α
-    (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
+    instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β
+    at every α (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
     """
     if beta is None:
         alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
@@ -264,14 +253,14 @@ def sweep(
                                                          model_aware, beta)
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
-    return dataclasses.replace(res, stretch=_freeze(stretch), model_aware=model_aware, beta=beta)
+    return dataclasses.replace(res, stretch=freeze(stretch), model_aware=model_aware, beta=beta)
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
     return SweepResult(
-        _freeze(alphas), _freeze(sigmas), _freeze(nob), m, w, horizon, seeds, batches, level,
-        _freeze(ratio[:, :, 1:]), _freeze(low[:, :, 1:]), _freeze(high[:, :, 1:]),
-        _freeze(ratio[:, :, 0]), _freeze(low[:, :, 0]), _freeze(high[:, :, 0]),
-        _freeze(theory), _freeze(s), _freeze(r_min), _freeze(h), _frozen_int(steps),
+        freeze(alphas), freeze(sigmas), freeze(nob), m, w, horizon, seeds, batches, level,
+        freeze(ratio[:, :, 1:]), freeze(low[:, :, 1:]), freeze(high[:, :, 1:]),
+        freeze(ratio[:, :, 0]), freeze(low[:, :, 0]), freeze(high[:, :, 0]),
+        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64),
     )

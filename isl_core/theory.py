@@ -1,4 +1,4 @@
-"""Statistical-linearization theory of a filter's stationary error (B.40–B.48, SPEC §6).
+"""Statistical-linearization theory of a filter's stationary error (B.40–B.48, :ref:`theory`).
 
 Every filter of :mod:`isl_core.filters` is ``dZ = (A0 − a·EEᵀ) Z dt + φ(innovation)``. Over one Euler step
 the innovation is ``u = −√h·e_1 + σε`` with ``e = Z − X``, and for small h
@@ -22,13 +22,13 @@ equation ``M P + P Mᵀ + Q = 0``. The predicted RMSE of coordinate i is ``√P_
 * a = α (a filter that propagates with the true A: the optimal or a mismatched Kalman–Bucy filter, a
   model-aware ISL filter) — the coupling vanishes and the e-block alone is (B.48):
   ``Λ Δ̌ + Δ̌ Λᵀ + β² EEᵀ + Φ = 0``; for a linear φ = K̄u this is the mismatched-gain equation
-  ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` (SPEC §7).
+  ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` (:ref:`mismatched-kbf`).
 * α = 0, a = 0 (paper B) — the same m×m equation (B.48); m = 1, ν = β gives Δ̌/Q = √(π/2) (B.52).
 * α > 0, a ≠ α (paper A's ISL filter propagates with A0, a = 0) — the full (m+1)-system above.
 * α = 0, a ≠ 0 — X_m is a Brownian motion that the error follows: no stationary error (ratio inf).
 
 When Λ (or M) is not Hurwitz there is no stationary error: the prediction is ``inf``.
-The prediction is accurate near the best ν; it under-predicts badly when the filter loses lock (SPEC §6).
+The prediction is accurate near the best ν; it under-predicts badly when the filter loses lock (:ref:`theory-accuracy`).
 
 Symbols: ``spec.damp`` = a, ``L``, ``Phi`` = Φ, ``lam`` = Λ, ``P`` the (m+1) covariance.
 """
@@ -39,15 +39,17 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .filters import FilterSpec, isl_filter
+from .filters.base import FilterSpec
+from .filters.isl import isl_filter
+from .filters.kalman import mismatched_kbf
 from .model import Model
 from .nonlinearity import gamma_moments
 from .riccati import kalman_bucy
 from .validate import check_real, check_reals, short
 
 __all__ = [
-    "predicted_covariance", "predicted_ratios", "predicted_ratios_grid", "mismatched_kbf",
-    "mismatched_kbf_ratios", "lyapunov",
+    "lyapunov", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
+    "theory_ratios",
 ]
 
 
@@ -64,8 +66,8 @@ def lyapunov(M: np.ndarray, Q: np.ndarray, h: float = 0.0) -> np.ndarray:
     K = np.einsum("...ik,jl->...ijkl", M, eye) + np.einsum("ik,...jl->...ijkl", eye, M)
     if h:
         K = K + h * np.einsum("...ik,...jl->...ijkl", M, M)
-    K = K.reshape(M.shape[:-2] + (n * n, n * n))
-    q = np.broadcast_to(Q, M.shape).reshape(M.shape[:-2] + (n * n, 1))
+    K = K.reshape((*M.shape[:-2], n * n, n * n))
+    q = np.broadcast_to(Q, M.shape).reshape((*M.shape[:-2], n * n, 1))
     P = np.linalg.solve(K, -q).reshape(M.shape)
     return 0.5 * (P + np.swapaxes(P, -1, -2))
 
@@ -91,7 +93,7 @@ def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray, h: f
     """Stationary error covariances (..., m, m) of filters with gains ``coef`` (..., m); inf if none exists."""
     m, alpha, beta, sigma = model.m, model.alpha, model.beta, model.sigma
     L, Phi = _moments(coef, q, sigma)
-    lam = np.broadcast_to(model.A0, L.shape + (m,)).copy()
+    lam = np.broadcast_to(model.A0, (*L.shape, m)).copy()
     lam[..., -1, -1] -= damp
     lam[..., :, 0] -= L / sigma**2  # Λ = A0 − a EEᵀ − σ⁻² L C   (B.46)
     stable = np.all(np.linalg.eigvals(lam).real < 0.0, axis=-1)
@@ -99,8 +101,8 @@ def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray, h: f
     if coupled and alpha == 0.0:
         return np.full(lam.shape, np.inf)
     n = m + 1 if coupled else m
-    M = np.zeros(L.shape[:-1] + (n, n))
-    Q = np.zeros(L.shape[:-1] + (n, n))
+    M = np.zeros((*L.shape[:-1], n, n))
+    Q = np.zeros((*L.shape[:-1], n, n))
     M[..., :m, :m] = lam
     Q[..., :m, :m] = Phi
     Q[..., m - 1, m - 1] += beta**2  # β² EEᵀ + Φ   (B.48)
@@ -123,7 +125,8 @@ def _check_spec(model: Model, spec: FilterSpec) -> None:
 
 
 def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = None) -> np.ndarray:
-    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48, SPEC §6).
+    """Stationary error covariance ``E[(Z − X)(Z − X)ᵀ]`` of filter ``spec`` on ``model`` (B.48,
+    :ref:`linearized-covariance`).
 
     Solves the (m+1)-dimensional Lyapunov equation of the (e, X_m) system in the module docstring
     (m-dimensional (B.48) when ``spec.damp == model.alpha``). All entries are ``inf`` when the linearized
@@ -154,7 +157,7 @@ def _isl_spec(model: Model, nu: float, damp: float | None) -> FilterSpec:
 
 
 def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> np.ndarray:
-    """Predicted RMSE ratios ``š_i/s_i`` (m,) of the ISL filter with tuning ``nu`` (B.48, SPEC §6).
+    """Predicted RMSE ratios ``š_i/s_i`` (m,) of the ISL filter with tuning ``nu`` (B.48, :ref:`linearized-covariance`).
 
     ``damp`` is the filter's propagation damping a: ``None`` (default) is paper A's filter with A0 (a = 0);
     ``damp=model.alpha`` is an ISL filter that propagates with the true A. ``inf`` when unstable.
@@ -175,20 +178,21 @@ def predicted_ratios_grid(model: Model, nus: Sequence[float], *, damp: float | N
     return np.sqrt(np.diagonal(P, axis1=-2, axis2=-1)) / _optimal_s(model)
 
 
-def mismatched_kbf(model: Model, sigma_design: float) -> FilterSpec:
-    """Kalman–Bucy filter whose gain K̄ solves the CARE (A.23) for σ̄ = ``sigma_design`` instead of σ."""
-    sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
-    design = Model(model.alpha, model.beta, sigma_design, model.m)
-    K = np.array(kalman_bucy(design).K, dtype=float)
-    return FilterSpec("kbf_mismatched", f"Kalman–Bucy designed for σ̄ = {sigma_design:.4g}", model.alpha, K, False)
-
-
 def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
-    """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (SPEC §7).
+    """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (:ref:`mismatched-kbf`).
 
     P solves ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` with the true σ; it equals Δ (ratio 1) when σ̄ = σ.
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     spec = mismatched_kbf(model, sigma_design)
+    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
+
+
+def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
+    """Predicted RMSE ratios ``√P_ii / s_i`` (m,) of ``spec`` on ``model`` (table in the module docstring).
+
+    Exact (Lyapunov) for a fixed linear gain, statistical linearization (:ref:`linearization`) for the power law;
+    ``nan`` for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
+    """
     return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)

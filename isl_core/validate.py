@@ -18,7 +18,8 @@ import reprlib
 
 import numpy as np
 
-__all__ = ["check_int", "check_ints", "check_real", "check_reals", "read_int", "read_real", "short"]
+__all__ = ["check_int", "check_ints", "check_real", "check_reals", "check_sigma_range", "read_int", "read_real",
+           "short"]
 
 _REAL = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,4})?", re.ASCII)
 _INT = re.compile(r"[+-]?\d{1,15}", re.ASCII)
@@ -193,3 +194,14 @@ def check_int(name: str, value: object, *, lo: int, hi: int | None = None) -> in
     if n < lo or (hi is not None and n > hi):
         raise ValueError(f"{name} must be {rng}, got {_short(value)}")
     return n
+
+
+def check_sigma_range(sigma_range) -> tuple[float, float]:
+    """``(σ_min, σ_max)`` with 0 < σ_min ≤ σ_max finite, or a ``ValueError`` naming ``sigma_range``."""
+    if not (isinstance(sigma_range, list | tuple | np.ndarray) and len(sigma_range) == 2):
+        raise ValueError(
+            f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {short(sigma_range)}")
+    lo, hi = sigma_range
+    lo = check_real("sigma_range[0]", lo, lo=0.0, lo_open=True)
+    hi = check_real("sigma_range[1]", hi, lo=lo)
+    return lo, hi

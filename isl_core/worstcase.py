@@ -1,4 +1,4 @@
-"""Worst case over an unknown σ: each filter's largest RMSE ratio over a σ range, per α (SPEC §5–§7).
+"""Worst case over an unknown σ: each filter's largest RMSE ratio over a σ range, per α (:ref:`worst-case`).
 
 For a user who knows only that σ lies in ``[σ_min, σ_max]``, the number that matters for a filter is
 
@@ -15,7 +15,7 @@ numbers). Choices, all documented:
 * mismatched KBF: σ̄ = √(σ_min σ_max) unless ``sigma_design`` is given; minimax KBF: σ̄ = σ_max;
   adaptive KBF: its table and start from the same range, memory ``memory`` (readings = steps here).
 * simulation: the sweep machinery of :mod:`isl_core.sweep` — one group per (α, σ, seed) with the step h of
-  the SPEC §4 rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
+  the :ref:`step-size` rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
   group's slowest filter (:func:`isl_core.sweep.group_length`: 1/r_min, or ``stretch``/r_min where a fixed gain
   far from its design σ or an ISL filter settles slower), the group's seed from
   :func:`isl_core.sweep.group_seed` (independent of chunking and executor), batch-means intervals.
@@ -31,17 +31,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive import MEMORY, check_sigma_range
-from .baselines import BASELINES, baseline_filters, check_names, design_sigma, theory_ratios
-from .baselines import LABELS as BASE_LABELS
-from .filters import isl_filter
+from ._engine import freeze
+from .filters.adaptive import MEMORY
+from .filters.baselines import BASELINES, baseline_filters, check_names
+from .filters.baselines import LABELS as BASE_LABELS
+from .filters.isl import isl_filter
+from .filters.kalman import design_sigma
 from .jobs import Task, check_execution, check_sampling, run
 from .model import M_MAX, Model
 from .paper import FIG2_ALPHAS, a31_nu_over_beta
 from .recommend import recommend_nu
 from .riccati import kalman_bucy
 from .sweep import BURN, group_length, group_seed, pooled_ratios
-from .validate import check_int, check_real, check_reals, short
+from .theory import theory_ratios
+from .validate import check_int, check_real, check_reals, check_sigma_range, short
 
 __all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
 
@@ -50,12 +53,6 @@ FILTERS = (*BASELINES[:2], "isl_a31", *BASELINES[2:])
 #: column labels: each filter AND where its tuning comes from
 LABELS = {**BASE_LABELS, "isl": "ISL, minimax ν", "isl_a31": "ISL, ν from table A.31",
           "isl_model": "ISL model-aware, minimax ν"}
-
-
-def _frozen(a, dtype=float) -> np.ndarray:
-    a = np.array(a, dtype=dtype)
-    a.flags.writeable = False
-    return a
 
 
 @dataclass(frozen=True)
@@ -261,6 +258,6 @@ def worst_case(
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
-        _frozen(alphas), _frozen(sigmas), names, m, w, horizon, seeds, batches, level, _frozen(ratio),
-        _frozen(low), _frozen(high), _frozen(theory), _frozen(nu), _frozen(design), _frozen(best[0]),
-        _frozen(best[1]), _frozen(r_min), _frozen(h), _frozen(steps, np.int64), _frozen(stretch))
+        freeze(alphas), freeze(sigmas), names, m, w, horizon, seeds, batches, level, freeze(ratio),
+        freeze(low), freeze(high), freeze(theory), freeze(nu), freeze(design), freeze(best[0]),
+        freeze(best[1]), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch))

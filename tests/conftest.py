@@ -1,17 +1,32 @@
-"""Fixtures shared by the test modules: ``app_server``, the dashboard served as users serve it, once per module."""
+"""Shared by every test folder: the helpers' folder on ``sys.path``, a marker per layer, and the fixtures.
+
+Tests live in folders by layer (``tests/core``, ``tests/app``, ``tests/serving``, ``tests/browser``,
+``tests/deploy``); each test is marked with its folder's layer (:data:`LAYERS`) — ``pytest -m core`` or
+``pytest tests/core`` runs the numerical core alone — and the core's doctests (``isl_core/``) count as ``core``.
+The helpers (``_browser``, ``_serving``, ``_loop``) sit in ``tests/`` and are importable from any folder.
+Fixture: ``app_server``, the dashboard served as users serve it, once per module.
+"""
 from __future__ import annotations
 
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
-from _browser import ROOT, free_port, wait_http
+
+HERE = Path(__file__).resolve().parent
+if str(HERE) not in sys.path:  # the shared helpers, whichever folder a test module sits in
+    sys.path.insert(0, str(HERE))
+
+from _browser import ROOT, free_port, wait_http  # noqa: E402  (after the path above)
+
+LAYERS = ("core", "app", "serving", "browser", "deploy")  #: test folders, each a marker of the same name
 
 
 @pytest.fixture(scope="session", autouse=True)
 def _own_tuning_cache(tmp_path_factory):
-    """No test reads or writes the user's cache of tunings (isl_core.tuning.cache_dir): one of the session's own."""
+    """No test reads or writes the user's cache of tunings (isl_core.scenario.tuning.cache_dir): one of the session's own."""
     old = os.environ.get("ISL_CACHE_DIR")
     os.environ["ISL_CACHE_DIR"] = str(tmp_path_factory.mktemp("isl-cache"))
     yield
@@ -43,8 +58,25 @@ def app_server(tmp_path_factory):
             proc.wait()
 
 
+def layer(path: Path) -> str | None:
+    """The layer of a test at ``path``: its folder under ``tests/`` (:data:`LAYERS`), ``core`` for the core's
+    doctests, None for a test outside the layers' folders."""
+    if path.is_relative_to(ROOT / "isl_core"):
+        return "core"
+    if path.is_relative_to(HERE):
+        parts = path.relative_to(HERE).parts
+        if len(parts) > 1 and parts[0] in LAYERS:
+            return parts[0]
+    return None
+
+
 def pytest_collection_modifyitems(session, config, items) -> None:
-    """Test files with a slow or a browser test run first (each file's own order kept): with the files spread over
-    pytest-xdist's workers (./scripts/test), the long ones then overlap instead of running last, side by side."""
+    """Each test gets the marker of its layer (:func:`layer`). Test files with a slow or a browser test run first
+    (each file's own order kept): with the files spread over pytest-xdist's workers (./scripts/test), the long ones
+    then overlap instead of running last, side by side."""
+    for item in items:
+        name = layer(Path(item.path))
+        if name is not None:
+            item.add_marker(name)
     heavy = {item.path for item in items if item.get_closest_marker("slow") or item.get_closest_marker("browser")}
     items.sort(key=lambda item: item.path not in heavy)

@@ -17,7 +17,7 @@ from app.urlsync import query_string, read_query
 from app.views.scenario import ScenarioView
 from app.views.scenario_tables import SCENARIO_COLORS, map_html, periods_html
 from isl_core import Scenario, average_scenario, plan_scenario, who_wins_map
-from isl_core.scenario_table import PRESETS as TABLE_PRESETS
+from isl_core.scenario.table import PRESETS as TABLE_PRESETS
 
 
 @pytest.fixture
@@ -123,7 +123,7 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     """With a tuning for the page's α, m and w, the filters that do not know σ(t) take its minimax knobs, run on its
     grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point
     and each preset's own best (the oracle reference)."""
-    from isl_core.tuning import TuningGrids, tune
+    from isl_core.scenario.tuning import TuningGrids, tune
 
     grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,),
                         imm_modes=(6,))

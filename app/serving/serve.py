@@ -227,7 +227,7 @@ def warm_core() -> None:
     the interpreter lock most of the time) the event loop's thread waited up to 166 ms for it."""
     from isl_core import Model, Scenario
     from isl_core.runview import simulate_view
-    from isl_core.scenario_run import simulate_scenario
+    from isl_core.scenario.run import simulate_scenario
     model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
     simulate_view(model, 3.0, seed=0, horizon=1.0)
     simulate_scenario(model, 3.0, Scenario(), horizon=1.0, windows=1)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import param
 
-from isl_core.baselines import LABELS
+from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES, SIGMA_BOUNDS, SIGMA_DESIGN, SIGMA_RANGE, check_order
 from .room import Room

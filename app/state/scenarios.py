@@ -10,7 +10,7 @@ input) and computes three things through the core:
   pool of large runs, recomputed when an input changes while the tab is open;
 * **the who-wins map** (:func:`isl_core.who_wins_map` for the page's α, β and m at σ(0) = 20): the session's long job
   (progress, cancel, place in the queue);
-* **the tuning** (:func:`isl_core.tuning.tune` for the page's α, m and w): a long job, then cached, which every
+* **the tuning** (:func:`isl_core.scenario.tuning.tune` for the page's α, m and w): a long job, then cached, which every
   later picture of that model uses.
 """
 from __future__ import annotations
@@ -24,9 +24,9 @@ import param
 from isl_core import Scenario, WhoWinsMap, who_wins_map
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
-from isl_core.scenario_map import MAPS
-from isl_core.scenario_table import PRESETS as TABLE_PRESETS
-from isl_core.tuning import Tuning, tune
+from isl_core.scenario.map import MAPS
+from isl_core.scenario.table import PRESETS as TABLE_PRESETS
+from isl_core.scenario.tuning import Tuning, tune
 
 from ..jobs import LongTask
 from ..scenario_picture import Picture, ScenarioRequest, picture_csv, scenario_picture, tuning_for
@@ -61,7 +61,7 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
             "sc_sensor": scenario.sensor_interval}
 
 
-#: the columns of the scenario table (isl_core.scenario_table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
+#: the columns of the scenario table (isl_core.scenario.table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
 #: ν of table (A.31), as the table runs them
 PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
 
@@ -217,7 +217,7 @@ class ScenarioRoom(Room):
             self.tuning = None
 
     def compute_tuning(self) -> None:
-        """Tune every family for the page's α, m and w (:func:`isl_core.tuning.tune`: ≈ 2 min on two cores, then
+        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: ≈ 2 min on two cores, then
         cached) as the session's long job; the picture and the curves follow it."""
         if self._host.alpha <= 0.0:
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."

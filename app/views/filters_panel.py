@@ -11,7 +11,7 @@ import panel as pn
 import param
 from panel.viewable import Viewer
 
-from isl_core.baselines import LABELS
+from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
 from ..state import PARAMS, AppState

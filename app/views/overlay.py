@@ -15,7 +15,7 @@ from bokeh.core.properties import value
 from bokeh.models import ColumnDataSource, GlyphRenderer, LegendItem
 from bokeh.plotting import figure
 
-from isl_core.baselines import LABELS
+from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
 from .style import EXTRA_COLORS, EXTRA_DASHES, line

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from isl_core.scenario_map import AXIS_LABELS
+from isl_core.scenario.map import AXIS_LABELS
 
 from ..colors import EXTRA_COLORS, ISL, KBF, text_on, tint
 from ..scenario_picture import LOOP

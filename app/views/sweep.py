@@ -18,7 +18,7 @@ from bokeh.plotting import figure
 from panel.viewable import Viewer
 
 from isl_core import M_MAX
-from isl_core.baselines import LABELS
+from isl_core.filters.baselines import LABELS
 
 from ..pipeline import COORDINATES
 from ..state import AppState

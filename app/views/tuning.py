@@ -1,7 +1,7 @@
 """Tuning curves: one family's statistic against its knob, per scenario preset, and the point the rule picks.
 
 Every filter that does not know σ(t) has one knob — the ISL filters' ν, the learners' memory W (in sensor readings),
-the robust filter's c, the IMM's switch probability and grid density — and :func:`isl_core.tuning.tune` sets each by
+the robust filter's c, the IMM's switch probability and grid density — and :func:`isl_core.scenario.tuning.tune` sets each by
 the same rule: the least, over the knob's grid, of the largest period statistic over the scenario table's presets (the
 minimax). A curve here is a family's statistic — the largest over a preset's periods — against its knob, one line per
 preset and a thick one for the largest over all of them, whose lowest point (marked) is the tuned knob. A family with
@@ -20,8 +20,8 @@ from bokeh.models import ColumnDataSource, Legend, LegendItem, Span
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
-from isl_core.scenario_table import knob_text
-from isl_core.tuning import FAMILIES
+from isl_core.scenario.table import knob_text
+from isl_core.scenario.tuning import FAMILIES
 
 from ..state import AppState
 from ..text import R_MIN, powers

@@ -1,0 +1,175 @@
+"""Who wins where, as maps over a scenario's parameter: the filter with the lowest ratio to the clairvoyant one.
+
+:func:`who_wins_map` sweeps one parameter of a scenario (paper A's model with this α, σ(0) = 20, ``seeds``
+independent noises per cell) with the table's filters (:mod:`isl_core.scenario.table`): the clairvoyant reference,
+the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.scenario.tuning.FAMILIES` at its tuned knob — the
+``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else (said in each label and in
+``origin``) the constructors' defaults. Per cell it reports every filter's period statistic
+(:mod:`isl_core.scenario.periods`: the normalized RMSE over the coordinates, pooled over the seeds, over the clairvoyant
+variance), the filter with the lowest one (the clairvoyant filter aside) and its margin over the runner-up, paired
+over the seeds, with a tie where the margin's lower 95 % bound is ≤ 1:
+
+* ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.1 … 10): a
+  two-dimensional map, ratio r × time since the step (periods of ``window``/r_min, the rows);
+* ``"tails"`` — Student-t observation noise with d degrees of freedom, for each d of ``values`` (default 2.5 … 100),
+  σ = 20: the settled period after ``burn`` (one row);
+* ``"sensor"`` — a sensor read every Δ/r_min, for each Δ of ``values`` (default 0 … 0.5), σ = 20: likewise.
+
+Times are in units of 1/r_min of the model at σ(0) = 20. Any model with α > 0 is paper A's for one w: β = w√(2α)
+(A.25), so a model given by its β is mapped with w = β/√(2α).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..filters.adaptive import adaptive_kbf
+from ..filters.imm import imm_kbf
+from ..filters.isl import model_aware_isl
+from ..filters.robust import robust_kbf
+from ..filters.variational import variational_kbf
+from ..model import Model
+from ..paper import M, W
+from ..validate import check_int, check_real, check_reals
+from .average import average_scenario
+from .base import Scenario
+from .periods import Period, edge_times, paired_margin, per_seed
+from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
+
+__all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
+
+SIGMA0 = 20.0
+STEP_AT = 10.0  #: the σ step's time, 1/r_min
+MAPS = {
+    "sigma_step": (0.1, 0.2, 0.5, 2.0, 5.0, 10.0),
+    "tails": (2.5, 3.0, 4.0, 6.0, 10.0, 30.0, 100.0),
+    "sensor": (0.0, 0.02, 0.05, 0.1, 0.2, 0.5),
+}
+AXIS_LABELS = {"sigma_step": "σ after / σ before", "tails": "degrees of freedom d",
+               "sensor": "sensor interval Δ (1/r_min)"}
+
+
+@dataclass(frozen=True)
+class WhoWinsMap:
+    """``ratio[row, col, f]`` per cell and filter; ``x`` the swept values (columns); ``rows`` the times since the
+    step (period starts, 1/r_min) for ``"sigma_step"``, else one row (nan); ``winner[row, col]`` the index in
+    ``filters`` of the lowest ratio but the clairvoyant filter's, ``margin`` the runner-up's ratio over it, and
+    ``margin_low`` the margin's lower 95 % bound (paired over the seeds,
+    :func:`isl_core.scenario.periods.paired_margin`); a cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot
+    tell the winner from the runner-up.
+    ``origin``: where the filters' knobs came from."""
+
+    kind: str
+    alpha: float
+    x: np.ndarray
+    rows: np.ndarray
+    filters: tuple[str, ...]
+    labels: tuple[str, ...]
+    ratio: np.ndarray
+    seeds: int
+    window: float
+    margin_low: np.ndarray
+    model: Model | None = None  #: the model at σ(0) (paper A's with this α, w and m)
+    origin: str = ""
+
+    @property
+    def tie(self) -> np.ndarray:
+        return self.margin_low <= 1.0
+
+    @property
+    def winner(self) -> np.ndarray:
+        return 1 + np.argmin(self.ratio[:, :, 1:], axis=2)
+
+    @property
+    def margin(self) -> np.ndarray:
+        ranked = np.sort(self.ratio[:, :, 1:], axis=2)
+        return ranked[:, :, 1] / ranked[:, :, 0]
+
+
+def _scenario(kind: str, value: float) -> Scenario:
+    if kind == "sigma_step":
+        return Scenario(sigma_knots=((STEP_AT, SIGMA0 * value),))
+    if kind == "tails":
+        return Scenario(noise="student", dof=value)
+    return Scenario(sensor_interval=value)
+
+
+def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | None, untuned: bool = False):
+    """(ν, the ISL filter's label, the other families' filters, origin) for a map: every family at the knob of
+    ``tuning`` (else the cached one for α, m, w at the table's defaults; else, or with ``untuned``, the constructors'
+    defaults, said)."""
+    if tuning is None and not untuned:
+        tuning = tune(alpha, m=m, w=w, compute=False)
+    if tuning is not None:
+        specs = tuning.tuned_filters(model)
+        nu = model.beta * 2.0 ** tuning.knobs[tuning.minimax("isl")]["ell"]
+        return nu, specs[0].label, specs[1:], f"tuned: {tuning.origin}"
+    nu, label = paper_nu(model, alpha, m, w)
+    guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
+    extra = [model_aware_isl(model, nu), adaptive_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
+             variational_kbf(model, sigma_init=guess), robust_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
+             imm_kbf(model)]
+    origin = (f"untuned: the constructors' defaults (ISL ν of table (A.31) or β) — no tuning is cached for α = "
+              f"{alpha:g}, m = {m}, w = {w:g} (isl scenario --tune computes it)")
+    return nu, label, [replace(e, label=f"{e.label} (untuned)") for e in extra], origin
+
+
+def _periods(kind: str, window: float, after: float, burn: float) -> tuple[tuple[Period, ...], float]:
+    """The map's rows as periods, and the horizon."""
+    if kind == "sigma_step":
+        n = max(1, math.floor(after / window + 1e-9))
+        return tuple(Period(f"since_{r}", f"{r * window:g}/r_min after the step", STEP_AT + r * window,
+                            STEP_AT + (r + 1) * window) for r in range(n)), STEP_AT + after
+    return (Period("settled", f"settled, after {burn:g}/r_min", burn, after),), after
+
+
+def who_wins_map(
+    kind: str,
+    alpha: float = 1.0,
+    *,
+    values: Sequence[float] | None = None,
+    m: int = M,
+    w: float = W,
+    seeds: int = 32,
+    window: float = 1.0,
+    after: float = 10.0,
+    burn: float = 2.0,
+    tuning: Tuning | None = None,
+    untuned: bool = False,
+    progress: Callable[[float], None] | None = None,
+) -> WhoWinsMap:
+    """The map of ``kind`` (module docstring); ``after``: how long after the σ step (or, for the other maps, the
+    whole run after ``burn``) is simulated, in units of 1/r_min; ``tuning``: the families' knobs (default: the
+    cached tuning of the table for α, m, w, else — or with ``untuned`` — the constructors' defaults)."""
+    if kind not in MAPS:
+        raise ValueError(f"kind must be one of {', '.join(MAPS)}; got {kind!r}")
+    alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
+    lo = {"sigma_step": 0.01, "tails": 2.0, "sensor": 0.0}[kind]
+    values = check_reals("values", MAPS[kind] if values is None else values, lo=lo, lo_open=kind != "sensor",
+                         hi={"sigma_step": 100.0, "tails": 1e6, "sensor": 10.0}[kind])
+    seeds = check_int("seeds", seeds, lo=2, hi=10_000)
+    window = check_real("window", window, lo=0.0, lo_open=True, hi=100.0)
+    after = check_real("after", after, lo=window, hi=1e4)
+    burn = check_real("burn", burn, lo=0.0, hi=after, hi_open=True)
+    model = Model.from_w(alpha, w, SIGMA0, m)
+    nu, nu_label, extra, origin = map_filters(model, alpha, m, w, tuning, untuned)
+    periods, horizon = _periods(kind, window, after, burn)
+    cells, lows, names, labels = [], [], None, None
+    for c, value in enumerate(values):
+        avg = average_scenario(model, nu, _scenario(kind, value), seeds=range(seeds), horizon=horizon, extra=extra,
+                               edges=edge_times(periods, horizon), progress=progress, done=c * seeds,
+                               total=len(values) * seeds)
+        names = avg.run.names
+        labels = (avg.run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *avg.run.labels[3:])
+        y = per_seed(avg.mse, avg.run, periods)  # (seeds, rows, filters)
+        ratio = np.sqrt(y.mean(axis=0))
+        ranked = 1 + np.argsort(np.where(np.isnan(ratio[:, 1:]), np.inf, ratio[:, 1:]), axis=1, kind="stable")
+        low = [paired_margin(y[:, r, ranked[r, 0]], y[:, r, ranked[r, 1]])[1] for r in range(len(periods))]
+        cells.append(ratio)
+        lows.append(np.array(low))
+    rows = np.array([p.start - STEP_AT for p in periods]) if kind == "sigma_step" else np.array([math.nan])
+    return WhoWinsMap(kind, alpha, np.array(values, dtype=float), rows, names, labels,
+                      np.stack(cells, axis=1), seeds, window, np.stack(lows, axis=1), model, origin)

@@ -1,0 +1,172 @@
+"""The scenario statistic: RMSE ratios to the clairvoyant reference over fixed periods, pooled over seeds.
+
+A scenario's time is cut into a few fixed **periods** (:func:`scenario_periods`; times in units of 1/r_min at σ(0)):
+for a scenario whose σ changes at t_c, the first 1/r_min after the change [t_c, t_c + 1), the first 2/r_min
+[t_c, t_c + 2) and the settled rest [t_c + 2, T) (after the last change, for a drift or several steps); for a
+scenario without a change, the settled run after the start [burn, T), burn = 2/r_min by default. Per filter f and
+period p, over the S seeds s and the steps k of the period,
+
+    ratio_f,p = √( (1/m) Σ_i  Σ_s,k e_f,i(s, k)²  /  (S · Σ_k P_ii(k)) )
+
+— the **normalized RMSE over all coordinates**: each coordinate's pooled mean square over the clairvoyant filter's
+exact variance P_ii (:func:`isl_core.scenario.clairvoyant`), averaged over the coordinates, then the root. No
+maximum is taken, neither over time windows nor over coordinates: a maximum of noisy estimates lies above the
+maximum of their means, which made the clairvoyant filter itself read 1.10–1.35 in the earlier table. Here its
+expected mean square is exactly S·Σ_k P_ii per coordinate (its P is exact on the grid), so its ratio² is an unbiased
+estimate of 1 and its ratio reads 1 up to sampling error (the square root's Jensen bias is second order: −¼ of the
+relative variance, < 0.1 % at the defaults).
+
+**Intervals** come from the seeds, which are independent runs: each seed contributes
+y_f,p(s) = (1/m) Σ_i Σ_k e_f,i(s, k)² / Σ_k P_ii(k), the ratio² is their mean ȳ, and the interval is Student's
+ȳ ± t_{S−1}·sd(y)/√S at ``level`` under the square root (the lower end held at 0). It is symmetric in the mean
+square, so it always contains its estimate. **Margins** between two filters are paired over the seeds (the same
+noise): the ratio of mean squares R = ȳ_b/ȳ_a with the delta-method standard error of d(s) = y_b(s) − R·y_a(s),
+sd(d)/(√S·ȳ_a) (Fieller's linearisation); the margin is √R and its lower bound √(R − t·se). A lower bound ≤ 1 is
+a tie: the seeds cannot tell the two filters apart.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import t as student
+
+from ..validate import check_real
+from .base import Scenario
+from .run import ScenarioRun, first_step
+
+__all__ = ["BURN", "Period", "PeriodRatios", "edge_times", "paired_margin", "per_seed", "period_ratios", "ratios_from",
+           "scenario_periods"]
+
+BURN = 2.0  #: the start left out of a scenario without a change (each filter's start from its own guess), 1/r_min
+AFTER = (1.0, 2.0)  #: the periods just after a change: its first 1/r_min and its first 2/r_min
+SETTLE = 2.0  #: the settled period starts this long after the last change, 1/r_min
+
+
+@dataclass(frozen=True)
+class Period:
+    """A period [``start``, ``end``) in units of 1/r_min at σ(0); ``name`` is stable (CSV/JSON keys)."""
+
+    name: str
+    label: str
+    start: float
+    end: float
+
+
+def scenario_periods(scenario: Scenario, horizon: float, *, burn: float = BURN) -> tuple[Period, ...]:
+    """The fixed periods of ``scenario`` over ``horizon`` (module docstring); those that would end after the horizon
+    or start at it are left out, and a ``ValueError`` says so if none is left."""
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    burn = check_real("burn (in units of 1/r_min)", burn, lo=0.0, hi=horizon, hi_open=True)
+    knots = [t for t, _ in scenario.sigma_knots if t < horizon]
+    if not knots:
+        out = [Period("settled", f"settled, after {burn:g}/r_min", burn, horizon)]
+    else:
+        out = []
+        for j, t_c in enumerate(knots):
+            tag = "" if len(knots) == 1 else f"_{j + 1}"
+            for a in AFTER:
+                if t_c + a <= horizon:
+                    out.append(Period(f"after{tag}_{a:g}", f"first {a:g}/r_min after the change at {t_c:g}/r_min",
+                                      t_c, t_c + a))
+        last = knots[-1]
+        if last + SETTLE < horizon:
+            out.append(Period("settled", f"settled, from {SETTLE:g}/r_min after the change", last + SETTLE, horizon))
+    if not out:
+        raise ValueError(f"horizon = {horizon:g} leaves no period: it must reach past the change of σ")
+    return tuple(out)
+
+
+def edge_times(periods: tuple[Period, ...], horizon: float) -> tuple[float, ...]:
+    """Window edges (0, …, horizon) at every period's start and end: a plan with them sums each period exactly
+    (:func:`isl_core.scenario.run.plan_scenario` ``edges``)."""
+    return tuple(sorted({0.0, float(horizon), *(p.start for p in periods), *(p.end for p in periods)}))
+
+
+def _windows(run: ScenarioRun, period: Period) -> np.ndarray:
+    """Which of the run's windows lie within ``period`` (nw,), by the steps where its start and end fall."""
+    step = run.h * run.r_min
+    k0 = first_step(period.start, step, run.N)
+    k1 = run.N if period.end >= run.t[-1] * run.r_min else first_step(period.end, step, run.N)
+    edges = np.concatenate([[0], np.cumsum(run.steps)])
+    inside = (edges[:-1] >= k0) & (edges[1:] <= k1)
+    if not np.any(inside):
+        raise ValueError(f"no window of the run lies within the period {period.label} "
+                         f"[{period.start:g}, {period.end:g})/r_min: plan it with edges at the periods")
+    return inside
+
+
+def per_seed(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]) -> np.ndarray:
+    """y_f,p(s) of the module docstring, (seeds, periods, filters): each seed's mean square over the period per
+    coordinate, over the clairvoyant variance's, averaged over the coordinates. ``mse`` (seeds, windows, filters,
+    m) as :attr:`isl_core.ScenarioAverage.mse`; inf for a filter that diverged in the period."""
+    steps = run.steps.astype(float)
+    out = np.empty((mse.shape[0], len(periods), mse.shape[2]))
+    for p, period in enumerate(periods):
+        keep = _windows(run, period)
+        w = steps[keep]
+        with np.errstate(invalid="ignore"):  # inf·0 cannot occur: every window has a step
+            sq = np.einsum("w,swfm->sfm", w, mse[:, keep])
+        ref = w @ run.ref_var[keep]
+        out[:, p] = (sq / ref).mean(axis=2)
+    return out
+
+
+def _half(y: np.ndarray, level: float, axis: int = 0) -> np.ndarray:
+    """Student's half-width t_{S−1}·sd/√S of the mean of ``y`` over its seeds (``axis``); nan for one seed."""
+    seeds = y.shape[axis]
+    if seeds < 2:
+        return np.full(np.delete(y.shape, axis), np.nan)
+    with np.errstate(invalid="ignore"):
+        sd = y.std(axis=axis, ddof=1)
+    return student.ppf((1 + level) / 2, seeds - 1) * sd / math.sqrt(seeds)
+
+
+@dataclass(frozen=True)
+class PeriodRatios:
+    """The statistic of the module docstring: ``ratio[f, p]`` with its interval ``low``/``high`` at ``level`` per
+    filter (``filters``, names) and period (``periods``); ``y`` (seeds, periods, filters) the seeds' contributions
+    (ratio² = their mean), kept for paired margins (:func:`paired_margin`)."""
+
+    filters: tuple[str, ...]
+    periods: tuple[Period, ...]
+    ratio: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    y: np.ndarray
+    level: float
+
+    def margin(self, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        """Per period, filter b's ratio over filter a's and its lower bound (:func:`paired_margin`)."""
+        return paired_margin(self.y[:, :, a], self.y[:, :, b], self.level)
+
+
+def ratios_from(y: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ratio, low, high) from the seeds' contributions ``y`` (seeds, ...): √ȳ and √(ȳ ∓ t·sd/√S), transposed so
+    that the filters come first when ``y`` is (seeds, periods, filters)."""
+    mean = y.mean(axis=0)
+    half = _half(y, level)
+    with np.errstate(invalid="ignore"):
+        low, high = np.sqrt(np.maximum(mean - half, 0.0)), np.sqrt(mean + half)
+    return np.sqrt(mean).T, low.T, high.T
+
+
+def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...], *,
+                  level: float = 0.95) -> PeriodRatios:
+    """The period statistic of every filter of ``run`` (module docstring) from every seed's windowed mean squares
+    ``mse`` (seeds, windows, filters, m)."""
+    level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
+    y = per_seed(mse, run, periods)
+    ratio, low, high = ratios_from(y, level)
+    return PeriodRatios(run.names, tuple(periods), ratio, low, high, y, level)
+
+
+def paired_margin(ya: np.ndarray, yb: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Filter b's ratio over filter a's, √(ȳ_b/ȳ_a), and its lower bound at two-sided ``level`` from the seeds
+    (axis 0) paired (module docstring: the delta method for a ratio of means). inf/nan where a filter diverged."""
+    ma, mb = ya.mean(axis=0), yb.mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r = mb / ma
+        half = _half(yb - r * ya, level) / ma
+        return np.sqrt(r), np.sqrt(np.maximum(r - half, 0.0))

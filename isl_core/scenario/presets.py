@@ -1,0 +1,20 @@
+"""The table's scenarios: the presets over which every family's knob is tuned (:mod:`isl_core.scenario.tuning`) and the
+fair table (:mod:`isl_core.scenario.table`) is drawn. Times in units of 1/r_min of paper A's model at σ(0).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from .base import Scenario
+
+__all__ = ["PRESETS"]
+
+#: name: (label, σ(0), scenario)
+PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
+    "sigma_drop": ("σ 200 → 2 at 10/r_min", 200.0, Scenario(sigma_knots=((10.0, 2.0),))),
+    "sigma_rise": ("σ 2 → 200 at 10/r_min", 2.0, Scenario(sigma_knots=((10.0, 200.0),))),
+    "student3": ("Student-t noise, 3 degrees of freedom", 20.0, Scenario(noise="student", dof=3.0)),
+    "outliers": ("1 % outliers × 30", 20.0, Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0)),
+    "sensor": ("sensor read every 0.1/r_min", 20.0, Scenario(sensor_interval=0.1)),
+    "constant": ("constant σ, Gaussian", 20.0, Scenario()),
+}

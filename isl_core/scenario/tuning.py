@@ -1,0 +1,348 @@
+"""One tuning rule for every family's knob: the minimax of the period statistic over the table's scenarios.
+
+Every filter family that does not know σ(t) has a knob (:data:`FAMILIES`): paper A's ISL filter and the
+model-aware one ν (ν/β = 2^ℓ), the adaptive and the variational-Bayes filters their memory W in sensor readings
+(:mod:`isl_core.adaptive`), the robust filter Huber's c and its memory (jointly: the clipping changes what the
+estimate averages, so the best W depends on c), the IMM filter its switch probability per reading and its number of
+modes (jointly: a denser grid needs less switching to follow a change). On a grid of each knob
+(:class:`TuningGrids`), every variant rides in **one** scenario run per preset and seed — common random numbers:
+the same noise for all — and the period statistic of :mod:`isl_core.scenario.periods` is taken per variant and cell
+(preset × period). A variant's **tuning curve** is its statistic per cell against the knob; the family's knob is
+
+    θ* = argmin_θ  max_cells ratio_θ(cell)                  (the minimax over the table's scenarios and periods)
+
+and, as a reference, the **oracle-tuned** knob of a preset is argmin_θ max over that preset's periods (the best
+tuning had one known the scenario). The rule is the same for every family; ties go to the first point of the grid.
+
+The result (:class:`Tuning`) is reproducible bit for bit (fixed seeds; each run independent of the others and of
+the threads that run it) and is cached on disk per (α, m, w, seeds, horizon, burn, presets, grids, the package's
+sources digest) in :func:`cache_dir` — ``$ISL_CACHE_DIR``, else ``$XDG_CACHE_HOME/isl`` or ``~/.cache/isl`` — or
+kept in memory if that is not writable (a read-only dashboard). Its ``origin`` says which.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..filters.adaptive import adaptive_kbf
+from ..filters.base import FilterSpec
+from ..filters.imm import imm_kbf
+from ..filters.isl import isl_filter, model_aware_isl
+from ..filters.robust import robust_kbf
+from ..filters.variational import variational_kbf
+from ..kernels.cache import sources_digest
+from ..model import Model
+from ..validate import check_int, check_real
+from .base import Scenario
+from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
+from .presets import PRESETS
+from .run import plan_scenario
+
+__all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "paper_nu", "tune",
+           "variant_name"]
+
+SIGMA_RANGE = (2.0, 200.0)  #: the σ range of the σ-learners' gain tables; they start at its geometric middle
+#: family: (its label, its knobs in order)
+FAMILIES = {
+    "isl": ("ISL (paper A)", ("ell",)),
+    "isl_model": ("ISL model-aware", ("ell",)),
+    "kbf_adaptive": ("Kalman–Bucy, adaptive σ̂", ("memory",)),
+    "vb": ("variational Bayes", ("memory",)),
+    "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
+    "imm": ("IMM", ("switch", "modes")),
+}
+_MEMORY = tuple(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15))  # 10, 15, 23, …, 2000, 3000
+
+
+@dataclass(frozen=True)
+class TuningGrids:
+    """The knobs' grids: ν/β = 2^ℓ for ℓ in ``isl_ell`` (ISL filters); ``memory`` W in readings (adaptive, VB and
+    robust filters); Huber's ``robust_c``; the IMM's ``imm_switch`` per reading and ``imm_modes`` over
+    ``imm_sigma_range``."""
+
+    isl_ell: tuple[float, ...] = tuple(np.arange(-8.0, 4.01, 0.5).tolist())
+    memory: tuple[float, ...] = _MEMORY
+    robust_c: tuple[float, ...] = (1.0, 1.345, 2.0, 3.0)
+    imm_switch: tuple[float, ...] = (1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
+    imm_modes: tuple[int, ...] = (6, 11, 16)
+    imm_sigma_range: tuple[float, float] = (1.5, 500.0)
+
+    def points(self, family: str) -> list[dict]:
+        """The family's grid points, each a dict knob → value."""
+        if family in ("isl", "isl_model"):
+            return [{"ell": float(x)} for x in self.isl_ell]
+        if family in ("kbf_adaptive", "vb"):
+            return [{"memory": float(w)} for w in self.memory]
+        if family == "kbf_robust":
+            return [{"c": float(c), "memory": float(w)} for c in self.robust_c for w in self.memory]
+        return [{"switch": float(p), "modes": int(j)} for p in self.imm_switch for j in self.imm_modes]
+
+
+def family_filter(family: str, model: Model, knob: Mapping, grids: TuningGrids = TuningGrids()) -> FilterSpec:
+    """The filter of ``family`` at ``knob`` for ``model``'s α, β, m (σ is not used; the σ-learners over
+    :data:`SIGMA_RANGE` from its geometric middle), named ``family`` and labelled with its knob."""
+    guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
+    if family in ("isl", "isl_model"):
+        nu = model.beta * 2.0 ** knob["ell"]
+        spec = isl_filter(model, nu) if family == "isl" else model_aware_isl(model, nu)
+        lab = f"{FAMILIES[family][0]} (ν/β = 2^{knob['ell']:g} = {2.0 ** knob['ell']:.3g}, ν = {nu:.3g})"
+        return FilterSpec(family, lab, spec.damp, spec.coef, spec.power)
+    if family == "kbf_adaptive":
+        return adaptive_kbf(model, sigma_range=SIGMA_RANGE, memory=knob["memory"], sigma_init=guess)
+    if family == "vb":
+        return variational_kbf(model, sigma_init=guess, memory=knob["memory"])
+    if family == "kbf_robust":
+        return robust_kbf(model, c=knob["c"], sigma_range=SIGMA_RANGE, memory=knob["memory"], sigma_init=guess)
+    if family == "imm":
+        return imm_kbf(model, sigma_range=grids.imm_sigma_range, modes=knob["modes"], switch=knob["switch"])
+    raise ValueError(f"family must be one of {', '.join(FAMILIES)}; got {family!r}")
+
+
+def cache_dir() -> Path:
+    """Where tunings are cached (module docstring): ``$ISL_CACHE_DIR``, else the user's cache directory."""
+    env = os.environ.get("ISL_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "isl"
+
+
+@dataclass(frozen=True)
+class Tuning:
+    """Every variant's period statistic per cell, from one run per preset and seed (module docstring).
+
+    Filters (``names``, ``family``, ``knobs``): the clairvoyant reference, the Kalman–Bucy filter for σ(0), paper A's
+    ISL filter at its table's ν (``family`` "isl_paper"; ν = β where table (A.31) has no value for this α), then every
+    variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters) the seeds'
+    contributions (:func:`isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of
+    1/r_min at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
+    """
+
+    alpha: float
+    m: int
+    w: float
+    seeds: tuple[int, ...]
+    horizon: float
+    burn: float
+    grids: TuningGrids
+    presets: tuple[str, ...]
+    preset_labels: tuple[str, ...]
+    cells: tuple[tuple[int, Period], ...]
+    names: tuple[str, ...]
+    family: tuple[str, ...]
+    knobs: tuple[dict, ...]
+    y: np.ndarray
+    reading_time: tuple[float, ...]
+    steps: tuple[int, ...]
+    h: tuple[float, ...]
+    seconds: float
+    origin: str = ""
+    _stats: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def stats(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(ratio, low, high), each (filters, cells): the period statistic and its interval at ``level``."""
+        if level not in self._stats:
+            self._stats[level] = ratios_from(self.y, level)
+        return self._stats[level]
+
+    def variants(self, family: str) -> np.ndarray:
+        """Indices of the family's variants, in grid order."""
+        return np.flatnonzero(np.array(self.family) == family)
+
+    def preset_cells(self, preset: int) -> np.ndarray:
+        """Indices of the cells of preset number ``preset``."""
+        return np.array([c for c, (p, _) in enumerate(self.cells) if p == preset])
+
+    def _argmin_max(self, family: str, cells: np.ndarray) -> int:
+        idx = self.variants(family)
+        worst = self.stats()[0][np.ix_(idx, cells)].max(axis=1)
+        return int(idx[np.argmin(np.where(np.isnan(worst), np.inf, worst))])
+
+    def minimax(self, family: str) -> int:
+        """The family's tuned variant: the least, over its grid, of its largest ratio over every cell."""
+        return self._argmin_max(family, np.arange(len(self.cells)))
+
+    def oracle(self, family: str, preset: int) -> int:
+        """The family's best variant for one preset (oracle-tuned): least largest ratio over that preset's cells."""
+        return self._argmin_max(family, self.preset_cells(preset))
+
+    def filter(self, index: int, model: Model) -> FilterSpec:
+        """The filter ``index`` (a variant) for ``model``, e.g. the tuned one of a family for a dashboard."""
+        return family_filter(self.family[index], model, self.knobs[index], self.grids)
+
+    def tuned_filters(self, model: Model) -> list[FilterSpec]:
+        """Every family's minimax-tuned filter for ``model``, in :data:`FAMILIES` order."""
+        return [self.filter(self.minimax(f), model) for f in FAMILIES]
+
+    def grid_filters(self, model: Model) -> list[FilterSpec]:
+        """Every variant for ``model``: given as ``grid_filters`` to :func:`isl_core.scenario.run.plan_scenario`, a run
+        of a few filters gets the tuning's grid h — so W readings of a sensor read at every step span the time they
+        spanned in the tuning (``reading_time``) — and, with the same seeds, its noise."""
+        return [self.filter(j, model) for j in range(3, len(self.names))]
+
+
+def _key(alpha, m, w, seeds, horizon, burn, presets, grids) -> dict:
+    return {"alpha": alpha, "m": m, "w": w, "seeds": list(seeds), "horizon": horizon, "burn": burn,
+            "presets": {k: [s0, repr(sc)] for k, (_, s0, sc) in presets.items()}, "grids": asdict(grids),
+            "sources": sources_digest()}
+
+
+_MEMORY_CACHE: dict[str, Tuning] = {}
+
+
+def _variants(grids: TuningGrids) -> list[tuple[str, dict]]:
+    return [(f, knob) for f in FAMILIES for knob in grids.points(f)]
+
+
+def variant_name(family: str, knob: Mapping) -> str:
+    """A variant's stable name: ``vb@memory=30``, ``imm@switch=0.01,modes=11``."""
+    return f"{family}@" + ",".join(f"{k}={v:g}" for k, v in knob.items())
+
+
+def paper_nu(model: Model, alpha: float, m: int, w: float) -> tuple[float, str]:
+    """Paper A's ν for ``model``: β times table (A.31)'s ν/β at (``alpha``, ``m``, ``w``), or β where the table has
+    none; and a line that says which."""
+    from ..paper import a31_nu_over_beta
+
+    nob = a31_nu_over_beta(alpha, m, w)
+    if nob is None:
+        return model.beta, f"ISL at ν = β = {model.beta:.3g} (table (A.31) has no ν for α = {alpha:g})"
+    return model.beta * nob, f"ISL at table (A.31)'s ν/β = {nob:g} (ν = {model.beta * nob:.3g}; the paper's value)"
+
+
+def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids):
+    model = Model.from_w(alpha, w, sigma0, m)
+    periods = scenario_periods(scenario, horizon, burn=burn)
+    extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in _variants(grids)]
+    nu, _ = paper_nu(model, alpha, m, w)
+    return plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edge_times(periods, horizon)), periods
+
+
+def _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress) -> tuple[np.ndarray, list, list]:
+    """Every (preset, seed) run on ``workers`` threads (the kernels release the GIL): y per preset, plans, periods."""
+    plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+    tasks = [(p, s) for p in range(len(plans)) for s in range(len(seeds))]
+    cost = np.array([plans[p][0].N for p, _ in tasks], dtype=float)
+    out = [np.empty((len(seeds), len(periods), len(plan.filters))) for plan, periods in plans]
+
+    def one(task):
+        p, s = task
+        plan, periods = plans[p]
+        run = plan.run(seeds[s])
+        out[p][s] = per_seed(run.mse[None], run, periods)[0]
+
+    done = 0.0
+    with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        for t, _ in enumerate(pool.map(one, tasks)):  # in order: a failure propagates
+            done += cost[t]
+            if progress is not None:
+                progress(done / cost.sum())
+    return out, [p for p, _ in plans], [per for _, per in plans]
+
+
+def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, periods, seconds) -> Tuning:
+    cells = tuple((p, per) for p, pers in enumerate(periods) for per in pers)
+    plan = plans[0]
+    _, paper = paper_nu(plan.model, alpha, m, w)
+    variants = _variants(grids)
+    return Tuning(float(alpha), m, float(w), tuple(seeds), float(horizon), float(burn), grids, tuple(presets),
+                  tuple(v[0] for v in presets.values()), cells, tuple(f.name for f in plan.filters),
+                  ("clairvoyant", "kbf", "isl_paper", *(f for f, _ in variants)),
+                  ({}, {}, {"paper": paper}, *(k for _, k in variants)), np.concatenate(ys, axis=1),
+                  tuple(pl.memory_time(1.0) for pl in plans), tuple(pl.N for pl in plans), tuple(pl.h for pl in plans),
+                  float(seconds))
+
+
+def _save(path: Path, tuning: Tuning, key: dict) -> bool:
+    meta = {"key": key, "seconds": tuning.seconds}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".npz", delete=False) as tmp:
+            np.savez(tmp, y=tuning.y, meta=np.array(json.dumps(meta)))
+        os.replace(tmp.name, path)  # atomic: a reader sees the old file or the whole new one
+        return True
+    except OSError:
+        return False
+
+
+def _load(path: Path, key: dict) -> tuple[np.ndarray, float] | None:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            if meta["key"] != json.loads(json.dumps(key)):
+                return None
+            return data["y"], float(meta["seconds"])
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def tune(
+    alpha: float = 1.0,
+    *,
+    m: int = 3,
+    w: float = 3.0,
+    presets: Mapping[str, tuple[str, float, Scenario]] | None = None,
+    seeds: int = 32,
+    horizon: float = 30.0,
+    burn: float = 2.0,
+    grids: TuningGrids = TuningGrids(),
+    workers: int | None = None,
+    progress: Callable[[float], None] | None = None,
+    cache: bool = True,
+    compute: bool = True,
+) -> Tuning | None:
+    """The tuning of every family over ``presets`` (default the table's, :data:`isl_core.scenario.presets.PRESETS`) for
+    paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
+    periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the
+    CPUs). Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) —
+    or, with ``compute`` False, None."""
+    alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
+    m = check_int("m", m, lo=1, hi=6)
+    w = check_real("w", w, lo=0.0, lo_open=True)
+    seeds = tuple(range(check_int("seeds", seeds, lo=2, hi=10_000)))
+    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    presets = dict(PRESETS if presets is None else presets)
+    if not presets or not isinstance(grids, TuningGrids):
+        raise ValueError("presets must name at least one scenario and grids must be an "
+                         "isl_core.scenario.tuning.TuningGrids")
+    key = _key(alpha, m, w, seeds, horizon, burn, presets, grids)
+    digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
+    path = cache_dir() / f"tuning-{digest}.npz"
+    span = (f"minimax over {len(presets)} presets × their periods of the period statistic (isl scenario --tune), "
+            f"seeds {seeds[0]}–{seeds[-1]}, horizon {horizon:g}/r_min")
+    if cache and digest in _MEMORY_CACHE:
+        return _MEMORY_CACHE[digest]
+    found = _load(path, key) if cache else None
+    if found is not None:
+        y, seconds = found
+        plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+        cells = [len(per) for _, per in plans]
+        ys = np.split(y, np.cumsum(cells)[:-1], axis=1)
+        res = _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, [p for p, _ in plans],
+                        [per for _, per in plans], seconds)
+        return _named(res, f"{span}; read from the cache {path} (computed in {seconds:.0f} s)", digest, cache)
+    if not compute:
+        return None
+    start = time.perf_counter()
+    ys, plan_list, periods = _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress)
+    res = _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plan_list, periods,
+                    time.perf_counter() - start)
+    where = f"cached in {path}" if cache and _save(path, res, key) else "kept in memory (the cache is not writable)"
+    return _named(res, f"{span}; computed now in {res.seconds:.0f} s, {where}", digest, cache)
+
+
+def _named(res: Tuning, origin: str, digest: str, cache: bool) -> Tuning:
+    res = replace(res, origin=origin, _stats={})
+    if cache:
+        _MEMORY_CACHE[digest] = res
+    return res

@@ -1,0 +1,97 @@
+"""The compiled scenario loop (isl_core.kernels.scenario) against the same step written out in numpy, one filter at a
+time."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from isl_core import Model, adaptive_kbf, isl_filter, kalman_bucy, optimal_kbf
+from isl_core._engine import draw_start, pack
+from isl_core.filters.base import FilterSpec
+from isl_core.filters.robust import huber_kappa, robust_kbf
+from isl_core.kernels.draws import DRAWS, draw_ahead
+from isl_core.scenario import Scenario, clairvoyant, sigma_path
+from isl_core.scenario.run import simulate_scenario
+
+MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
+
+
+def _draws(rng, scenario: Scenario, n: int):
+    """v_k and ε_k of n steps as the loop draws them: the core's draws of the noise law (isl_core.noise; its laws
+    are tested in test_scenario), in its blocks of DRAWS steps — the filters are what this loop checks."""
+    v, eps = np.empty(n), np.empty(n)
+    for k in range(0, n, DRAWS):
+        draw_ahead(rng, scenario.noise_law(), v[k:], eps[k:], min(DRAWS, n - k))
+    return v, eps
+
+
+def _loop(model, filters, scenario, h, n, seed, gains, q):
+    """The scenario step written out in numpy, one filter at a time (module docstring of isl_core.kernels.scenario)."""
+    kb = kalman_bucy(model)
+    rng = np.random.default_rng(seed)
+    x, e0 = draw_start(model, kb, rng, "stationary")
+    e = np.tile(e0, (len(filters), 1))
+    _table, ad = pack(model, filters, scenario=True)[3:]
+    sig = sigma_path(scenario, model, kb.r_min, h, n)
+    acc = np.zeros(len(filters))
+    sq = np.zeros((len(filters), model.m))
+    gain = [math.sqrt(q * h) * np.asarray(f.coef, float) for f in filters]
+    readings = 0
+    m = model.m
+    s_hats = [f.adaptive.sigma_init if f.adaptive is not None else 0.0 for f in filters]
+    vs, epss = _draws(rng, scenario, n)
+    for k in range(n):
+        v, eps = vs[k], epss[k]
+        reading = (k + 1) % q == 0
+        readings += reading
+        xm = x[-1]
+        for f, spec in enumerate(filters):
+            acc[f] += sig[k] * eps - math.sqrt(h) * e[f, 0]
+            A_f = np.eye(m, k=1)
+            A_f[-1, -1] = -spec.damp
+            e[f] = e[f] + h * (A_f @ e[f])
+            e[f, -1] += h * (model.alpha - spec.damp) * xm - model.beta * math.sqrt(h) * v
+            if reading:
+                u = acc[f] / math.sqrt(q)
+                if f == 0:  # the clairvoyant filter
+                    e[f] += gains[k] * (math.sqrt(h) * acc[f])
+                elif spec.power:
+                    e[f] += gain[f] * np.sign(u) * np.abs(u) ** (1.0 - np.arange(1, m + 1) / m)
+                else:
+                    uc, uu = u, u * u
+                    if spec.huber is not None:  # Huber's ψ at ±c·σ̂, the clipped square made consistent
+                        lim = spec.huber * s_hats[f]
+                        uc = float(np.clip(u, -lim, lim))
+                        uu = min(u * u, lim * lim) / huber_kappa(spec.huber)  # κ: checked by quadrature below
+                    e[f] += gain[f] * uc
+                    if spec.adaptive is not None:
+                        lam = max(1.0 / readings, 1.0 / spec.adaptive.memory)
+                        ad[f, 3] += lam * (uu - ad[f, 3])
+                        s_hat = math.sqrt(ad[f, 3] / (1.0 + q * h * gain[f][0] / math.sqrt(q * h)))
+                        gain[f] = math.sqrt(q * h) * spec.adaptive.gain(s_hat)
+                        s_hats[f] = s_hat
+                acc[f] = 0.0
+            sq[f] += e[f] ** 2
+        x[-1] = (1.0 - h * model.alpha) * xm + model.beta * math.sqrt(h) * v
+    return sq
+
+
+@pytest.mark.parametrize("scenario", [
+    Scenario(sigma_knots=((0.3, 2.0),), noise="student", dof=4.0),
+    Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift", noise="outliers", outlier_rate=0.05,
+             sensor_interval=0.02),
+    Scenario(sensor_interval=0.03),
+])
+def test_the_compiled_scenario_loop_equals_a_plain_loop(scenario):
+    extra = [adaptive_kbf(MODEL), robust_kbf(MODEL, c=1.0)]
+    run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=7, seed=5, extra=extra)
+    kb = kalman_bucy(MODEL)
+    filters = [FilterSpec("clairvoyant", "clairvoyant", MODEL.alpha, np.zeros(MODEL.m), False),
+               optimal_kbf(MODEL, kb), isl_filter(MODEL, 3.0), *extra]
+    ref = clairvoyant(MODEL, scenario, run.h, run.N)
+    sq = _loop(MODEL, filters, scenario, run.h, run.N, 5, ref.gain, run.q)
+    got = np.tensordot(run.steps.astype(float), run.mse, axes=1)
+    assert run.q == ref.q and (scenario.sensor_interval == 0) == (run.q == 1)
+    assert np.allclose(got, sq, rtol=1e-10, atol=0.0)

@@ -1,0 +1,186 @@
+"""The core as a package: importable on its own without any UI library (STYLE.md, principle 1), a layout without
+import circles, small modules and functions, kinds compared by name, no private name imported across modules, every
+equation it uses cited by its number, and the dashboard on its public modules only."""
+from __future__ import annotations
+
+import ast
+import graphlib
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import isl_core
+
+UI_MODULES = ("panel", "bokeh", "param", "matplotlib")
+
+
+def test_importing_the_core_loads_no_ui_library():
+    code = (
+        "import json, sys\n"
+        "import isl_core, isl_core.reference\n"
+        f"print(json.dumps([m for m in {UI_MODULES!r} if m in sys.modules]))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300)
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == []
+
+
+def test_public_names_exist_and_are_documented():
+    assert isl_core.__all__, "isl_core must declare its public API"
+    for name in isl_core.__all__:
+        obj = getattr(isl_core, name)
+        if callable(obj):
+            assert obj.__doc__ and obj.__doc__.strip(), f"isl_core.{name} has no docstring"
+
+
+ROOT = Path(__file__).resolve().parents[2]
+CORE = ROOT / "isl_core"
+MAX_MODULE_LINES = 400
+MAX_FUNCTION_LINES = 80
+
+
+def _name(path: Path) -> str:
+    """The dotted module name of a file of the core (a package's ``__init__.py`` is the package)."""
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {_name(p): p for p in sorted(CORE.rglob("*.py"))}
+
+
+def _target(name: str) -> str:
+    """The module of the core that importing ``name`` (a module, or a name in one) runs: the longest known prefix."""
+    parts = name.split(".")
+    while parts and ".".join(parts) not in MODULES:
+        parts.pop()
+    return ".".join(parts)
+
+
+def _imports(module: str) -> set[str]:
+    """The core's modules that ``module`` imports anywhere (top level or inside a function): ``from .x import y``
+    resolved against its package, ``y`` itself when it is a module."""
+    path = MODULES[module]
+    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            target = ".".join(base + ([node.module] if node.module else []))
+            if target.split(".")[0] == "isl_core":
+                found |= {_target(f"{target}.{alias.name}") for alias in node.names}
+        elif isinstance(node, ast.Import):
+            found |= {_target(alias.name) for alias in node.names if alias.name.split(".")[0] == "isl_core"}
+    return found - {module, ""}
+
+
+def test_the_import_graph_sees_relative_and_nested_imports():
+    """The graph the cycle test sorts is the real one: a subpackage's relative imports resolve to modules."""
+    assert "isl_core.filters.base" in _imports("isl_core.filters.adaptive")
+    assert "isl_core.model" in _imports("isl_core.filters.adaptive")
+    assert "isl_core.filters.adaptive" in _imports("isl_core.filters")
+
+
+def test_the_core_has_no_import_cycle():
+    """No circle among the core's modules (subpackages included), counting the imports inside functions too."""
+    order = graphlib.TopologicalSorter({module: _imports(module) for module in MODULES})
+    try:
+        order.prepare()
+    except graphlib.CycleError as exc:
+        pytest.fail(f"import cycle in isl_core: {' -> '.join(exc.args[1])}")
+
+
+def test_no_module_imports_a_private_name_of_another():
+    """What modules share is public in the module that defines it (the engine's internals live in the private
+    module ``isl_core._engine``, whose names need no underscore): ``from .x import _y`` is not written."""
+    offences = []
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                offences += [f"{module}: {a.name}" for a in node.names
+                             if a.name.startswith("_") and not a.name.endswith("__")]  # __version__ is public
+    assert offences == []
+
+
+def _njit(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    """Whether ``node`` is compiled by numba (``@njit``, ``@numba.njit(...)``, ``@jit``)."""
+    return any(re.search(r"\b(njit|jit)\b", ast.unparse(d)) for d in node.decorator_list)
+
+
+def test_no_function_is_over_80_lines_outside_the_numba_kernels():
+    long = {}
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and not _njit(node):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > MAX_FUNCTION_LINES:
+                    long[f"{module}.{node.name}"] = lines
+    assert long == {}
+
+
+def test_the_kernels_compare_filter_kinds_by_name():
+    """``kind[f] == KIND_ADAPTIVE``, never ``kind[f] == 2``: a comparison of a kind or a lane with a bare number."""
+    bare = []
+    for module, path in MODULES.items():
+        if not module.startswith("isl_core.kernels"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                about_kind = any(re.search(r"\b(kind|lane)\b", ast.unparse(side)) for side in sides)
+                number = any(isinstance(side, ast.Constant) and isinstance(side.value, int) for side in sides)
+                if about_kind and number:
+                    bare.append(f"{module}:{node.lineno}: {ast.unparse(node)}")
+    assert bare == []
+
+
+def test_the_dashboard_uses_only_the_cores_public_modules():
+    """No private module or name of the core (``isl_core._x``, ``from isl_core.m import _x``), and no second
+    computation path: the ν-sweep and the worst case come from the core's ``sweep`` and ``worst_case``."""
+    offences = []
+    for path in sorted((ROOT / "app").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("isl_core"):
+                names = [node.module, *(a.name for a in node.names)]
+                offences += [f"{path.relative_to(ROOT)}: {n}" for n in names
+                             if any(part.startswith("_") for part in n.split("."))]
+            elif isinstance(node, ast.Name | ast.Attribute) and "simulate_rmse" in (getattr(node, "id", None),
+                                                                                    getattr(node, "attr", None)):
+                offences.append(f"{path.relative_to(ROOT)}: simulate_rmse")
+    assert offences == []
+
+
+def test_no_module_is_over_400_lines():
+    sizes = {str(p.relative_to(ROOT)): len(p.read_text("utf-8").splitlines())
+             for folder in ("app", "isl_core", "scripts", "benchmarks") for p in (ROOT / folder).rglob("*.py")}
+    assert sizes, "no module found"
+    assert {name: n for name, n in sizes.items() if n > MAX_MODULE_LINES} == {}
+
+
+def test_no_function_check_is_fooled_by_a_kernel_decorator():
+    code = ("import numba\nfrom numba import njit\n@njit(cache=True)\ndef f():\n    pass\ndef g():\n    pass\n"
+            "@numba.jit\ndef h():\n    pass\n@adjust\ndef k():\n    pass\n")
+    flags = [_njit(n) for n in ast.parse(code).body if isinstance(n, ast.FunctionDef)]
+    assert flags == [True, False, True, False]
+
+
+#: equations the core computes, by their number in paper A (A.n) or paper B (B.n)
+USED = ["A.17", "A.21", "A.23", "A.24", "A.29", "A.30", "A.31", "B.4", "B.5", "B.6", "B.7", "B.23", "B.24", "B.25",
+        "B.26", "B.46", "B.54"]
+
+
+def _cited(number: str) -> list[str]:
+    """Core modules citing equation ``number`` by itself (``B.4`` is not ``B.40``), subpackages included."""
+    pattern = re.compile(rf"(?<![\w.]){re.escape(number)}(?![\d])")
+    return [module for module, path in MODULES.items() if pattern.search(path.read_text("utf-8"))]
+
+
+@pytest.mark.parametrize("number", USED)
+def test_each_equation_the_core_uses_is_cited_by_its_number(number):
+    assert _cited(number), f"no module of isl_core cites ({number})"
+
+
+def test_a_range_does_not_count_as_citing_its_inner_numbers():
+    assert not re.search(r"(?<![\w.])B\.5(?![\d])", "B.4–B.7 and B.54")  # the check above is not fooled
