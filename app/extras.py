@@ -44,7 +44,7 @@ def extra_specs(model: Model, nu: float, names: Sequence[str], sigma_design: flo
 
 
 def extra_theory(model: Model, specs: Sequence) -> dict[str, np.ndarray]:
-    """Predicted ratios per extra filter (Lyapunov / SPEC §6; nan for the adaptive filter)."""
+    """Predicted ratios per extra filter (Lyapunov / :ref:`linearization`; nan for the adaptive filter)."""
     return {spec.name: np.asarray(theory_ratios(model, spec)) for spec in specs}
 
 

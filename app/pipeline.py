@@ -65,7 +65,7 @@ class Traces:
 
 @dataclass(frozen=True)
 class Result:
-    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (B.48, SPEC §6).
+    """A computed run with its display traces and the theory's predicted ``š_i/s_i`` (B.48, :ref:`linearization`).
 
     ``request`` is what was simulated: the asked-for one, or its nearest allowed setting (``adjusted`` says what
     changed and why; empty if nothing did).
@@ -131,7 +131,7 @@ def fit(req: Request, planned=None) -> tuple[Request, str]:
 
 
 def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
-    """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the SPEC §4 rule over every
+    """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the rule of :ref:`step-size` over every
     filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
     its ratios.
 

@@ -1,6 +1,6 @@
 """Presets: the papers' published experiments as sets of dashboard inputs.
 
-Paper A, Fig. 3 (SPEC §5): m = 3, α = 0.5, w = 3 (so β = w√(2α) = 3), ν = β = 3, σ = 20 and 200,
+Paper A, Fig. 3 (:ref:`reference-values`): m = 3, α = 0.5, w = 3 (so β = w√(2α) = 3), ν = β = 3, σ = 20 and 200,
 T = 10/r_min. Paper B, Fig. 2: α = 0, m = 3, β = 3, σ = 5 and 50, and its filter (B.25–B.26) is the ISL
 filter with ν = β. The white-noise model with m = 1 is the case of (B.52), where the theory gives
 š/s = (π/2)^{1/4} ≈ 1.12 for ν = β; a longer horizon lets the measured ratio approach it.

@@ -1,7 +1,7 @@
 """Static files of paper A's figures: PNG through matplotlib (Agg, no pyplot state) and HTML through bokeh.
 
 * Fig. 2 — ratio š_i/s_i against ν/β (log axis): rows α, columns i, σ = 2 dotted, 20 dashed, 200 solid;
-  simulated points with their confidence interval, the statistical-linearization theory (SPEC §6) as a thin
+  simulated points with their confidence interval, the statistical-linearization theory (:ref:`linearization`) as a thin
   long-dashed line of the same colour.
 * Fig. 3 — one trajectory per σ: X_i black, Kalman–Bucy X̂_i green, ISL X̌_i blue (:mod:`app.colors`, the
   dashboard's own), X̂_i ± 3 s_i dashed green,
@@ -78,7 +78,7 @@ def fig2_png(res, path: str | Path, *, dpi: int = 110) -> Path:
                 ax.set_xlabel("ν/β")
     handles = [Line2D([], [], color=_COLORS[b % len(_COLORS)], ls=_MPL_DASH[styles[b]], marker="o", ms=2.5,
                       label=f"σ = {res.sigmas[b]:g} (simulated)") for b in range(ns)]
-    handles.append(Line2D([], [], color="0.4", ls=THEORY_DASH, lw=0.8, label="theory (SPEC §6)"))
+    handles.append(Line2D([], [], color="0.4", ls=THEORY_DASH, lw=0.8, label="theory (statistical linearization)"))
     axes[0, -1].legend(handles=handles, fontsize=7, loc="best")
     model = f"β = {res.beta:g}" if res.beta is not None else f"w = {res.w:g}"
     fig.suptitle(f"ISL / optimal RMSE ratio (m = {m}, {model}; horizon {res.horizon:g}/r_min × "

@@ -1,4 +1,4 @@
-"""ν-sweeps behind the dashboard's Fig. 2 view (paper A, Fig. 2; SPEC §5–§6).
+"""ν-sweeps behind the dashboard's Fig. 2 view (paper A, Fig. 2; :ref:`theory`).
 
 For the current α, β and m and a few σ: the ISL filter's RMSE ratio ``š_i/s_i`` against ``ν/β = 2^ℓ``.
 
@@ -84,7 +84,7 @@ class SweepPoints:
 
 def theory_curves(alpha: float, beta: float, m: int, sigmas: Sequence[float], *, extras: Sequence[str] = (),
                   sigma_design: float = SIGMA_DESIGN, sigma_range: tuple[float, float] = SIGMA_RANGE) -> SweepCurves:
-    """Predicted ``š_i/s_i`` over ``ν/β = 2^THEORY_LEVELS`` for each σ (B.48, SPEC §6); inf where unstable.
+    """Predicted ``š_i/s_i`` over ``ν/β = 2^THEORY_LEVELS`` for each σ (B.48, :ref:`linearization`); inf where unstable.
 
     ``extras``: names of extra filters whose curves to add (``sigma_design``, ``sigma_range`` as in
     :func:`isl_core.baseline_filters`).

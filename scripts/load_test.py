@@ -28,7 +28,7 @@ or against a running server (``./scripts/serve`` or the container)::
 
 It prints one line per figure: sessions held, errors, update latency (median, p95, max), the server's resident
 memory before / with every session open, and RSS per session. Only loopback URLs are accepted. The test suite
-(``tests/test_load.py``) runs a short version of the same function, :func:`run_load`.
+(``tests/serving/test_load.py``) runs a short version of the same function, :func:`run_load`.
 """
 
 from __future__ import annotations

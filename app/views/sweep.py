@@ -1,7 +1,7 @@
 """ν-sweep view (paper A, Fig. 2): the ISL filter's RMSE ratio š_i/s_i against ν/β for a few σ.
 
 One log–log plot per coordinate i (columns of Fig. 2) for the current α, β and m: theory curves (statistical
-linearization, B.48 / SPEC §6) drawn at once, one line style per σ (Fig. 2: σ = 2 dotted, 20 dashed, 200
+linearization, B.48, :ref:`linearization`) drawn at once, one line style per σ (Fig. 2: σ = 2 dotted, 20 dashed, 200
 solid); simulated points with 95 % intervals on demand; the current ν as a vertical line; ratio 1 (the
 optimum) as a horizontal one. Extra filters (:mod:`app.extras`) with a theory add their curves in their own
 colour, with the σ line styles: the model-aware ISL filter over ν, the fixed-gain Kalman–Bucy filters flat.

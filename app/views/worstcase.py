@@ -2,7 +2,7 @@
 
 The headline comparison of the baselines (:func:`isl_core.worst_case`): for each α (rows) and filter (columns),
 ``W = max_{σ, i} š_i/s_i`` over a log-spaced σ grid, simulated with its 95 % batch-means interval, the theory's
-worst case beside it (Lyapunov / statistical linearization, SPEC §6–§7; none for the adaptive filter) and ν of
+worst case beside it (Lyapunov / statistical linearization, :ref:`linearization`; none for the adaptive filter) and ν of
 the ISL filters from ``recommend_nu`` over the same σ grid. The dot chart shows the same numbers against α.
 The computation runs off the event loop with a progress bar and a cancel button.
 """

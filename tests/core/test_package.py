@@ -49,30 +49,32 @@ def _name(path: Path) -> str:
 
 
 MODULES = {_name(p): p for p in sorted(CORE.rglob("*.py"))}
+#: the core and the dashboard: the import-circle and function-size checks cover both
+PROJECT = {_name(p): p for package in ("isl_core", "app") for p in sorted((ROOT / package).rglob("*.py"))}
 
 
 def _target(name: str) -> str:
-    """The module of the core that importing ``name`` (a module, or a name in one) runs: the longest known prefix."""
+    """The project's module that importing ``name`` (a module, or a name in one) runs: the longest known prefix."""
     parts = name.split(".")
-    while parts and ".".join(parts) not in MODULES:
+    while parts and ".".join(parts) not in PROJECT:
         parts.pop()
     return ".".join(parts)
 
 
 def _imports(module: str) -> set[str]:
-    """The core's modules that ``module`` imports anywhere (top level or inside a function): ``from .x import y``
+    """The project's modules that ``module`` imports anywhere (top level or inside a function): ``from .x import y``
     resolved against its package, ``y`` itself when it is a module."""
-    path = MODULES[module]
+    path = PROJECT[module]
     package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
     found = set()
     for node in ast.walk(ast.parse(path.read_text("utf-8"))):
         if isinstance(node, ast.ImportFrom):
             base = package[:len(package) - node.level + 1] if node.level else []
             target = ".".join(base + ([node.module] if node.module else []))
-            if target.split(".")[0] == "isl_core":
+            if target.split(".")[0] in ("isl_core", "app"):
                 found |= {_target(f"{target}.{alias.name}") for alias in node.names}
         elif isinstance(node, ast.Import):
-            found |= {_target(alias.name) for alias in node.names if alias.name.split(".")[0] == "isl_core"}
+            found |= {_target(alias.name) for alias in node.names if alias.name.split(".")[0] in ("isl_core", "app")}
     return found - {module, ""}
 
 
@@ -81,15 +83,17 @@ def test_the_import_graph_sees_relative_and_nested_imports():
     assert "isl_core.filters.base" in _imports("isl_core.filters.adaptive")
     assert "isl_core.model" in _imports("isl_core.filters.adaptive")
     assert "isl_core.filters.adaptive" in _imports("isl_core.filters")
+    assert {"app.jobs.base", "app.state.room", "app.inputs"} <= _imports("app.jobs.long") | _imports("app.state.session")
 
 
-def test_the_core_has_no_import_cycle():
-    """No circle among the core's modules (subpackages included), counting the imports inside functions too."""
-    order = graphlib.TopologicalSorter({module: _imports(module) for module in MODULES})
+def test_no_import_cycle():
+    """No circle among the modules of the core and the dashboard (subpackages included), counting the imports inside
+    functions too."""
+    order = graphlib.TopologicalSorter({module: _imports(module) for module in PROJECT})
     try:
         order.prepare()
     except graphlib.CycleError as exc:
-        pytest.fail(f"import cycle in isl_core: {' -> '.join(exc.args[1])}")
+        pytest.fail(f"import cycle: {' -> '.join(exc.args[1])}")
 
 
 def test_no_module_imports_a_private_name_of_another():
@@ -111,7 +115,7 @@ def _njit(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
 
 def test_no_function_is_over_80_lines_outside_the_numba_kernels():
     long = {}
-    for module, path in MODULES.items():
+    for module, path in PROJECT.items():
         for node in ast.walk(ast.parse(path.read_text("utf-8"))):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and not _njit(node):
                 lines = node.end_lineno - node.lineno + 1

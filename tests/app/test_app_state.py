@@ -37,7 +37,7 @@ def test_starts_at_paper_a_fig3(state):
 def test_fig3_presets(state, sigma):
     state.apply_preset(f"Fig. 3, σ = {sigma:g}")
     run = state.run
-    # paper A, Fig. 3: m = 3, α = 0.5, w = 3 → β = w√(2α) = 3, ν = β, T = 10/r_min (SPEC §5)
+    # paper A, Fig. 3: m = 3, α = 0.5, w = 3 → β = w√(2α) = 3, ν = β, T = 10/r_min (:ref:`reference-values`)
     assert run.model == Model.from_w(0.5, 3.0, sigma, 3) and run.model.beta == 3.0
     assert run.nu == 3.0 and math.isclose(run.T * run.r_min, 10.0, rel_tol=1e-12)
 
@@ -47,7 +47,7 @@ def test_paper_b_presets(state, sigma, sqrt_q11):
     state.apply_preset(f"Paper B, Fig. 2 (α = 0, σ = {sigma:g})")
     run = state.run
     assert run.model == Model(0.0, 3.0, sigma, 3) and run.nu == 3.0  # (B.25–B.26): ν = β
-    # the tube half-width's s_1 = √Q_11 is printed in paper B to 3 digits (SPEC §7)
+    # the tube half-width's s_1 = √Q_11 is printed in paper B to 3 digits (:ref:`reference-values`)
     assert round(float(run.s[0]), 2 if sigma == 5.0 else 1) == sqrt_q11
 
 

@@ -154,7 +154,7 @@ def test_build_context_holds_everything_the_copies_need():
         for f in files:
             assert not _dockerignored(str(f.relative_to(REPO)), patterns), f"{f} excluded by .dockerignore"
     assert "requirements.lock" in sources
-    for junk in (".git/config", ".venv/bin/python", "tests/test_serve.py", "app/__pycache__/x.pyc"):
+    for junk in (".git/config", ".venv/bin/python", "tests/serving/test_serve.py", "app/__pycache__/x.pyc"):
         assert _dockerignored(junk, patterns), junk
 
 
