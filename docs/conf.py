@@ -14,9 +14,26 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from importlib.metadata import version as _version  # noqa: E402
 
-__version__ = _version("isl")
+
+def _isl_version() -> str:
+    """The package's own ``isl_core.__version__`` where it has one, else the installed distribution's version."""
+    import isl_core
+
+    found = getattr(isl_core, "__version__", None)
+    if found:
+        return str(found)
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("isl")
+    except PackageNotFoundError:  # a checkout not installed: pyproject.toml says it
+        import tomllib
+
+        return str(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"])
+
+
+__version__ = _isl_version()
 
 project = "isl"
 author = "the isl authors"
