@@ -200,6 +200,9 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
             from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
+            from app.serving import docs
+
+            docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
             from app.serving.hardening import quiet_closed_websockets
             from app.serving.offloop import build_pages_off_loop
 
