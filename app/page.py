@@ -26,6 +26,7 @@ from app.serving import fastpath, hardening, offloop
 from app.state import TABS, AppState
 from app.urlsync import UrlSync, after_pause
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
+from app.views.about import docs_link
 from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
 from app.views.paint import skip_same_stylesheet
@@ -237,7 +238,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
                               deferred(lambda: FiltersPanel(state=state))], main=[tabs],
         sidebar_width=340, accent_base_color=ACCENT, header_background=ACCENT, theme_toggle=False,
         main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
-        header=[presenter_toggle(present)], collapsed_sidebar=present,
+        header=[docs_link(), presenter_toggle(present)], collapsed_sidebar=present,
         raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
     a11y.install(pn.state.curdoc)
