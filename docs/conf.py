@@ -2,7 +2,7 @@
 
 Sphinx, because the numerical Python projects this one builds on document themselves with it (NumPy, SciPy,
 python-control): autodoc reads the numpydoc docstrings of :mod:`isl_core`, doctest runs their examples, and MyST lets
-the narrative pages be Markdown like the README. The pages need no internet: the theme's files are served with the
+the narrative pages be Markdown, as the README is. The pages need no internet: the theme's files are served with the
 pages, and equations are text (no math renderer fetched from a CDN), so a classroom without internet reads them at
 the dashboard's ``/docs``.
 """

@@ -9,7 +9,7 @@ option                          environment              default
 ``--address``                   ``ISL_ADDRESS``          ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
 ``--port``                      ``ISL_PORT``             5006
 ``--allow-websocket-origin``    ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
-``--num-procs``                 ``ISL_NUM_PROCS``        1 (more classes: more servers, see README)
+``--num-procs``                 ``ISL_NUM_PROCS``        1 (more classes: more servers, :ref:`serving-many`)
 ``--num-threads``               ``ISL_NUM_THREADS``      4 threads run the callbacks (the kernel is nogil)
 ``--unused-session-lifetime``   —                        10000 ms after the last connection closes
 ``--check-unused-sessions``     —                        2000 ms between sweeps for unused sessions
