@@ -111,6 +111,17 @@ def test_the_api_reference_documents_every_public_name_through_the_package():
     assert not missing, f"isl_core.__all__ names without an entry in the API reference: {missing}"
 
 
+def test_the_built_pages_load_nothing_from_another_site():
+    """A classroom without internet reads them whole: no script, style, font or image comes from elsewhere."""
+    fetched = re.compile(r"""<(?:script|img|iframe|source)\b[^>]*\bsrc=["']((?:https?:)?//[^"']+)|"""
+                         r"""<link\b[^>]*\bhref=["']((?:https?:)?//[^"']+)|url\(["']?((?:https?:)?//[^)"']+)""")
+    pages = [*_built().rglob("*.html"), *_built().rglob("*.css")]
+    remote = {(page.name, next(u for u in match if u)) for page in pages
+              for match in fetched.findall(page.read_text(encoding="utf-8"))}
+    assert remote == set()
+    assert fetched.findall('<script src="https://cdn.example/x.js"></script>')  # the pattern sees a remote script
+
+
 def test_the_server_serves_the_built_docs(tmp_path):
     built = _built()
     with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path),
