@@ -4,7 +4,8 @@
 # Settings by environment at `docker run` time: ISL_ALLOWED_ORIGINS (comma-separated host[:port] the browsers
 # use to reach the server), ISL_FRAME_ANCESTORS (a course page allowed to frame it), ISL_NUM_PROCS,
 # ISL_NUM_THREADS (see app/serving/serve.py). The image sets PYTHONMALLOC=malloc: a class's memory goes back to the
-# OS when it ends (app/serving/memory.py). Runs as any UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
+# OS when it ends (app/serving/memory.py). Its documentation is built into it and served at /docs/. Runs as any
+# UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
 # The base image by digest: python:3.11.14-slim-bookworm (the multi-architecture index).
 ARG PYTHON_IMAGE=python:3.11.14-slim-bookworm@sha256:65a93d69fa75478d554f4ad27c85c1e69fa184956261b4301ebaf6dbb0a3543d
 
@@ -17,6 +18,13 @@ COPY app ./app
 RUN python -m venv /opt/venv \
     && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock .
 
+# The documentation, which the dashboard serves at /docs/ (a classroom without internet has it): built in a stage of
+# its own with the docs extra, warnings as errors, so the image carries the pages and not sphinx
+FROM build AS docs
+COPY docs ./docs
+RUN /opt/venv/bin/pip install --no-cache-dir -c requirements.lock ".[docs]" \
+    && /opt/venv/bin/python -m sphinx -W --keep-going -q -b html docs /opt/isl-docs
+
 FROM ${PYTHON_IMAGE}
 ENV PATH=/opt/venv/bin:$PATH \
     PYTHONUNBUFFERED=1 \
@@ -26,12 +34,14 @@ ENV PATH=/opt/venv/bin:$PATH \
     ISL_CACHE_DIR=/var/cache/isl/tuning \
     HOME=/tmp \
     ISL_ADDRESS=0.0.0.0 \
-    ISL_PORT=5006
+    ISL_PORT=5006 \
+    ISL_DOCS_DIR=/opt/isl-docs
 RUN useradd --create-home --uid 10001 --gid 0 isl \
     && mkdir -p /var/cache/isl/numba \
     && chown -R 10001:0 /var/cache/isl \
     && chmod -R g=u /var/cache/isl
 COPY --from=build /opt/venv /opt/venv
+COPY --from=docs /opt/isl-docs /opt/isl-docs
 USER 10001
 WORKDIR /home/isl
 # Compile the numba kernel into NUMBA_CACHE_DIR and run the app once: a broken app fails the build. Then the same

@@ -25,6 +25,7 @@ from app.serving import fastpath, hardening, offloop
 from app.state import TABS, AppState
 from app.urlsync import UrlSync, after_pause
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
+from app.views.about import docs_link
 from app.views.compare import CompareView
 from app.views.filters_panel import FiltersPanel
 from app.views.paint import skip_same_stylesheet
@@ -45,8 +46,8 @@ PAGE_CSS = a11y.PAGE_CSS
 #: in a child process (see app.jobs.long for the measurements behind that choice)
 LONG_JOBS = LongJobQueue(workers=1, max_waiting=8, processes=True)
 
-# The model's matrices are m×m (m ≤ 7): multithreaded BLAS only adds overhead, and with several sessions' jobs
-# on a 2-core machine its spinning threads made a Riccati solve ~10× slower (58 ms vs 5 ms per run, measured).
+# The model's matrices are m×m (m ≤ 6): multithreaded BLAS only adds overhead, and its spinning threads slow the
+# other sessions' jobs (:ref:`performance-warm-up`).
 threadpool_limits(limits=1, user_api="blas")
 pn.extension(notifications=True)  # the hardening handler reports errors as notifications
 
@@ -107,8 +108,8 @@ class SessionGate:
     def apply_here(self) -> None:
         """On the thread building the page (before the browser can have it): apply the outcomes that arrived
         meanwhile right here, so that the page goes out with them — usually the first run, computed while the page
-        was built. Applied later on the loop, its plots replaced the progress indicator there: the server re-walked
-        every model of the page, ≈ 30 ms of the event loop's time a page (140 ms under a class's load)."""
+        was built — instead of re-walking every model of the page on the event loop later
+        (:ref:`performance-page-building`)."""
         from panel.io.state import set_curdoc
 
         with self._lock:
@@ -124,15 +125,14 @@ class SessionGate:
 
         doc = self.doc
         # bokeh's one-shot callback and its wrapper hold each other (a reference cycle) and hold ``run``: ``run``
-        # lets go of ``fn`` — and with it the outcome, a whole run's traces — once it has run, else they stayed until
-        # a full garbage collection, which a class rarely gets (memory.MemoryTrimmer): a heavy session kept ≈ 1.4 MB
-        # a run, and the classroom scenario's server grew from 480 MB to 1.46 GB in 5 min
+        # lets go of ``fn`` — and with it the outcome, a whole run's traces — once it has run, else they would stay
+        # until a full garbage collection, which a class rarely gets (:ref:`performance-memory-release`)
         held = [fn]
 
         def run() -> None:
             # every model change of one outcome goes out in one message; and Panel must see the session's
             # document while the views update: without it Panel rebuilds each pane's stylesheet models on each
-            # update, and new models make the server re-walk every model of the page (≈ 15 ms a run, py-spy).
+            # update, and new models make the server re-walk every model of the page (:ref:`performance-page-building`).
             # The session's lock: a browser event of this page may be being processed on a thread right now
             # (hardening.serialize_session_events); it holds the lock only while its callback runs.
             if not held:
@@ -183,13 +183,11 @@ def deferred(build: Callable[[], object], shown: bool = True):
     is being created on the event loop.
 
     A part swapped into a connected page costs the event loop a walk of every model of the page (bokeh's
-    ``recompute``), the serialization of the part's models and Panel's search of the page for links: with four such
-    parts a page, 200 swaps took 15.8 s of the loop in a classroom run (max 436 ms each), and ``/liveness`` p99 was
-    0.9–1.0 s. Built with the page instead (off the loop, one walk), the browser pulls the whole page at once; the
-    classroom scenario's ``/liveness`` p99 went to 134–144 ms (before/after in one run each). The hidden tabs'
-    parts (``shown=False``) are still deferred: most pages never open them. Their models are built on the thread
-    too (:func:`app.serving.offloop.prebuild`): left to Panel, they were built on the loop when the piece is
-    swapped in — 6 to 215 ms a piece.
+    ``recompute``), the serialization of the part's models and Panel's search of the page for links; built with the
+    page instead (off the loop, one walk), the browser pulls the whole page at once. The hidden tabs' parts
+    (``shown=False``) are still deferred: most pages never open them. Their models are built on the thread too
+    (:func:`app.serving.offloop.prebuild`), not on the loop when the part is swapped in. Measurements:
+    :ref:`performance-page-building`.
     """
     if shown and offloop.building_page():
         return pn.panel(build())
@@ -236,7 +234,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
                               deferred(lambda: FiltersPanel(state=state))], main=[tabs],
         sidebar_width=340, accent_base_color=ACCENT, header_background=ACCENT, theme_toggle=False,
         main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
-        header=[presenter_toggle(present)], collapsed_sidebar=present,
+        header=[docs_link(), presenter_toggle(present)], collapsed_sidebar=present,
         raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
     a11y.install(pn.state.curdoc)

@@ -2,7 +2,7 @@
 
 Sphinx, because the numerical Python projects this one builds on document themselves with it (NumPy, SciPy,
 python-control): autodoc reads the numpydoc docstrings of :mod:`isl_core`, doctest runs their examples, and MyST lets
-the narrative pages be Markdown like the README. The pages need no internet: the theme's files are served with the
+the narrative pages be Markdown, as the README is. The pages need no internet: the theme's files are served with the
 pages, and equations are text (no math renderer fetched from a CDN), so a classroom without internet reads them at
 the dashboard's ``/docs``.
 """
@@ -14,9 +14,26 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from importlib.metadata import version as _version  # noqa: E402
 
-__version__ = _version("isl")
+
+def _isl_version() -> str:
+    """The package's own ``isl_core.__version__`` where it has one, else the installed distribution's version."""
+    import isl_core
+
+    found = getattr(isl_core, "__version__", None)
+    if found:
+        return str(found)
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("isl")
+    except PackageNotFoundError:  # a checkout not installed: pyproject.toml says it
+        import tomllib
+
+        return str(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"])
+
+
+__version__ = _isl_version()
 
 project = "isl"
 author = "the isl authors"

@@ -18,7 +18,7 @@ the memory run (open and close 50 sessions three times; the server's RSS after e
     PYTHONPATH=. python scripts/load_test.py --memory 3 --sessions 50
 
 the classroom scenario with four hostile-heavy sessions beside 40 students, ``/liveness`` probed and new pages
-opened, before/after two checkouts (README, "What one replica holds"; built on this script's client):
+opened, before/after two checkouts (:ref:`performance-classroom`; built on this script's client):
 
     PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before
 

@@ -1,4 +1,4 @@
-"""Regenerate the README's screenshots under docs/ from a running dashboard (Debian's chromium via Playwright).
+"""Regenerate the docs' screenshots under docs/images/ from a running dashboard (Debian's chromium via Playwright).
 
     ./scripts/serve &                      # or any running server
     PYTHONPATH=. .venv/bin/python scripts/screenshots.py [--url http://127.0.0.1:5006/app]
@@ -10,7 +10,7 @@ from pathlib import Path
 
 from playwright.sync_api import sync_playwright
 
-DOCS = Path(__file__).resolve().parent.parent / "docs"
+DOCS = Path(__file__).resolve().parent.parent / "docs" / "images"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 PLOT_DATA = """() => { const d = window.Bokeh && Bokeh.documents[0]; const s = d && d.get_model_by_name('traj-1-isl');
                        return !!(s && s.data.y.length > 0); }"""
@@ -56,7 +56,7 @@ def main() -> None:
                 page.wait_for_load_state("networkidle")
                 page.screenshot(path=str(DOCS / name))
                 page.close()
-                print(f"wrote docs/{name}")
+                print(f"wrote docs/images/{name}")
         finally:
             browser.close()
 

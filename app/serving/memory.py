@@ -18,8 +18,8 @@ ALLOCATOR_ENV = ("PYTHONMALLOC", "malloc")
 # How often to check whether sessions have ended and, if so, hand freed heap memory back to the OS.
 TRIM_INTERVAL_MS = 5_000
 #: at most this many sessions left: a full garbage collection may run (:class:`MemoryTrimmer`). Not 1: a full
-#: collection while one session was open lost that session's next update now and then (a browser test ticking four
-#: filters waited 60 s for data in 1 of 3 runs, and in CI; with 0, 9 of 9 runs passed) — the cause is not found.
+#: collection while one session was open lost that session's next update now and then; the cause is not found
+#: (:ref:`performance-memory-release`).
 QUIET_SESSIONS = 0
 #: sessions ended since the last full collection after which one runs even with sessions open (frozen objects of
 #: ended sessions, in reference cycles, are only freed by a full collection; see :func:`young_then_freeze`)
@@ -91,15 +91,14 @@ class MemoryTrimmer:
     (:func:`young_then_freeze`).
 
     Why so: a full collection walks every object of the heap while holding the interpreter lock, whichever thread
-    runs it — 146 ms for the idle server's 230 000 objects on this machine, and 0.7–1.1 s with 40 sessions open — and
-    the event loop, ``/liveness`` and every student's update wait for it. Panel schedules one after every session's
-    end (py-spy, classroom scenario: 3 % of the loop's busy samples), and Python's own collector runs one whenever
-    its oldest generation has grown by 25 %, which a class opening its pages does every 10–20 s. Frozen objects are
-    not walked, so the automatic collections walk only what is new since the last look; a closed session's objects
-    that hold each other in cycles are freed by the next full collection: when the class has left, or after
-    :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's caches are emptied first
-    (:func:`isl_core.clear_caches`): a class of 40 left ≈ 1 000 cached solutions, and the server's RSS after it
-    closed was 531 MB, 459 MB with them emptied (against 258 MB idle; one classroom run each).
+    runs it, and the event loop, ``/liveness`` and every student's update wait for it; the heap of a server with a
+    class open takes long to walk (:ref:`performance-serving`). Panel schedules one after every session's end, and
+    Python's own collector runs one whenever its oldest generation has grown by 25 %, which a class opening its
+    pages does often. Frozen objects are not walked, so the automatic collections walk only what is new since the
+    last look; a closed session's objects that hold each other in cycles are freed by the next full collection: when
+    the class has left, or after :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's
+    caches are emptied first (:func:`isl_core.clear_caches`): what a class computed goes with it
+    (:ref:`performance-memory-release`).
     """
 
     def __init__(self, server) -> None:
@@ -144,8 +143,8 @@ def full_collection() -> None:
 def young_then_freeze() -> None:
     """The young generations collected (their garbage: tens of ms at most), then every object that has lived so far
     frozen out of the collector's later walks (an O(1) move), so that its oldest generation holds only what is new
-    since the last look. Without it, with 40 sessions open one automatic collection of that generation held the
-    interpreter, and with it the event loop, for 0.7-1.1 s (``isl stats``'s ``gc2``, classroom scenario)."""
+    since the last look, and no automatic collection walks a class's whole heap while it holds the interpreter and
+    with it the event loop (``isl stats``'s ``gc2``; :ref:`performance-serving`)."""
     gc.collect(1)
     gc.freeze()
 
@@ -155,16 +154,12 @@ def check_allocator() -> bool:
 
     Python's own small-object allocator takes memory in 1 MiB arenas and returns an arena only when every object in
     it is gone. A class leaves a few hundred long-lived objects (caches filled by the first sessions, interned names)
-    scattered over the arenas its sessions used, and those pin them: with 40 sessions opened and closed, the server's
-    RSS stayed at 475–517 MB against 346 MB idle (no Python object of the sessions was left, and ``malloc_trim`` ran).
-    With ``PYTHONMALLOC=malloc`` the same objects come from glibc, whose freed pages ``malloc_trim`` returns: 364–365
-    MB after each of two rounds, against 353 MB idle. glibc's allocator is slower for Python's small objects
-    (serializing a page 97–113 → 131–136 ms), which once cost the classroom scenario's ``/liveness`` p99 0.93 → 1.71 s;
-    since pages are built off the event loop the price is small (classroom scenario, one run each, Python's → glibc's:
-    ``/liveness`` p99 37 → 49 ms, students' p95 beside the heavy sessions 52 → 68 ms, RSS after close 1.40 → 1.08 ×
-    idle: each within the classroom aims). So ``./scripts/serve`` and the image set it (Python reads it at start: an
-    environment setting); ``PYTHONMALLOC=pymalloc`` keeps Python's allocator (memory then stays at a plateau for the
-    next class: not a leak).
+    scattered over the arenas its sessions used, and those pin them, even with no Python object of the sessions left
+    and ``malloc_trim`` run. With ``PYTHONMALLOC=malloc`` the same objects come from glibc, whose freed pages
+    ``malloc_trim`` returns. glibc's allocator is slower for Python's small objects, a small price since pages are
+    built off the event loop (:ref:`performance-memory`). So ``./scripts/serve`` and the image set it (Python reads
+    it at start: an environment setting); ``PYTHONMALLOC=pymalloc`` keeps Python's allocator (memory then stays at a
+    plateau for the next class: not a leak).
     """
     name, value = ALLOCATOR_ENV
     chosen = os.environ.get(name) == value
@@ -176,8 +171,8 @@ def check_allocator() -> bool:
 
 def quiet_garbage_collection() -> None:
     """The collector's part of serving (see :class:`MemoryTrimmer`): what exists once the app is warm (modules,
-    the warm-up's caches: ≈ 230 000 objects, 146 ms a full collection on this machine) is frozen out of every later
-    collection, and Panel's full collection after each session's end is left to :class:`MemoryTrimmer`."""
+    the warm-up's caches) is frozen out of every later collection, and Panel's full collection after each session's
+    end is left to :class:`MemoryTrimmer`."""
     import panel.io.document as panel_document
 
     panel_document._garbage_collect = lambda: None

@@ -2,8 +2,8 @@
 
 Bokeh creates a session on the event loop: it awaits the application's ``on_session_created`` hooks, then runs the
 app script (``initialize_document``) right there. The script builds the page's Panel objects and their bokeh models
-— ≈ 150–290 ms of Python a page (py-spy, classroom scenario) during which the loop answered nobody: not the other
-students' slider changes, not ``/liveness``. Two changes move that work to a thread:
+— while the loop answers nobody: not the other students' slider changes, not ``/liveness``
+(:ref:`performance-page-building`). Two changes move that work to a thread:
 
 * :func:`build_pages_off_loop` runs ``initialize_document`` on one page-building thread, awaited from the
   ``on_session_created`` hook (which bokeh awaits; the session is registered as *pending* meanwhile, so a second
@@ -23,9 +23,8 @@ document. :func:`install` makes that stack per thread.
 Builds on threads also register Panel's links (``jslink``, a widget's ``js_on_click``) in ``Callback.registry``, one
 dictionary for the whole process, which the event loop iterates whenever it attaches a part to a page. A
 registration in the middle of that iteration raised "dictionary changed size during iteration" and the part was
-never attached: a page kept its loading spinner where its controls should be (1 page of 20 in a CI load run, and
-in 1 round of 21 here with 20 pages opening under CPU load). :func:`install` makes that registry iterate over a
-snapshot.
+never attached: a page kept its loading spinner where its controls should be. :func:`install` makes that registry
+iterate over a snapshot.
 
 Work done on a thread reaches the page through a callback on the session's loop: a job's outcome
 (:class:`app.page.SessionGate`) and Panel's own model updates both call ``pn.state.execute(..., schedule=True)``,

@@ -9,7 +9,7 @@ option                          environment              default
 ``--address``                   ``ISL_ADDRESS``          ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
 ``--port``                      ``ISL_PORT``             5006
 ``--allow-websocket-origin``    ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
-``--num-procs``                 ``ISL_NUM_PROCS``        1 (more classes: more servers, see README)
+``--num-procs``                 ``ISL_NUM_PROCS``        1 (more classes: more servers, :ref:`serving-many`)
 ``--num-threads``               ``ISL_NUM_THREADS``      4 threads run the callbacks (the kernel is nogil)
 ``--unused-session-lifetime``   —                        10000 ms after the last connection closes
 ``--check-unused-sessions``     —                        2000 ms between sweeps for unused sessions
@@ -18,9 +18,10 @@ option                          environment              default
 ==============================  =======================  ====================================================
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`app.serving.webguard`, with the
-security headers, the host check and compression), ``--warm`` (the app runs once before the port opens), a global
-exception handler and per-session release hooks (:mod:`app.serving.hardening`), pages built off the event loop
-(:mod:`app.serving.offloop`) and memory handed back after a class (:mod:`app.serving.memory`).
+security headers, the host check and compression), the built documentation at ``/docs/`` (:mod:`app.serving.docs`),
+``--warm`` (the app runs once before the port opens), a global exception handler and per-session release hooks
+(:mod:`app.serving.hardening`), pages built off the event loop (:mod:`app.serving.offloop`) and memory handed back
+after a class (:mod:`app.serving.memory`).
 Never on: ``--admin``, ``--dev``/``--autoreload``, a ``*`` websocket origin.
 
 Why in-process: this module builds the argument list of ``panel serve`` and runs Panel's own ``serve``
@@ -200,6 +201,9 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
             from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
+            from app.serving import docs
+
+            docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
             from app.serving.hardening import quiet_closed_websockets
             from app.serving.offloop import build_pages_off_loop
 
@@ -222,9 +226,8 @@ def _raise_if_failed(applications) -> None:
 
 def warm_core() -> None:
     """Compile (or load from the numba cache) every kernel a session calls, each with one short run: the display
-    run's (the simulation and its min/max fold) and the scenario loop's. Left to the first session that opened the
-    Scenario tab, the scenario loop compiled there: its picture came after 14 s, and while numba compiled (holding
-    the interpreter lock most of the time) the event loop's thread waited up to 166 ms for it."""
+    run's (the simulation and its min/max fold) and the scenario loop's, so that no session compiles one while
+    holding the interpreter lock the event loop needs (:ref:`performance-warm-up`)."""
     from isl_core import Model, Scenario
     from isl_core.runview import simulate_view
     from isl_core.scenario.run import simulate_scenario
@@ -282,7 +285,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     # The event loop's thread releases the interpreter lock at every file-system call of Panel's page building
     # (several a component) and, beside compute threads running Python, waited up to the switch interval (5 ms by
     # default) to get it back each time: a page's build stalled the loop for seconds. 0.5 ms bounds that wait
-    # (classroom scenario, one 60 s run each: /liveness p99 1.76 → 1.54 s, students' p95 1.61 → 1.16 s).
+    # (:ref:`performance-warm-up`).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     warm_core()
     warm_long_jobs()

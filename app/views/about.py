@@ -7,7 +7,11 @@ from isl_core.paper import PAPER_A, PAPER_B
 
 from .style import TEXT_FONT
 
-__all__ = ["ABOUT", "about_card"]
+__all__ = ["ABOUT", "DOCS_LINK", "about_card", "docs_link"]
+
+#: the documentation this server serves at /docs/ (app.serving.docs); relative, so it stays under a proxy's prefix
+DOCS_LINK = ('<a href="./docs/" target="_blank" rel="noopener" class="isl-docs-link" title="The documentation: the '
+             'model and its equations, the filters, a guide to this page (opens in a new tab)">Docs</a>')
 
 ABOUT = r"""
 **The signal.** X₁ is a position, X₂ its velocity, X₃ its acceleration, … (m coordinates). The top
@@ -57,6 +61,9 @@ six scenarios is least):
 
 The Scenarios tab runs this comparison for the page's model, with each filter's tuning and cost beside its ratios.
 
+**The documentation** — the model and every equation, the filters, the scenarios and findings, a guide to this
+page — is served with it: [Docs](./docs/) (also in the header).
+
 **Equation numbers** such as (A.17) or (B.46) refer to the papers' equations:
 
 * paper A — {a}
@@ -68,3 +75,10 @@ def about_card() -> pn.Card:
     """The card at the top of the sidebar, folded: its title is the first thing a newcomer reads there."""
     return pn.Card(pn.pane.Markdown(ABOUT.format(a=PAPER_A, b=PAPER_B), styles={"font-size": TEXT_FONT}),
                    title="What am I looking at?", collapsed=True, sizing_mode="stretch_width", margin=(10, 5))
+
+
+def docs_link() -> pn.pane.HTML:
+    """The header's link to the documentation served with the dashboard (white on the header's blue)."""
+    return pn.pane.HTML(DOCS_LINK, margin=(18, 10),
+                        stylesheets=[".isl-docs-link { color: #fff; font-size: 16px; font-weight: 600; }"
+                                     ".isl-docs-link:hover, .isl-docs-link:focus { text-decoration: underline; }"])

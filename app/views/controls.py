@@ -75,8 +75,8 @@ class Slider(Guarded, pn.widgets.FloatSlider):
     Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
     already keeps only the newest request, so the delay would only add latency to every update. Panel also
     counts each change as a "busy" event for a global busy indicator that this page does not show (the state's
-    own ``busy`` drives the spinner); that bookkeeping cost about 14 ms of the server's loop per slider move
-    (py-spy, ``benchmarks/bench_app_latency.py``), so slider values are left out of it.
+    own ``busy`` drives the spinner); slider values are left out of that bookkeeping, which costs the server's loop
+    time at every move (:ref:`performance-latency`).
     """
 
     _debounce = 0

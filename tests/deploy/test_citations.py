@@ -1,4 +1,4 @@
-"""The repository cites only what it contains: the code, the tests and the pages cite the docs (:ref:`label`,
+"""The repository cites only what it contains: the code, the tests and the pages cite the docs (``:ref:`` to a label,
 Sphinx cross-references to ``docs/``) and the papers by their equation numbers, never a document a newcomer cannot
 open."""
 from __future__ import annotations

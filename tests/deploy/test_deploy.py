@@ -1,4 +1,4 @@
-"""deploy/kubernetes.yaml, the department setup of the README: consistent with itself and with the image.
+"""deploy/kubernetes.yaml, the department setup of :ref:`serving-many`: consistent with itself and with the image.
 
 No cluster here, so the manifest is checked as data: every reference resolves (selector → labels, ingress → service
 → named container port), the sticky-session annotations are there (a page's websocket must reach the replica that

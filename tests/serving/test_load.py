@@ -1,7 +1,7 @@
 """Load: concurrent sessions of the served dashboard, each moving the σ slider every few seconds.
 
 CI runs 20 sessions for 15 s; ``PYTHONPATH=. python scripts/load_test.py --sessions 100 --duration 300`` is the
-classroom-sized run (README, "Serving a classroom"). Every session must stay connected and get every update
+classroom-sized run (:ref:`serving-many`). Every session must stay connected and get every update
 (a plot-data change within 30 s of its slider change) with no ERROR reply. The p95 update latency and the RSS per
 session are printed: on a shared 2-core machine they are figures to read, not to assert.
 """
