@@ -80,9 +80,11 @@ def test_hadolint_reports_nothing():
 
 def test_base_image_is_a_pinned_slim_python():
     args = {rest.split("=", 1)[0]: rest.split("=", 1)[1] for word, rest in instructions() if word == "ARG"}
-    images = [rest.split()[0] for word, rest in instructions() if word == "FROM"]
+    froms = [rest.split() for word, rest in instructions() if word == "FROM"]
+    stages = {words[2] for words in froms if len(words) == 3 and words[1].upper() == "AS"}
+    images = [words[0] for words in froms if words[0] not in stages]  # a stage built on an earlier one is not an image
     resolved = [re.sub(r"\$\{(\w+)\}", lambda m: args[m.group(1)], image) for image in images]
-    assert len(resolved) == 2                                # build stage + runtime stage
+    assert len(froms) == 3 and len(resolved) == 2  # build, docs (on build) and runtime stages; two pulls of one image
     for image in resolved:  # by tag (for people) and by digest (for the build): the tag cannot move under it
         assert re.fullmatch(r"python:3\.1[1-9]\.\d+-slim-\w+@sha256:[0-9a-f]{64}", image), image
 
@@ -173,8 +175,8 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
     assert build_step.returncode == 0, build_step.stdout[-2000:] + build_step.stderr[-3000:]
     assert any((tmp_path / "numba").rglob("*.nbi")), "the build step must fill the numba cache"
     # every kernel a session calls, the scenario loop included (else the first Scenario tab compiled it: 14 s)
-    assert any((tmp_path / "numba").rglob("scenario_kernel.advance_scenario-*.nbi"))
-    assert any((tmp_path / "numba").rglob("kernels.minmax_block-*.nbi"))
+    assert any((tmp_path / "numba").rglob("scenario.advance_scenario-*.nbi"))
+    assert any((tmp_path / "numba").rglob("euler.minmax_block-*.nbi"))
 
     health = stage["HEALTHCHECK"]
     probe = local_argv(exec_form(health[health.index("CMD") + 3:].strip()))
@@ -219,32 +221,32 @@ def _interpreter_for_another_user() -> str | None:
 
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0, reason="switching UID needs root")
 @pytest.mark.parametrize("tmp_writable", [True, False], ids=["tmp-cache", "no-cache-at-all"])
-def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_path, tmp_writable):
+def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_writable):
     """As OpenShift runs it (any UID, group 0) and under ``--read-only --tmpfs /tmp``: the code and NUMBA_CACHE_DIR
     are not writable. The check must pass, saying in one log line where the kernels are cached — or that they are
     compiled without a cache when not even the temporary directory can take them."""
     python = _interpreter_for_another_user()
     assert python is not None, "no interpreter another UID may run (neither this one nor Debian's)"
-    tree, cache = tmp_path / "tree", tmp_path / "cache"
-    for d in (tree, cache):
+    # Everything in a directory of its own under /tmp, not under pytest's: pytest makes its /tmp/pytest-of-<user>
+    # private (0700) again whenever a process starts a test session, which would cut the other UID off mid-run; and
+    # TMPDIR short, as /tmp is in a container: the fork server's Unix socket path may not exceed 107 bytes.
+    base = Path(tempfile.mkdtemp(prefix="isl-uid-"))
+    base.chmod(0o755)
+    tree, cache, tmp = base / "tree", base / "cache", base / "tmp"
+    for d in (tree, cache, tmp):
         d.mkdir()
-    # TMPDIR short, as /tmp is in a container: the fork server's socket lives there, and a Unix socket's path may
-    # not exceed 107 bytes (pytest's own temporary paths can).
-    tmp = Path(tempfile.mkdtemp(prefix="isl-"))
     try:
-        _check_as_another_uid(python, tmp_path, tree, cache, tmp, tmp_writable)
+        _check_as_another_uid(python, base, tree, cache, tmp, tmp_writable)
     finally:
-        subprocess.run(["chmod", "-R", "u+w", str(tmp)], check=False)
-        shutil.rmtree(tmp, ignore_errors=True)
+        subprocess.run(["chmod", "-R", "u+w", str(base)], check=False)
+        shutil.rmtree(base, ignore_errors=True)
 
 
-def _check_as_another_uid(python, tmp_path, tree, cache, tmp, tmp_writable):
+def _check_as_another_uid(python, base, tree, cache, tmp, tmp_writable):
     for package in ("isl_core", "app"):
         shutil.copytree(REPO / package, tree / package, ignore=shutil.ignore_patterns("__pycache__"))
     subprocess.run(["chmod", "-R", "a-w", str(tree), str(cache)], check=True)
     subprocess.run(["chmod", "a+rwx,+t" if tmp_writable else "a-w", str(tmp)], check=True)
-    for p in (tmp_path, *tmp_path.parents):  # let the other UID reach the tree: it is in group 0 (root's group),
-        os.chmod(p, os.stat(p).st_mode | 0o055)  # so the group's bits apply to it, not the others'
     subprocess.run(["chmod", "-R", "g+rX", str(tree), str(cache)], check=True)
     site = next(p for p in sys.path if p.endswith("site-packages") and Path(p).is_dir())
     code = "import sys, tempfile\n" + ("" if tmp_writable else f"tempfile.tempdir = {str(cache)!r}\n") + \
@@ -252,7 +254,7 @@ def _check_as_another_uid(python, tmp_path, tree, cache, tmp, tmp_writable):
     env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "NUMBA_CACHE_DIR": str(cache), "TMPDIR": str(tmp),
            "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": f"{tree}{os.pathsep}{site}"}
     done = subprocess.run(["setpriv", "--reuid=54321", "--regid=0", "--clear-groups", python, "-c", code],
-                          env=env, cwd=str(tmp_path), capture_output=True, text=True, timeout=600, check=False)
+                          env=env, cwd=str(base), capture_output=True, text=True, timeout=600, check=False)
     out = done.stdout + done.stderr
     assert done.returncode == 0 and "warm-up passed" in out, out[-3000:]
     said = [line for line in out.splitlines() if "isl_core WARNING numba:" in line]

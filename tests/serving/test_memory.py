@@ -77,7 +77,7 @@ def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collect
     from app.serving.memory import MemoryTrimmer
     from isl_core import Model, kalman_bucy
     from isl_core.nonlinearity import gamma_moments, linearization
-    from isl_core.riccati import _normalized_care, _solved
+    from isl_core import riccati
 
     class Server:
         sessions: list = []
@@ -90,7 +90,7 @@ def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collect
     try:
         kalman_bucy(Model(0.9, 2.0, 20.0, 3))
         linearization(np.ones(3), np.array([0.5, 0.25, 0.0]), 2.0)
-        caches = (_normalized_care, _solved, gamma_moments)
+        caches = (riccati.normalized_care, riccati._solved, gamma_moments)
         server.sessions = [object()]
         trimmer()  # a session open: nothing ended, the caches stay
         assert all(cached.cache_info().currsize > 0 for cached in caches)
