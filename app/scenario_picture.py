@@ -35,10 +35,10 @@ from isl_core import (
     robust_kbf,
     variational_kbf,
 )
-from isl_core.filters.isl import model_aware_isl
-from isl_core.scenario.cost import filter_costs
 from isl_core.filters import FilterSpec
 from isl_core.filters.imm import imm_kbf
+from isl_core.filters.isl import model_aware_isl
+from isl_core.scenario.cost import filter_costs
 from isl_core.scenario.periods import PeriodRatios
 from isl_core.scenario.run import scenario_grid
 from isl_core.scenario.table import knob_text

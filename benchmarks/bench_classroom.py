@@ -40,8 +40,8 @@ from bokeh.events import ButtonClick
 from bokeh.models import Markup
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-import load_test as lt  # noqa: E402  (the load scenario and the scripted client live in scripts/)
-import session_client as sc  # noqa: E402
+import load_test as lt  # the load scenario and the scripted client live in scripts/
+import session_client as sc
 
 HEAVY = ("alpha=1&w=1&sigma=1&m=6&nu=10000&horizon=1000"
          "&extra_filters=[\"kbf_mismatched\",\"kbf_minimax\",\"kbf_adaptive\",\"isl_model\"]")

@@ -66,7 +66,7 @@ def simulate_ns_per_step(n: int) -> float:
     t0 = time.perf_counter()
     run = simulate(FIG3, NU, T=n * h, h=h, seed=1)
     dt = time.perf_counter() - t0
-    assert run.N == n
+    assert n == run.N
     return dt / n * 1e9
 
 

@@ -107,7 +107,7 @@ class LongJobQueue:
         for ticket, ahead in places:
             try:
                 ticket.on_position(ahead)
-            except Exception:  # noqa: BLE001 — a closed session's callback must not stop the queue
+            except Exception:  # a closed session's callback must not stop the queue
                 log.debug("position report failed", exc_info=True)
 
     def _work(self, initializer: Callable[[], None]) -> None:
@@ -125,7 +125,7 @@ class LongJobQueue:
             self._report()
             try:
                 ticket.done(outcome)
-            except Exception:  # noqa: BLE001
+            except Exception:
                 log.exception("delivering a long job's outcome failed")
 
 
@@ -150,7 +150,7 @@ def _child(fn: Callable[..., Any], conn, nice: int) -> None:
     os.nice(nice)
     try:
         conn.send(("value", fn(progress=in_steps(lambda fraction: conn.send(("progress", float(fraction)))))))
-    except Exception as exc:  # noqa: BLE001 — every failure goes back to the session as a message
+    except Exception as exc:  # every failure goes back to the session as a message
         logging.getLogger(__name__).debug("long job failed", exc_info=True)
         try:
             conn.send(("error", exc))

@@ -299,7 +299,7 @@ def per_instance_readonly_edits() -> None:
     def edit_own_readonly(parameterized):
         for name, parameter in parameterized.param.objects("existing").items():
             if parameter.readonly or parameter.constant:
-                parameterized.param[name]  # noqa: B018  (param copies the parameter to the instance on access)
+                parameterized.param[name]  # param copies the parameter to the instance on access
         return original(parameterized)
 
     edit_own_readonly._isl_per_instance = True

@@ -110,7 +110,7 @@ def test_presenter_mode_fits_the_screen_and_enlarges_the_plots_text(app_server, 
         sizes = page.evaluate("""() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Legend'
             || v.model.type === 'LinearAxis').map(v => v.model.type === 'Legend' ? v.model.label_text_font_size
             : v.model.major_label_text_font_size)""")
-    assert 0 <= left and right <= width + 0.5 and table_width > 300, (left, right, table_width)
+    assert left >= 0 and right <= width + 0.5 and table_width > 300, (left, right, table_width)
     points = [float(s.removesuffix("pt")) for s in sizes]
     assert points and min(points) >= 14.0, sizes  # 11 pt at a desk, ×19/14 for a projector
 
