@@ -143,7 +143,8 @@ def part_c(steps: int) -> None:
     arrays = {id(a.base if a.base is not None else a): (a.base if a.base is not None else a)
               for a in (run.t, run.X, *(tr.error for tr in run.tracks))}
     returned = sum(a.nbytes for a in arrays.values())
-    print(f"(c) simulate over {run.N:,} steps (truth and each filter's error stored): returned arrays {returned / 2**20:.1f} MiB, traced peak "
+    print(f"(c) simulate over {run.N:,} steps (truth and each filter's error stored): "
+          f"returned arrays {returned / 2**20:.1f} MiB, traced peak "
           f"{peak / 2**20:.1f} MiB → peak/returned = {peak / returned:.2f}")
 
 

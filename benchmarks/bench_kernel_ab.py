@@ -9,9 +9,9 @@ then advance m = 3, truth + Kalman–Bucy + ISL (paper A, Fig. 3, σ = 20) by ``
 times, and the current kernel with an adaptive Kalman–Bucy filter added (the cost of that filter alone).
 
 The default base, 44a0182, is the last kernel that integrated the truth and the estimates in state coordinates
-(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (:ref:`error-coordinates`; arguments
-``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run mode),
-which is where the current kernel advances only X_m of the truth.
+(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (:ref:`error-coordinates`;
+arguments ``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run
+mode), which is where the current kernel advances only X_m of the truth.
 """
 from __future__ import annotations
 

@@ -206,8 +206,8 @@ class LongTask:
     """One kind of long job of a session (the ν-sweep's, the worst case's): start, progress, place in the queue,
     cancel, and the outcome — written to three of ``state``'s parameters (``busy``, ``progress``, ``note``).
 
-    ``state`` (a session or one of its rooms, :class:`app.state.Room`) provides ``jobs`` (:class:`app.jobs.threads.Jobs`),
-    ``later(fn)`` and ``describe(error)`` for failures.
+    ``state`` (a session or one of its rooms, :class:`app.state.Room`) provides ``jobs``
+    (:class:`app.jobs.threads.Jobs`), ``later(fn)`` and ``describe(error)`` for failures.
     """
 
     def __init__(self, state, *, busy: str, progress: str, note: str) -> None:

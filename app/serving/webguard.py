@@ -1,7 +1,7 @@
 """What the dashboard's web server adds to every answer: security headers, a host check, compression, /liveness.
 
-Installed on the Tornado application of a served dashboard by :func:`install` (``app.serving.serve`` calls it from Panel's
-``customize_server`` hook):
+Installed on the Tornado application of a served dashboard by :func:`install` (``app.serving.serve`` calls it from
+Panel's ``customize_server`` hook):
 
 * **Framing**: ``Content-Security-Policy: frame-ancestors 'self'`` and ``X-Frame-Options: SAMEORIGIN`` — no other
   site can show the dashboard in a frame (and open sessions through its visitors' browsers). A course page that

@@ -217,8 +217,8 @@ class ScenarioRoom(Room):
             self.tuning = None
 
     def compute_tuning(self) -> None:
-        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: ≈ 2 min on two cores, then
-        cached) as the session's long job; the picture and the curves follow it."""
+        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: ≈ 2 min on two cores,
+        then cached) as the session's long job; the picture and the curves follow it."""
         if self._host.alpha <= 0.0:
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return

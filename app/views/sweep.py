@@ -185,8 +185,8 @@ class SweepView(Viewer):
     # ---- controls ----------------------------------------------------------------------------------
     def _controls(self) -> pn.Column:
         s = self.state
-        sigmas = pn.widgets.TextInput(label="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep.sigmas),
-                                      width=px(self.state, 220))
+        sigmas = pn.widgets.TextInput(label="σ values (comma separated)",
+                                      value=", ".join(f"{v:g}" for v in s.sweep.sigmas), width=px(self.state, 220))
         sigmas.param.watch(lambda e: s.set("sweep_sigmas", parse_sigmas(e.new)), "value")
         s.sweep.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)

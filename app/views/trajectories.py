@@ -116,7 +116,8 @@ class TrajectoriesView(Viewer):
         self._keys = self._legend_keys()
         self._followers = {name: follow(item.renderers[0]) for name, item in self._keys.items()}
         self._overlay = Overlay(self._key_figure)
-        self._overlay.expect(self.state.baselines.extra_filters)  # a link's filters: their lines are built with the page
+        # a link's filters: their lines are built with the page
+        self._overlay.expect(self.state.baselines.extra_filters)
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
         self._bands: list[Band] = []
@@ -127,8 +128,8 @@ class TrajectoriesView(Viewer):
         self.state.param.watch(self._on_view, ["view"])
         self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
         self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
-                              label_text_font_size=f"{11 * self.scale:.3g}pt", click_policy="hide", padding=2, margin=2, spacing=14,
-                              location="top_left", border_line_alpha=0, background_fill_alpha=0)
+                              label_text_font_size=f"{11 * self.scale:.3g}pt", click_policy="hide", padding=2, margin=2,
+                              spacing=14, location="top_left", border_line_alpha=0, background_fill_alpha=0)
         self._key_figure.add_layout(self._legend, "center")
         self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
         self._plots = pn.Column(sizing_mode="stretch_width", margin=0)  # the mode, the legend and the m plots
