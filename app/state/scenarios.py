@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import math
 from functools import partial
+from typing import ClassVar
 
 import param
 
@@ -69,7 +70,7 @@ PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, 
 class ScenarioRoom(Room):
     """Inputs, picture, map and tuning of the Scenario tab (the module docstring); keys ``sc_…``."""
 
-    KEYS = {key: key[3:] for key in INPUTS}
+    KEYS: ClassVar[dict[str, str]] = {key: key[3:] for key in INPUTS}
 
     change = param.Selector(objects=["none", "step", "drift"], default="step", label="σ change", doc=(
         "How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."))

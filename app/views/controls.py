@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import ClassVar
 
 import panel as pn
 import param
@@ -80,7 +81,7 @@ class Slider(Guarded, pn.widgets.FloatSlider):
     """
 
     _debounce = 0
-    _busy__ignore = ["value", "value_throttled"]
+    _busy__ignore: ClassVar[list[str]] = ["value", "value_throttled"]
 
     def fits(self, value) -> bool:
         return _within(self, value, integral=False)
@@ -90,7 +91,7 @@ class IntSlider(Guarded, pn.widgets.IntSlider):
     """An IntSlider without Panel's debounce and busy bookkeeping (see :class:`Slider`)."""
 
     _debounce = 0
-    _busy__ignore = ["value", "value_throttled"]
+    _busy__ignore: ClassVar[list[str]] = ["value", "value_throttled"]
 
     def fits(self, value) -> bool:
         return _within(self, value, integral=True)
