@@ -189,5 +189,5 @@ class UrlSync:
 def _same(a, b) -> bool:
     try:
         return bool(a == b)
-    except Exception:
+    except Exception:  # noqa: BLE001  (any value's own __eq__ may raise, e.g. numpy's ambiguous truth: not the same)
         return False

@@ -109,7 +109,7 @@ def main() -> None:
           f"base = {args.base} (load average {os.getloadavg()[0]:.2f}, python {sys.version.split()[0]}):")
     for name, ts in times.items():
         print(f"    {name:24s} median {statistics.median(ts):7.1f} ns/step   best {min(ts):7.1f}")
-    ratio = [c / b for b, c in zip(times["base"], times["current"])]
+    ratio = [c / b for b, c in zip(times["base"], times["current"], strict=True)]
     print(f"    current/base per interleaved pair: median {statistics.median(ratio):.3f} "
           f"(range {min(ratio):.3f}..{max(ratio):.3f})")
 

@@ -214,8 +214,9 @@ class SweepView(Viewer):
                              "ratio depends on ν/β only, not on σ.")
             parts.append("*Use recommended ν* needs α > 0: its search is over paper A's β = w·√(2α).")
         if points is not None:
-            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(f"{r:.2f} [{lo:.2f}, {hi:.2f}]" for r, lo, hi in
-                                                        zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j]))
+            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(
+                                f"{r:.2f} [{lo:.2f}, {hi:.2f}]"
+                                for r, lo, hi in zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j], strict=True))
                             for j, s in enumerate(points.sigmas))
             parts.append(f"Check — Kalman–Bucy measured ratios (should be 1 within the interval): {kbf}.")
         return "  \n".join(parts)

@@ -151,7 +151,9 @@ class TrajectoriesView(Viewer):
 
     def _legend_keys(self) -> dict[str, LegendItem]:
         """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
-        empty = lambda **style: self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
+        def empty(**style):
+            return self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
+
         keys = {"truth": empty(**_TRUTH), "kbf": empty(**_KBF), "isl": empty(**_ISL), "tube": empty(**_TUBE)}
         return {name: LegendItem(label=value(KEY_LABELS[name][self.errors]), renderers=[key])
                 for name, key in keys.items()}

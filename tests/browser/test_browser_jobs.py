@@ -115,9 +115,9 @@ def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
     with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _), lms_page(url + "/app", lms_port) as lms:
         assert _framed(lms, "blocked") == "blocked"
     lms_origin = f"http://127.0.0.1:{lms_port}"
-    with serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _):
-        with lms_page(url + "/app", lms_port) as lms:
-            assert _framed(lms, "shown") == "shown"
+    with (serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _),
+          lms_page(url + "/app", lms_port) as lms):
+        assert _framed(lms, "shown") == "shown"
 
 
 SCENARIO_DATA = f"""() => {{

@@ -8,6 +8,7 @@ accessibility checks of the same pages are in ``test_browser_a11y.py``.
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -40,9 +41,11 @@ def three_s(alpha: float, w: float, sigma: float, m: int = 3) -> dict[str, float
 
 
 def wait_bands(page, want: dict[str, float], what: str) -> None:
+    from playwright.sync_api import Error as PlaywrightError  # its timeout and every other failure of the page
+
     try:
         page.wait_for_function(BANDS_ARE, arg=want, timeout=30_000)
-    except Exception:
+    except PlaywrightError:
         raise AssertionError(f"{what}: the drawn tube is not X̂ ± 3 s of the run; drawn offsets "
                              f"{page.evaluate(BAND_OFFSETS)}, 3 s = {want}") from None
 
@@ -216,7 +219,7 @@ def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected
         finally:
             browser.close()
     assert ticks == pytest.approx(expected)
-    gaps = [px * math.log(b / a) / math.log(hi / lo) for a, b in zip(ticks, ticks[1:])]
+    gaps = [px * math.log(b / a) / math.log(hi / lo) for a, b in itertools.pairwise(ticks)]
     assert all(g >= TICK_GAP for g in gaps), gaps
 
 
