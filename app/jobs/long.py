@@ -27,6 +27,7 @@ import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from multiprocessing.connection import wait
 from typing import Any
 
@@ -119,7 +120,7 @@ class LongJobQueue:
                 ticket = self._waiting.pop(0)
                 self._running.append(ticket)
             self._report()
-            outcome = call(lambda t=ticket: t.fn(t.cancel))
+            outcome = call(partial(ticket.fn, ticket.cancel))
             with self._cv:
                 self._running.remove(ticket)
             self._report()
