@@ -88,7 +88,7 @@ def install(application: tornado.web.Application, origins: Sequence[str], ancest
             return application.get_handler_delegate(request, _ForbiddenHost)
         return find(request, **kwargs)
 
-    application.find_handler = find_handler
+    application.find_handler = find_handler  # type: ignore[method-assign]  # Tornado has no hook before routing
     for rule in application.wildcard_router.rules:
         if isinstance(rule.target, type) and issubclass(rule.target, tornado.websocket.WebSocketHandler):
             rule.target = _no_delay(rule.target)
