@@ -74,8 +74,8 @@ class Result:
     run: RunView
     traces: Traces
     prediction: np.ndarray
-    extra_prediction: dict | None = None
-    request: Request | None = None
+    extra_prediction: dict | None
+    request: Request
     adjusted: str = ""
 
 

@@ -56,7 +56,9 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
         "sc_change": "step" if scenario.sigma_shape == "steps" else "drift", "sc_change_at": knots[0][0],
         "sc_sigma_after": knots[0][1]}
     beta = 3.0 * math.sqrt(2.0)  # the table's model: α = 1, w = 3, m = 3 (A.25)
-    return {"alpha": 1.0, "beta_from_w": True, "w": 3.0, "m": 3, "nu": beta * a31_nu_over_beta(1.0, 3, 3.0),
+    nu_over_beta = a31_nu_over_beta(1.0, 3, 3.0)
+    assert nu_over_beta is not None  # table (A.31) holds this model
+    return {"alpha": 1.0, "beta_from_w": True, "w": 3.0, "m": 3, "nu": beta * nu_over_beta,
             "sigma": sigma0, **change, "sc_noise": scenario.noise, "sc_dof": scenario.dof,
             "sc_outlier_rate": scenario.outlier_rate, "sc_outlier_scale": scenario.outlier_scale,
             "sc_sensor": scenario.sensor_interval}

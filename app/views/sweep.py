@@ -68,10 +68,13 @@ class SweepView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._lines, self._points, self._nu_marks = [], [], []
-        self._extra_lines: list[dict] = []
+        # per coordinate's plot: per σ slot, the theory curve's and the simulated points' sources, legend entries
+        self._lines: list[list[ColumnDataSource]] = []
+        self._points: list[list[ColumnDataSource]] = []
+        self._renderers: list[list[LegendItem]] = []
+        self._nu_marks: list[Span] = []  # the current ν
+        self._extra_lines: list[dict[str, list[ColumnDataSource]]] = []
         self._extra_legend = pn.pane.HTML("", margin=(0, 10), styles={"font-size": NOTE_FONT})
-        self._renderers: list[list[tuple]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
         self._rows = (pn.Row(sizing_mode="stretch_width"), pn.Row(sizing_mode="stretch_width"))
@@ -139,7 +142,7 @@ class SweepView(Viewer):
             for i in range(M_MAX):
                 for j in range(_SLOTS):
                     have = curves is not None and i < curves.m and j < len(curves.sigmas)
-                    y = _positive(curves.ratios[j, :, i]) if have else []
+                    y: np.ndarray | list[float] = _positive(curves.ratios[j, :, i]) if have else []
                     self._lines[i][j].data = {"x": curves.nu_over_beta if have else [], "y": y}
                     item = self._renderers[i][j]
                     item.visible = have

@@ -17,6 +17,8 @@ beside it, while the errors show at their own scale. The errors are decimated by
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import panel as pn
 import param
@@ -35,10 +37,11 @@ from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled, text_scale
 
 __all__ = ["RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
 
-_TRUTH = {"line_color": TRUTH, "line_width": 1.4}
-_KBF = {"line_color": KBF, "line_width": 1.8}
-_ISL = {"line_color": ISL, "line_width": 1.8}
-_TUBE = {"line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
+#: the traces' line styles (bokeh Line properties)
+_TRUTH: dict[str, Any] = {"line_color": TRUTH, "line_width": 1.4}
+_KBF: dict[str, Any] = {"line_color": KBF, "line_width": 1.8}
+_ISL: dict[str, Any] = {"line_color": ISL, "line_width": 1.8}
+_TUBE: dict[str, Any] = {"line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
 
 SUMMARY_HEIGHT = 30  #: the first plot carries the run's summary above its frame
 LEGEND_ROW = 30  #: height of one row of the legend (two entries a row)
