@@ -2,9 +2,10 @@
 
 A user who does not know σ could run, instead of the ISL filter, a Kalman–Bucy filter designed for a guessed
 σ̄ ("mismatched"), one designed for the top of the plausible σ range ("minimax"), an adaptive one that
-estimates σ online, or the model-aware ISL filter that propagates with A = A0 − αEEᵀ (:mod:`isl_core.filters.baselines`);
-and the worst-case comparison of :func:`isl_core.worst_case`: for the σ range ``[σ min, σ max]``, each filter's
-largest RMSE ratio ``max_{σ, i} š_i/s_i`` per α, with ν of the ISL filters from ``recommend_nu`` over the same range.
+estimates σ online, or the model-aware ISL filter that propagates with A = A0 − αEEᵀ
+(:mod:`isl_core.filters.baselines`); and the worst-case comparison of :func:`isl_core.worst_case`: for the σ range
+``[σ min, σ max]``, each filter's largest RMSE ratio ``max_{σ, i} š_i/s_i`` per α, with ν of the ISL filters from
+``recommend_nu`` over the same range.
 
 Choices: the extra filters ride on the displayed run (one ``simulate`` call, common random numbers); the
 model-aware ISL filter uses the same ν as paper A's filter (the ν slider); σ̄ of the mismatched filter is

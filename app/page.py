@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from typing import Any, ClassVar
 
 import panel as pn
 from panel.io.resources import CDN_DIST
@@ -168,12 +169,17 @@ class LocalFast(pn.theme.Fast):
     sans-serif instead (the font never loaded where the request failed, so the page looks the same there).
     """
 
-    _resources = {kind: res for kind, res in pn.theme.Fast._resources.items() if kind != "font"}
+    _resources: ClassVar[dict[str, Any]] = {
+        **{kind: res for kind, res in pn.theme.Fast._resources.items() if kind != "font"},
+        # Panel names a design's own files after the class ("localfast/..."): point at the Fast design's file
+        "js_modules": {**pn.theme.Fast._resources["js_modules"],
+                       "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"},
+    }
     #: every component also gets the page's own rules (``theme.css``: the focus ring, text colours at 4.5 : 1)
-    modifiers = {**pn.theme.Fast.modifiers,
-                 Viewable: {"stylesheets": [*pn.theme.Fast.modifiers[Viewable]["stylesheets"], "theme.css"]}}
-    # Panel names a design's own files after the class ("localfast/..."): point at the Fast design's file
-    _resources["js_modules"] = {**_resources["js_modules"], "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"}
+    modifiers: ClassVar[dict[Any, dict[str, Any]]] = {
+        **pn.theme.Fast.modifiers,
+        Viewable: {"stylesheets": [*pn.theme.Fast.modifiers[Viewable]["stylesheets"], "theme.css"]},
+    }
 
 
 def deferred(build: Callable[[], object], shown: bool = True):

@@ -74,8 +74,8 @@ class Result:
     run: RunView
     traces: Traces
     prediction: np.ndarray
-    extra_prediction: dict | None = None
-    request: Request | None = None
+    extra_prediction: dict | None
+    request: Request
     adjusted: str = ""
 
 
@@ -131,8 +131,8 @@ def fit(req: Request, planned=None) -> tuple[Request, str]:
 
 
 def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
-    """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the rule of :ref:`step-size` over every
-    filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
+    """Simulate ``req`` (T = horizon/r_min, lengthened for a slower ISL filter; h by the rule of :ref:`step-size` over
+    every filter a view can show, so that showing one changes neither the grid nor the noise), decimate it and predict
     its ratios.
 
     Raises ``ValueError`` when the run would exceed :data:`APP_MAX_STEPS` (with ``nearest``: first lowers the

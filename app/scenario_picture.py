@@ -10,9 +10,9 @@ after it) and returns, beside the runs:
   window, so it lies above 1 by its noise even for the reference (the plot says so);
 * each filter's **tuning** and where it came from. The filters that do not know σ(t) — the model-aware ISL filter,
   the adaptive, variational-Bayes, robust and IMM filters, and paper A's ISL filter at its tuned ν — take the knobs
-  of :func:`isl_core.scenario.tuning.tune` for the page's α, m and w when that tuning is cached (the minimax of the period
-  statistic over the scenario table's presets, the same rule for every family), and run on the tuning's grid so that
-  a memory of W readings spans what it spanned there. Without it they run at their constructors' defaults, and say
+  of :func:`isl_core.scenario.tuning.tune` for the page's α, m and w when that tuning is cached (the minimax of the
+  period statistic over the scenario table's presets, the same rule for every family), and run on the tuning's grid so
+  that a memory of W readings spans what it spanned there. Without it they run at their constructors' defaults, and say
   "untuned". The page's own ISL filter runs at the ν input, as everywhere on the page.
 
 Costs (:func:`costs`) are measured once per server and set of filters: nanoseconds a step of each filter beside the
@@ -35,10 +35,10 @@ from isl_core import (
     robust_kbf,
     variational_kbf,
 )
-from isl_core.filters.isl import model_aware_isl
-from isl_core.scenario.cost import filter_costs
 from isl_core.filters import FilterSpec
 from isl_core.filters.imm import imm_kbf
+from isl_core.filters.isl import model_aware_isl
+from isl_core.scenario.cost import filter_costs
 from isl_core.scenario.periods import PeriodRatios
 from isl_core.scenario.run import scenario_grid
 from isl_core.scenario.table import knob_text
@@ -151,12 +151,13 @@ def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
 
 #: the filters every scenario loop runs together: their cost is the loop's own
 LOOP = ("clairvoyant", "kbf", "isl")
-_COSTS: dict[tuple, dict[str, float]] = {}  #: measured costs by (m, the filters' labels): a class's server measures once
+#: measured costs by (m, the filters' labels): a class's server measures once
+_COSTS: dict[tuple, dict[str, float]] = {}
 
 
 def costs(pic: Picture) -> dict[str, float]:
-    """ns a step of each filter of the picture beside the loop's own three (:func:`isl_core.scenario.cost.filter_costs`: the
-    least of three runs), measured once per server for each set of filters (a step's cost does not depend on σ); the
+    """ns a step of each filter of the picture beside the loop's own three (:func:`isl_core.scenario.cost.filter_costs`:
+    the least of three runs), measured once per server for each set of filters (a step's cost does not depend on σ); the
     loop's three (:data:`LOOP`) run together and cost its base, under the key ``"loop"``."""
     key = (pic.request.m, tuple(s.label for s in pic.filters))
     if key not in _COSTS:

@@ -19,7 +19,7 @@ import numpy as np
 
 from .colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
-__all__ = ["fig2_png", "fig2_html", "fig3_png", "fig3_html", "SIGMA_DASH", "COORD_NAMES"]
+__all__ = ["COORD_NAMES", "SIGMA_DASH", "fig2_html", "fig2_png", "fig3_html", "fig3_png"]
 
 SIGMA_DASH = ("dotted", "dashed", "solid")  #: paper A's line styles for σ = 2, 20, 200 (by rank of σ)
 _MPL_DASH = {"dotted": ":", "dotdash": (0, (1, 2, 4, 2)), "dashdot": "-.", "dashed": "--", "solid": "-"}

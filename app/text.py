@@ -30,9 +30,9 @@ def num(x: float, digits: int = 4) -> str:
         if "." in text:
             text = text.rstrip("0").rstrip(".")
         return text.replace("-", "−")
-    mantissa, exponent = f"{x:.{digits - 1}e}".split("e")
+    mantissa, power = f"{x:.{digits - 1}e}".split("e")
     mantissa = mantissa.rstrip("0").rstrip(".")
-    return f"{mantissa} × 10^{int(exponent)}".replace("-", "−")
+    return f"{mantissa} × 10^{int(power)}".replace("-", "−")
 
 
 def per_r_min(x: float, digits: int = 4) -> str:

@@ -73,7 +73,8 @@ def read_query(search: str) -> tuple[dict[str, object], dict[str, str]]:
         pairs = urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True, max_num_fields=MAX_FIELDS)
     except ValueError:
         return {}, {"": f"the link has more than {MAX_FIELDS} values; every input keeps its default"}
-    values, problems = {}, {}
+    values: dict[str, object] = {}
+    problems: dict[str, str] = {}
     for key, text in pairs:
         if key not in URL_INPUTS:
             continue
@@ -167,6 +168,7 @@ class UrlSync:
     def _paused(self) -> None:  # on the loop: once the inputs have rested, the write goes out with the session's lock
         rest = self._moved + URL_PAUSE - self._clock()
         if rest > 0:  # an input moved since the pause began: wait until it has rested as long
+            assert self._defer is not None  # a pause is only ever scheduled through it
             self._defer(self._paused, rest)
             return
         self._armed = False
@@ -189,5 +191,5 @@ class UrlSync:
 def _same(a, b) -> bool:
     try:
         return bool(a == b)
-    except Exception:
+    except Exception:  # noqa: BLE001  (any value's own __eq__ may raise, e.g. numpy's ambiguous truth: not the same)
         return False

@@ -40,8 +40,8 @@ from bokeh.events import ButtonClick
 from bokeh.models import Markup
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-import load_test as lt  # noqa: E402  (the load scenario and the scripted client live in scripts/)
-import session_client as sc  # noqa: E402
+import load_test as lt  # the load scenario and the scripted client live in scripts/
+import session_client as sc
 
 HEAVY = ("alpha=1&w=1&sigma=1&m=6&nu=10000&horizon=1000"
          "&extra_filters=[\"kbf_mismatched\",\"kbf_minimax\",\"kbf_adaptive\",\"isl_model\"]")
@@ -293,10 +293,10 @@ def report(columns: dict[str, Figures]) -> str:
     """One row per figure, one column per server (``before`` / ``after`` or just this checkout)."""
     table = [rows(f) for f in columns.values()]
     width = max(len(name) for name, _ in table[0])
-    cells = [max(len(h), *(len(row[1]) for row in t)) for h, t in zip(columns, table)]
-    lines = [f"{'':<{width}}  " + "  ".join(f"{h:<{c}}" for h, c in zip(columns, cells))]
+    cells = [max(len(h), *(len(row[1]) for row in t)) for h, t in zip(columns, table, strict=True)]
+    lines = [f"{'':<{width}}  " + "  ".join(f"{h:<{c}}" for h, c in zip(columns, cells, strict=True))]
     for k, (name, _) in enumerate(table[0]):
-        lines.append(f"{name:<{width}}  " + "  ".join(f"{t[k][1]:<{c}}" for t, c in zip(table, cells)))
+        lines.append(f"{name:<{width}}  " + "  ".join(f"{t[k][1]:<{c}}" for t, c in zip(table, cells, strict=True)))
     return "\n".join(lines)
 
 

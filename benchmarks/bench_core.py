@@ -66,7 +66,7 @@ def simulate_ns_per_step(n: int) -> float:
     t0 = time.perf_counter()
     run = simulate(FIG3, NU, T=n * h, h=h, seed=1)
     dt = time.perf_counter() - t0
-    assert run.N == n
+    assert n == run.N
     return dt / n * 1e9
 
 
@@ -143,7 +143,8 @@ def part_c(steps: int) -> None:
     arrays = {id(a.base if a.base is not None else a): (a.base if a.base is not None else a)
               for a in (run.t, run.X, *(tr.error for tr in run.tracks))}
     returned = sum(a.nbytes for a in arrays.values())
-    print(f"(c) simulate over {run.N:,} steps (truth and each filter's error stored): returned arrays {returned / 2**20:.1f} MiB, traced peak "
+    print(f"(c) simulate over {run.N:,} steps (truth and each filter's error stored): "
+          f"returned arrays {returned / 2**20:.1f} MiB, traced peak "
           f"{peak / 2**20:.1f} MiB → peak/returned = {peak / returned:.2f}")
 
 

@@ -1,4 +1,4 @@
-"""Each filter's cost per step in the scenario loop (isl_core.scenario.cost.filter_costs), and the IMM filter's per mode.
+"""Each filter's cost per step in the scenario loop (isl_core.scenario.cost.filter_costs) and the IMM filter's per mode.
 
     PYTHONPATH=. python benchmarks/bench_filter_cost.py [--repeats 7] [--horizon 200] [--save now.json]
                                                        [--compare before.json]

@@ -9,9 +9,9 @@ then advance m = 3, truth + Kalman–Bucy + ISL (paper A, Fig. 3, σ = 20) by ``
 times, and the current kernel with an adaptive Kalman–Bucy filter added (the cost of that filter alone).
 
 The default base, 44a0182, is the last kernel that integrated the truth and the estimates in state coordinates
-(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (:ref:`error-coordinates`; arguments
-``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run mode),
-which is where the current kernel advances only X_m of the truth.
+(arguments ``x, z, …, X_out, Z_out, S_out, store``); the current one integrates the errors (:ref:`error-coordinates`;
+arguments ``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run
+mode), which is where the current kernel advances only X_m of the truth.
 """
 from __future__ import annotations
 
@@ -109,7 +109,7 @@ def main() -> None:
           f"base = {args.base} (load average {os.getloadavg()[0]:.2f}, python {sys.version.split()[0]}):")
     for name, ts in times.items():
         print(f"    {name:24s} median {statistics.median(ts):7.1f} ns/step   best {min(ts):7.1f}")
-    ratio = [c / b for b, c in zip(times["base"], times["current"])]
+    ratio = [c / b for b, c in zip(times["base"], times["current"], strict=True)]
     print(f"    current/base per interleaved pair: median {statistics.median(ratio):.3f} "
           f"(range {min(ratio):.3f}..{max(ratio):.3f})")
 

@@ -173,7 +173,7 @@ async def run_load(base_url: str, *, sessions: int, duration: float, interval: f
     latencies = [x for _, lat, _ in out.values() for x in lat]
     await asyncio.gather(*(c.close() for c in clients))
     return LoadResult(len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded,
-                      max(peak + [rss_end]), rss_end)
+                      max([*peak, rss_end]), rss_end)
 
 
 # ------------------------------------------------------------------------------------------------------ memory

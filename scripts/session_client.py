@@ -10,6 +10,7 @@ benchmark and the serving tests.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
 import random
 import re
@@ -176,10 +177,9 @@ class BokehClient:
                         and not (e.get("kind") == "ModelChanged" and e.get("attr") == "data")]
                 if kept:
                     payload = Serialized({**message.content, "events": kept}, message.payload.buffers)
-                    try:
+                    # UnknownReferenceError: it referred to a model only a skipped data change carried
+                    with contextlib.suppress(UnknownReferenceError):
                         self.doc.apply_json_patch(payload, setter=self)
-                    except UnknownReferenceError:  # it referred to a model only a skipped data change carried
-                        pass
                     self._cds = None  # new sources may have arrived
             self.patches.append((time.perf_counter(), kinds, models))
         elif kind in ("OK", "ERROR"):

@@ -76,11 +76,12 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None, ready: st
 
 #: ``named(name)``: the model of that name in the page's document, or null — also while a patch is being applied, when
 #: bokeh's get_model_by_name throws on a model whose properties are not set yet ("… name is unset")
-NAMED = """(name) => { try { const d = window.Bokeh && Bokeh.documents[0]; return d ? d.get_model_by_name(name) : null; }
+NAMED = """(name) => { try { const d = window.Bokeh && Bokeh.documents[0];
+                           return d ? d.get_model_by_name(name) : null; }
                      catch (e) { return null; } }"""
 
-#: ``deep(selector)``: the first element matching ``selector`` in the page, shadow roots included (Panel and BokehJS draw
-#: every component in a shadow root of its own, nested), or null
+#: ``deep(selector)``: the first element matching ``selector`` in the page, shadow roots included (Panel and BokehJS
+#: draw every component in a shadow root of its own, nested), or null
 DEEP = """(selector) => { const walk = (root) => { const hit = root.querySelector(selector); if (hit) return hit;
         for (const el of root.querySelectorAll('*')) { if (el.shadowRoot) { const h = walk(el.shadowRoot);
             if (h) return h; } } return null; };

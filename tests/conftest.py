@@ -26,7 +26,7 @@ LAYERS = ("core", "app", "serving", "browser", "deploy")  #: test folders, each 
 
 @pytest.fixture(scope="session", autouse=True)
 def _own_tuning_cache(tmp_path_factory):
-    """No test reads or writes the user's cache of tunings (isl_core.scenario.tuning.cache_dir): one of the session's own."""
+    """No test reads or writes the user's cache of tunings (isl_core.scenario.tuning.cache_dir): the session's own."""
     old = os.environ.get("ISL_CACHE_DIR")
     os.environ["ISL_CACHE_DIR"] = str(tmp_path_factory.mktemp("isl-cache"))
     yield

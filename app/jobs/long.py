@@ -27,6 +27,7 @@ import os
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from multiprocessing.connection import wait
 from typing import Any
 
@@ -107,7 +108,7 @@ class LongJobQueue:
         for ticket, ahead in places:
             try:
                 ticket.on_position(ahead)
-            except Exception:  # noqa: BLE001 — a closed session's callback must not stop the queue
+            except Exception:  # a closed session's callback must not stop the queue
                 log.debug("position report failed", exc_info=True)
 
     def _work(self, initializer: Callable[[], None]) -> None:
@@ -119,13 +120,13 @@ class LongJobQueue:
                 ticket = self._waiting.pop(0)
                 self._running.append(ticket)
             self._report()
-            outcome = call(lambda t=ticket: t.fn(t.cancel))
+            outcome = call(partial(ticket.fn, ticket.cancel))
             with self._cv:
                 self._running.remove(ticket)
             self._report()
             try:
                 ticket.done(outcome)
-            except Exception:  # noqa: BLE001
+            except Exception:
                 log.exception("delivering a long job's outcome failed")
 
 
@@ -150,7 +151,7 @@ def _child(fn: Callable[..., Any], conn, nice: int) -> None:
     os.nice(nice)
     try:
         conn.send(("value", fn(progress=in_steps(lambda fraction: conn.send(("progress", float(fraction)))))))
-    except Exception as exc:  # noqa: BLE001 — every failure goes back to the session as a message
+    except Exception as exc:  # every failure goes back to the session as a message
         logging.getLogger(__name__).debug("long job failed", exc_info=True)
         try:
             conn.send(("error", exc))
@@ -206,8 +207,8 @@ class LongTask:
     """One kind of long job of a session (the ν-sweep's, the worst case's): start, progress, place in the queue,
     cancel, and the outcome — written to three of ``state``'s parameters (``busy``, ``progress``, ``note``).
 
-    ``state`` (a session or one of its rooms, :class:`app.state.Room`) provides ``jobs`` (:class:`app.jobs.threads.Jobs`),
-    ``later(fn)`` and ``describe(error)`` for failures.
+    ``state`` (a session or one of its rooms, :class:`app.state.Room`) provides ``jobs``
+    (:class:`app.jobs.threads.Jobs`), ``later(fn)`` and ``describe(error)`` for failures.
     """
 
     def __init__(self, state, *, busy: str, progress: str, note: str) -> None:

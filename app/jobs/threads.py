@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import Executor, ThreadPoolExecutor
 from functools import partial
 from typing import Any
@@ -49,14 +49,15 @@ class Jobs:
     loop; it is called from worker threads.
     """
 
-    def __init__(self, executors: dict[str, Executor] | None = None,
+    def __init__(self, executors: Mapping[str, Executor] | None = None,
                  schedule: Callable[[Callable[[], None]], None] | None = None, long_queue=None) -> None:
-        self._executors = executors or {}
+        self._executors: Mapping[str, Executor] = executors or {}
         self._long = long_queue  # an app.jobs.long.LongJobQueue, shared by the server's sessions (None: inline)
         self._tickets: set = set()
         self._schedule = schedule or _inline
         self._busy: set[str] = set()
-        self._waiting: dict[str, tuple[Callable[[], Any], Callable[[Outcome, bool], None]]] = {}
+        #: per kind, the newest request waiting for the one in flight: (executor, fn, done)
+        self._waiting: dict[str, tuple[Executor, Callable[[], Any], Callable[[Outcome, bool], None]]] = {}
         self._lock = threading.Lock()  # `panel serve --num-threads` runs widget callbacks on several threads
         self.closed = False
 
@@ -97,7 +98,8 @@ class Jobs:
         if self.closed or kind in self._waiting:
             raise Superseded(kind)
 
-    def _start(self, kind: str, executor: Executor, fn, done) -> None:
+    def _start(self, kind: str, executor: Executor, fn: Callable[[], Any],
+               done: Callable[[Outcome, bool], None]) -> None:
         future = executor.submit(call, fn)
         future.add_done_callback(lambda f: self._deliver(partial(self._finish, kind, done, f.result())))
 
@@ -112,7 +114,7 @@ class Jobs:
         except Exception:
             log.debug("dropped a job outcome: its session has closed", exc_info=True)
 
-    def _finish(self, kind: str, done, outcome: Outcome) -> None:
+    def _finish(self, kind: str, done: Callable[[Outcome, bool], None], outcome: Outcome) -> None:
         with self._lock:
             waiting = self._waiting.pop(kind, None)
             if waiting is None or self.closed:

@@ -17,6 +17,7 @@ import html
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 from tornado.routing import PathMatches, Rule
 from tornado.web import Application, RequestHandler, StaticFileHandler
@@ -47,8 +48,8 @@ def not_built_page(root: Path) -> str:
 class _Docs(StaticFileHandler):
     """Tornado's static files (it refuses paths outside the root), with the not-built page for a missing build."""
 
-    def initialize(self, path: str, default_filename: str | None = None) -> None:
-        super().initialize(path=path, default_filename=default_filename)
+    def initialize(self, path: str, default_filename: str | None = None, *args: Any, **kwargs: Any) -> None:
+        super().initialize(path, default_filename, *args, **kwargs)  # and Tornado's further options, if any
         self._built = (Path(path) / "index.html").is_file()
 
     async def get(self, path: str, include_body: bool = True) -> None:

@@ -41,6 +41,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .patches import mark
+
 __all__ = ["install", "lazy_serializer_references", "serialize_set_properties_only", "settle_markup_stylesheets",
            "skip_unused_design_params"]
 
@@ -58,8 +60,7 @@ def skip_unused_design_params() -> None:
             return original(self, *events, doc=doc)
         return self._process_param_change({event.name: event.new for event in events})
 
-    update_properties._isl_fast = True
-    update_properties._isl_original = original
+    mark(update_properties, _isl_fast=True, _isl_original=original)
     Reactive._update_properties = update_properties
 
 
@@ -107,9 +108,8 @@ def serialize_set_properties_only() -> None:
             result[key] = value
         return result
 
-    query_properties_with_values._isl_fast = True
-    query_properties_with_values._isl_original = original
-    HasProps.query_properties_with_values = query_properties_with_values
+    mark(query_properties_with_values, _isl_fast=True, _isl_original=original)
+    HasProps.query_properties_with_values = query_properties_with_values  # type: ignore[method-assign]  # the patch
 
 
 class _Refs(dict):
@@ -137,8 +137,7 @@ def lazy_serializer_references() -> None:
         original(self, deferred=deferred, check_circular=check_circular)
         self._references = _Refs({id(model): model for model in references})
 
-    __init__._isl_fast = True
-    __init__._isl_original = original
+    mark(__init__, _isl_fast=True, _isl_original=original)
     Serializer.__init__ = __init__
 
 

@@ -47,6 +47,8 @@ from typing import Any
 import panel as pn
 import param
 
+from .patches import mark
+
 log = logging.getLogger("isl.app")
 
 USER_MESSAGE = ("Something went wrong while updating the dashboard (incident {incident}). "
@@ -94,7 +96,7 @@ def local_stylesheets() -> None:
     def local(stylesheet, dist_url):
         return original(stylesheet, resources.LOCAL_DIST if dist_url == resources.CDN_DIST else dist_url)
 
-    local._isl_local = True
+    mark(local, _isl_local=True)
     resources.patch_stylesheet = local
     reactive.patch_stylesheet = local
 
@@ -125,7 +127,7 @@ def tolerant_query_parser() -> None:
                     out[key] = text
             return out
 
-    tolerant._isl_tolerant = True
+    mark(tolerant, _isl_tolerant=True)
     location.parse_query = tolerant
 
 
@@ -174,7 +176,7 @@ def quiet_error_replies() -> None:
         message.content["traceback"] = None
         return message
 
-    quiet_create._isl_quiet = True
+    mark(quiet_create, _isl_quiet=True)
     error.create = classmethod(quiet_create)
 
 
@@ -204,7 +206,7 @@ def keep_unsent_models_new() -> None:
         finally:
             manager._new_models |= {model for model in unsent if manager.get_by_id(model.id) is model}
 
-    apply_keeping_unsent._isl_keeps_unsent = True
+    mark(apply_keeping_unsent, _isl_keeps_unsent=True)
     Document.apply_json_patch = apply_keeping_unsent
 
 
@@ -270,7 +272,7 @@ def serialize_session_events() -> None:
             return bokeh_event(self, doc, *args, **kwargs)
 
     for fn in (guarded_server_change, serialized_change_event, serialized_bokeh_event):
-        fn._isl_serialized = True
+        mark(fn, _isl_serialized=True)
     Syncable._server_change = guarded_server_change
     Syncable._change_event = serialized_change_event
     Syncable._process_bokeh_event = serialized_bokeh_event
@@ -299,11 +301,11 @@ def per_instance_readonly_edits() -> None:
     def edit_own_readonly(parameterized):
         for name, parameter in parameterized.param.objects("existing").items():
             if parameter.readonly or parameter.constant:
-                parameterized.param[name]  # noqa: B018  (param copies the parameter to the instance on access)
+                parameterized.param[name]  # param copies the parameter to the instance on access
         return original(parameterized)
 
-    edit_own_readonly._isl_per_instance = True
-    edit_own_readonly._isl_original = original
+    mark(edit_own_readonly, _isl_per_instance=True, _isl_original=original)
+    module: Any  # any module: it is patched only if it has Panel's edit_readonly
     for name, module in list(sys.modules.items()):  # the modules that imported it by name, and later importers
         if (name == "panel" or name.startswith("panel.")) and getattr(module, "edit_readonly", None) is original:
             module.edit_readonly = edit_own_readonly
@@ -360,6 +362,8 @@ def drop_payloads(obj: Any) -> None:
 def release_session(session_context: Any = None, *, key: str | None = None) -> None:
     """Run the release hooks of a destroyed session (``key``, else its context's id)."""
     key = key if key is not None else getattr(session_context, "id", None)
+    if key is None:  # no session, no hooks
+        return
     for release in _releases.pop(key, []):
         try:
             release()

@@ -10,6 +10,8 @@ import gc
 import logging
 import os
 import time
+from collections.abc import Callable
+from typing import Any
 
 log = logging.getLogger("isl.serve")
 
@@ -103,6 +105,7 @@ class MemoryTrimmer:
 
     def __init__(self, server) -> None:
         self.server, self.sessions, self.ended = server, 0, 0
+        self._trim: Callable[[int], Any] | None  # glibc's malloc_trim, None elsewhere
         try:
             self._trim = ctypes.CDLL("libc.so.6").malloc_trim
         except (OSError, AttributeError):

@@ -315,7 +315,8 @@ def main(argv: list[str] | None = None) -> int:
         origins = allowed_origins(opts.port, os.environ.get(ENV["origins"]), opts.allow_websocket_origin)
         from app.serving.webguard import check_frame_ancestors
 
-        ancestors = check_frame_ancestors(" ".join(filter(None, [os.environ.get(ENV["frames"]), *opts.frame_ancestors])))
+        named = filter(None, [os.environ.get(ENV["frames"]), *opts.frame_ancestors])
+        ancestors = check_frame_ancestors(" ".join(named))
     except ValueError as exc:
         log.error("%s", exc)
         return 2

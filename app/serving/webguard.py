@@ -1,7 +1,7 @@
 """What the dashboard's web server adds to every answer: security headers, a host check, compression, /liveness.
 
-Installed on the Tornado application of a served dashboard by :func:`install` (``app.serving.serve`` calls it from Panel's
-``customize_server`` hook):
+Installed on the Tornado application of a served dashboard by :func:`install` (``app.serving.serve`` calls it from
+Panel's ``customize_server`` hook):
 
 * **Framing**: ``Content-Security-Policy: frame-ancestors 'self'`` and ``X-Frame-Options: SAMEORIGIN`` — no other
   site can show the dashboard in a frame (and open sessions through its visitors' browsers). A course page that
@@ -88,7 +88,7 @@ def install(application: tornado.web.Application, origins: Sequence[str], ancest
             return application.get_handler_delegate(request, _ForbiddenHost)
         return find(request, **kwargs)
 
-    application.find_handler = find_handler
+    application.find_handler = find_handler  # type: ignore[method-assign]  # Tornado has no hook before routing
     for rule in application.wildcard_router.rules:
         if isinstance(rule.target, type) and issubclass(rule.target, tornado.websocket.WebSocketHandler):
             rule.target = _no_delay(rule.target)

@@ -5,6 +5,8 @@ The filters themselves and their theory are in :mod:`app.extras`; the run that d
 """
 from __future__ import annotations
 
+from typing import ClassVar
+
 import param
 
 from isl_core.filters.baselines import LABELS
@@ -18,8 +20,8 @@ __all__ = ["BaselinesRoom"]
 class BaselinesRoom(Room):
     """Inputs of the extra filters drawn on the run (the module docstring); keys as their names."""
 
-    KEYS = {"extra_filters": "extra_filters", "sigma_design": "sigma_design", "sigma_min": "sigma_min",
-            "sigma_max": "sigma_max"}
+    KEYS: ClassVar[dict[str, str]] = {"extra_filters": "extra_filters", "sigma_design": "sigma_design",
+                                      "sigma_min": "sigma_min", "sigma_max": "sigma_max"}
 
     extra_filters = param.ListSelector(default=[], objects=list(EXTRA_NAMES), label="extra filters", doc=(
         "Baselines drawn on the same run (same noise): " + ", ".join(LABELS[n] for n in EXTRA_NAMES) + "."))

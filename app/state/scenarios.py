@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import math
 from functools import partial
+from typing import ClassVar
 
 import param
 
@@ -55,7 +56,9 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
         "sc_change": "step" if scenario.sigma_shape == "steps" else "drift", "sc_change_at": knots[0][0],
         "sc_sigma_after": knots[0][1]}
     beta = 3.0 * math.sqrt(2.0)  # the table's model: α = 1, w = 3, m = 3 (A.25)
-    return {"alpha": 1.0, "beta_from_w": True, "w": 3.0, "m": 3, "nu": beta * a31_nu_over_beta(1.0, 3, 3.0),
+    nu_over_beta = a31_nu_over_beta(1.0, 3, 3.0)
+    assert nu_over_beta is not None  # table (A.31) holds this model
+    return {"alpha": 1.0, "beta_from_w": True, "w": 3.0, "m": 3, "nu": beta * nu_over_beta,
             "sigma": sigma0, **change, "sc_noise": scenario.noise, "sc_dof": scenario.dof,
             "sc_outlier_rate": scenario.outlier_rate, "sc_outlier_scale": scenario.outlier_scale,
             "sc_sensor": scenario.sensor_interval}
@@ -69,7 +72,7 @@ PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, 
 class ScenarioRoom(Room):
     """Inputs, picture, map and tuning of the Scenario tab (the module docstring); keys ``sc_…``."""
 
-    KEYS = {key: key[3:] for key in INPUTS}
+    KEYS: ClassVar[dict[str, str]] = {key: key[3:] for key in INPUTS}
 
     change = param.Selector(objects=["none", "step", "drift"], default="step", label="σ change", doc=(
         "How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."))
@@ -217,8 +220,8 @@ class ScenarioRoom(Room):
             self.tuning = None
 
     def compute_tuning(self) -> None:
-        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: ≈ 2 min on two cores, then
-        cached) as the session's long job; the picture and the curves follow it."""
+        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: ≈ 2 min on two cores,
+        then cached) as the session's long job; the picture and the curves follow it."""
         if self._host.alpha <= 0.0:
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return

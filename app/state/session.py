@@ -98,7 +98,8 @@ class AppState(param.Parameterized):
     busy = param.Boolean(False, precedence=-1, doc="A large run (not followed live) is being computed.")
     message = param.String("", precedence=-1, doc="What the user should know: a refused input, an error.")
     message_kind = param.Selector(objects=["info", "warning", "danger"], default="info", precedence=-1)
-    refusals = param.Dict(default={}, precedence=-1, doc="Input name → why its last value was refused (shown beside it).")
+    refusals = param.Dict(default={}, precedence=-1,
+                          doc="Input name → why its last value was refused (shown beside it).")
     message_inline = param.Boolean(False, precedence=-1, doc="The message is one input's refusal, shown beside it.")
     extra_prediction = param.Dict(default={}, precedence=-1, doc="Predicted ratios of the run's extra filters.")
 

@@ -8,6 +8,7 @@ session's long jobs (:class:`app.jobs.LongTask`). A recommendation sets the mode
 from __future__ import annotations
 
 from functools import partial
+from typing import ClassVar
 
 import param
 
@@ -26,8 +27,9 @@ CONTEXT = ("alpha", "beta_from_w", "w", "beta", "m")
 class SweepRoom(Room):
     """Inputs, curves, points and jobs of the ν-sweep (the module docstring); keys ``sweep_…``."""
 
-    KEYS = {"sweep_sigmas": "sigmas", "sweep_horizon": "horizon"}
-    ITEM_BOUNDS = {"sweep_sigmas": SWEEP_SIGMA_BOUNDS}  #: the range of each entry of a list input
+    KEYS: ClassVar[dict[str, str]] = {"sweep_sigmas": "sigmas", "sweep_horizon": "horizon"}
+    #: the range of each entry of a list input
+    ITEM_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {"sweep_sigmas": SWEEP_SIGMA_BOUNDS}
 
     sigmas = param.List([2.0, 20.0, 200.0], item_type=float, bounds=(1, 5), label="σ values", doc=(
         "σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."))

@@ -6,6 +6,7 @@ Its inputs are the table's rows (α values), the σ grid and the horizon; the σ
 from __future__ import annotations
 
 from functools import partial
+from typing import ClassVar
 
 import param
 
@@ -24,8 +25,9 @@ __all__ = ["WorstCaseRoom"]
 class WorstCaseRoom(Room):
     """Inputs, table and job of the worst case over σ (the module docstring); keys ``wc_…``."""
 
-    KEYS = {"wc_alphas": "alphas", "wc_n_sigma": "n_sigma", "wc_horizon": "horizon"}
-    ITEM_BOUNDS = {"wc_alphas": ALPHA_BOUNDS}  #: the range of each entry of a list input
+    KEYS: ClassVar[dict[str, str]] = {"wc_alphas": "alphas", "wc_n_sigma": "n_sigma", "wc_horizon": "horizon"}
+    #: the range of each entry of a list input
+    ITEM_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {"wc_alphas": ALPHA_BOUNDS}
 
     alphas = param.List([0.04, 0.2, 1.0, 5.0, 25.0], item_type=float, bounds=(1, 5), label="α values", doc=(
         "Rows of the worst-case table: 1 to 5 values of α in [0.001, 100]; paper A, Fig. 2: 0.04 … 25."))

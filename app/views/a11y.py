@@ -12,8 +12,8 @@ views of the page (those drawn already and, through their prototypes, those draw
   Space open the focused one (WAI-ARIA's tabs pattern, manual activation: a tab is built when first opened, so
   moving through them does not build each one); a card's header button says whether the card is open;
 * **plots**: a plot's canvas, which takes the keyboard focus for key tools none of these plots has, leaves the tab
-  order (two stops a plot before) and is the plot is a group named by its title; its toolbar's buttons are buttons (named by their
-  tooltip, pressed or not);
+  order (two stops a plot before) and is the plot is a group named by its title; its toolbar's buttons are buttons
+  (named by their tooltip, pressed or not);
 * the **help icons** ("?") take the keyboard focus, show their help on focus and are named by it;
 * **checkboxes** are named by their label, and a click on the label ticks them; the spinners' up/down buttons are
   named and left out of the tab order (the arrow keys step the number in the box);
@@ -188,7 +188,8 @@ function help_icon() {
     el.setAttribute("role", "button");
     const raw = typeof tip.content === "string" ? tip.content : (tip.content && tip.content.html) || "";
     const html = Array.isArray(raw) ? raw.filter((x) => typeof x === "string").join(" ") : String(raw);
-    el.setAttribute("aria-label", `Help: ${new DOMParser().parseFromString(html, "text/html").body.textContent.trim()}`);
+    const text = new DOMParser().parseFromString(html, "text/html").body.textContent.trim();
+    el.setAttribute("aria-label", `Help: ${text}`);
     el.addEventListener("focus", () => tip.setv({visible: true}));
     el.addEventListener("blur", () => tip.setv({visible: false}));
     el.addEventListener("keydown", (event) => { if (event.key === "Escape") tip.setv({visible: false}); });

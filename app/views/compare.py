@@ -122,8 +122,9 @@ class CompareView(Viewer):
         png, runs = outcome.value
         self._image.param.update(object=png, alt_text=alt_text(runs))
         self._table.object = ratios_html(runs)
-        self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {per_r_min(runs[0].horizon, 3)} of each run's own "
-                             f"{R_MIN}; computed in {outcome.seconds:.2g} s; drawn by the renderer of the command `isl figure3`.")
+        self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {per_r_min(runs[0].horizon, 3)} of each "
+                             f"run's own {R_MIN}; computed in {outcome.seconds:.2g} s; drawn by the renderer of the "
+                             "command `isl figure3`.")
 
     def __panel__(self):
         intro = pn.pane.Markdown(

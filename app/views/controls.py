@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Callable
+from typing import Any, ClassVar
 
 import panel as pn
 import param
@@ -35,6 +37,9 @@ class Guarded:
     and its range. A value :meth:`fits` refuses goes to the binding's ``refuse`` (the state refuses it), not to Panel.
     """
 
+    #: set where the widget is bound to the state (a value it refuses goes there); unset on a widget without a binding
+    _refuse: Callable[[Any], None]
+
     def fits(self, value) -> bool:
         """Whether Panel can take ``value`` for this widget."""
         return value is None or (isinstance(value, numbers.Real) and not isinstance(value, bool)
@@ -47,7 +52,7 @@ class Guarded:
             events = {k: v for k, v in events.items() if k not in ("value", "value_throttled")}
             refuse(bad[0])
         if events:
-            super()._process_events(events)
+            super()._process_events(events)  # type: ignore[misc]  # the Panel widget after this mixin has it
 
 
 def _within(widget, value, integral: bool) -> bool:
@@ -80,7 +85,7 @@ class Slider(Guarded, pn.widgets.FloatSlider):
     """
 
     _debounce = 0
-    _busy__ignore = ["value", "value_throttled"]
+    _busy__ignore: ClassVar[list[str]] = ["value", "value_throttled"]
 
     def fits(self, value) -> bool:
         return _within(self, value, integral=False)
@@ -90,7 +95,7 @@ class IntSlider(Guarded, pn.widgets.IntSlider):
     """An IntSlider without Panel's debounce and busy bookkeeping (see :class:`Slider`)."""
 
     _debounce = 0
-    _busy__ignore = ["value", "value_throttled"]
+    _busy__ignore: ClassVar[list[str]] = ["value", "value_throttled"]
 
     def fits(self, value) -> bool:
         return _within(self, value, integral=True)

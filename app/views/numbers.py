@@ -2,11 +2,11 @@
 
 Per coordinate i: the optimal RMSE s_i = √Δ_ii (theory, A.29), the Kalman–Bucy filter's measured ratio
 ŝ_i/s_i (A.30; ≈ 1 up to sampling error on long runs), the ISL filter's measured ratio š_i/s_i and its
-statistical-linearization prediction (theory, B.48, :ref:`linearization`), and the measured share of steps at which X_i lies in
-the tube X̂_i ± 3 s_i (theory: 99.73 % for a Gaussian error of standard deviation s_i). Extra filters (:mod:`app.extras`), when drawn,
-get a table of their own: one row per filter, its measured ratio per coordinate with the theory beside it
-(Lyapunov for the fixed-gain Kalman–Bucy filters, :ref:`linearization` for the model-aware ISL filter, none for the adaptive
-one, whose time-averaged σ̂ is shown instead). Below: r_min (A.24), T, h, N.
+statistical-linearization prediction (theory, B.48, :ref:`linearization`), and the measured share of steps at which X_i
+lies in the tube X̂_i ± 3 s_i (theory: 99.73 % for a Gaussian error of standard deviation s_i). Extra filters
+(:mod:`app.extras`), when drawn, get a table of their own: one row per filter, its measured ratio per coordinate with
+the theory beside it (Lyapunov for the fixed-gain Kalman–Bucy filters, :ref:`linearization` for the model-aware ISL
+filter, none for the adaptive one, whose time-averaged σ̂ is shown instead). Below: r_min (A.24), T, h, N.
 """
 from __future__ import annotations
 
@@ -82,7 +82,8 @@ def extras_html(run, extra_prediction: dict | None) -> str:
                         for i in range(run.model.m))
         note = "" if tr.sigma_hat_mean is None else f"<span class='tag'>mean σ̂ = {tr.sigma_hat_mean:.4g}</span>"
         color = EXTRA_COLORS.get(tr.name, "#000")
-        rows.append(f"<tr><td><span style='color:{color}'>&#9632;</span> {html.escape(tr.label)}{note}</td>{cells}</tr>")
+        key = f"<span style='color:{color}'>&#9632;</span>"
+        rows.append(f"<tr><td>{key} {html.escape(tr.label)}{note}</td>{cells}</tr>")
     return f"<table class='isl-numbers extras'><tr><th>other filters</th>{head}</tr>{''.join(rows)}</table>"
 
 

@@ -144,7 +144,8 @@ class ScenarioView(Viewer):
             return field(s, name, bind(s, name, pn.widgets.Select(
                 label=decl.label, options=options, width=px(s, width), description=decl.doc)))
 
-        preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS], width=px(self.state, 260))
+        preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS],
+                                   width=px(self.state, 260))
 
         def pick(event) -> None:
             if event.new != "—":
@@ -152,8 +153,8 @@ class ScenarioView(Viewer):
                 preset.value = "—"
         preset.param.watch(pick, "value")
         download = pn.widgets.FileDownload(callback=s.scenarios.csv, filename="isl_scenario.csv",
-                                           label="Download (CSV)", color="success", variant="outline", width=px(self.state, 150),
-                                           margin=(24, 10, 0, 10))
+                                           label="Download (CSV)", color="success", variant="outline",
+                                           width=px(self.state, 150), margin=(24, 10, 0, 10))
         spinner = pn.indicators.LoadingSpinner(value=p.busy, visible=p.busy, size=20,
                                                margin=(30, 10))
         row = dict(flex_wrap="wrap", sizing_mode="stretch_width")

@@ -8,8 +8,8 @@ from bokeh.plotting import figure
 from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
 __all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "NOTE_FONT", "PRESENTER_SCALE",
-           "RATIO_MANTISSAS", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TEXT_FONT", "TRUTH", "job_buttons", "line", "px",
-           "ratio_axis", "ratio_ticker", "styled", "text_scale"]
+           "RATIO_MANTISSAS", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TEXT_FONT", "TRUTH", "job_buttons", "line",
+           "px", "ratio_axis", "ratio_ticker", "styled", "text_scale"]
 
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on

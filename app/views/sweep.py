@@ -68,10 +68,13 @@ class SweepView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._lines, self._points, self._nu_marks = [], [], []
-        self._extra_lines: list[dict] = []
+        # per coordinate's plot: per σ slot, the theory curve's and the simulated points' sources, legend entries
+        self._lines: list[list[ColumnDataSource]] = []
+        self._points: list[list[ColumnDataSource]] = []
+        self._renderers: list[list[LegendItem]] = []
+        self._nu_marks: list[Span] = []  # the current ν
+        self._extra_lines: list[dict[str, list[ColumnDataSource]]] = []
         self._extra_legend = pn.pane.HTML("", margin=(0, 10), styles={"font-size": NOTE_FONT})
-        self._renderers: list[list[tuple]] = []
         self._figures = [self._figure(i) for i in range(M_MAX)]
         self._panes = [pn.pane.Bokeh(f, margin=5, sizing_mode="stretch_width") for f in self._figures]
         self._rows = (pn.Row(sizing_mode="stretch_width"), pn.Row(sizing_mode="stretch_width"))
@@ -139,7 +142,7 @@ class SweepView(Viewer):
             for i in range(M_MAX):
                 for j in range(_SLOTS):
                     have = curves is not None and i < curves.m and j < len(curves.sigmas)
-                    y = _positive(curves.ratios[j, :, i]) if have else []
+                    y: np.ndarray | list[float] = _positive(curves.ratios[j, :, i]) if have else []
                     self._lines[i][j].data = {"x": curves.nu_over_beta if have else [], "y": y}
                     item = self._renderers[i][j]
                     item.visible = have
@@ -185,8 +188,8 @@ class SweepView(Viewer):
     # ---- controls ----------------------------------------------------------------------------------
     def _controls(self) -> pn.Column:
         s = self.state
-        sigmas = pn.widgets.TextInput(label="σ values (comma separated)", value=", ".join(f"{v:g}" for v in s.sweep.sigmas),
-                                      width=px(self.state, 220))
+        sigmas = pn.widgets.TextInput(label="σ values (comma separated)",
+                                      value=", ".join(f"{v:g}" for v in s.sweep.sigmas), width=px(self.state, 220))
         sigmas.param.watch(lambda e: s.set("sweep_sigmas", parse_sigmas(e.new)), "value")
         s.sweep.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
@@ -214,8 +217,9 @@ class SweepView(Viewer):
                              "ratio depends on ν/β only, not on σ.")
             parts.append("*Use recommended ν* needs α > 0: its search is over paper A's β = w·√(2α).")
         if points is not None:
-            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(f"{r:.2f} [{lo:.2f}, {hi:.2f}]" for r, lo, hi in
-                                                        zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j]))
+            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(
+                                f"{r:.2f} [{lo:.2f}, {hi:.2f}]"
+                                for r, lo, hi in zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j], strict=True))
                             for j, s in enumerate(points.sigmas))
             parts.append(f"Check — Kalman–Bucy measured ratios (should be 1 within the interval): {kbf}.")
         return "  \n".join(parts)

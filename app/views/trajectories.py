@@ -17,6 +17,8 @@ beside it, while the errors show at their own scale. The errors are decimated by
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import panel as pn
 import param
@@ -35,10 +37,11 @@ from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled, text_scale
 
 __all__ = ["RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
 
-_TRUTH = {"line_color": TRUTH, "line_width": 1.4}
-_KBF = {"line_color": KBF, "line_width": 1.8}
-_ISL = {"line_color": ISL, "line_width": 1.8}
-_TUBE = {"line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
+#: the traces' line styles (bokeh Line properties)
+_TRUTH: dict[str, Any] = {"line_color": TRUTH, "line_width": 1.4}
+_KBF: dict[str, Any] = {"line_color": KBF, "line_width": 1.8}
+_ISL: dict[str, Any] = {"line_color": ISL, "line_width": 1.8}
+_TUBE: dict[str, Any] = {"line_color": KBF, "line_dash": "dashed", "line_width": 1.3, "line_alpha": 0.9}
 
 SUMMARY_HEIGHT = 30  #: the first plot carries the run's summary above its frame
 LEGEND_ROW = 30  #: height of one row of the legend (two entries a row)
@@ -116,7 +119,8 @@ class TrajectoriesView(Viewer):
         self._keys = self._legend_keys()
         self._followers = {name: follow(item.renderers[0]) for name, item in self._keys.items()}
         self._overlay = Overlay(self._key_figure)
-        self._overlay.expect(self.state.baselines.extra_filters)  # a link's filters: their lines are built with the page
+        # a link's filters: their lines are built with the page
+        self._overlay.expect(self.state.baselines.extra_filters)
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
         self._bands: list[Band] = []
@@ -127,8 +131,8 @@ class TrajectoriesView(Viewer):
         self.state.param.watch(self._on_view, ["view"])
         self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
         self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
-                              label_text_font_size=f"{11 * self.scale:.3g}pt", click_policy="hide", padding=2, margin=2, spacing=14,
-                              location="top_left", border_line_alpha=0, background_fill_alpha=0)
+                              label_text_font_size=f"{11 * self.scale:.3g}pt", click_policy="hide", padding=2, margin=2,
+                              spacing=14, location="top_left", border_line_alpha=0, background_fill_alpha=0)
         self._key_figure.add_layout(self._legend, "center")
         self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
         self._plots = pn.Column(sizing_mode="stretch_width", margin=0)  # the mode, the legend and the m plots
@@ -150,7 +154,9 @@ class TrajectoriesView(Viewer):
 
     def _legend_keys(self) -> dict[str, LegendItem]:
         """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
-        empty = lambda **style: self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
+        def empty(**style):
+            return self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
+
         keys = {"truth": empty(**_TRUTH), "kbf": empty(**_KBF), "isl": empty(**_ISL), "tube": empty(**_TUBE)}
         return {name: LegendItem(label=value(KEY_LABELS[name][self.errors]), renderers=[key])
                 for name, key in keys.items()}

@@ -1,12 +1,13 @@
 """Tuning curves: one family's statistic against its knob, per scenario preset, and the point the rule picks.
 
 Every filter that does not know σ(t) has one knob — the ISL filters' ν, the learners' memory W (in sensor readings),
-the robust filter's c, the IMM's switch probability and grid density — and :func:`isl_core.scenario.tuning.tune` sets each by
-the same rule: the least, over the knob's grid, of the largest period statistic over the scenario table's presets (the
-minimax). A curve here is a family's statistic — the largest over a preset's periods — against its knob, one line per
-preset and a thick one for the largest over all of them, whose lowest point (marked) is the tuned knob. A family with
-two knobs is drawn along its first (W for the robust filter, the switch probability for the IMM) at the tuned value
-of the other. The tuning is the one cached for the page's α, m and w (computed on demand as the session's long job).
+the robust filter's c, the IMM's switch probability and grid density — and :func:`isl_core.scenario.tuning.tune` sets
+each by the same rule: the least, over the knob's grid, of the largest period statistic over the scenario table's
+presets (the minimax). A curve here is a family's statistic — the largest over a preset's periods — against its knob,
+one line per preset and a thick one for the largest over all of them, whose lowest point (marked) is the tuned knob. A
+family with two knobs is drawn along its first (W for the robust filter, the switch probability for the IMM) at the
+tuned value of the other. The tuning is the one cached for the page's α, m and w (computed on demand as the session's
+long job).
 """
 from __future__ import annotations
 
@@ -135,4 +136,5 @@ class TuningView(Viewer):
         return pn.Column(intro, pn.FlexBox(self._family, run, cancel, progress, flex_wrap="wrap",
                                            sizing_mode="stretch_width"),
                          pn.pane.Markdown(p.tune_note, margin=(0, 10)), self._note,
-                         pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width"), sizing_mode="stretch_width")
+                         pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width"),
+                         sizing_mode="stretch_width")

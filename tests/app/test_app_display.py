@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
-from app.state.scenarios import PRESETS as SCENARIO_PRESETS
 from app.state import AppState
+from app.state.scenarios import PRESETS as SCENARIO_PRESETS
 from app.text import num, per_r_min
 from app.urlsync import query_string, read_query
 from app.views.controls import ControlsView, IntSlider, Slider, WholeInput, log_slider

@@ -16,8 +16,8 @@ from app.state import PARAMS, AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import WorstCaseView, worst_case_html
 from isl_core import Model, baseline_filters, simulate, theory_ratios
-from isl_core.filters.baselines import LABELS
 from isl_core.decimate import minmax_indices
+from isl_core.filters.baselines import LABELS
 from isl_core.worstcase import FILTERS
 
 
@@ -186,13 +186,13 @@ def test_trajectories_overlay_the_extra_filters(state):
 
     view = TrajectoriesView(state=state)
     srcs = view._overlay._sources
-    items = dict(zip(EXTRA_NAMES, view._overlay.items))
+    items = dict(zip(EXTRA_NAMES, view._overlay.items, strict=True))  # one legend item per extra filter
     lines = {n: view._overlay._followers[n] for n in EXTRA_NAMES}  # the filter's line in each plot
     assert all(len(src.data["t"]) == 0 for per_plot in srcs for src in per_plot.values())  # default: nothing sent
     assert not any(item.visible for item in items.values()) and not any(ln.visible for v in lines.values() for ln in v)
     state.baselines.extra_filters = ["kbf_adaptive", "isl_model"]
     for i in range(state.m):
-        t, y = state.traces.series[i]["isl_model"]
+        _, y = state.traces.series[i]["isl_model"]
         np.testing.assert_array_equal(srcs[i]["isl_model"].data["y"], y)
         assert len(srcs[i]["kbf_adaptive"].data["t"]) > 0 and "kbf_minimax" not in srcs[i]  # built when first shown
     assert items["isl_model"].visible and items["kbf_adaptive"].visible and not items["kbf_minimax"].visible

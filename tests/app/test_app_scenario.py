@@ -10,9 +10,9 @@ import pytest
 
 from app import scenario_picture
 from app.colors import contrast, text_on, tint
-from app.state.scenarios import PRESETS
 from app.scenario_picture import LOOP, PICTURE_MAX_STEPS, picture_filters
 from app.state import AppState
+from app.state.scenarios import PRESETS
 from app.urlsync import query_string, read_query
 from app.views.scenario import ScenarioView
 from app.views.scenario_tables import SCENARIO_COLORS, map_html, periods_html

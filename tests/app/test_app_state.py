@@ -11,11 +11,11 @@ import pytest
 from _loop import ManualLoop
 
 from app import pipeline
-from app.state import session as state_module
 from app.jobs import Jobs, LongJobQueue
 from app.pipeline import APP_MAX_STEPS
 from app.presets import PRESETS
 from app.state import INPUTS, AppState
+from app.state import session as state_module
 from isl_core import DivergenceError, Model, kalman_bucy, recommend_nu
 
 

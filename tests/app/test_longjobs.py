@@ -7,8 +7,7 @@ from functools import partial
 
 import pytest
 
-from app.jobs import Outcome
-from app.jobs import Cancelled, LongJobQueue, QueueFull, in_process
+from app.jobs import Cancelled, LongJobQueue, Outcome, QueueFull, in_process
 
 
 class Gate:

@@ -52,7 +52,8 @@ HIDE_ISL_KEY = """() => {
 
 ISL_LINES_VISIBLE = """() => {
     const doc = Bokeh.documents[0];
-    return Array.from(doc.all_models).filter(m => m.data_source && /^traj-\\d-isl$/.test(m.data_source.name)).map(m => m.visible);
+    return Array.from(doc.all_models)
+        .filter(m => m.data_source && /^traj-\\d-isl$/.test(m.data_source.name)).map(m => m.visible);
 }"""
 
 

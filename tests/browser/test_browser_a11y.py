@@ -89,7 +89,7 @@ def test_the_page_can_be_operated_by_keyboard_alone(app_server):
         page.keyboard.press("Tab")
         assert focused(page)[2] == "Skip to the views"
         page.keyboard.press("Enter")
-        tag, role, label, *_, selected, _ = focused(page)
+        _, role, label, *_, selected, _ = focused(page)
         assert (role, label, selected) == ("tab", "Trajectories (paper A, Fig. 3)", "true")
         page.keyboard.press("ArrowRight")
         assert focused(page)[1:3] == ["tab", "ν sweep (paper A, Fig. 2)"]

@@ -65,7 +65,7 @@ def lms_page(app_url: str, port: int = 0):
     html = f'<!doctype html><title>course</title><iframe id="isl" src="{app_url}" width="1200" height="800"></iframe>'
 
     class Page(http.server.BaseHTTPRequestHandler):
-        def do_GET(self):  # noqa: N802  (http.server's name)
+        def do_GET(self):  # http.server's name
             self.send_response(200)
             self.send_header("Content-Type", "text/html")
             self.end_headers()
@@ -112,13 +112,12 @@ def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
     from _serving import served as serve_app
 
     lms_port = free_port()
-    with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _):
-        with lms_page(url + "/app", lms_port) as lms:
-            assert _framed(lms, "blocked") == "blocked"
+    with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _), lms_page(url + "/app", lms_port) as lms:
+        assert _framed(lms, "blocked") == "blocked"
     lms_origin = f"http://127.0.0.1:{lms_port}"
-    with serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _):
-        with lms_page(url + "/app", lms_port) as lms:
-            assert _framed(lms, "shown") == "shown"
+    with (serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _),
+          lms_page(url + "/app", lms_port) as lms):
+        assert _framed(lms, "shown") == "shown"
 
 
 SCENARIO_DATA = f"""() => {{

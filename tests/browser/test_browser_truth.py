@@ -8,6 +8,7 @@ accessibility checks of the same pages are in ``test_browser_a11y.py``.
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -40,9 +41,11 @@ def three_s(alpha: float, w: float, sigma: float, m: int = 3) -> dict[str, float
 
 
 def wait_bands(page, want: dict[str, float], what: str) -> None:
+    from playwright.sync_api import Error as PlaywrightError  # its timeout and every other failure of the page
+
     try:
         page.wait_for_function(BANDS_ARE, arg=want, timeout=30_000)
-    except Exception:
+    except PlaywrightError:
         raise AssertionError(f"{what}: the drawn tube is not X̂ ± 3 s of the run; drawn offsets "
                              f"{page.evaluate(BAND_OFFSETS)}, 3 s = {want}") from None
 
@@ -110,7 +113,7 @@ def test_presenter_mode_fits_the_screen_and_enlarges_the_plots_text(app_server, 
         sizes = page.evaluate("""() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Legend'
             || v.model.type === 'LinearAxis').map(v => v.model.type === 'Legend' ? v.model.label_text_font_size
             : v.model.major_label_text_font_size)""")
-    assert 0 <= left and right <= width + 0.5 and table_width > 300, (left, right, table_width)
+    assert left >= 0 and right <= width + 0.5 and table_width > 300, (left, right, table_width)
     points = [float(s.removesuffix("pt")) for s in sizes]
     assert points and min(points) >= 14.0, sizes  # 11 pt at a desk, ×19/14 for a projector
 
@@ -216,7 +219,7 @@ def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected
         finally:
             browser.close()
     assert ticks == pytest.approx(expected)
-    gaps = [px * math.log(b / a) / math.log(hi / lo) for a, b in zip(ticks, ticks[1:])]
+    gaps = [px * math.log(b / a) / math.log(hi / lo) for a, b in itertools.pairwise(ticks)]
     assert all(g >= TICK_GAP for g in gaps), gaps
 
 

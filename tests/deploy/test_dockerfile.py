@@ -188,7 +188,8 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
     try:
         healthy_after = None
         while time.perf_counter() - started < 120 and proc.poll() is None:
-            if subprocess.run(probe, env=env, cwd=workdir, capture_output=True, timeout=30, check=False).returncode == 0:
+            probed = subprocess.run(probe, env=env, cwd=workdir, capture_output=True, timeout=30, check=False)
+            if probed.returncode == 0:
                 healthy_after = time.perf_counter() - started
                 break
             time.sleep(0.2)

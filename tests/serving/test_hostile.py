@@ -68,16 +68,22 @@ def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
     nonfinite = [math.nan, math.inf, -math.inf, 1e308, -1e308, np.float64("nan"), np.float32("inf"), None, True, False]
     if isinstance(p, param.Boolean):
         pool = [None, 0, 1, 1.0, "true", "False", math.nan, [], "yes", np.int64(1)]
-        picks = lambda: pool[rng.integers(len(pool))]
+
+        def picks():
+            return pool[rng.integers(len(pool))]
     elif isinstance(p, param.ListSelector):
         names = list(p.objects)
         pool = [None, "nope", names[0], [names[0], "nope"], [1], [None], {names[0]: True}, math.nan,
                 ["<script>"], [names[0].upper()], 3, [[names[0]]], [{}]]
-        picks = lambda: pool[rng.integers(len(pool))]
+
+        def picks():
+            return pool[rng.integers(len(pool))]
     elif isinstance(p, param.Selector):
         names = list(p.objects)
         pool = [None, "nope", 3, [names[0]], names[0].upper(), math.nan, {}, "", True, "<script>", f" {names[0]}"]
-        picks = lambda: pool[rng.integers(len(pool))]
+
+        def picks():
+            return pool[rng.integers(len(pool))]
     elif isinstance(p, param.List):
         lo, hi = KINDS[key].lo, KINDS[key].hi  # of its entries
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import gc
 import weakref
+from typing import ClassVar
 
 import numpy as np
 import pytest
@@ -80,7 +81,7 @@ def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collect
     from isl_core import riccati
 
     class Server:
-        sessions: list = []
+        sessions: ClassVar[list] = []
 
         def get_sessions(self):
             return self.sessions

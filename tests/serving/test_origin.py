@@ -76,7 +76,7 @@ def test_listed_origins_replace_the_defaults(tmp_path):
 
 
 def test_other_host_names_are_refused_before_any_session_exists(default_server):
-    url, log = default_server
+    url, _ = default_server
     port = urlparse(url).port
     for host in ("evil.example.com", f"evil.example.com:{port}", f"127.0.0.1.evil.example.com:{port}"):
         status, _, body = get(url, "/app", Host=host)
@@ -92,7 +92,7 @@ def test_answers_carry_the_framing_and_sniffing_headers_and_scripts_are_compress
     assert headers["x-frame-options"] == "SAMEORIGIN" and headers["x-content-type-options"] == "nosniff"
     assert headers["referrer-policy"] == "same-origin"
     script = "/" + next(s for s in re.findall(rb'src="([^"]+\.js[^"]*)"', page) if b"bokeh.min" in s).decode()
-    status, plain_headers, plain = get(url, script)
+    status, _, plain = get(url, script)
     status_gz, headers, body = get(url, script, **{"Accept-Encoding": "gzip"})
     assert status == status_gz == 200 and headers.get("content-encoding") == "gzip"
     assert len(plain) > 500_000 and len(body) < len(plain) / 2, (len(plain), len(body))  # bokeh.min.js

@@ -67,7 +67,8 @@ def test_panel_arguments_are_the_safe_defaults(clean_env):
     argv = serve.panel_argv(opts, "app.py", serve.allowed_origins(opts.port, None))
     args = panel_args(argv)
     assert (args.address, args.port) == (serve.DEFAULT_ADDRESS, serve.DEFAULT_PORT)
-    assert args.warm and not args.liveness  # /liveness is app.serving.webguard's: Panel's builds a session for ?endpoint=
+    # /liveness is app.serving.webguard's: Panel's builds a session for ?endpoint=
+    assert args.warm and not args.liveness
     assert not args.admin and not args.dev and not args.autoreload
     assert args.allow_websocket_origin == ["localhost:5006", "127.0.0.1:5006"]
     assert args.num_threads == serve.DEFAULT_NUM_THREADS and args.num_procs == 1
