@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -131,7 +132,8 @@ def check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[Fi
     for spec in specs:
         if not isinstance(spec, FilterSpec) or np.shape(spec.coef) != (model.m,):
             raise ValueError(f"{what}, got {short(spec)}")
-        table = None if spec.adaptive is None else np.shape(getattr(spec.adaptive, "log_gain", None))
+        log_gain: Any = getattr(spec.adaptive, "log_gain", None)  # whatever a caller put there
+        table = None if spec.adaptive is None else np.shape(log_gain)
         if table is not None and not (len(table) == 2 and table[0] >= 2 and table[1] == model.m):
             raise ValueError(f"{what} (an adaptive gain table of shape (n >= 2, m)), got {short(spec)}")
     return specs

@@ -131,7 +131,7 @@ class SweepResult:
     r_min: np.ndarray
     h: np.ndarray
     steps: np.ndarray = field(repr=False)
-    stretch: np.ndarray = field(repr=False, default=None)
+    stretch: np.ndarray = field(repr=False)
     model_aware: bool = False
     beta: float | None = None
 
@@ -206,9 +206,9 @@ def group_length(model: Model, kb, filters, horizon: float) -> tuple[float, int,
 
 
 def sweep(
-    alphas: Sequence[float] = FIG2_ALPHAS,
-    sigmas: Sequence[float] = FIG2_SIGMAS,
-    nu_over_beta: Sequence[float] = FIG2_NU_OVER_BETA,
+    alphas: Sequence[float] | np.ndarray = FIG2_ALPHAS,
+    sigmas: Sequence[float] | np.ndarray = FIG2_SIGMAS,
+    nu_over_beta: Sequence[float] | np.ndarray = FIG2_NU_OVER_BETA,
     *,
     m: int = 3,
     w: float = 3.0,
@@ -252,15 +252,16 @@ def sweep(
     tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
                                                          model_aware, beta)
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
-    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
-    return dataclasses.replace(res, stretch=freeze(stretch), model_aware=model_aware, beta=beta)
+    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory,
+                    stretch)
+    return dataclasses.replace(res, model_aware=model_aware, beta=beta)
 
 
-def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
+def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory, stretch):
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
     return SweepResult(
         freeze(alphas), freeze(sigmas), freeze(nob), m, w, horizon, seeds, batches, level,
         freeze(ratio[:, :, 1:]), freeze(low[:, :, 1:]), freeze(high[:, :, 1:]),
         freeze(ratio[:, :, 0]), freeze(low[:, :, 0]), freeze(high[:, :, 0]),
-        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64),
+        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch),
     )

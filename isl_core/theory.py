@@ -167,7 +167,7 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
     return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / s
 
 
-def predicted_ratios_grid(model: Model, nus: Sequence[float], *, damp: float | None = None) -> np.ndarray:
+def predicted_ratios_grid(model: Model, nus: Sequence[float] | np.ndarray, *, damp: float | None = None) -> np.ndarray:
     """:func:`predicted_ratios` for many ν at once: shape (len(nus), m), one batched Lyapunov solve."""
     nus = check_reals("nus", nus, lo=0.0, lo_open=True)
     base = _isl_spec(model, 1.0, damp)

@@ -258,6 +258,6 @@ def worst_case(
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
-        freeze(alphas), freeze(sigmas), names, m, w, horizon, seeds, batches, level, freeze(ratio),
+        freeze(alphas), freeze(sigmas), names, m, w, horizon, tuple(seeds), batches, level, freeze(ratio),
         freeze(low), freeze(high), freeze(theory), freeze(nu), freeze(design), freeze(best[0]),
         freeze(best[1]), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch))

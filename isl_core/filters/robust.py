@@ -42,5 +42,6 @@ def robust_kbf(model: Model, *, c: float = HUBER_C, sigma_range: tuple[float, fl
     (``memory`` W in sensor readings)."""
     c = check_real("c (Huber's clipping constant)", c, lo=0.1, hi=10.0)
     spec = adaptive_kbf(model, sigma_range=sigma_range, memory=memory, sigma_init=sigma_init)
+    assert spec.adaptive is not None  # adaptive_kbf's gain table
     label = f"Kalman–Bucy, adaptive σ̂, Huber c = {c:g} (W = {spec.adaptive.memory:g} readings)"
     return dataclasses.replace(spec, name="kbf_robust", huber=c, label=label)
