@@ -41,7 +41,28 @@ def isl_exponents(m: int) -> np.ndarray:
 
 
 def isl_gains(m: int, nu: float) -> np.ndarray:
-    """Coefficients ``c_i = G_i1 γ_{p_i}^{-1/2} ν^{i/m}`` of φ (A.17), p_i = 2(1 − i/m)."""
+    """Coefficients ``c_i = G_i1 γ_{p_i}^{-1/2} ν^{i/m}`` of φ (A.17), p_i = 2(1 − i/m).
+
+    Parameters
+    ----------
+    m : int
+        State dimension.
+    nu : float
+        The tuning ν > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        The m coefficients c_1 … c_m, each > 0; with :func:`isl_exponents` they define φ (:func:`phi`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import isl_gains
+    >>> c = isl_gains(3, 2.0)
+    >>> c.shape, bool(np.all(c > 0))
+    ((3,), True)
+    """
     m = check_int("m", m, lo=1, hi=M_MAX)
     nu = check_real("nu", nu, lo=0.0, lo_open=True)
     g1 = G_matrix(m)[:, 0]
@@ -52,7 +73,30 @@ def isl_gains(m: int, nu: float) -> np.ndarray:
 
 
 def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Evaluate ``φ_i(x) = c_i sign(x)|x|^{q_i}`` (A.17); returns shape ``x.shape + (m,)``."""
+    """Evaluate ``φ_i(x) = c_i sign(x)|x|^{q_i}`` (A.17); returns shape ``x.shape + (m,)``.
+
+    Parameters
+    ----------
+    x : float or numpy.ndarray
+        Where φ is evaluated.
+    coef : numpy.ndarray
+        The coefficients c_i (m,), :func:`isl_gains`.
+    q : numpy.ndarray
+        The exponents q_i (m,), :func:`isl_exponents`.
+
+    Returns
+    -------
+    numpy.ndarray
+        φ_i(x), one column per i.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import isl_exponents, isl_gains, phi
+    >>> y = phi(np.array([-1.0, 0.0, 2.0]), isl_gains(3, 1.0), isl_exponents(3))
+    >>> y.shape, bool(np.all(y[1] == 0.0)), bool(np.all(np.sign(y[0]) == -np.sign(y[2])))
+    ((3, 3), True, True)
+    """
     x = np.asarray(x, dtype=float)[..., None]
     return coef * np.sign(x) * np.abs(x) ** q
 

@@ -233,6 +233,32 @@ def sweep(
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
     instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β
     at every α (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
+
+    Parameters
+    ----------
+    alphas, sigmas : sequence of float
+        The grid of α (> 0; ≥ 0 with ``beta``) and σ (default paper A's Fig. 2).
+    nu_over_beta : sequence of float
+        The ISL tunings ν/β.
+    m, w : int, float
+        State dimension; stationary std of X_m (β = w√(2α)).
+    horizon : float, default 1000.0
+        Averaging window in units of the group's settling time.
+    seeds, batches, level
+        Independent noises, batches per seed, confidence level of the intervals.
+
+    Returns
+    -------
+    SweepResult
+        ``ratio`` (nα, nσ, nν, m) of the ISL filters with intervals, ``kbf_ratio`` of the optimal filter, ``theory``
+        the predicted ratios, ``s`` the optimal RMSEs.
+
+    Examples
+    --------
+    >>> from isl_core import sweep
+    >>> res = sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2, workers=1)
+    >>> res.ratio.shape, res.kbf_ratio.shape, res.theory.shape
+    ((1, 1, 1, 3), (1, 1, 3), (1, 1, 1, 3))
     """
     if beta is None:
         alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)

@@ -161,6 +161,29 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
 
     ``damp`` is the filter's propagation damping a: ``None`` (default) is paper A's filter with A0 (a = 0);
     ``damp=model.alpha`` is an ISL filter that propagates with the true A. ``inf`` when unstable.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    nu : float
+        The ISL filter's tuning ν > 0.
+    damp : float, optional
+        The filter's propagation damping (see above).
+
+    Returns
+    -------
+    numpy.ndarray
+        š_i/s_i per coordinate (m,): ≥ 1, the optimal filter being 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import Model, predicted_ratios
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> ratios = predicted_ratios(model, model.beta)
+    >>> ratios.shape, bool(np.all(ratios >= 1.0))
+    ((3,), True)
     """
     spec = _isl_spec(model, nu, damp)
     s = _optimal_s(model)

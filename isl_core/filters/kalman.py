@@ -25,7 +25,27 @@ __all__ = ["design_sigma", "minimax_kbf", "mismatched_kbf", "optimal_kbf"]
 
 
 def optimal_kbf(model: Model, kb: KalmanBucy) -> FilterSpec:
-    """The stationary Kalman–Bucy filter (A.21) with the true σ: linear gain K, propagation with A."""
+    """The stationary Kalman–Bucy filter (A.21) with the true σ: linear gain K, propagation with A.
+
+    Parameters
+    ----------
+    model : Model
+        The model, σ included.
+    kb : KalmanBucy
+        Its stationary solution, :func:`isl_core.kalman_bucy` (``model``).
+
+    Returns
+    -------
+    FilterSpec
+        The oracle filter, named ``"kbf"``.
+
+    Examples
+    --------
+    >>> from isl_core import Model, kalman_bucy, optimal_kbf
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> optimal_kbf(model, kalman_bucy(model)).name
+    'kbf'
+    """
     return FilterSpec("kbf", "Kalman–Bucy (optimal, knows σ)", model.alpha, np.array(kb.K, dtype=float), False)
 
 

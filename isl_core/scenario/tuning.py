@@ -306,7 +306,32 @@ def tune(
     paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
     periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the
     CPUs). Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) —
-    or, with ``compute`` False, None."""
+    or, with ``compute`` False, None.
+
+    Parameters
+    ----------
+    alpha : float, default 1.0
+        The model's α (paper A's model, β = w√(2α)).
+    presets : mapping, optional
+        name → (label, σ(0), :class:`Scenario`) (default :data:`PRESETS`).
+    seeds : int
+        Independent noises per preset, seeds 0 … ``seeds`` − 1.
+    grids : TuningGrids
+        The knobs' grids.
+    cache, compute : bool
+        Read and write the cache; compute what is not cached.
+
+    Returns
+    -------
+    Tuning or None
+        Every family's tuning curves and minimax knob; None when not cached and ``compute`` is False.
+
+    Examples
+    --------
+    >>> from isl_core import tune
+    >>> tune(1.0, seeds=2, horizon=5.0, cache=False, compute=False) is None  # neither cached nor computed
+    True
+    """
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     m = check_int("m", m, lo=1, hi=6)
     w = check_real("w", w, lo=0.0, lo_open=True)
