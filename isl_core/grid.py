@@ -58,7 +58,33 @@ def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
 
 def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
     """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, :ref:`step-size`), shrunk until the
-    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
+    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    kb : KalmanBucy
+        Its solution, :func:`isl_core.kalman_bucy`.
+    filters : sequence of FilterSpec
+        The filters simulated besides the optimal one.
+
+    Returns
+    -------
+    float
+        The step h.
+
+    Examples
+    --------
+    >>> from isl_core import isl_filter, kalman_bucy, step_size
+    >>> from isl_core.grid import H_RATE
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> kb = kalman_bucy(model)
+    >>> h = step_size(model, kb, [isl_filter(model, model.beta)])
+    >>> bool(0 < h <= H_RATE / kb.r_min)
+    True
+    """
     rate = max(float(np.max(np.abs(kb.eig))), model.alpha, kb.r_min)
     for spec in filters:
         rate = max(rate, float(np.max(np.abs(np.linalg.eigvals(linearized_matrix(model, spec))))))

@@ -191,7 +191,18 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
 
 
 def predicted_ratios_grid(model: Model, nus: Sequence[float] | np.ndarray, *, damp: float | None = None) -> np.ndarray:
-    """:func:`predicted_ratios` for many ν at once: shape (len(nus), m), one batched Lyapunov solve."""
+    """:func:`predicted_ratios` for many ν at once: shape (len(nus), m), one batched Lyapunov solve.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import predicted_ratios, predicted_ratios_grid
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> grid = predicted_ratios_grid(model, [1.5, 3.0])
+    >>> grid.shape, bool(np.allclose(grid[1], predicted_ratios(model, 3.0)))
+    ((2, 3), True)
+    """
     nus = check_reals("nus", nus, lo=0.0, lo_open=True)
     base = _isl_spec(model, 1.0, damp)
     m = model.m
@@ -205,6 +216,17 @@ def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
     """RMSE ratios √P_ii / s_i (m,) of a Kalman–Bucy filter designed for σ̄ = ``sigma_design`` (:ref:`mismatched-kbf`).
 
     P solves ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` with the true σ; it equals Δ (ratio 1) when σ̄ = σ.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import mismatched_kbf_ratios
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> bool(np.allclose(mismatched_kbf_ratios(model, model.sigma), 1.0))  # σ̄ = σ: the optimal filter
+    True
+    >>> bool(np.all(mismatched_kbf_ratios(model, 5.0) > 1.0))
+    True
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
