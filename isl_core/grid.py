@@ -104,6 +104,15 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
     settles like the optimal one (its gain follows K(σ̂) → K(σ)); a filter whose Λ_f is not stable has no stationary
     regime to wait for and is left out (its ratio is what the run shows). A filter at most :data:`SETTLE_TOL` times
     slower than the optimal one counts as settling with it (the result is then exactly r_min).
+
+    Examples
+    --------
+    >>> from isl_core import isl_filter, kalman_bucy, settling_rate
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> kb = kalman_bucy(model)
+    >>> bool(0 < settling_rate(model, kb, [isl_filter(model, model.beta)]) <= kb.r_min)
+    True
     """
     rate = kb.r_min
     for spec in filters:
@@ -195,6 +204,21 @@ def run_plan(
     """The grid :func:`simulate` would use for these arguments (same rules, same checks, nothing simulated).
 
     ``cap``: the largest N allowed (a ``ValueError`` past it names T and h).
+
+    Returns
+    -------
+    RunPlan
+        ``T``, ``h``, ``N`` (N·h = T), ``stretch`` and ``r_min``.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import kalman_bucy, run_plan
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> plan = run_plan(model, model.beta, horizon=10.0)
+    >>> math.isclose(plan.N * plan.h, plan.T), math.isclose(plan.T, 10.0 * plan.stretch / kalman_bucy(model).r_min)
+    (True, True)
     """
     filters = check_filters(model, nu, extra)
     grid_only = check_specs("step_filters", model, step_filters, allow_empty=True)
