@@ -42,6 +42,10 @@ class Tracked:
     """What a run with ``tracks`` (Kalman–Bucy, ISL, extras), ``T`` and ``r_min`` answers, full or decimated
     (:class:`Run`, :class:`isl_core.runview.RunView`)."""
 
+    T: float
+    r_min: float
+    tracks: tuple
+
     @property
     def horizon(self) -> float:
         """T in units of 1/r_min (A.24)."""
@@ -126,14 +130,14 @@ def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False) ->
     nt = max([2] + [len(f.adaptive.log_gain) for f in filters if f.adaptive is not None])
     table = np.zeros((nf, nt, model.m))
     ad = np.zeros((nf, AD_WIDTH))
-    for f, spec in enumerate(filters):
+    for i, spec in enumerate(filters):
         gt = spec.adaptive
         if gt is None:
             continue
-        table[f, :len(gt.log_gain)] = gt.log_gain
-        table[f, len(gt.log_gain):] = gt.log_gain[-1]
-        ad[f, AD_LOG_SIGMA0], ad[f, AD_INV_STEP], ad[f, AD_INV_MEMORY] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.memory
-        ad[f, AD_VAR], ad[f, AD_SIGMA] = gt.sigma_init**2, gt.sigma_init
+        table[i, :len(gt.log_gain)] = gt.log_gain
+        table[i, len(gt.log_gain):] = gt.log_gain[-1]
+        ad[i, AD_LOG_SIGMA0], ad[i, AD_INV_STEP], ad[i, AD_INV_MEMORY] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.memory
+        ad[i, AD_VAR], ad[i, AD_SIGMA] = gt.sigma_init**2, gt.sigma_init
     return FilterBank(damp, coef, kind, table, ad)
 
 

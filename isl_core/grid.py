@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +58,33 @@ def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
 
 def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
     """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, :ref:`step-size`), shrunk until the
-    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`)."""
+    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    kb : KalmanBucy
+        Its solution, :func:`isl_core.kalman_bucy`.
+    filters : sequence of FilterSpec
+        The filters simulated besides the optimal one.
+
+    Returns
+    -------
+    float
+        The step h.
+
+    Examples
+    --------
+    >>> from isl_core import isl_filter, kalman_bucy, step_size
+    >>> from isl_core.grid import H_RATE
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> kb = kalman_bucy(model)
+    >>> h = step_size(model, kb, [isl_filter(model, model.beta)])
+    >>> bool(0 < h <= H_RATE / kb.r_min)
+    True
+    """
     rate = max(float(np.max(np.abs(kb.eig))), model.alpha, kb.r_min)
     for spec in filters:
         rate = max(rate, float(np.max(np.abs(np.linalg.eigvals(linearized_matrix(model, spec))))))
@@ -77,6 +104,15 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
     settles like the optimal one (its gain follows K(σ̂) → K(σ)); a filter whose Λ_f is not stable has no stationary
     regime to wait for and is left out (its ratio is what the run shows). A filter at most :data:`SETTLE_TOL` times
     slower than the optimal one counts as settling with it (the result is then exactly r_min).
+
+    Examples
+    --------
+    >>> from isl_core import isl_filter, kalman_bucy, settling_rate
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> kb = kalman_bucy(model)
+    >>> bool(0 < settling_rate(model, kb, [isl_filter(model, model.beta)]) <= kb.r_min)
+    True
     """
     rate = kb.r_min
     for spec in filters:
@@ -131,7 +167,8 @@ def check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[Fi
     for spec in specs:
         if not isinstance(spec, FilterSpec) or np.shape(spec.coef) != (model.m,):
             raise ValueError(f"{what}, got {short(spec)}")
-        table = None if spec.adaptive is None else np.shape(getattr(spec.adaptive, "log_gain", None))
+        log_gain: Any = getattr(spec.adaptive, "log_gain", None)  # whatever a caller put there
+        table = None if spec.adaptive is None else np.shape(log_gain)
         if table is not None and not (len(table) == 2 and table[0] >= 2 and table[1] == model.m):
             raise ValueError(f"{what} (an adaptive gain table of shape (n >= 2, m)), got {short(spec)}")
     return specs
@@ -167,6 +204,21 @@ def run_plan(
     """The grid :func:`simulate` would use for these arguments (same rules, same checks, nothing simulated).
 
     ``cap``: the largest N allowed (a ``ValueError`` past it names T and h).
+
+    Returns
+    -------
+    RunPlan
+        ``T``, ``h``, ``N`` (N·h = T), ``stretch`` and ``r_min``.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import kalman_bucy, run_plan
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> plan = run_plan(model, model.beta, horizon=10.0)
+    >>> math.isclose(plan.N * plan.h, plan.T), math.isclose(plan.T, 10.0 * plan.stretch / kalman_bucy(model).r_min)
+    (True, True)
     """
     filters = check_filters(model, nu, extra)
     grid_only = check_specs("step_filters", model, step_filters, allow_empty=True)

@@ -15,10 +15,12 @@ noise — and hand them to :func:`run`:
 from __future__ import annotations
 
 import concurrent.futures as cf
+import functools
 import os
 import threading
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +70,7 @@ class Cancelled(RuntimeError):
 
 def run_task(task: Task, progress: Callable[[float], None] | None = None) -> TaskResult:
     """Run ``task``; a diverged filter gets nan (the others are rerun one by one on the same noise)."""
-    kw = {"T": task.T, "h": task.h, "burn": task.burn, "batches": task.batches, "seed": task.seed}
+    kw: dict[str, Any] = {"T": task.T, "h": task.h, "burn": task.burn, "batches": task.batches, "seed": task.seed}
     try:
         res = simulate_rmse(task.model, task.filters, progress=progress, **kw)
         return TaskResult(task.key, res.sq, res.counts)
@@ -122,7 +124,7 @@ class Progress:
 
 def _local(tasks: Sequence[Task], workers: int, prog: Progress) -> list[TaskResult]:
     def job(task: Task) -> TaskResult:
-        return run_task(task, progress=lambda f, key=task.key: prog.update(key, f))
+        return run_task(task, progress=functools.partial(prog.update, task.key))
 
     with cf.ThreadPoolExecutor(max_workers=workers) as pool:
         futures = [pool.submit(job, t) for t in tasks]
@@ -131,7 +133,7 @@ def _local(tasks: Sequence[Task], workers: int, prog: Progress) -> list[TaskResu
         except BaseException:  # e.g. KeyboardInterrupt while waiting
             prog.stop(futures)
             raise
-        failed = [f.exception() for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
+        failed = [e for f in futures if f.done() and not f.cancelled() and (e := f.exception()) is not None]
         if failed:
             prog.stop(futures)  # report the cause, not the cancellations it triggered in other tasks
             raise next((e for e in failed if not isinstance(e, Cancelled)), failed[0])

@@ -35,6 +35,27 @@ class Model:
 
     Parameters are validated at construction: ``alpha`` finite ≥ 0, ``beta`` and ``sigma`` finite > 0,
     ``m`` an integer 1..6.
+
+    Parameters
+    ----------
+    alpha : float
+        Ornstein–Uhlenbeck rate α ≥ 0 of the last coordinate (α = 0: paper B's model).
+    beta : float
+        Intensity β > 0 of the driving noise.
+    sigma : float
+        Intensity σ > 0 of the observation noise.
+    m : int, default 3
+        State dimension, 1 … :data:`M_MAX`.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)  # paper A's Fig. 3: w = 3, σ = 20
+    >>> model.m, model.beta == 3.0 * math.sqrt(2 * 0.5)
+    (3, True)
+    >>> Model(0.0, 1.0, 5.0, m=6).alpha  # paper B's model
+    0.0
     """
 
     alpha: float

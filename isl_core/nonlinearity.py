@@ -29,19 +29,75 @@ __all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "lineariz
 
 
 def gamma_abs(p: float) -> float:
-    """Absolute moment ``γ_p = E|U|^p = 2^{p/2} Γ((p+1)/2)/√π`` of U ~ N(0, 1), for p > −1."""
+    """Absolute moment ``γ_p = E|U|^p = 2^{p/2} Γ((p+1)/2)/√π`` of U ~ N(0, 1), for p > −1.
+
+    Parameters
+    ----------
+    p : float
+        The order, > −1.
+
+    Returns
+    -------
+    float
+        γ_p.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import gamma_abs
+    >>> gamma_abs(0.0), math.isclose(gamma_abs(2.0), 1.0)  # E|U|^0 = 1, E U² = 1
+    (1.0, True)
+    """
     p = check_real("p", p, lo=-1.0, lo_open=True)
     return 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
 
 
 def isl_exponents(m: int) -> np.ndarray:
-    """Exponents ``q_i = 1 − i/m``, i = 1..m, of the power laws in (A.17)."""
+    """Exponents ``q_i = 1 − i/m``, i = 1..m, of the power laws in (A.17).
+
+    Parameters
+    ----------
+    m : int
+        State dimension.
+
+    Returns
+    -------
+    numpy.ndarray
+        q_1 … q_m, from 1 − 1/m down to 0.
+
+    Examples
+    --------
+    >>> from isl_core import isl_exponents
+    >>> isl_exponents(2).tolist()
+    [0.5, 0.0]
+    """
     m = check_int("m", m, lo=1, hi=M_MAX)
     return 1.0 - np.arange(1, m + 1) / m
 
 
 def isl_gains(m: int, nu: float) -> np.ndarray:
-    """Coefficients ``c_i = G_i1 γ_{p_i}^{-1/2} ν^{i/m}`` of φ (A.17), p_i = 2(1 − i/m)."""
+    """Coefficients ``c_i = G_i1 γ_{p_i}^{-1/2} ν^{i/m}`` of φ (A.17), p_i = 2(1 − i/m).
+
+    Parameters
+    ----------
+    m : int
+        State dimension.
+    nu : float
+        The tuning ν > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        The m coefficients c_1 … c_m, each > 0; with :func:`isl_exponents` they define φ (:func:`phi`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import isl_gains
+    >>> c = isl_gains(3, 2.0)
+    >>> c.shape, bool(np.all(c > 0))
+    ((3,), True)
+    """
     m = check_int("m", m, lo=1, hi=M_MAX)
     nu = check_real("nu", nu, lo=0.0, lo_open=True)
     g1 = G_matrix(m)[:, 0]
@@ -52,7 +108,30 @@ def isl_gains(m: int, nu: float) -> np.ndarray:
 
 
 def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Evaluate ``φ_i(x) = c_i sign(x)|x|^{q_i}`` (A.17); returns shape ``x.shape + (m,)``."""
+    """Evaluate ``φ_i(x) = c_i sign(x)|x|^{q_i}`` (A.17); returns shape ``x.shape + (m,)``.
+
+    Parameters
+    ----------
+    x : float or numpy.ndarray
+        Where φ is evaluated.
+    coef : numpy.ndarray
+        The coefficients c_i (m,), :func:`isl_gains`.
+    q : numpy.ndarray
+        The exponents q_i (m,), :func:`isl_exponents`.
+
+    Returns
+    -------
+    numpy.ndarray
+        φ_i(x), one column per i.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import isl_exponents, isl_gains, phi
+    >>> y = phi(np.array([-1.0, 0.0, 2.0]), isl_gains(3, 1.0), isl_exponents(3))
+    >>> y.shape, bool(np.all(y[1] == 0.0)), bool(np.all(np.sign(y[0]) == -np.sign(y[2])))
+    ((3, 3), True, True)
+    """
     x = np.asarray(x, dtype=float)[..., None]
     return coef * np.sign(x) * np.abs(x) ** q
 
@@ -61,6 +140,27 @@ def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.nda
     """Closed-form ``L = E[φ(ξ)ξ]`` and ``Φ = E[φ(ξ)φ(ξ)ᵀ]`` for ξ ~ N(0, σ²) (B.40, B.43).
 
     A linear φ (q = 1) gives ``L = σ² c`` and ``Φ = σ² c cᵀ``.
+
+    Parameters
+    ----------
+    coef, q : numpy.ndarray
+        φ's coefficients and exponents (m,).
+    sigma : float
+        The standard deviation σ > 0 of ξ.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        L (m,) and Φ (m, m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import linearization
+    >>> c = np.array([1.0, 2.0])
+    >>> L, Phi = linearization(c, np.ones(2), 3.0)  # a linear φ
+    >>> bool(np.allclose(L, 9.0 * c) and np.allclose(Phi, 9.0 * np.outer(c, c)))
+    True
     """
     sigma = check_real("sigma", sigma, lo=0.0, lo_open=True)
     coef = np.asarray(coef, dtype=float)

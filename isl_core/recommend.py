@@ -139,6 +139,32 @@ def recommend_nu(
     ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to
     :func:`isl_core.sweep`. ``model_aware``: recommend ν for the ISL filter that propagates with A
     (:func:`isl_core.baselines.model_aware_isl`) instead of paper A's (A0).
+
+    Parameters
+    ----------
+    alpha : float
+        The model's α > 0.
+    sigmas : sequence of float
+        The σ range over which the worst case is taken (default paper A's Fig. 2).
+    m : int, default 3
+        State dimension.
+    w : float, default 3.0
+        Stationary std of X_m (β = w√(2α)).
+    verify : bool, default True
+        Also simulate the recommendation (and ``compare``).
+
+    Returns
+    -------
+    Recommendation
+        ``nu``, its predicted worst case ``theory_worst`` and, if verified, the simulated one with its interval.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import recommend_nu
+    >>> rec = recommend_nu(0.5, sigmas=[2.0, 20.0], verify=False)
+    >>> bool(rec.nu > 0 and rec.theory_worst >= 1.0), math.isnan(rec.simulated_worst)
+    (True, True)
     """
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     sig = list(check_reals("sigmas", sigmas, lo=0.0, lo_open=True))

@@ -94,7 +94,26 @@ def _G(m: int) -> np.ndarray:
 
 
 def G_matrix(m: int) -> np.ndarray:
-    """Positive-definite solution G(m) of ``A0 G + G A0ᵀ + E Eᵀ − G Cᵀ C G = 0`` (A.10, B.17)."""
+    """Positive-definite solution G(m) of ``A0 G + G A0ᵀ + E Eᵀ − G Cᵀ C G = 0`` (A.10, B.17).
+
+    Parameters
+    ----------
+    m : int
+        State dimension.
+
+    Returns
+    -------
+    numpy.ndarray
+        G(m), (m, m), symmetric positive definite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import G_matrix
+    >>> G = G_matrix(3)
+    >>> bool(np.allclose(G, G.T) and np.all(np.linalg.eigvalsh(G) > 0))
+    True
+    """
     return _G(check_int("m", m, lo=1, hi=M_MAX)).copy()
 
 
@@ -137,7 +156,29 @@ def kalman_bucy(model: Model) -> KalmanBucy:
     """Solve the CARE (A.23) for ``model`` and return gain, Δ, s_i and r_min (A.24).
 
     Cached per (frozen, hashable) model — its arrays are read-only: one dashboard run asks for it four times (the
-    grid, the run, the theory, the filters), each solve ≈ 0.15 ms. ``isl_core.clear_caches`` empties the cache."""
+    grid, the run, the theory, the filters), each solve ≈ 0.15 ms. ``isl_core.clear_caches`` empties the cache.
+
+    Parameters
+    ----------
+    model : Model
+        The model whose continuous algebraic Riccati equation is solved.
+
+    Returns
+    -------
+    KalmanBucy
+        ``K`` the gain (m,), ``delta`` the stationary error covariance Δ (m, m), ``s`` the optimal RMSEs √Δ_ii,
+        ``eig`` the eigenvalues of A − KC and ``r_min`` the slowest of their rates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import Model, kalman_bucy
+    >>> kb = kalman_bucy(Model.from_w(0.5, 3.0, 20.0))
+    >>> kb.s.shape, bool(kb.r_min > 0)
+    ((3,), True)
+    >>> bool(np.allclose(kb.s, np.sqrt(np.diag(kb.delta))))
+    True
+    """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     return _solved(model)
@@ -164,7 +205,28 @@ def _solved(model: Model) -> KalmanBucy:
 
 
 def kalman_bucy_alpha0(m: int, beta: float, sigma: float) -> KalmanBucy:
-    """Closed form for α = 0: ``Δ_ij = G_ij σ² (β/σ)^{(i+j−1)/m}`` (B.16), ``K_i = G_i1 (β/σ)^{i/m}`` (B.18)."""
+    """Closed form for α = 0: ``Δ_ij = G_ij σ² (β/σ)^{(i+j−1)/m}`` (B.16), ``K_i = G_i1 (β/σ)^{i/m}`` (B.18).
+
+    Parameters
+    ----------
+    m : int
+        State dimension.
+    beta, sigma : float
+        The noises' intensities (> 0).
+
+    Returns
+    -------
+    KalmanBucy
+        As :func:`kalman_bucy` for ``Model(0, beta, sigma, m)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import Model, kalman_bucy, kalman_bucy_alpha0
+    >>> closed = kalman_bucy_alpha0(3, 3.0, 20.0)
+    >>> bool(np.allclose(closed.delta, kalman_bucy(Model(0.0, 3.0, 20.0, 3)).delta, rtol=1e-8))
+    True
+    """
     model = Model(0.0, beta, sigma, m)
     i = np.arange(1, model.m + 1)
     expo = (i[:, None] + i[None, :] - 1) / model.m
@@ -173,6 +235,29 @@ def kalman_bucy_alpha0(m: int, beta: float, sigma: float) -> KalmanBucy:
 
 
 def care_residual(model: Model, delta: np.ndarray) -> np.ndarray:
-    """Left-hand side of (A.23) at ``delta``; zero for the exact solution."""
+    """Left-hand side of (A.23) at ``delta``; zero for the exact solution.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    delta : numpy.ndarray
+        A candidate Δ (m, m).
+
+    Returns
+    -------
+    numpy.ndarray
+        The residual (m, m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import care_residual, kalman_bucy
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> delta = kalman_bucy(model).delta
+    >>> bool(np.abs(care_residual(model, delta)).max() <= 1e-9 * np.abs(delta).max() ** 2)
+    True
+    """
     A, E, C = model.A, model.E, model.C
     return A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2

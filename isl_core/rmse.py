@@ -70,6 +70,40 @@ def simulate_rmse(
     The first ``burn`` time units are left out of the averages; the rest is cut into ``batches``.
     ``step_filters``: more filters that count for the step size only (as in :func:`simulate`).
     ``progress(fraction)`` is called between kernel chunks; raising from it cancels the run.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    filters : sequence of FilterSpec
+        The filters, on one truth and one noise.
+    T : float
+        Length of the run (time units).
+    h : float, optional
+        Step (default: :func:`isl_core.step_size` over the filters).
+    seed : int, default 0
+        The noise.
+    burn : float, default 0.0
+        Time left out at the start.
+    batches : int, default 1
+        Batches of the averages (for intervals).
+    start, step_filters, progress
+        As in :func:`isl_core.simulate`.
+
+    Returns
+    -------
+    RmseResult
+        The squared-error sums per batch; :meth:`RmseResult.ratios` the RMSE ratios ŝ/s.
+
+    Examples
+    --------
+    >>> from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, simulate_rmse
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> kb = kalman_bucy(model)
+    >>> res = simulate_rmse(model, [optimal_kbf(model, kb), isl_filter(model, model.beta)], T=5.0 / kb.r_min,
+    ...                     batches=2)
+    >>> res.names, res.sq.shape
+    (('kbf', 'isl'), (2, 2, 3))
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")

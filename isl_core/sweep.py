@@ -131,7 +131,7 @@ class SweepResult:
     r_min: np.ndarray
     h: np.ndarray
     steps: np.ndarray = field(repr=False)
-    stretch: np.ndarray = field(repr=False, default=None)
+    stretch: np.ndarray = field(repr=False)
     model_aware: bool = False
     beta: float | None = None
 
@@ -206,9 +206,9 @@ def group_length(model: Model, kb, filters, horizon: float) -> tuple[float, int,
 
 
 def sweep(
-    alphas: Sequence[float] = FIG2_ALPHAS,
-    sigmas: Sequence[float] = FIG2_SIGMAS,
-    nu_over_beta: Sequence[float] = FIG2_NU_OVER_BETA,
+    alphas: Sequence[float] | np.ndarray = FIG2_ALPHAS,
+    sigmas: Sequence[float] | np.ndarray = FIG2_SIGMAS,
+    nu_over_beta: Sequence[float] | np.ndarray = FIG2_NU_OVER_BETA,
     *,
     m: int = 3,
     w: float = 3.0,
@@ -233,6 +233,32 @@ def sweep(
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
     instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β
     at every α (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
+
+    Parameters
+    ----------
+    alphas, sigmas : sequence of float
+        The grid of α (> 0; ≥ 0 with ``beta``) and σ (default paper A's Fig. 2).
+    nu_over_beta : sequence of float
+        The ISL tunings ν/β.
+    m, w : int, float
+        State dimension; stationary std of X_m (β = w√(2α)).
+    horizon : float, default 1000.0
+        Averaging window in units of the group's settling time.
+    seeds, batches, level
+        Independent noises, batches per seed, confidence level of the intervals.
+
+    Returns
+    -------
+    SweepResult
+        ``ratio`` (nα, nσ, nν, m) of the ISL filters with intervals, ``kbf_ratio`` of the optimal filter, ``theory``
+        the predicted ratios, ``s`` the optimal RMSEs.
+
+    Examples
+    --------
+    >>> from isl_core import sweep
+    >>> res = sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2, workers=1)
+    >>> res.ratio.shape, res.kbf_ratio.shape, res.theory.shape
+    ((1, 1, 1, 3), (1, 1, 3), (1, 1, 1, 3))
     """
     if beta is None:
         alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
@@ -252,15 +278,16 @@ def sweep(
     tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
                                                          model_aware, beta)
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
-    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory)
-    return dataclasses.replace(res, stretch=freeze(stretch), model_aware=model_aware, beta=beta)
+    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory,
+                    stretch)
+    return dataclasses.replace(res, model_aware=model_aware, beta=beta)
 
 
-def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory):
+def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory, stretch):
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
     return SweepResult(
         freeze(alphas), freeze(sigmas), freeze(nob), m, w, horizon, seeds, batches, level,
         freeze(ratio[:, :, 1:]), freeze(low[:, :, 1:]), freeze(high[:, :, 1:]),
         freeze(ratio[:, :, 0]), freeze(low[:, :, 0]), freeze(high[:, :, 0]),
-        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64),
+        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch),
     )

@@ -248,6 +248,28 @@ def worst_case(
     reading is a step in these runs).
     ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``chunk``, ``workers`` and
     ``progress`` as in :func:`isl_core.sweep`: results do not depend on the executor or on chunking.
+
+    Parameters
+    ----------
+    alphas : sequence of float
+        The α > 0 (default paper A's Fig. 2).
+    sigma_range : (float, float), default (2, 200)
+        The σ range, ``n_sigma`` log-spaced values.
+    filters : sequence of str
+        The filters compared (default :data:`FILTERS`).
+
+    Returns
+    -------
+    WorstCaseTable
+        ``ratio`` (nα, nσ, filters, m) with intervals and the predicted ``theory``; ``names`` the filters.
+
+    Examples
+    --------
+    >>> from isl_core import worst_case
+    >>> table = worst_case([1.0], sigma_range=(2.0, 20.0), n_sigma=2, filters=["kbf", "isl"], horizon=20.0,
+    ...                    seeds=(0,), batches=2, workers=1)
+    >>> table.names, table.ratio.shape
+    (('kbf', 'isl'), (1, 2, 2, 3))
     """
     alphas, sigmas, m, w, sigma_design, memory, horizon, seeds, batches, level = _check(
         alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level)
@@ -258,6 +280,6 @@ def worst_case(
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
-        freeze(alphas), freeze(sigmas), names, m, w, horizon, seeds, batches, level, freeze(ratio),
+        freeze(alphas), freeze(sigmas), names, m, w, horizon, tuple(seeds), batches, level, freeze(ratio),
         freeze(low), freeze(high), freeze(theory), freeze(nu), freeze(design), freeze(best[0]),
         freeze(best[1]), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch))

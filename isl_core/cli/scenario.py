@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from typing import Any
 
 from .commands import UsageError, flat, nan_to_none, progress_bar, write_csv
 
@@ -83,7 +84,7 @@ def _table_out(args, res) -> int:
     tab = table_from(res, args.level)
     ns, cost_meta = _costs(res, tab, args)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
-    rows = []
+    rows: list[dict[str, Any]] = []
     for r, row in enumerate(tab.rows):
         cells = {k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]}
                  for c, k in enumerate(keys)}

@@ -97,6 +97,31 @@ def adaptive_kbf(
     ``sigma_range`` (σ_min, σ_max): the plausible range of σ; the gain table spans it widened by TABLE_MARGIN
     on each side. ``memory``: W in sensor readings (≥ 1; module docstring). ``sigma_init``: σ̂ before the first
     innovation (default the geometric middle √(σ_min σ_max); after the first step the data take over, λ_1 = 1).
+
+    Parameters
+    ----------
+    model : Model
+        The model (its α, β, m).
+    sigma_range : (float, float), default (2, 200)
+        The plausible range of σ.
+    memory : float
+        W in sensor readings.
+    sigma_init : float, optional
+        σ̂ before the first innovation.
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"kbf_adaptive"``, its gain table in ``adaptive``.
+
+    Examples
+    --------
+    >>> from isl_core import adaptive_kbf
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> spec = adaptive_kbf(model, memory=100.0)
+    >>> spec.name, spec.adaptive.memory
+    ('kbf_adaptive', 100.0)
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")

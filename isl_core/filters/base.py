@@ -137,7 +137,30 @@ class FilterSpec:
 
 
 def linearized_matrix(model: Model, spec: FilterSpec) -> np.ndarray:
-    """``Λ = A0 − a·EEᵀ − σ⁻² L C`` of the statistically linearized filter (B.46), true σ of ``model``."""
+    """``Λ = A0 − a·EEᵀ − σ⁻² L C`` of the statistically linearized filter (B.46), true σ of ``model``.
+
+    Parameters
+    ----------
+    model : Model
+        The model (its σ).
+    spec : FilterSpec
+        The filter.
+
+    Returns
+    -------
+    numpy.ndarray
+        Λ (m, m); stable (every eigenvalue with a negative real part) for a filter that keeps lock.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import isl_filter, linearized_matrix
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> lam = linearized_matrix(model, isl_filter(model, model.beta))
+    >>> lam.shape, bool(np.all(np.linalg.eigvals(lam).real < 0))
+    ((3, 3), True)
+    """
     L, _ = linearization(spec.coef, spec.exponents(), model.sigma)
     lam = model.A0
     lam[-1, -1] -= spec.damp

@@ -68,6 +68,21 @@ def baseline_filters(
     ``sigma_design``: σ̄ of the mismatched filter (default :func:`design_sigma` of ``sigma_range``);
     ``sigma_range``: also the top for ``kbf_minimax`` and the adaptive filter's table and start;
     ``memory``: the adaptive filter's memory W in readings (here every step is a reading).
+
+    Returns
+    -------
+    list of FilterSpec
+        One filter per name, in the order of ``names``.
+
+    Examples
+    --------
+    >>> from isl_core import BASELINES, baseline_filters
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> tuple(spec.name for spec in baseline_filters(model, nu=model.beta)) == BASELINES
+    True
+    >>> [spec.name for spec in baseline_filters(model, nu=model.beta, names=["kbf", "kbf_adaptive"])]
+    ['kbf', 'kbf_adaptive']
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")

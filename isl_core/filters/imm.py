@@ -58,7 +58,17 @@ SWITCH_MIN = 1e-12  #: keeps every prior weight c̄_j ≥ p/(J − 1) far from t
 def imm_kbf(model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, modes: int = MODES,
             switch: float = SWITCH) -> FilterSpec:
     """The IMM filter (module docstring) for ``model``'s α, β, m (σ is not used): ``modes`` σ_j log-spaced over
-    ``sigma_range`` (its ends included), switch probability ``switch`` per reading (10⁻¹² ≤ p < 1)."""
+    ``sigma_range`` (its ends included), switch probability ``switch`` per reading (10⁻¹² ≤ p < 1).
+
+    Examples
+    --------
+    >>> from isl_core import imm_kbf
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> spec = imm_kbf(model, modes=6)
+    >>> spec.name, len(spec.imm.sigmas)
+    ('imm', 6)
+    """
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     lo, hi = check_sigma_range(sigma_range)

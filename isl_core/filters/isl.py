@@ -18,7 +18,28 @@ __all__ = ["isl_filter", "model_aware_isl"]
 
 
 def isl_filter(model: Model, nu: float) -> FilterSpec:
-    """Paper A's ISL filter (A.16–A.18): power-law φ tuned by ν, propagation with A0."""
+    """Paper A's ISL filter (A.16–A.18): power-law φ tuned by ν, propagation with A0.
+
+    Parameters
+    ----------
+    model : Model
+        The model the filter runs on (its β, m; the filter propagates with A0, whatever α).
+    nu : float
+        The tuning ν > 0 of the power law (paper A's table (A.31) gives ν/β per α).
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"isl"``, for :func:`isl_core.simulate` (``extra=``) or :func:`isl_core.simulate_rmse`.
+
+    Examples
+    --------
+    >>> from isl_core import Model, isl_filter
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> spec = isl_filter(model, nu=model.beta)
+    >>> spec.name, spec.coef.shape
+    ('isl', (3,))
+    """
     coef = isl_gains(model.m, nu)  # validates nu
     return FilterSpec("isl", f"ISL (ν = {float(nu):.4g})", 0.0, coef, True)
 

@@ -25,12 +25,56 @@ __all__ = ["design_sigma", "minimax_kbf", "mismatched_kbf", "optimal_kbf"]
 
 
 def optimal_kbf(model: Model, kb: KalmanBucy) -> FilterSpec:
-    """The stationary Kalman–Bucy filter (A.21) with the true σ: linear gain K, propagation with A."""
+    """The stationary Kalman–Bucy filter (A.21) with the true σ: linear gain K, propagation with A.
+
+    Parameters
+    ----------
+    model : Model
+        The model, σ included.
+    kb : KalmanBucy
+        Its stationary solution, :func:`isl_core.kalman_bucy` (``model``).
+
+    Returns
+    -------
+    FilterSpec
+        The oracle filter, named ``"kbf"``.
+
+    Examples
+    --------
+    >>> from isl_core import Model, kalman_bucy, optimal_kbf
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> optimal_kbf(model, kalman_bucy(model)).name
+    'kbf'
+    """
     return FilterSpec("kbf", "Kalman–Bucy (optimal, knows σ)", model.alpha, np.array(kb.K, dtype=float), False)
 
 
 def mismatched_kbf(model: Model, sigma_design: float) -> FilterSpec:
-    """Kalman–Bucy filter whose gain K̄ solves the CARE (A.23) for σ̄ = ``sigma_design`` instead of σ."""
+    """Kalman–Bucy filter whose gain K̄ solves the CARE (A.23) for σ̄ = ``sigma_design`` instead of σ.
+
+    Parameters
+    ----------
+    model : Model
+        The true model.
+    sigma_design : float
+        The σ̄ > 0 the gain is designed for.
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"kbf_mismatched"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import kalman_bucy, mismatched_kbf, optimal_kbf
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> mismatched_kbf(model, 5.0).name
+    'kbf_mismatched'
+    >>> bool(np.allclose(mismatched_kbf(model, model.sigma).coef, optimal_kbf(model, kalman_bucy(model)).coef))
+    True
+    """
     sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
     design = Model(model.alpha, model.beta, sigma_design, model.m)
     K = np.array(kalman_bucy(design).K, dtype=float)

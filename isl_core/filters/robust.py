@@ -39,8 +39,18 @@ def huber_kappa(c: float) -> float:
 def robust_kbf(model: Model, *, c: float = HUBER_C, sigma_range: tuple[float, float] = (2.0, 200.0),
                memory: float = MEMORY, sigma_init: float | None = None) -> FilterSpec:
     """The robust adaptive filter (module docstring) for ``model``'s α, β, m; the rest as :func:`adaptive_kbf`
-    (``memory`` W in sensor readings)."""
+    (``memory`` W in sensor readings).
+
+    Examples
+    --------
+    >>> from isl_core import robust_kbf
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> robust_kbf(model, c=2.0).huber
+    2.0
+    """
     c = check_real("c (Huber's clipping constant)", c, lo=0.1, hi=10.0)
     spec = adaptive_kbf(model, sigma_range=sigma_range, memory=memory, sigma_init=sigma_init)
+    assert spec.adaptive is not None  # adaptive_kbf's gain table
     label = f"Kalman–Bucy, adaptive σ̂, Huber c = {c:g} (W = {spec.adaptive.memory:g} readings)"
     return dataclasses.replace(spec, name="kbf_robust", huber=c, label=label)

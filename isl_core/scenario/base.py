@@ -67,7 +67,28 @@ def _choice(name: str, value: object, choices: tuple[str, ...]) -> str:
 @dataclass(frozen=True)
 class Scenario:
     """σ(t), the observation noise's law and the sensor interval (see the module docstring); validated at
-    construction with a ``ValueError`` that names the parameter and its range."""
+    construction with a ``ValueError`` that names the parameter and its range.
+
+    Parameters
+    ----------
+    sigma_knots : tuple of (float, float)
+        The knots (t_j, σ_j) of σ(t), times in units of 1/r_min; empty: σ constant.
+    sigma_shape : {"steps", "drift"}
+        How σ goes from knot to knot.
+    noise : {"gaussian", "student", "outliers"}
+        The observation noise's law (:data:`NOISE_LAWS`), with ``dof`` or ``outlier_rate`` and ``outlier_scale``.
+    sensor_interval : float
+        Time between sensor readings, 1/r_min units (0: every step).
+
+    Examples
+    --------
+    >>> from isl_core import Scenario
+    >>> Scenario().is_default
+    True
+    >>> drop = Scenario(sigma_knots=((10.0, 2.0),))  # σ drops to 2 at t = 10/r_min
+    >>> drop.is_default, drop.noise_variance
+    (False, 1.0)
+    """
 
     sigma_knots: tuple[tuple[float, float], ...] = ()
     sigma_shape: str = "steps"

@@ -72,7 +72,7 @@ class WhoWinsMap:
     seeds: int
     window: float
     margin_low: np.ndarray
-    model: Model | None = None  #: the model at σ(0) (paper A's with this α, w and m)
+    model: Model  #: the model at σ(0) (paper A's with this α, w and m)
     origin: str = ""
 
     @property
@@ -148,7 +148,7 @@ def who_wins_map(
         raise ValueError(f"kind must be one of {', '.join(MAPS)}; got {kind!r}")
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     lo = {"sigma_step": 0.01, "tails": 2.0, "sensor": 0.0}[kind]
-    values = check_reals("values", MAPS[kind] if values is None else values, lo=lo, lo_open=kind != "sensor",
+    grid = check_reals("values", MAPS[kind] if values is None else values, lo=lo, lo_open=kind != "sensor",
                          hi={"sigma_step": 100.0, "tails": 1e6, "sensor": 10.0}[kind])
     seeds = check_int("seeds", seeds, lo=2, hi=10_000)
     window = check_real("window", window, lo=0.0, lo_open=True, hi=100.0)
@@ -157,11 +157,13 @@ def who_wins_map(
     model = Model.from_w(alpha, w, SIGMA0, m)
     nu, nu_label, extra, origin = map_filters(model, alpha, m, w, tuning, untuned)
     periods, horizon = _periods(kind, window, after, burn)
-    cells, lows, names, labels = [], [], None, None
-    for c, value in enumerate(values):
+    cells, lows = [], []
+    names: tuple[str, ...] = ()
+    labels: tuple[str, ...] = ()
+    for c, value in enumerate(grid):
         avg = average_scenario(model, nu, _scenario(kind, value), seeds=range(seeds), horizon=horizon, extra=extra,
                                edges=edge_times(periods, horizon), progress=progress, done=c * seeds,
-                               total=len(values) * seeds)
+                               total=len(grid) * seeds)
         names = avg.run.names
         labels = (avg.run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *avg.run.labels[3:])
         y = per_seed(avg.mse, avg.run, periods)  # (seeds, rows, filters)
@@ -171,5 +173,5 @@ def who_wins_map(
         cells.append(ratio)
         lows.append(np.array(low))
     rows = np.array([p.start - STEP_AT for p in periods]) if kind == "sigma_step" else np.array([math.nan])
-    return WhoWinsMap(kind, alpha, np.array(values, dtype=float), rows, names, labels,
+    return WhoWinsMap(kind, alpha, np.array(grid, dtype=float), rows, names, labels,
                       np.stack(cells, axis=1), seeds, window, np.stack(lows, axis=1), model, origin)

@@ -56,7 +56,15 @@ class Period:
 
 def scenario_periods(scenario: Scenario, horizon: float, *, burn: float = BURN) -> tuple[Period, ...]:
     """The fixed periods of ``scenario`` over ``horizon`` (module docstring); those that would end after the horizon
-    or start at it are left out, and a ``ValueError`` says so if none is left."""
+    or start at it are left out, and a ``ValueError`` says so if none is left.
+
+    Examples
+    --------
+    >>> from isl_core import Scenario, scenario_periods
+    >>> drop = Scenario(sigma_knots=((10.0, 2.0),))
+    >>> [(p.name, p.start, p.end) for p in scenario_periods(drop, 30.0)]
+    [('after_1', 10.0, 11.0), ('after_2', 10.0, 12.0), ('settled', 12.0, 30.0)]
+    """
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     burn = check_real("burn (in units of 1/r_min)", burn, lo=0.0, hi=horizon, hi_open=True)
     knots = [t for t, _ in scenario.sigma_knots if t < horizon]
@@ -164,7 +172,17 @@ def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]
 
 def paired_margin(ya: np.ndarray, yb: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
     """Filter b's ratio over filter a's, √(ȳ_b/ȳ_a), and its lower bound at two-sided ``level`` from the seeds
-    (axis 0) paired (module docstring: the delta method for a ratio of means). inf/nan where a filter diverged."""
+    (axis 0) paired (module docstring: the delta method for a ratio of means). inf/nan where a filter diverged.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import paired_margin
+    >>> ya = np.array([[1.0], [1.2], [0.9]])  # mean squared errors per seed (rows) of filter a
+    >>> ratio, low = paired_margin(ya, 4.0 * ya)  # filter b: twice the RMSE on every seed
+    >>> ratio.tolist(), low.tolist()
+    ([2.0], [2.0])
+    """
     ma, mb = ya.mean(axis=0), yb.mean(axis=0)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         r = mb / ma

@@ -152,4 +152,5 @@ def scenario_table(
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     res = tune(alpha, m=m, w=w, presets=scenarios, seeds=seeds, horizon=horizon, burn=burn, grids=grids,
                workers=workers, progress=progress, cache=cache)
+    assert res is not None  # tune computes what is not cached (compute=True)
     return table_from(res, level)

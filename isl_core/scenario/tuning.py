@@ -228,7 +228,8 @@ def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids):
     return plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edge_times(periods, horizon)), periods
 
 
-def _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress) -> tuple[np.ndarray, list, list]:
+def _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers,
+             progress) -> tuple[list[np.ndarray], list, list]:
     """Every (preset, seed) run on ``workers`` threads (the kernels release the GIL): y per preset, plans, periods."""
     plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
     tasks = [(p, s) for p in range(len(plans)) for s in range(len(seeds))]
@@ -305,21 +306,46 @@ def tune(
     paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
     periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the
     CPUs). Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) —
-    or, with ``compute`` False, None."""
+    or, with ``compute`` False, None.
+
+    Parameters
+    ----------
+    alpha : float, default 1.0
+        The model's α (paper A's model, β = w√(2α)).
+    presets : mapping, optional
+        name → (label, σ(0), :class:`Scenario`) (default :data:`PRESETS`).
+    seeds : int
+        Independent noises per preset, seeds 0 … ``seeds`` − 1.
+    grids : TuningGrids
+        The knobs' grids.
+    cache, compute : bool
+        Read and write the cache; compute what is not cached.
+
+    Returns
+    -------
+    Tuning or None
+        Every family's tuning curves and minimax knob; None when not cached and ``compute`` is False.
+
+    Examples
+    --------
+    >>> from isl_core import tune
+    >>> tune(1.0, seeds=2, horizon=5.0, cache=False, compute=False) is None  # neither cached nor computed
+    True
+    """
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     m = check_int("m", m, lo=1, hi=6)
     w = check_real("w", w, lo=0.0, lo_open=True)
-    seeds = tuple(range(check_int("seeds", seeds, lo=2, hi=10_000)))
+    seed_ids = tuple(range(check_int("seeds", seeds, lo=2, hi=10_000)))
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     presets = dict(PRESETS if presets is None else presets)
     if not presets or not isinstance(grids, TuningGrids):
         raise ValueError("presets must name at least one scenario and grids must be an "
                          "isl_core.scenario.tuning.TuningGrids")
-    key = _key(alpha, m, w, seeds, horizon, burn, presets, grids)
+    key = _key(alpha, m, w, seed_ids, horizon, burn, presets, grids)
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"tuning-{digest}.npz"
     span = (f"minimax over {len(presets)} presets × their periods of the period statistic (isl scenario --tune), "
-            f"seeds {seeds[0]}–{seeds[-1]}, horizon {horizon:g}/r_min")
+            f"seeds {seed_ids[0]}–{seed_ids[-1]}, horizon {horizon:g}/r_min")
     if cache and digest in _MEMORY_CACHE:
         return _MEMORY_CACHE[digest]
     found = _load(path, key) if cache else None
@@ -328,14 +354,14 @@ def tune(
         plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
         cells = [len(per) for _, per in plans]
         ys = np.split(y, np.cumsum(cells)[:-1], axis=1)
-        res = _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, [p for p, _ in plans],
+        res = _assemble(alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, [p for p, _ in plans],
                         [per for _, per in plans], seconds)
         return _named(res, f"{span}; read from the cache {path} (computed in {seconds:.0f} s)", digest, cache)
     if not compute:
         return None
     start = time.perf_counter()
-    ys, plan_list, periods = _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress)
-    res = _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plan_list, periods,
+    ys, plan_list, periods = _compute(alpha, m, w, presets, seed_ids, horizon, burn, grids, workers, progress)
+    res = _assemble(alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, plan_list, periods,
                     time.perf_counter() - start)
     where = f"cached in {path}" if cache and _save(path, res, key) else "kept in memory (the cache is not writable)"
     return _named(res, f"{span}; computed now in {res.seconds:.0f} s, {where}", digest, cache)

@@ -37,7 +37,7 @@ def test_model_is_frozen_and_normalizes_types():
     assert type(model.alpha) is float and type(model.beta) is float and type(model.sigma) is float
     assert type(model.m) is int and model.m == 3
     with pytest.raises(dataclasses.FrozenInstanceError):
-        model.sigma = 1.0  # type: ignore[misc]
+        model.sigma = 1.0
 
 
 def test_from_w_is_paper_a_parametrization():

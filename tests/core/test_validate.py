@@ -65,7 +65,7 @@ def _whole(v, lo, hi) -> bool:
 
 def _seed(v) -> bool:
     if isinstance(v, numbers.Integral) and not isinstance(v, bool | np.bool_):
-        return v >= 0
+        return int(v) >= 0
     return _whole(v, 0, math.inf)
 
 
