@@ -3,11 +3,15 @@ from __future__ import annotations
 
 import panel as pn
 
+from isl_core import __version__
 from isl_core.paper import PAPER_A, PAPER_B
 
 from .style import TEXT_FONT
 
-__all__ = ["ABOUT", "DOCS_LINK", "about_card", "docs_link"]
+__all__ = ["ABOUT", "DOCS_LINK", "VERSION", "about_card", "docs_link"]
+
+#: the version this server runs, as ``isl --version`` prints it (the one version string, isl_core.__version__)
+VERSION = f"isl {__version__}"
 
 #: the documentation this server serves at /docs/ (app.serving.docs); relative, so it stays under a proxy's prefix
 DOCS_LINK = ('<a href="./docs/" target="_blank" rel="noopener" class="isl-docs-link" title="The documentation: the '
@@ -78,7 +82,9 @@ def about_card() -> pn.Card:
 
 
 def docs_link() -> pn.pane.HTML:
-    """The header's link to the documentation served with the dashboard (white on the header's blue)."""
-    return pn.pane.HTML(DOCS_LINK, margin=(18, 10),
+    """The header's link to the documentation served with the dashboard, after the version the server runs (white
+    on the header's blue)."""
+    return pn.pane.HTML(f'<span class="isl-version">{VERSION}</span> {DOCS_LINK}', margin=(18, 10),
                         stylesheets=[".isl-docs-link { color: #fff; font-size: 16px; font-weight: 600; }"
-                                     ".isl-docs-link:hover, .isl-docs-link:focus { text-decoration: underline; }"])
+                                     ".isl-docs-link:hover, .isl-docs-link:focus { text-decoration: underline; }"
+                                     ".isl-version { color: #fff; font-size: 14px; margin-right: 12px; }"])

@@ -112,3 +112,13 @@ def test_dashboard_worst_case_table_is_what_isl_worstcase_prints(capsys):
     assert len(cli) == len(dashboard) == len(table.names) >= 5
     for mine, theirs in zip(dashboard, cli, strict=True):
         assert [repr(mine[k]) for k in keys] == [repr(theirs[k]) for k in keys], mine["filter"]
+
+
+def test_the_page_shows_the_version_isl_version_prints(capsys):
+    """One version string: the dashboard's header shows what ``isl --version`` (the console script) prints."""
+    from app.views.about import docs_link
+
+    assert main(["--version"]) == 0
+    printed = capsys.readouterr().out.strip()
+    assert printed.startswith("isl ") and len(printed) > 4
+    assert f'<span class="isl-version">{printed}</span>' in docs_link().object

@@ -83,7 +83,8 @@ def test_the_import_graph_sees_relative_and_nested_imports():
     assert "isl_core.filters.base" in _imports("isl_core.filters.adaptive")
     assert "isl_core.model" in _imports("isl_core.filters.adaptive")
     assert "isl_core.filters.adaptive" in _imports("isl_core.filters")
-    assert {"app.jobs.base", "app.state.room", "app.inputs"} <= _imports("app.jobs.long") | _imports("app.state.session")
+    assert "app.jobs.base" in _imports("app.jobs.long")  # the dashboard's modules are in the graph too
+    assert {"app.state.room", "app.inputs"} <= _imports("app.state.session")
 
 
 def test_no_import_cycle():

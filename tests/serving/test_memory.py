@@ -76,9 +76,8 @@ def test_what_has_lived_is_frozen_out_of_collections_until_a_full_one():
 
 def test_when_the_class_has_left_the_cores_caches_are_emptied_and_a_full_collection_runs():
     from app.serving.memory import MemoryTrimmer
-    from isl_core import Model, kalman_bucy
+    from isl_core import Model, kalman_bucy, riccati
     from isl_core.nonlinearity import gamma_moments, linearization
-    from isl_core import riccati
 
     class Server:
         sessions: ClassVar[list] = []
