@@ -8,7 +8,10 @@ data, and as an annotation the browser redraws it without the per-glyph work (sp
 that two extra line glyphs cost on every update. BokehJS recomputes a band's edges when its own properties or its
 source change, not when a transform it reads changes: a run whose data arrived before its new offsets kept the
 previous run's tube (after a preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band
-to recompute in the browser (:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in. Extra filters
+to recompute in the browser (:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in — and so does each
+source a band may stand on (X̂_i's, or the zero line's in the error view): BokehJS listens to the source a band had
+when it was first drawn, not to one it is moved to later (a page opened in the error view, switched to the signal,
+then given new noise, kept the old noise's tube around the new X̂_i). Extra filters
 of the run (:mod:`app.extras`) are drawn by :class:`app.views.overlay.Overlay`, one colour each.
 
 The **error view** (a switch above the plots) draws each filter's error X̂_i − X_i, X̌_i − X_i, … instead, with
@@ -176,6 +179,8 @@ class TrajectoriesView(Viewer):
         recompute = CustomJS(args={"band": band}, code=RECOMPUTE_BAND)
         up.js_on_change("value", recompute)
         down.js_on_change("value", recompute)
+        for stands_on in (src["kbf"], src["truth"]):  # its source in the signal view, and in the error view
+            stands_on.js_on_change("data", recompute)
         fig.add_layout(band)
         self._bands.append(band)
         drawn = {"tube": band, "truth": line(fig, src["truth"], **_TRUTH), "kbf": line(fig, src["kbf"], **_KBF),

@@ -66,6 +66,27 @@ def test_the_tube_follows_every_run_after_a_preset_and_a_slider_move(app_server)
                              ".every(v => v.model.visible)")
 
 
+def test_the_tube_follows_new_noise_after_the_error_view_moved_it_to_another_source(app_server):
+    """Found by the random actions of ``test_browser_property.py``: BokehJS listens to the source a band had when it
+    was first drawn. X₄'s plot, first drawn in the error view (its band on the zero line), then switched to the signal
+    (the band moved to X̂₄), kept the old noise's band around the new X̂₄ after "new noise": same 3 s₄, so no offset
+    changed."""
+    url, _ = app_server
+    with dashboard(url + "?view=errors", viewport={"width": 1280, "height": 900}) as page:
+        wait_bands(page, {k.replace("-kbf", "-truth"): v for k, v in three_s(0.5, 3.0, 20.0).items()}, "errors")
+        handle = page.get_by_role("slider", name="m, state dimension")
+        handle.focus()
+        handle.press("ArrowRight")  # m = 4: X₄'s plot is drawn for the first time, in the error view
+        wait_bands(page, {k.replace("-kbf", "-truth"): v for k, v in three_s(0.5, 3.0, 20.0, 4).items()}, "m = 4")
+        page.get_by_role("button", name="Signal and estimates", exact=True).click()
+        wait_bands(page, three_s(0.5, 3.0, 20.0, 4), "the signal view")
+        before = page.evaluate(PLOT_DATA)
+        page.get_by_role("button", name="new noise", exact=True).click()
+        page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
+                               arg=before, timeout=30_000)
+        wait_bands(page, three_s(0.5, 3.0, 20.0, 4), "after new noise")
+
+
 #: the scenario plots' legend labels as BokehJS holds them (what its legends draw), and their time axes' labels
 SCENARIO_TEXT = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Figure' && v.model.title
         && /clairvoyant|σ\\(t\\)/.test(v.model.title.text))
