@@ -148,7 +148,20 @@ def scenario_table(
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
     tuning of :func:`isl_core.scenario.tuning.tune` with these arguments (cached), then :func:`table_from` at
-    ``level``."""
+    ``level``.
+
+    Examples
+    --------
+    A small table: one scenario, two seeds, a short run and coarse grids of the knobs.
+
+    >>> from isl_core import TuningGrids, scenario_table
+    >>> from isl_core.scenario import PRESETS
+    >>> grids = TuningGrids(isl_ell=(-2.0, 0.0), memory=(100.0,), robust_c=(2.0,), imm_switch=(1e-3,), imm_modes=(6,))
+    >>> table = scenario_table(1.0, scenarios={"sigma_drop": PRESETS["sigma_drop"]}, seeds=2, horizon=15.0,
+    ...                        grids=grids, cache=False, workers=1)
+    >>> [row.name for row in table.rows][:3]
+    ['clairvoyant', 'kbf', 'isl']
+    """
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     res = tune(alpha, m=m, w=w, presets=scenarios, seeds=seeds, horizon=horizon, burn=burn, grids=grids,
                workers=workers, progress=progress, cache=cache)
