@@ -52,7 +52,17 @@ def _best(plan, repeats: int) -> float:
 def filter_costs(model: Model, filters: Sequence[FilterSpec], *, scenario: Scenario | None = None,
                  horizon: float = 200.0, copies: int = 8, repeats: int = 7) -> Costs:
     """ns per step of each of ``filters`` (module docstring) on ``scenario`` (default σ constant) over ``horizon``
-    (1/r_min) of ``model``, the ISL filter of the base at ν = β."""
+    (1/r_min) of ``model``, the ISL filter of the base at ν = β.
+
+    Examples
+    --------
+    >>> from isl_core import filter_costs, isl_filter
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> costs = filter_costs(model, [isl_filter(model, model.beta)], horizon=20.0, copies=2, repeats=2)
+    >>> list(costs.ns_per_step), costs.copies
+    (['isl'], 2)
+    """
     horizon = check_real("horizon", horizon, lo=1.0, hi=1e4)
     copies = check_int("copies", copies, lo=1, hi=64)
     repeats = check_int("repeats", repeats, lo=1, hi=100)

@@ -143,7 +143,17 @@ def who_wins_map(
 ) -> WhoWinsMap:
     """The map of ``kind`` (module docstring); ``after``: how long after the σ step (or, for the other maps, the
     whole run after ``burn``) is simulated, in units of 1/r_min; ``tuning``: the families' knobs (default: the
-    cached tuning of the table for α, m, w, else — or with ``untuned`` — the constructors' defaults)."""
+    cached tuning of the table for α, m, w, else — or with ``untuned`` — the constructors' defaults).
+
+    Examples
+    --------
+    A small map: two noise laws, two seeds, the filters at their constructors' defaults.
+
+    >>> from isl_core import who_wins_map
+    >>> tails = who_wins_map("tails", 1.0, values=[3.0, 30.0], seeds=2, untuned=True, after=5.0, burn=1.0)
+    >>> tails.ratio.shape, tails.filters[:3]  # rows × values × filters
+    ((1, 2, 8), ('clairvoyant', 'kbf', 'isl'))
+    """
     if kind not in MAPS:
         raise ValueError(f"kind must be one of {', '.join(MAPS)}; got {kind!r}")
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)

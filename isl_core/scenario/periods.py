@@ -163,7 +163,19 @@ def ratios_from(y: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np
 def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...], *,
                   level: float = 0.95) -> PeriodRatios:
     """The period statistic of every filter of ``run`` (module docstring) from every seed's windowed mean squares
-    ``mse`` (seeds, windows, filters, m)."""
+    ``mse`` (seeds, windows, filters, m).
+
+    Examples
+    --------
+    >>> from isl_core import Scenario, average_scenario, period_ratios, scenario_periods
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> rise = Scenario(sigma_knots=((5.0, 40.0),))
+    >>> avg = average_scenario(model, model.beta, rise, seeds=range(2), horizon=10.0, windows=10)
+    >>> stat = period_ratios(avg.mse, avg.run, scenario_periods(rise, 10.0, burn=1.0))
+    >>> [p.name for p in stat.periods], stat.ratio.shape  # filters × periods
+    (['after_1', 'after_2', 'settled'], (3, 3))
+    """
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     y = per_seed(mse, run, periods)
     ratio, low, high = ratios_from(y, level)

@@ -130,7 +130,19 @@ def _learning_state(model: Model, filters, ad: np.ndarray):
 
 def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float):
     """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
-    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit."""
+    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import Scenario, run_plan, scenario_grid
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> h, n, r_min = scenario_grid(model, model.beta, Scenario(), (), 10.0)
+    >>> plan = run_plan(model, model.beta, horizon=10.0)  # σ constant: the grid of simulate
+    >>> math.isclose(h, plan.h), n == plan.N
+    (True, True)
+    """
     r_min = kalman_bucy(model).r_min
     T = horizon / r_min  # exactly: not lengthened for a slowly settling filter as simulate's default run is
     plan = run_plan(model, nu, T=T, extra=extra, cap=MAX_STEPS)

@@ -111,7 +111,18 @@ def _rows(tuning: Tuning) -> list[TableRow]:
 
 
 def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
-    """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`."""
+    """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`.
+
+    Examples
+    --------
+    >>> from isl_core import TuningGrids, table_from, tune
+    >>> from isl_core.scenario import PRESETS
+    >>> grids = TuningGrids(isl_ell=(-2.0, 0.0), memory=(100.0,), robust_c=(2.0,), imm_switch=(1e-3,), imm_modes=(6,))
+    >>> tuning = tune(1.0, presets={"sigma_drop": PRESETS["sigma_drop"]}, seeds=2, horizon=15.0, grids=grids,
+    ...               cache=False, workers=1)
+    >>> table_from(tuning, level=0.9).level
+    0.9
+    """
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     rows = _rows(tuning)
     r, lo, hi = tuning.stats(level)
