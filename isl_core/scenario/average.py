@@ -197,6 +197,28 @@ def average_scenario(
     once: :func:`isl_core.scenario.run.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
     :meth:`isl_core.scenario.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total.
 
+    Parameters
+    ----------
+    model : Model
+        The model at σ(0).
+    nu : float
+        The ISL filter's tuning.
+    scenario : Scenario, optional
+        What the world does (default: paper A's model).
+    seeds : sequence of int
+        The noises.
+    horizon : float, default 30.0
+        Length in units of 1/r_min at σ(0).
+    windows : int, default 300
+        Equal time windows (or the windows between ``edges``).
+    extra : sequence of FilterSpec
+        More filters on the same noise.
+
+    Returns
+    -------
+    ScenarioAverage
+        ``mse`` (seeds, windows, filters, m), the run's layout in ``run``, and its rolling and period statistics.
+
     Examples
     --------
     >>> from isl_core import average_scenario

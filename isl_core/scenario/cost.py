@@ -54,6 +54,24 @@ def filter_costs(model: Model, filters: Sequence[FilterSpec], *, scenario: Scena
     """ns per step of each of ``filters`` (module docstring) on ``scenario`` (default σ constant) over ``horizon``
     (1/r_min) of ``model``, the ISL filter of the base at ν = β.
 
+    Parameters
+    ----------
+    model : Model
+        The model.
+    filters : sequence of FilterSpec
+        The filters measured.
+    scenario : Scenario, optional
+        Default σ constant.
+    horizon : float, default 200.0
+        Length of the measured run, units of 1/r_min.
+    copies, repeats : int
+        Copies of a filter in the loop; runs whose minimum is kept.
+
+    Returns
+    -------
+    Costs
+        ``ns_per_step`` per filter name, the ``base`` loop's own, and how it was measured.
+
     Examples
     --------
     >>> from isl_core import filter_costs, isl_filter

@@ -145,6 +145,26 @@ def who_wins_map(
     whole run after ``burn``) is simulated, in units of 1/r_min; ``tuning``: the families' knobs (default: the
     cached tuning of the table for α, m, w, else — or with ``untuned`` — the constructors' defaults).
 
+    Parameters
+    ----------
+    kind : {"sigma_step", "tails", "sensor"}
+        What the map sweeps (:data:`MAPS`).
+    alpha : float, default 1.0
+        The model's α (paper A's model at σ(0) = 20).
+    values : sequence of float, optional
+        The swept values (default the kind's).
+    seeds : int, default 32
+        Independent noises pooled per cell.
+    window, after, burn : float
+        The σ-step map's rows; the length simulated; the start left out (units of 1/r_min).
+    tuning : Tuning, optional
+        The families' knobs; ``untuned``: the constructors' defaults.
+
+    Returns
+    -------
+    WhoWinsMap
+        ``ratio`` (rows, values, filters), the winner per cell and the margin's lower bound.
+
     Examples
     --------
     A small map: two noise laws, two seeds, the filters at their constructors' defaults.

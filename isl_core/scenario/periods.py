@@ -165,6 +165,22 @@ def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]
     """The period statistic of every filter of ``run`` (module docstring) from every seed's windowed mean squares
     ``mse`` (seeds, windows, filters, m).
 
+    Parameters
+    ----------
+    mse : numpy.ndarray
+        Every seed's windowed mean squares (seeds, windows, filters, m), e.g. :attr:`ScenarioAverage.mse`.
+    run : ScenarioRun
+        A run of the same plan (its windows and filters).
+    periods : tuple of Period
+        The periods, e.g. :func:`scenario_periods`.
+    level : float, default 0.95
+        Confidence level.
+
+    Returns
+    -------
+    PeriodRatios
+        ``ratio[f, p]`` with its interval per filter and period.
+
     Examples
     --------
     >>> from isl_core import Scenario, average_scenario, period_ratios, scenario_periods

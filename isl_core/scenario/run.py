@@ -296,6 +296,20 @@ def plan_scenario(
     errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set
     of runs that must share one grid.
 
+    Parameters
+    ----------
+    model, nu, scenario, horizon, windows, extra
+        As in :func:`simulate_scenario`.
+    edges : sequence of float, optional
+        Window edges instead of ``windows`` equal ones.
+    grid_filters : sequence of FilterSpec, optional
+        Filters that count for the step size.
+
+    Returns
+    -------
+    ScenarioPlan
+        ``run(seed)`` gives the :class:`ScenarioRun` of a seed.
+
     Examples
     --------
     >>> import numpy as np

@@ -113,6 +113,18 @@ def _rows(tuning: Tuning) -> list[TableRow]:
 def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
     """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`.
 
+    Parameters
+    ----------
+    tuning : Tuning
+        The result of :func:`isl_core.tune`.
+    level : float, default 0.95
+        Confidence level of the intervals.
+
+    Returns
+    -------
+    ScenarioTable
+        As :func:`scenario_table`.
+
     Examples
     --------
     >>> from isl_core import TuningGrids, table_from, tune
@@ -160,6 +172,24 @@ def scenario_table(
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
     tuning of :func:`isl_core.scenario.tuning.tune` with these arguments (cached), then :func:`table_from` at
     ``level``.
+
+    Parameters
+    ----------
+    alpha : float, default 1.0
+        The model's α (β = w√(2α)); ``m``, ``w`` as in paper A.
+    scenarios : mapping
+        name → (label, σ(0), :class:`Scenario`), the table's columns and the set every knob is tuned over.
+    seeds, horizon, burn
+        Independent noises, run length and the start left out (units of 1/r_min).
+    level : float, default 0.95
+        Confidence level of the intervals.
+    grids, workers, progress, cache
+        As in :func:`isl_core.tune`.
+
+    Returns
+    -------
+    ScenarioTable
+        Every row's period ratio per cell with its interval, the winner and runner-up per cell and their margin.
 
     Examples
     --------
