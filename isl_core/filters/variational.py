@@ -48,6 +48,24 @@ def variational_kbf(model: Model, *, sigma_init: float | None = None, memory: fl
     before the first reading (default: the model's σ, as for the other filters' start), ``memory`` W in sensor
     readings (> 1: ρ = 1 − 1/W > 0).
 
+    Parameters
+    ----------
+    model : Model
+        The model.
+    sigma_init : float, optional
+        σ guessed before the first reading.
+    memory : float
+        W in sensor readings.
+    shape0 : float
+        a₀, the prior's shape: how much the initial guess weighs (:data:`SHAPE0`).
+    iterations : int
+        Fixed-point iterations per reading.
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"vb"``.
+
     Examples
     --------
     >>> from isl_core import variational_kbf

@@ -58,6 +58,20 @@ def scenario_periods(scenario: Scenario, horizon: float, *, burn: float = BURN) 
     """The fixed periods of ``scenario`` over ``horizon`` (module docstring); those that would end after the horizon
     or start at it are left out, and a ``ValueError`` says so if none is left.
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    horizon : float
+        The run's length, units of 1/r_min.
+    burn : float
+        The start left out where σ does not change.
+
+    Returns
+    -------
+    tuple of Period
+        ``name``, ``label``, ``start`` and ``end`` of each.
+
     Examples
     --------
     >>> from isl_core import Scenario, scenario_periods
@@ -201,6 +215,18 @@ def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]
 def paired_margin(ya: np.ndarray, yb: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
     """Filter b's ratio over filter a's, √(ȳ_b/ȳ_a), and its lower bound at two-sided ``level`` from the seeds
     (axis 0) paired (module docstring: the delta method for a ratio of means). inf/nan where a filter diverged.
+
+    Parameters
+    ----------
+    ya, yb : numpy.ndarray
+        Filters a's and b's mean squared errors, one row per seed.
+    level : float, default 0.95
+        Two-sided confidence level.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        The ratio √(ȳ_b/ȳ_a) and its lower bound.
 
     Examples
     --------
