@@ -198,7 +198,7 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
     Returns
     -------
     numpy.ndarray
-        š_i/s_i per coordinate (m,): ≥ 1, the optimal filter being 1.
+        The ratios š_i/s_i per coordinate (m,): ≥ 1, the optimal filter being 1.
 
     Examples
     --------
@@ -229,7 +229,7 @@ def predicted_ratios_grid(model: Model, nus: Sequence[float] | np.ndarray, *, da
     Returns
     -------
     numpy.ndarray
-        š_i/s_i (len(nus), m).
+        The ratios š_i/s_i (len(nus), m).
 
     Examples
     --------

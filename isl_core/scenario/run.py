@@ -374,6 +374,8 @@ def simulate_scenario(
         The noise.
     extra : sequence of FilterSpec
         More filters on the same noise.
+    progress : callable, optional
+        Called with the fraction done.
 
     Returns
     -------
