@@ -219,6 +219,13 @@ def run_plan(
 
     ``cap``: the largest N allowed (a ``ValueError`` past it names T and h).
 
+    Parameters
+    ----------
+    model, nu, horizon, T, h, extra, step_filters
+        As in :func:`isl_core.simulate`.
+    cap : int
+        The largest number of steps allowed.
+
     Returns
     -------
     RunPlan

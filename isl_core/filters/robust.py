@@ -47,7 +47,7 @@ def robust_kbf(model: Model, *, c: float = HUBER_C, sigma_range: tuple[float, fl
         The model (its α, β, m).
     c : float
         Huber's clipping constant, 0.1 … 10.
-    sigma_range, memory, sigma_init
+    sigma_range, memory, sigma_init : (float, float), float, float
         As in :func:`adaptive_kbf`.
 
     Returns

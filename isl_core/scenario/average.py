@@ -213,6 +213,10 @@ def average_scenario(
         Equal time windows (or the windows between ``edges``).
     extra : sequence of FilterSpec
         More filters on the same noise.
+    progress, done, total
+        ``progress`` gets (``done`` + runs so far)/``total``.
+    edges, grid_filters
+        As in :func:`plan_scenario`.
 
     Returns
     -------

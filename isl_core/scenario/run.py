@@ -298,7 +298,7 @@ def plan_scenario(
 
     Parameters
     ----------
-    model, nu, scenario, horizon, windows, extra
+    model, nu, scenario, horizon, windows, extra : Model, float, Scenario, float, int, sequence of FilterSpec
         As in :func:`simulate_scenario`.
     edges : sequence of float, optional
         Window edges instead of ``windows`` equal ones.

@@ -175,15 +175,15 @@ def scenario_table(
 
     Parameters
     ----------
-    alpha : float, default 1.0
-        The model's α (β = w√(2α)); ``m``, ``w`` as in paper A.
+    alpha, m, w : float, int, float
+        Paper A's model: α (default 1), the state dimension, the stationary std of X_m (β = w√(2α)).
     scenarios : mapping
         name → (label, σ(0), :class:`Scenario`), the table's columns and the set every knob is tuned over.
-    seeds, horizon, burn
+    seeds, horizon, burn : int, float, float
         Independent noises, run length and the start left out (units of 1/r_min).
     level : float, default 0.95
         Confidence level of the intervals.
-    grids, workers, progress, cache
+    grids, workers, progress, cache : TuningGrids, int, callable, bool
         As in :func:`isl_core.tune`.
 
     Returns
