@@ -221,7 +221,7 @@ def run_plan(
 
     Parameters
     ----------
-    model, nu, horizon, T, h, extra, step_filters
+    model, nu, horizon, T, h, extra, step_filters : Model, float, float, float, float, sequence, sequence
         As in :func:`isl_core.simulate`.
     cap : int
         The largest number of steps allowed.

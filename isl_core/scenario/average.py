@@ -213,9 +213,9 @@ def average_scenario(
         Equal time windows (or the windows between ``edges``).
     extra : sequence of FilterSpec
         More filters on the same noise.
-    progress, done, total
+    progress, done, total : callable, int, int
         ``progress`` gets (``done`` + runs so far)/``total``.
-    edges, grid_filters
+    edges, grid_filters : sequence of float, sequence of FilterSpec
         As in :func:`plan_scenario`.
 
     Returns

@@ -327,6 +327,8 @@ def tune(
         The knobs' grids.
     cache, compute : bool
         Read and write the cache; compute what is not cached.
+    m, w, horizon, burn, workers, progress
+        As described above.
 
     Returns
     -------
