@@ -149,7 +149,13 @@ __all__ = [
 def clear_caches() -> None:
     """Forget the core's cached solutions (normalized CAREs, Kalman–Bucy filters, adaptive gain tables, ISL
     moments): each is recomputed when next needed. A server calls it when its sessions have ended, so that what a
-    class computed does not stay in memory (and pin the allocator's arenas it lies in)."""
+    class computed does not stay in memory (and pin the allocator's arenas it lies in).
+
+    Examples
+    --------
+    >>> import isl_core
+    >>> isl_core.clear_caches()
+    """
     from . import nonlinearity, riccati
     from .filters import adaptive
 

@@ -105,6 +105,20 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
     regime to wait for and is left out (its ratio is what the run shows). A filter at most :data:`SETTLE_TOL` times
     slower than the optimal one counts as settling with it (the result is then exactly r_min).
 
+    Parameters
+    ----------
+    model : Model
+        The model.
+    kb : KalmanBucy
+        Its solution.
+    filters : sequence of FilterSpec
+        The other filters.
+
+    Returns
+    -------
+    float
+        The slowest rate, ≤ r_min.
+
     Examples
     --------
     >>> from isl_core import isl_filter, kalman_bucy, settling_rate
@@ -204,6 +218,13 @@ def run_plan(
     """The grid :func:`simulate` would use for these arguments (same rules, same checks, nothing simulated).
 
     ``cap``: the largest N allowed (a ``ValueError`` past it names T and h).
+
+    Parameters
+    ----------
+    model, nu, horizon, T, h, extra, step_filters : Model, float, float, float, float, sequence, sequence
+        As in :func:`isl_core.simulate`.
+    cap : int
+        The largest number of steps allowed.
 
     Returns
     -------

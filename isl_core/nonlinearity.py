@@ -39,7 +39,7 @@ def gamma_abs(p: float) -> float:
     Returns
     -------
     float
-        γ_p.
+        The moment γ_p.
 
     Examples
     --------
@@ -63,7 +63,7 @@ def isl_exponents(m: int) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        q_1 … q_m, from 1 − 1/m down to 0.
+        The exponents q_1 … q_m, from 1 − 1/m down to 0.
 
     Examples
     --------
@@ -122,7 +122,7 @@ def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        φ_i(x), one column per i.
+        The values φ_i(x), one column per i.
 
     Examples
     --------

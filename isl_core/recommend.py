@@ -152,6 +152,12 @@ def recommend_nu(
         Stationary std of X_m (β = w√(2α)).
     verify : bool, default True
         Also simulate the recommendation (and ``compare``).
+    compare : sequence of float
+        Other values of ν/β whose worst cases are computed alongside.
+    horizon, seeds, batches, level, executor, progress : float, sequence of int, int, float, Executor, callable
+        As in :func:`isl_core.sweep`.
+    model_aware : bool, default False
+        Recommend ν for the ISL filter that propagates with A.
 
     Returns
     -------

@@ -87,7 +87,7 @@ def simulate_rmse(
         Time left out at the start.
     batches : int, default 1
         Batches of the averages (for intervals).
-    start, step_filters, progress
+    start, step_filters, progress : str, sequence of FilterSpec, callable
         As in :func:`isl_core.simulate`.
 
     Returns

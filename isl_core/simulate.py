@@ -165,32 +165,43 @@ def simulate(
     kb = kalman_bucy(model)
     filters = [optimal_kbf(model, kb), *check_filters(model, nu, extra)]
     T, h, n, stretch = plan.T, plan.h, plan.N, plan.stretch
+    sq, X, E, S, kept = _trajectories(model, kb, filters, h, n, seed, start, every, progress)
+    s = freeze(kb.s.copy())
+    X = freeze(X)
+    tracks = _tracks(filters, sq, n, E, S, X, s)
+    t = kept.astype(np.float64)
+    t *= h
+    t = freeze(t)
+    return Run(model, float(nu), seed, t, X, tracks, s, kb.r_min, h, T, stretch, start, every)
+
+
+def _trajectories(model, kb, filters, h, n, seed, start, every, progress):
+    """One run of ``filters``: squared-error sums ``sq``, truth ``X``, errors ``E``, adaptive σ̂ ``S`` at the kept
+    steps ``kept`` (every ``every``-th; all of them at once, or thinned chunk by chunk)."""
     na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
     if every == 1:
         X, E, S = np.empty((n + 1, model.m)), np.empty((len(filters), n + 1, model.m)), np.empty((na, n + 1))
         sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1,
                               out=Trajectory(True, 0, X, E, S), progress=progress)
-        kept = np.arange(n + 1)
-    else:
-        keep = _Stride(every, n, model.m, len(filters), na)
-        rows = min(CHUNK, n) + 1
-        buffers = Trajectory(True, 0, np.empty((rows, model.m)), np.empty((len(filters), rows, model.m)),
-                             np.empty((na, rows)))
-        sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, out=buffers,
-                              progress=progress, on_block=keep)
-        X, E, S, kept = keep.X, keep.E, keep.S, keep.index
-    s = freeze(kb.s.copy())
-    X = freeze(X)
+        return sq, X, E, S, np.arange(n + 1)
+    keep = _Stride(every, n, model.m, len(filters), na)
+    rows = min(CHUNK, n) + 1
+    buffers = Trajectory(True, 0, np.empty((rows, model.m)), np.empty((len(filters), rows, model.m)),
+                         np.empty((na, rows)))
+    sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, out=buffers,
+                          progress=progress, on_block=keep)
+    return sq, keep.X, keep.E, keep.S, keep.index
+
+
+def _tracks(filters, sq, n, E, S, X, s) -> tuple[Track, ...]:
+    """Each filter's :class:`Track`: its errors, RMSE (A.30) and ratios, and σ̂ for an adaptive one."""
     tracks = []
     sigma_hat = iter(S)
     for f, spec in enumerate(filters):
         rmse = np.sqrt(sq[0, f] / n)  # (A.30)
         sig = freeze(next(sigma_hat)) if spec.kind == KIND_ADAPTIVE else None
         tracks.append(Track(spec.name, spec.label, freeze(E[f]), freeze(rmse), freeze(rmse / s), sig, X))
-    t = kept.astype(np.float64)
-    t *= h
-    t = freeze(t)
-    return Run(model, float(nu), seed, t, X, tuple(tracks), s, kb.r_min, h, T, stretch, start, every)
+    return tuple(tracks)
 
 
 class _Stride:

@@ -244,8 +244,10 @@ def sweep(
         State dimension; stationary std of X_m (β = w√(2α)).
     horizon : float, default 1000.0
         Averaging window in units of the group's settling time.
-    seeds, batches, level
+    seeds, batches, level : sequence of int, int, float
         Independent noises, batches per seed, confidence level of the intervals.
+    executor, chunk, workers, progress, model_aware, beta
+        As described above.
 
     Returns
     -------

@@ -137,6 +137,20 @@ def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = No
     ``ξ_{k+1} = (I + hM)ξ_k + √h η_k``; for a linear φ this is *exact* for the simulated scheme (its error
     obeys that recursion), and differs from the continuous answer by O(h·rate).
 
+    Parameters
+    ----------
+    model : Model
+        The model.
+    spec : FilterSpec
+        The filter.
+    h : float, optional
+        The Euler step, for the grid's own covariance (default: the continuous-time limit).
+
+    Returns
+    -------
+    numpy.ndarray
+        P (m, m).
+
     Examples
     --------
     >>> import numpy as np
@@ -184,7 +198,7 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
     Returns
     -------
     numpy.ndarray
-        š_i/s_i per coordinate (m,): ≥ 1, the optimal filter being 1.
+        The ratios š_i/s_i per coordinate (m,): ≥ 1, the optimal filter being 1.
 
     Examples
     --------
@@ -202,6 +216,20 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
 
 def predicted_ratios_grid(model: Model, nus: Sequence[float] | np.ndarray, *, damp: float | None = None) -> np.ndarray:
     """:func:`predicted_ratios` for many ν at once: shape (len(nus), m), one batched Lyapunov solve.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    nus : sequence of float
+        The tunings ν > 0.
+    damp : float, optional
+        As in :func:`predicted_ratios`.
+
+    Returns
+    -------
+    numpy.ndarray
+        The ratios š_i/s_i (len(nus), m).
 
     Examples
     --------
@@ -227,6 +255,18 @@ def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
 
     P solves ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` with the true σ; it equals Δ (ratio 1) when σ̄ = σ.
 
+    Parameters
+    ----------
+    model : Model
+        The true model.
+    sigma_design : float
+        The σ̄ the gain is designed for.
+
+    Returns
+    -------
+    numpy.ndarray
+        √P_ii / s_i (m,), ≥ 1.
+
     Examples
     --------
     >>> import numpy as np
@@ -249,6 +289,18 @@ def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
 
     Exact (Lyapunov) for a fixed linear gain, statistical linearization (:ref:`linearization`) for the power law;
     ``nan`` for the adaptive filter, ``inf`` where the linearized filter has no stationary error.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    spec : FilterSpec
+        The filter.
+
+    Returns
+    -------
+    numpy.ndarray
+        √P_ii / s_i (m,).
 
     Examples
     --------

@@ -253,10 +253,16 @@ def worst_case(
     ----------
     alphas : sequence of float
         The α > 0 (default paper A's Fig. 2).
-    sigma_range : (float, float), default (2, 200)
-        The σ range, ``n_sigma`` log-spaced values.
+    sigma_range, n_sigma : (float, float), int
+        The σ range (default (2, 200)) and its number of log-spaced values.
+    m, w : int, float
+        State dimension; stationary std of X_m (β = w√(2α)).
     filters : sequence of str
         The filters compared (default :data:`FILTERS`).
+    sigma_design, memory : float
+        σ̄ of the mismatched filter; the adaptive filter's W in readings.
+    horizon, seeds, batches, level, executor, chunk, workers, progress
+        As in :func:`isl_core.sweep`.
 
     Returns
     -------

@@ -69,6 +69,21 @@ def baseline_filters(
     ``sigma_range``: also the top for ``kbf_minimax`` and the adaptive filter's table and start;
     ``memory``: the adaptive filter's memory W in readings (here every step is a reading).
 
+    Parameters
+    ----------
+    model : Model
+        The model.
+    nu, nu_model : float
+        The ISL filter's and the model-aware ISL filter's tunings.
+    sigma_design : float, optional
+        σ̄ of the mismatched filter.
+    sigma_range : (float, float)
+        The σ range.
+    memory : float
+        The adaptive filter's W in readings.
+    names : sequence of str
+        The filters (default :data:`BASELINES`).
+
     Returns
     -------
     list of FilterSpec

@@ -60,6 +60,22 @@ def imm_kbf(model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, mod
     """The IMM filter (module docstring) for ``model``'s α, β, m (σ is not used): ``modes`` σ_j log-spaced over
     ``sigma_range`` (its ends included), switch probability ``switch`` per reading (10⁻¹² ≤ p < 1).
 
+    Parameters
+    ----------
+    model : Model
+        The model (its α, β, m).
+    sigma_range : (float, float)
+        The modes' σ range.
+    modes : int
+        The number of modes J.
+    switch : float
+        The switch probability p per reading.
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"imm"``, its bank in ``imm``.
+
     Examples
     --------
     >>> from isl_core import imm_kbf

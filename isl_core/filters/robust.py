@@ -41,6 +41,20 @@ def robust_kbf(model: Model, *, c: float = HUBER_C, sigma_range: tuple[float, fl
     """The robust adaptive filter (module docstring) for ``model``'s α, β, m; the rest as :func:`adaptive_kbf`
     (``memory`` W in sensor readings).
 
+    Parameters
+    ----------
+    model : Model
+        The model (its α, β, m).
+    c : float
+        Huber's clipping constant, 0.1 … 10.
+    sigma_range, memory, sigma_init : (float, float), float, float
+        As in :func:`adaptive_kbf`.
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"kbf_robust"``.
+
     Examples
     --------
     >>> from isl_core import robust_kbf

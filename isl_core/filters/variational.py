@@ -46,7 +46,34 @@ def variational_kbf(model: Model, *, sigma_init: float | None = None, memory: fl
                     shape0: float = SHAPE0, iterations: int = ITERATIONS) -> FilterSpec:
     """The variational-Bayes adaptive Kalman filter for ``model`` (module docstring); ``sigma_init`` its guess
     before the first reading (default: the model's σ, as for the other filters' start), ``memory`` W in sensor
-    readings (> 1: ρ = 1 − 1/W > 0)."""
+    readings (> 1: ρ = 1 − 1/W > 0).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    sigma_init : float, optional
+        σ guessed before the first reading.
+    memory : float
+        W in sensor readings.
+    shape0 : float
+        a₀, the prior's shape: how much the initial guess weighs (:data:`SHAPE0`).
+    iterations : int
+        Fixed-point iterations per reading.
+
+    Returns
+    -------
+    FilterSpec
+        The filter, named ``"vb"``.
+
+    Examples
+    --------
+    >>> from isl_core import variational_kbf
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> variational_kbf(model, memory=100.0).name
+    'vb'
+    """
     sigma0 = model.sigma if sigma_init is None else check_real("sigma_init", sigma_init, lo=0.0, lo_open=True)
     memory = check_real("memory (W, in sensor readings)", memory, lo=1.0, lo_open=True)
     shape0 = check_real("shape0", shape0, lo=0.0, lo_open=True)

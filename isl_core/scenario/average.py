@@ -195,7 +195,44 @@ def average_scenario(
 ) -> ScenarioAverage:
     """One :func:`isl_core.scenario.run.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
     once: :func:`isl_core.scenario.run.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
-    :meth:`isl_core.scenario.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total."""
+    :meth:`isl_core.scenario.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total.
+
+    Parameters
+    ----------
+    model : Model
+        The model at σ(0).
+    nu : float
+        The ISL filter's tuning.
+    scenario : Scenario, optional
+        What the world does (default: paper A's model).
+    seeds : sequence of int
+        The noises.
+    horizon : float, default 30.0
+        Length in units of 1/r_min at σ(0).
+    windows : int, default 300
+        Equal time windows (or the windows between ``edges``).
+    extra : sequence of FilterSpec
+        More filters on the same noise.
+    progress, done, total : callable, int, int
+        ``progress`` gets (``done`` + runs so far)/``total``.
+    edges, grid_filters : sequence of float, sequence of FilterSpec
+        As in :func:`plan_scenario`.
+
+    Returns
+    -------
+    ScenarioAverage
+        ``mse`` (seeds, windows, filters, m), the run's layout in ``run``, and its rolling and period statistics.
+
+    Examples
+    --------
+    >>> from isl_core import average_scenario
+    >>> from isl_core import Model, Scenario
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> rise = Scenario(sigma_knots=((5.0, 40.0),))  # σ doubles at t = 5/r_min
+    >>> avg = average_scenario(model, model.beta, rise, seeds=range(2), horizon=10.0, windows=5)
+    >>> avg.mse.shape  # seeds × windows × filters × coordinates
+    (2, 5, 3, 3)
+    """
     seeds = tuple(check_int("seed", s, lo=0) for s in seeds)
     if not seeds:
         raise ValueError("seeds must name at least one seed")

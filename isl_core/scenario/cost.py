@@ -52,7 +52,35 @@ def _best(plan, repeats: int) -> float:
 def filter_costs(model: Model, filters: Sequence[FilterSpec], *, scenario: Scenario | None = None,
                  horizon: float = 200.0, copies: int = 8, repeats: int = 7) -> Costs:
     """ns per step of each of ``filters`` (module docstring) on ``scenario`` (default σ constant) over ``horizon``
-    (1/r_min) of ``model``, the ISL filter of the base at ν = β."""
+    (1/r_min) of ``model``, the ISL filter of the base at ν = β.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    filters : sequence of FilterSpec
+        The filters measured.
+    scenario : Scenario, optional
+        Default σ constant.
+    horizon : float, default 200.0
+        Length of the measured run, units of 1/r_min.
+    copies, repeats : int
+        Copies of a filter in the loop; runs whose minimum is kept.
+
+    Returns
+    -------
+    Costs
+        ``ns_per_step`` per filter name, the ``base`` loop's own, and how it was measured.
+
+    Examples
+    --------
+    >>> from isl_core import filter_costs, isl_filter
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> costs = filter_costs(model, [isl_filter(model, model.beta)], horizon=20.0, copies=2, repeats=2)
+    >>> list(costs.ns_per_step), costs.copies
+    (['isl'], 2)
+    """
     horizon = check_real("horizon", horizon, lo=1.0, hi=1e4)
     copies = check_int("copies", copies, lo=1, hi=64)
     repeats = check_int("repeats", repeats, lo=1, hi=100)

@@ -141,9 +141,40 @@ def who_wins_map(
     untuned: bool = False,
     progress: Callable[[float], None] | None = None,
 ) -> WhoWinsMap:
-    """The map of ``kind`` (module docstring); ``after``: how long after the σ step (or, for the other maps, the
-    whole run after ``burn``) is simulated, in units of 1/r_min; ``tuning``: the families' knobs (default: the
-    cached tuning of the table for α, m, w, else — or with ``untuned`` — the constructors' defaults)."""
+    """The map of ``kind`` (module docstring).
+
+    Parameters
+    ----------
+    kind : {"sigma_step", "tails", "sensor"}
+        What the map sweeps (:data:`MAPS`).
+    alpha, m, w : float, int, float
+        Paper A's model at σ(0) = 20: α (default 1), the state dimension, the stationary std of X_m (β = w√(2α)).
+    values : sequence of float, optional
+        The swept values (default the kind's).
+    seeds : int, default 32
+        Independent noises pooled per cell.
+    window, after, burn : float
+        The σ-step map's rows; how long after the σ step (the other maps: the whole run after ``burn``) is
+        simulated; the start left out (units of 1/r_min).
+    tuning : Tuning, optional
+        The families' knobs (default: the table's cached tuning for α, m, w, else the constructors' defaults).
+    untuned : bool, default False
+        The filters at their constructors' defaults instead.
+    progress : callable, optional
+        Called with the fraction done.
+
+    Returns
+    -------
+    WhoWinsMap
+        ``ratio`` (rows, values, filters), the winner per cell and the margin's lower bound.
+
+    Examples
+    --------
+    >>> from isl_core import who_wins_map
+    >>> tails = who_wins_map("tails", 1.0, values=[3.0, 30.0], seeds=2, untuned=True, after=5.0, burn=1.0)
+    >>> tails.ratio.shape, tails.filters[:3]  # rows × values × filters
+    ((1, 2, 8), ('clairvoyant', 'kbf', 'isl'))
+    """
     if kind not in MAPS:
         raise ValueError(f"kind must be one of {', '.join(MAPS)}; got {kind!r}")
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)

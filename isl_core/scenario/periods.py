@@ -58,6 +58,20 @@ def scenario_periods(scenario: Scenario, horizon: float, *, burn: float = BURN) 
     """The fixed periods of ``scenario`` over ``horizon`` (module docstring); those that would end after the horizon
     or start at it are left out, and a ``ValueError`` says so if none is left.
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    horizon : float
+        The run's length, units of 1/r_min.
+    burn : float
+        The start left out where σ does not change.
+
+    Returns
+    -------
+    tuple of Period
+        ``name``, ``label``, ``start`` and ``end`` of each.
+
     Examples
     --------
     >>> from isl_core import Scenario, scenario_periods
@@ -163,7 +177,35 @@ def ratios_from(y: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np
 def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...], *,
                   level: float = 0.95) -> PeriodRatios:
     """The period statistic of every filter of ``run`` (module docstring) from every seed's windowed mean squares
-    ``mse`` (seeds, windows, filters, m)."""
+    ``mse`` (seeds, windows, filters, m).
+
+    Parameters
+    ----------
+    mse : numpy.ndarray
+        Every seed's windowed mean squares (seeds, windows, filters, m), e.g. :attr:`ScenarioAverage.mse`.
+    run : ScenarioRun
+        A run of the same plan (its windows and filters).
+    periods : tuple of Period
+        The periods, e.g. :func:`scenario_periods`.
+    level : float, default 0.95
+        Confidence level.
+
+    Returns
+    -------
+    PeriodRatios
+        ``ratio[f, p]`` with its interval per filter and period.
+
+    Examples
+    --------
+    >>> from isl_core import Scenario, average_scenario, period_ratios, scenario_periods
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> rise = Scenario(sigma_knots=((5.0, 40.0),))
+    >>> avg = average_scenario(model, model.beta, rise, seeds=range(2), horizon=10.0, windows=10)
+    >>> stat = period_ratios(avg.mse, avg.run, scenario_periods(rise, 10.0, burn=1.0))
+    >>> [p.name for p in stat.periods], stat.ratio.shape  # filters × periods
+    (['after_1', 'after_2', 'settled'], (3, 3))
+    """
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     y = per_seed(mse, run, periods)
     ratio, low, high = ratios_from(y, level)
@@ -173,6 +215,18 @@ def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]
 def paired_margin(ya: np.ndarray, yb: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
     """Filter b's ratio over filter a's, √(ȳ_b/ȳ_a), and its lower bound at two-sided ``level`` from the seeds
     (axis 0) paired (module docstring: the delta method for a ratio of means). inf/nan where a filter diverged.
+
+    Parameters
+    ----------
+    ya, yb : numpy.ndarray
+        Filters a's and b's mean squared errors, one row per seed.
+    level : float, default 0.95
+        Two-sided confidence level.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        The ratio √(ȳ_b/ȳ_a) and its lower bound.
 
     Examples
     --------

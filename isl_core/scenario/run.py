@@ -130,7 +130,19 @@ def _learning_state(model: Model, filters, ad: np.ndarray):
 
 def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float):
     """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
-    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit."""
+    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
+
+    Examples
+    --------
+    >>> import math
+    >>> from isl_core import Scenario, run_plan, scenario_grid
+    >>> from isl_core import Model
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> h, n, r_min = scenario_grid(model, model.beta, Scenario(), (), 10.0)
+    >>> plan = run_plan(model, model.beta, horizon=10.0)  # σ constant: the grid of simulate
+    >>> math.isclose(h, plan.h), n == plan.N
+    (True, True)
+    """
     r_min = kalman_bucy(model).r_min
     T = horizon / r_min  # exactly: not lengthened for a slowly settling filter as simulate's default run is
     plan = run_plan(model, nu, T=T, extra=extra, cap=MAX_STEPS)
@@ -282,7 +294,34 @@ def plan_scenario(
     of seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
     value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
     errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set
-    of runs that must share one grid."""
+    of runs that must share one grid.
+
+    Parameters
+    ----------
+    model, nu, scenario, horizon, windows, extra : Model, float, Scenario, float, int, sequence of FilterSpec
+        As in :func:`simulate_scenario`.
+    edges : sequence of float, optional
+        Window edges instead of ``windows`` equal ones.
+    grid_filters : sequence of FilterSpec, optional
+        Filters that count for the step size.
+
+    Returns
+    -------
+    ScenarioPlan
+        ``run(seed)`` gives the :class:`ScenarioRun` of a seed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from isl_core import plan_scenario, simulate_scenario
+    >>> from isl_core import Model, Scenario
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> rise = Scenario(sigma_knots=((5.0, 40.0),))  # σ doubles at t = 5/r_min
+    >>> plan = plan_scenario(model, model.beta, rise, horizon=10.0, windows=5)
+    >>> bool(np.array_equal(plan.run(3).mse, simulate_scenario(model, model.beta, rise, horizon=10.0, windows=5,
+    ...                                                         seed=3).mse))
+    True
+    """
     scenario = Scenario() if scenario is None else scenario
     if not isinstance(scenario, Scenario):
         raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
@@ -317,6 +356,42 @@ def simulate_scenario(
     progress: Callable[[float], None] | None = None,
 ) -> ScenarioRun:
     """One run of ``scenario`` (default: paper A's model; module docstring): ``windows`` equal time windows over
-    ``horizon`` (units of 1/r_min at σ(0)). The same as ``plan_scenario(…).run(seed)``."""
+    ``horizon`` (units of 1/r_min at σ(0)). The same as ``plan_scenario(…).run(seed)``.
+
+    Parameters
+    ----------
+    model : Model
+        The model at σ(0).
+    nu : float
+        The ISL filter's tuning.
+    scenario : Scenario, optional
+        What the world does (default: paper A's model).
+    horizon : float, default 30.0
+        Length in units of 1/r_min at σ(0).
+    windows : int, default 60
+        Equal time windows the errors are averaged over.
+    seed : int, default 0
+        The noise.
+    extra : sequence of FilterSpec
+        More filters on the same noise.
+    progress : callable, optional
+        Called with the fraction done.
+
+    Returns
+    -------
+    ScenarioRun
+        Per window (t), filter and coordinate the mean squared error ``mse`` and the clairvoyant filter's exact
+        variance ``ref_var``; :meth:`ScenarioRun.ratios` their ratio.
+
+    Examples
+    --------
+    >>> from isl_core import simulate_scenario
+    >>> from isl_core import Model, Scenario
+    >>> model = Model.from_w(0.5, 3.0, 20.0)
+    >>> rise = Scenario(sigma_knots=((5.0, 40.0),))  # σ doubles at t = 5/r_min
+    >>> run = simulate_scenario(model, model.beta, rise, horizon=10.0, windows=5)
+    >>> run.names, run.mse.shape  # windows × filters × coordinates
+    (('clairvoyant', 'kbf', 'isl'), (5, 3, 3))
+    """
     seed = check_int("seed", seed, lo=0)
     return plan_scenario(model, nu, scenario, horizon=horizon, windows=windows, extra=extra).run(seed, progress)

@@ -68,7 +68,14 @@ _MEMORY = tuple(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15))  # 10
 class TuningGrids:
     """The knobs' grids: ν/β = 2^ℓ for ℓ in ``isl_ell`` (ISL filters); ``memory`` W in readings (adaptive, VB and
     robust filters); Huber's ``robust_c``; the IMM's ``imm_switch`` per reading and ``imm_modes`` over
-    ``imm_sigma_range``."""
+    ``imm_sigma_range``.
+
+    Examples
+    --------
+    >>> from isl_core import TuningGrids
+    >>> TuningGrids(isl_ell=(-2.0, 0.0)).points("isl")
+    [{'ell': -2.0}, {'ell': 0.0}]
+    """
 
     isl_ell: tuple[float, ...] = tuple(np.arange(-8.0, 4.01, 0.5).tolist())
     memory: tuple[float, ...] = _MEMORY
@@ -320,6 +327,8 @@ def tune(
         The knobs' grids.
     cache, compute : bool
         Read and write the cache; compute what is not cached.
+    m, w, horizon, burn, workers, progress
+        As described above.
 
     Returns
     -------
