@@ -50,6 +50,7 @@ from collections.abc import Sequence
 from importlib.util import find_spec
 
 from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, log_stats, quiet_garbage_collection
+from app.serving.warmup import AppStartupError, check_app, raise_if_failed, warm_core, warm_long_jobs
 
 log = logging.getLogger("isl.serve")
 
@@ -69,10 +70,6 @@ BOKEH_ORIGIN_ENV = "BOKEH_ALLOW_WS_ORIGIN"
 
 
 SWITCH_INTERVAL_S = 0.0005  #: how long a thread may keep the interpreter lock when another wants it (see serve)
-
-
-class AppStartupError(RuntimeError):
-    """The app script failed during the warm-up run."""
 
 
 def app_script() -> str:
@@ -185,7 +182,7 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
     class StrictServe(Serve):
         def warm_applications(self, applications, *args, **kwargs):
             super().warm_applications(applications, *args, **kwargs)
-            _raise_if_failed(applications.values())
+            raise_if_failed(applications.values())
 
         def customize_server(self, server):
             from tornado.process import task_id
@@ -214,55 +211,6 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
             return super().customize_server(server)
 
     return StrictServe
-
-
-def _raise_if_failed(applications) -> None:
-    for application in applications:
-        for handler in application.handlers:
-            if getattr(handler, "failed", False):
-                raise AppStartupError(f"the dashboard app failed during warm-up: "
-                                      f"{getattr(handler, 'error', 'unknown error')}")
-
-
-def warm_core() -> None:
-    """Compile (or load from the numba cache) every kernel a session calls, each with one short run: the display
-    run's (the simulation and its min/max fold) and the scenario loop's, so that no session compiles one while
-    holding the interpreter lock the event loop needs (:ref:`performance-warm-up`)."""
-    from isl_core import Model, Scenario
-    from isl_core.runview import simulate_view
-    from isl_core.scenario.run import simulate_scenario
-    model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
-    simulate_view(model, 3.0, seed=0, horizon=1.0)
-    simulate_scenario(model, 3.0, Scenario(), horizon=1.0, windows=1)
-
-
-def warm_long_jobs() -> None:
-    """Start the fork server the long jobs' processes come from (:mod:`app.jobs.long`) with one tiny job, so that its
-    memory counts in an idle server's. Where no process can be started (no writable temporary directory for the fork
-    server's socket, a sandbox without ``fork``), long jobs run on the queue's thread instead, with one log line."""
-    import threading
-
-    from app.jobs import in_process, ping
-    from app.page import LONG_JOBS
-
-    try:
-        answer = in_process(ping, lambda fraction: None, threading.Event())
-    except Exception as exc:  # noqa: BLE001
-        answer = exc
-    if answer != "ok":
-        LONG_JOBS.processes = False
-        log.warning("long jobs run on a thread of the server: their child process cannot start (%s)", answer)
-
-
-def check_app(script: str) -> None:
-    """Run the app script once in a session, as the server's warm-up does; raise if it fails."""
-    import panel  # noqa: F401  (installs Panel's script handler into bokeh)
-    from bokeh.command.util import build_single_handler_application
-    from panel.io.session import generate_session
-
-    application = build_single_handler_application(script)
-    generate_session(application)
-    _raise_if_failed([application])
 
 
 def health(port: int, timeout: float = 3.0) -> int:

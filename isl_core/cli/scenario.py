@@ -84,17 +84,7 @@ def _table_out(args, res) -> int:
     tab = table_from(res, args.level)
     ns, cost_meta = _costs(res, tab, args)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
-    rows: list[dict[str, Any]] = []
-    for r, row in enumerate(tab.rows):
-        cells = {k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]}
-                 for c, k in enumerate(keys)}
-        presets = {}
-        for p, name in enumerate(res.presets):
-            worst, lo, hi = (a[r] for a in tab.preset(p))
-            presets[name] = {"worst": worst, "low": lo, "high": hi}
-        rows.append({"name": row.name, "label": row.label, "role": row.role, "knows": row.knows,
-                     "tuning": row.tuning, "origin": row.origin, "ns_per_step": ns.get(row.name),
-                     "cells": cells, "presets": presets})
+    rows = _table_rows(res, tab, keys, ns)
     winners = [{"cell": k, "winner": tab.rows[tab.winner[c]].name, "runner_up": tab.rows[tab.runner_up[c]].name,
                 "margin": tab.margin[c], "margin_low95": tab.margin_low[c], "tie": bool(tab.tie[c])}
                for c, k in enumerate(keys)]
@@ -113,6 +103,22 @@ def _table_out(args, res) -> int:
         return 0
     _print_table(res, tab, keys, ns, cost_meta, check)
     return 0
+
+
+def _table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
+    """The fair table's rows as data: each filter's tuning, origin and cost, its cells and its worst per preset."""
+    rows: list[dict[str, Any]] = []
+    for r, row in enumerate(tab.rows):
+        cells = {k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]}
+                 for c, k in enumerate(keys)}
+        presets = {}
+        for p, name in enumerate(res.presets):
+            worst, lo, hi = (a[r] for a in tab.preset(p))
+            presets[name] = {"worst": worst, "low": lo, "high": hi}
+        rows.append({"name": row.name, "label": row.label, "role": row.role, "knows": row.knows,
+                     "tuning": row.tuning, "origin": row.origin, "ns_per_step": ns.get(row.name),
+                     "cells": cells, "presets": presets})
+    return rows
 
 
 def _print_table(res, tab, keys, ns, cost_meta, check) -> None:

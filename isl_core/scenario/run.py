@@ -28,20 +28,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._engine import CHUNK, DivergenceError, draw_start, pack
-from ..filters.base import KIND_ADAPTIVE, KIND_CLAIRVOYANT, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
+from ..filters.base import KIND_CLAIRVOYANT, FilterSpec
 from ..filters.isl import isl_filter
 from ..filters.kalman import optimal_kbf
-from ..filters.robust import huber_kappa
 from ..grid import MAX_STEPS, check_filters, check_specs, run_plan
 from ..kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
 from ..kernels.clairvoyant import clairvoyant_state
-from ..kernels.common import AD_SIGMA
 from ..kernels.imm import imm_state
 from ..kernels.scenario import advance_scenario
 from ..model import Model
 from ..riccati import kalman_bucy
 from ..validate import check_int, check_real
+from .bank import learning_state, learns_sigma
 from .base import Scenario
+from .windows import first_step, memory_time, window_edges, window_times
 
 __all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",
            "scenario_grid", "simulate_scenario"]
@@ -101,31 +101,6 @@ class ScenarioRun:
         mse = np.tensordot(w, self.mse[keep], axes=1) / w.sum()
         ref = np.tensordot(w, self.ref_var[keep], axes=1) / w.sum()
         return np.sqrt(mse / ref[None, :])
-
-
-def memory_time(memory: float, q: int, h: float, r_min: float) -> float:
-    """W = ``memory`` readings of a sensor read every ``q`` steps of ``h``, in units of 1/``r_min``: W·q·h·r_min."""
-    memory = check_real("memory (W, in sensor readings)", memory, lo=0.0)
-    return memory * q * h * r_min
-
-
-def _learning_state(model: Model, filters, ad: np.ndarray):
-    """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations); the
-    robust filters' (c, κ(c))."""
-    nf, m = len(filters), model.m
-    vb_P, vb_ab, vb_par = np.zeros((nf, m, m)), np.zeros((nf, 2)), np.zeros((nf, 2))
-    for f, spec in enumerate(filters):
-        v = spec.variational
-        if v is not None:
-            vb_P[f] = kalman_bucy(Model(model.alpha, model.beta, v.sigma_init, m)).delta
-            vb_ab[f] = v.shape0, v.shape0 * v.sigma_init**2
-            vb_par[f] = v.rho, v.iterations
-            ad[f, AD_SIGMA] = v.sigma_init
-        if spec.huber is not None:
-            vb_par[f] = spec.huber, huber_kappa(spec.huber)
-        if spec.imm is not None:  # σ̂ of the bank before its first reading: Σ μ_j σ_j at μ_j = 1/J
-            ad[f, AD_SIGMA] = spec.imm.sigmas.mean()
-    return vb_P, vb_ab, vb_par
 
 
 def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float):
@@ -192,7 +167,7 @@ class ScenarioPlan:
         x, e0 = draw_start(model, kalman_bucy(model), rng, "stationary")
         e = np.tile(e0, (nf, 1))
         bank = self.packed._replace(ad=self.packed.ad.copy())  # the σ-learners' state is the run's own
-        learning = _learning(bank.kind)
+        learning = learns_sigma(bank.kind)
         state = FilterState(np.zeros(nf), np.full(nf, -1, dtype=np.int64), *(a.copy() for a in self.learning_state))
         imm = IMMState(*(a.copy() for a in self.imm))
         imm.e[:] = e0  # every mode of every bank at the common start
@@ -241,40 +216,6 @@ class ScenarioPlan:
                            mse, ref_var, mean_sigma, sigma_hat, steps,
                            tuple(float(d * h) if d >= 0 else None for d in died),
                            tuple(f.name for f, a in zip(filters, learning, strict=True) if a))
-
-
-def _learning(kind: np.ndarray) -> np.ndarray:
-    """Which filters learn σ (and have a σ̂ column): the adaptive, variational, robust and IMM filters."""
-    return (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
-
-
-def _edge_times(horizon: float, windows: int, edges) -> np.ndarray:
-    """The windows' edge times: ``windows`` equal windows, or ``edges`` checked (from 0 to ``horizon``, increasing)."""
-    if edges is None:
-        return np.linspace(0.0, horizon, windows + 1)  # more windows than steps: one a step (window_edges)
-    times = np.array([check_real(f"edges[{j}]", t, lo=0.0, hi=horizon) for j, t in enumerate(edges)])
-    if len(times) < 2 or times[0] != 0.0 or times[-1] != horizon or np.any(np.diff(times) <= 0.0):
-        raise ValueError(f"edges must increase from 0 to the horizon {horizon:g}, got {list(edges)!r}")
-    return times
-
-
-def first_step(tau: float, step: float, n: int) -> int:
-    """The first step k ≤ n with k·``step`` ≥ ``tau`` (``step`` = h·r_min, times in 1/r_min): where σ(t_k) takes a value
-    that starts at ``tau`` (:meth:`Scenario.sigma_at`)."""
-    k = min(n, max(0, math.ceil(tau / step)))
-    while k > 0 and (k - 1) * step >= tau:
-        k -= 1
-    while k < n and k * step < tau:
-        k += 1
-    return k
-
-
-def window_edges(times: np.ndarray, step: float, n: int) -> np.ndarray:
-    """Steps (int64, increasing from 0 to n) at which windows starting at ``times`` (units of 1/r_min) start: the
-    :func:`first_step` of each; a window without a step of its own is left out."""
-    out = np.array([first_step(tau, step, n) for tau in times], dtype=np.int64)
-    out[0], out[-1] = 0, n
-    return np.unique(out)
 
 
 def plan_scenario(
@@ -327,7 +268,7 @@ def plan_scenario(
         raise ValueError(f"scenario must be an isl_core.Scenario, got {type(scenario).__name__}")
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     windows = check_int("windows", windows, lo=1, hi=100_000)
-    times = _edge_times(horizon, windows, edges)
+    times = window_times(horizon, windows, edges)
     specs = check_filters(model, nu, extra)
     more = check_specs("grid_filters", model, grid_filters or (), allow_empty=True)
     h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon)
@@ -338,7 +279,7 @@ def plan_scenario(
     filters = (clair, constant, isl_filter(model, nu), *specs[1:])
     bank = pack(model, filters, scenario=True)
     bank.kind[0] = KIND_CLAIRVOYANT
-    learning = _learning_state(model, filters, bank.ad)
+    learning = learning_state(model, filters, bank.ad)
     q = scenario.sensor_steps(h, r_min)
     return ScenarioPlan(model, scenario, float(nu), h, n, q, r_min, window_edges(times, h * r_min, n), filters,
                         bank, learning, np.array(kb.delta, dtype=float), imm_state(filters, model.m, q, h))

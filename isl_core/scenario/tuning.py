@@ -25,12 +25,10 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -40,13 +38,13 @@ from ..filters.imm import imm_kbf
 from ..filters.isl import isl_filter, model_aware_isl
 from ..filters.robust import robust_kbf
 from ..filters.variational import variational_kbf
-from ..kernels.cache import sources_digest
 from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
 from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
 from .presets import PRESETS
 from .run import plan_scenario
+from .tuning_cache import cache_dir, cache_key, load, save
 
 __all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "paper_nu", "tune",
            "variant_name"]
@@ -113,15 +111,6 @@ def family_filter(family: str, model: Model, knob: Mapping, grids: TuningGrids =
     if family == "imm":
         return imm_kbf(model, sigma_range=grids.imm_sigma_range, modes=knob["modes"], switch=knob["switch"])
     raise ValueError(f"family must be one of {', '.join(FAMILIES)}; got {family!r}")
-
-
-def cache_dir() -> Path:
-    """Where tunings are cached (module docstring): ``$ISL_CACHE_DIR``, else the user's cache directory."""
-    env = os.environ.get("ISL_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "isl"
 
 
 @dataclass(frozen=True)
@@ -198,12 +187,6 @@ class Tuning:
         return [self.filter(j, model) for j in range(3, len(self.names))]
 
 
-def _key(alpha, m, w, seeds, horizon, burn, presets, grids) -> dict:
-    return {"alpha": alpha, "m": m, "w": w, "seeds": list(seeds), "horizon": horizon, "burn": burn,
-            "presets": {k: [s0, repr(sc)] for k, (_, s0, sc) in presets.items()}, "grids": asdict(grids),
-            "sources": sources_digest()}
-
-
 _MEMORY_CACHE: dict[str, Tuning] = {}
 
 
@@ -271,29 +254,6 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
                   float(seconds))
 
 
-def _save(path: Path, tuning: Tuning, key: dict) -> bool:
-    meta = {"key": key, "seconds": tuning.seconds}
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".npz", delete=False) as tmp:
-            np.savez(tmp, y=tuning.y, meta=np.array(json.dumps(meta)))
-        os.replace(tmp.name, path)  # atomic: a reader sees the old file or the whole new one
-        return True
-    except OSError:
-        return False
-
-
-def _load(path: Path, key: dict) -> tuple[np.ndarray, float] | None:
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            if meta["key"] != json.loads(json.dumps(key)):
-                return None
-            return data["y"], float(meta["seconds"])
-    except (OSError, KeyError, ValueError):
-        return None
-
-
 def tune(
     alpha: float = 1.0,
     *,
@@ -350,14 +310,14 @@ def tune(
     if not presets or not isinstance(grids, TuningGrids):
         raise ValueError("presets must name at least one scenario and grids must be an "
                          "isl_core.scenario.tuning.TuningGrids")
-    key = _key(alpha, m, w, seed_ids, horizon, burn, presets, grids)
+    key = cache_key(alpha, m, w, seed_ids, horizon, burn, presets, grids)
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"tuning-{digest}.npz"
     span = (f"minimax over {len(presets)} presets × their periods of the period statistic (isl scenario --tune), "
             f"seeds {seed_ids[0]}–{seed_ids[-1]}, horizon {horizon:g}/r_min")
     if cache and digest in _MEMORY_CACHE:
         return _MEMORY_CACHE[digest]
-    found = _load(path, key) if cache else None
+    found = load(path, key) if cache else None
     if found is not None:
         y, seconds = found
         plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
@@ -372,7 +332,8 @@ def tune(
     ys, plan_list, periods = _compute(alpha, m, w, presets, seed_ids, horizon, burn, grids, workers, progress)
     res = _assemble(alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, plan_list, periods,
                     time.perf_counter() - start)
-    where = f"cached in {path}" if cache and _save(path, res, key) else "kept in memory (the cache is not writable)"
+    saved = cache and save(path, res.y, res.seconds, key)
+    where = f"cached in {path}" if saved else "kept in memory (the cache is not writable)"
     return _named(res, f"{span}; computed now in {res.seconds:.0f} s, {where}", digest, cache)
 
 
