@@ -3,6 +3,7 @@
 The server runs this script for every session, in a fresh namespace: it only builds that session's page. Everything
 shared by the sessions lives in the module :mod:`app.page`.
 """
+
 import sys
 from pathlib import Path
 

@@ -6,6 +6,7 @@
 
 Every computation is the core's; this module only draws figures (:mod:`app.static_figures`) and serves the app.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -46,8 +47,10 @@ def cmd_figure3(args) -> int:
     if not args.no_png:
         written.append(fig3_png(runs, out / "fig3.png"))
     for run in runs:
-        print(f"sigma = {run.model.sigma:g}: ratio_hat = {_fmt(run.tracks[0].ratio)}, "
-              f"ratio_check = {_fmt(run.tracks[1].ratio)}")
+        print(
+            f"sigma = {run.model.sigma:g}: ratio_hat = {_fmt(run.tracks[0].ratio)}, "
+            f"ratio_check = {_fmt(run.tracks[1].ratio)}"
+        )
     for p in written:
         print(f"wrote {p}")
     return 0

@@ -10,6 +10,7 @@ simulated), the grid (h, N, T, the rows kept), the start, the averaging window, 
 and every filter's measured ratio with its theory — then one row per kept step with named columns
 ``t, X1_position, …, kbf_X1_position, …, isl_X1_position, …`` (X the signal, then each filter's estimate).
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -48,7 +49,8 @@ def _header(state, req, run, view, prediction: dict) -> list[str]:
         f" r_min={run.r_min:.17g} T={run.T:.17g} h={run.h:.17g} N={run.N}",
         f"rows: every {run.every} step(s) ({len(run.t)} rows); the RMSE and ratios below are over all N steps",
         f"start: every filter at X(0) - e0, e0 ~ N(0, Delta) ({run.start}); averaging window t in [0, T], no burn-in",
-        "other filters: " + (", ".join(f"{tr.name} = {tr.label}" for tr in run.tracks[2:]) or "none")
+        "other filters: "
+        + (", ".join(f"{tr.name} = {tr.label}" for tr in run.tracks[2:]) or "none")
         + f"; sigma_design={req.sigma_design:.6g} sigma_range=[{req.sigma_range[0]:.6g}, {req.sigma_range[1]:.6g}]",
         "coordinate, s_i (theory), then per filter: measured RMSE ratio (theory ratio), share of time |e_i| <= 3 s_i"
         f" (theory {100 * TUBE_THEORY:.2f} % for the optimal filter)",
@@ -76,8 +78,7 @@ def run_csv(state) -> str:
     model = Model(req.alpha, req.beta, req.sigma, req.m)
     extra, every_spec = extra_filters(req, model)
     every = max(1, math.ceil((view.N + 1) / MAX_ROWS))
-    run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every_spec,
-                   every=every)
+    run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every_spec, every=every)
     prediction = {"kbf": np.ones(req.m), "isl": state.prediction, **(state.extra_prediction or {})}
     coords = [f"X{i + 1}_{c}" for i, c in enumerate(_coordinates(req.m))]
     cols = ["t", *coords, *(f"{tr.name}_{c}" for tr in run.tracks for c in coords)]
@@ -94,8 +95,9 @@ def run_png(run) -> io.BytesIO:
     from .static_figures import fig3_png
 
     out = io.BytesIO()
-    ratios = "\n".join(f"{tr.label}: measured RMSE/s_i = " + ", ".join(f"{r:.3f}" for r in tr.ratio)
-                        for tr in run.tracks[:2])
+    ratios = "\n".join(
+        f"{tr.label}: measured RMSE/s_i = " + ", ".join(f"{r:.3f}" for r in tr.ratio) for tr in run.tracks[:2]
+    )
     fig3_png([run], out, note=f"{ratios}\n(this run, averaged over t in [0, T])")
     out.seek(0)
     return out

@@ -13,6 +13,7 @@ model-aware ISL filter uses the same ν as paper A's filter (the ν slider); σ�
 the current m, w and seed. Their inputs live in the session's rooms :class:`app.state.BaselinesRoom` and
 :class:`app.state.WorstCaseRoom`; this module holds the functions those rooms and the run pipeline call.
 """
+
 from __future__ import annotations
 
 import logging
@@ -22,8 +23,17 @@ import numpy as np
 
 from isl_core import BASELINES, Model, WorstCaseTable, baseline_filters, theory_ratios, worst_case
 
-__all__ = ["ALPHA_BOUNDS", "EXTRA_NAMES", "SIGMA_BOUNDS", "SIGMA_DESIGN", "SIGMA_RANGE", "check_order",
-           "extra_specs", "extra_theory", "worst_case_table"]
+__all__ = [
+    "ALPHA_BOUNDS",
+    "EXTRA_NAMES",
+    "SIGMA_BOUNDS",
+    "SIGMA_DESIGN",
+    "SIGMA_RANGE",
+    "check_order",
+    "extra_specs",
+    "extra_theory",
+    "worst_case_table",
+]
 
 EXTRA_NAMES = tuple(n for n in BASELINES if n not in ("kbf", "isl"))  #: filters a user can overlay
 SIGMA_BOUNDS = (0.1, 1000.0)
@@ -35,13 +45,15 @@ log = logging.getLogger(__name__)
 WC_WORKERS = 1  #: threads of one worst-case computation (it runs on the long-job thread: one core, low priority)
 
 
-def extra_specs(model: Model, nu: float, names: Sequence[str], sigma_design: float,
-                sigma_range: tuple[float, float]) -> list:
+def extra_specs(
+    model: Model, nu: float, names: Sequence[str], sigma_design: float, sigma_range: tuple[float, float]
+) -> list:
     """FilterSpecs of the extra filters ``names`` (none: ``[]``); the model-aware ISL filter shares ``nu``."""
     if not names:
         return []
-    return baseline_filters(model, nu=nu, nu_model=nu, sigma_design=sigma_design, sigma_range=sigma_range,
-                            names=tuple(names))
+    return baseline_filters(
+        model, nu=nu, nu_model=nu, sigma_design=sigma_design, sigma_range=sigma_range, names=tuple(names)
+    )
 
 
 def extra_theory(model: Model, specs: Sequence) -> dict[str, np.ndarray]:
@@ -49,15 +61,35 @@ def extra_theory(model: Model, specs: Sequence) -> dict[str, np.ndarray]:
     return {spec.name: np.asarray(theory_ratios(model, spec)) for spec in specs}
 
 
-def worst_case_table(alphas: Sequence[float], *, sigma_range: tuple[float, float], n_sigma: int, m: int, w: float,
-                     sigma_design: float, horizon: float, seed: int, progress=None) -> WorstCaseTable:
+def worst_case_table(
+    alphas: Sequence[float],
+    *,
+    sigma_range: tuple[float, float],
+    n_sigma: int,
+    m: int,
+    w: float,
+    sigma_design: float,
+    horizon: float,
+    seed: int,
+    progress=None,
+) -> WorstCaseTable:
     """:func:`isl_core.worst_case` for every filter with one seed and 10 batches (the dashboard's settings)."""
-    return worst_case(list(alphas), sigma_range=sigma_range, n_sigma=n_sigma, m=m, w=w, sigma_design=sigma_design,
-                      horizon=horizon, seeds=(seed,), batches=10, workers=WC_WORKERS, progress=progress)
+    return worst_case(
+        list(alphas),
+        sigma_range=sigma_range,
+        n_sigma=n_sigma,
+        m=m,
+        w=w,
+        sigma_design=sigma_design,
+        horizon=horizon,
+        seeds=(seed,),
+        batches=10,
+        workers=WC_WORKERS,
+        progress=progress,
+    )
 
 
 def check_order(sigma_min: float, sigma_max: float) -> None:
     """The σ range must be a range: ``ValueError`` in words otherwise."""
     if not sigma_min < sigma_max:
-        raise ValueError(f"σ min (sigma_min) must be below σ max (sigma_max); {sigma_min:g} is not below "
-                         f"{sigma_max:g}")
+        raise ValueError(f"σ min (sigma_min) must be below σ max (sigma_max); {sigma_min:g} is not below {sigma_max:g}")

@@ -14,6 +14,7 @@ at most 20 items, at most :data:`MAX_TEXT` characters — so no spelling can rec
 smuggle in nan/inf: ``[[[[…``, a 5000-digit seed, ``NaN``, ``Infinity``, Arabic-Indic digits are all refused with
 a message, never an exception. Numbers are spelled as everywhere in the project (:func:`isl_core.validate.read_real`).
 """
+
 from __future__ import annotations
 
 import math
@@ -71,7 +72,7 @@ def show(value: object) -> str:
     """A value as a user would recognise it: text in quotes and shortened, numbers plainly, lists in brackets."""
     if isinstance(value, str):
         text = value if len(value) <= 40 else value[:37] + "…"
-        return f"\"{text}\""
+        return f'"{text}"'
     if isinstance(value, bool | np.bool_):
         return "true" if value else "false"
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):

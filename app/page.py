@@ -10,6 +10,7 @@ the parameters read from (and written back to) the URL, compute on the shared th
 :mod:`app.jobs`, and the session's results released when it closes. Outside a server session (scripts,
 tests) jobs run inline.
 """
+
 from __future__ import annotations
 
 import threading
@@ -39,8 +40,13 @@ __all__ = ["LONG_JOBS", "TAB_TITLES", "TITLE", "LocalFast", "SessionGate", "crea
 TITLE = "Kalman–Bucy vs the ISL filter: filtering with unknown noise intensity"
 ACCENT = "#1f4fc1"  #: the header's and the widgets' accent colour (white text on it: 7.3 : 1)
 #: the tabs' titles, in the order of :data:`app.state.TABS`
-TAB_TITLES = {"trajectories": "Trajectories (paper A, Fig. 3)", "sweep": "ν sweep (paper A, Fig. 2)",
-              "worstcase": "Worst case over σ", "compare": "Compare σ", "scenarios": "Scenarios: σ(t), tails, sensor"}
+TAB_TITLES = {
+    "trajectories": "Trajectories (paper A, Fig. 3)",
+    "sweep": "ν sweep (paper A, Fig. 2)",
+    "worstcase": "Worst case over σ",
+    "compare": "Compare σ",
+    "scenarios": "Scenarios: σ(t), tails, sensor",
+}
 PAGE_CSS = a11y.PAGE_CSS
 
 #: the server's one queue of long jobs (sweeps, recommendations, worst cases): every session's, one at a time, each
@@ -65,6 +71,7 @@ def _serialize_busy_bookkeeping() -> None:
         def locked(*args, _method=method, **kwargs):
             with lock:
                 return _method(*args, **kwargs)
+
         setattr(pn.state, name, locked)
 
 
@@ -172,8 +179,10 @@ class LocalFast(pn.theme.Fast):
     _resources: ClassVar[dict[str, Any]] = {
         **{kind: res for kind, res in pn.theme.Fast._resources.items() if kind != "font"},
         # Panel names a design's own files after the class ("localfast/..."): point at the Fast design's file
-        "js_modules": {**pn.theme.Fast._resources["js_modules"],
-                       "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js"},
+        "js_modules": {
+            **pn.theme.Fast._resources["js_modules"],
+            "fast-design": f"{CDN_DIST}bundled/fast/js/fast_design.js",
+        },
     }
     #: every component also gets the page's own rules (``theme.css``: the focus ring, text colours at 4.5 : 1)
     modifiers: ClassVar[dict[Any, dict[str, Any]]] = {
@@ -221,26 +230,53 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     hardening.release_on_destroy(state.close)
     skip_same_stylesheet(pn.state.curdoc)
     basis = round(620 * text_scale(state))  # the plots' least width beside the numbers (wider text: wider plots)
-    trajectories = deferred(lambda: pn.FlexBox(  # the numbers beside the plots where both fit, else below them
-        pn.Column(TrajectoriesView(state=state), styles={"flex": f"1 1 {basis}px", "min-width": "0"},
-                  sizing_mode="stretch_width"),
-        NumbersView(state=state), flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width"))
+    trajectories = deferred(
+        lambda: pn.FlexBox(  # the numbers beside the plots where both fit, else below them
+            pn.Column(
+                TrajectoriesView(state=state),
+                styles={"flex": f"1 1 {basis}px", "min-width": "0"},
+                sizing_mode="stretch_width",
+            ),
+            NumbersView(state=state),
+            flex_wrap="wrap",
+            align_items="flex-start",
+            sizing_mode="stretch_width",
+        )
+    )
     # (the numbers' column is as wide as its table at the page's font size: 430 px, or more in presenter mode)
     present = state.present
-    views = {"trajectories": trajectories,
-             "sweep": on_first_open(state, "sweep", lambda: SweepView(state=state)),
-             "worstcase": on_first_open(state, "worstcase", lambda: WorstCaseView(state=state)),
-             "compare": on_first_open(state, "compare", lambda: CompareView(state=state)),
-             "scenarios": on_first_open(state, "scenarios", lambda: ScenarioView(state=state))}
-    tabs = pn.Tabs(*((TAB_TITLES[name], views[name]) for name in TABS), active=TABS.index(state.tab),
-                   sizing_mode="stretch_width", dynamic=True)  # a hidden tab is not built until it is opened
+    views = {
+        "trajectories": trajectories,
+        "sweep": on_first_open(state, "sweep", lambda: SweepView(state=state)),
+        "worstcase": on_first_open(state, "worstcase", lambda: WorstCaseView(state=state)),
+        "compare": on_first_open(state, "compare", lambda: CompareView(state=state)),
+        "scenarios": on_first_open(state, "scenarios", lambda: ScenarioView(state=state)),
+    }
+    tabs = pn.Tabs(
+        *((TAB_TITLES[name], views[name]) for name in TABS),
+        active=TABS.index(state.tab),
+        sizing_mode="stretch_width",
+        dynamic=True,
+    )  # a hidden tab is not built until it is opened
     _link_tabs(tabs, state)
     page = pn.template.FastListTemplate(
-        title=TITLE, sidebar=[deferred(about_card), deferred(lambda: ControlsView(state=state)),
-                              deferred(lambda: FiltersPanel(state=state))], main=[tabs],
-        sidebar_width=340, accent_base_color=ACCENT, header_background=ACCENT, theme_toggle=False,
-        main_layout=None, busy_indicator=None, design=LocalFast, font="sans-serif",
-        header=[docs_link(), presenter_toggle(present)], collapsed_sidebar=present,
+        title=TITLE,
+        sidebar=[
+            deferred(about_card),
+            deferred(lambda: ControlsView(state=state)),
+            deferred(lambda: FiltersPanel(state=state)),
+        ],
+        main=[tabs],
+        sidebar_width=340,
+        accent_base_color=ACCENT,
+        header_background=ACCENT,
+        theme_toggle=False,
+        main_layout=None,
+        busy_indicator=None,
+        design=LocalFast,
+        font="sans-serif",
+        header=[docs_link(), presenter_toggle(present)],
+        collapsed_sidebar=present,
         raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
     a11y.install(pn.state.curdoc)
@@ -274,9 +310,14 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
     only once it was whole, and a tab stayed blank for 2–3 s."""
     if state.tab == name:
         return deferred(build)
-    holder = pn.Column(pn.Row(pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
-                              pn.pane.Markdown(f"**Building “{TAB_TITLES[name]}” …**", margin=(6, 0)),
-                              margin=(20, 10)), sizing_mode="stretch_width")
+    holder = pn.Column(
+        pn.Row(
+            pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
+            pn.pane.Markdown(f"**Building “{TAB_TITLES[name]}” …**", margin=(6, 0)),
+            margin=(20, 10),
+        ),
+        sizing_mode="stretch_width",
+    )
     started = threading.Event()
     doc = pn.state.curdoc
 
@@ -292,8 +333,11 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
         return part
 
     def show(outcome, superseded: bool) -> None:
-        holder.objects = [outcome.value if outcome.error is None else pn.pane.Alert(
-            f"This view could not be built: {state.describe(outcome.error)}.", alert_type="danger")]
+        holder.objects = [
+            outcome.value
+            if outcome.error is None
+            else pn.pane.Alert(f"This view could not be built: {state.describe(outcome.error)}.", alert_type="danger")
+        ]
 
     def opened(*events) -> None:
         if state.tab == name and not started.is_set():
@@ -306,6 +350,7 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
 
 def _link_tabs(tabs: pn.Tabs, state: AppState) -> None:
     """The open tab and the state's ``tab`` input follow each other (so the link and presenter mode keep it)."""
+
     def from_tabs(event) -> None:
         if TABS[event.new] != state.tab:
             state.tab = TABS[event.new]
@@ -320,9 +365,13 @@ def _link_tabs(tabs: pn.Tabs, state: AppState) -> None:
 
 def presenter_toggle(present: bool) -> pn.widgets.Button:
     """The header's one toggle of presenter mode, kept in the URL (``present=1``)."""
-    button = pn.widgets.Button(label="Leave presenter mode" if present else "Presenter mode", color="light",
-                               variant="outline", width=240, margin=(12, 10),
-                               description="Larger text and the controls folded away, for a projector; the "
-                                           "setting stays in the link")
+    button = pn.widgets.Button(
+        label="Leave presenter mode" if present else "Presenter mode",
+        color="light",
+        variant="outline",
+        width=240,
+        margin=(12, 10),
+        description="Larger text and the controls folded away, for a projector; the setting stays in the link",
+    )
     button.js_on_click(code=_TOGGLE_JS)
     return button

@@ -5,6 +5,7 @@ lowers its horizon to the longest the dashboard allows when it would need too ma
 it through the core (:func:`isl_core.runview.simulate_view`: decimated while it runs), with the theory's predicted
 ratios beside it. Pure functions: they run on a worker thread (:mod:`app.jobs`) and touch no state.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -23,8 +24,19 @@ from .jobs import Cancelled
 from .text import R_MIN, num
 
 __all__ = [
-    "APP_MAX_STEPS", "COORDINATES", "HORIZON_BOUNDS", "LIVE_MAX_STEPS", "Request", "Result", "Traces", "compute",
-    "describe", "extra_filters", "fit", "plan", "traces",
+    "APP_MAX_STEPS",
+    "COORDINATES",
+    "HORIZON_BOUNDS",
+    "LIVE_MAX_STEPS",
+    "Request",
+    "Result",
+    "Traces",
+    "compute",
+    "describe",
+    "extra_filters",
+    "fit",
+    "plan",
+    "traces",
 ]
 
 log = logging.getLogger("app.state")
@@ -124,10 +136,13 @@ def fit(req: Request, planned=None) -> tuple[Request, str]:
         raise ValueError(
             f"this setting needs {grid.N * shortest / req.horizon:,.0f} steps even at the shortest horizon "
             f"({num(shortest)} × 1/{R_MIN}), over the dashboard's limit of {APP_MAX_STEPS:,}: the fastest filter "
-            "forces a tiny step; lower ν or raise σ")
-    return (dataclasses.replace(req, horizon=horizon),
-            f"horizon lowered from {num(req.horizon)} to {num(horizon)} × 1/{R_MIN}: the run needs {grid.N:,} steps, "
-            f"over the dashboard's limit of {APP_MAX_STEPS:,}")
+            "forces a tiny step; lower ν or raise σ"
+        )
+    return (
+        dataclasses.replace(req, horizon=horizon),
+        f"horizon lowered from {num(req.horizon)} to {num(horizon)} × 1/{R_MIN}: the run needs {grid.N:,} steps, "
+        f"over the dashboard's limit of {APP_MAX_STEPS:,}",
+    )
 
 
 def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
@@ -153,8 +168,9 @@ def compute(req: Request, *, nearest: bool = False, progress=None) -> Result:
         )
     # the plan's step is the one simulate_view would choose (the same T, so the same N and h bit for bit): passing it
     # spares the step-size search over every filter, about a third of a run's time at the defaults
-    run = simulate_view(model, req.nu, horizon=req.horizon, h=grid.h, seed=req.seed, extra=extra, step_filters=every,
-                        progress=progress)
+    run = simulate_view(
+        model, req.nu, horizon=req.horizon, h=grid.h, seed=req.seed, extra=extra, step_filters=every, progress=progress
+    )
     prediction = np.asarray(predicted_ratios(model, req.nu))
     return Result(run, traces(run), prediction, extras.extra_theory(model, extra), req, adjusted)
 

@@ -18,6 +18,7 @@ after it) and returns, beside the runs:
 Costs (:func:`costs`) are measured once per server and set of filters: nanoseconds a step of each filter beside the
 loop's own three, on this server's CPU.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -46,8 +47,17 @@ from isl_core.scenario.tuning import FAMILIES, Tuning, tune
 
 from .text import R_MIN, powers
 
-__all__ = ["LOOP", "PICTURE_MAX_STEPS", "Picture", "ScenarioRequest", "costs", "picture_csv", "picture_filters",
-           "scenario_picture", "tuning_for"]
+__all__ = [
+    "LOOP",
+    "PICTURE_MAX_STEPS",
+    "Picture",
+    "ScenarioRequest",
+    "costs",
+    "picture_csv",
+    "picture_filters",
+    "scenario_picture",
+    "tuning_for",
+]
 
 #: runs × steps of one picture: ≈ 5 µs a step for its ten filters (the IMM's 16 modes the most) on this 2-core
 #: machine, so ≈ 10 s at most
@@ -115,9 +125,13 @@ def _tuned(req: ScenarioRequest, tuning: Tuning) -> tuple[list, dict[str, str]]:
 def _untuned(req: ScenarioRequest) -> tuple[list, dict[str, str]]:
     model, lo_hi = req.model, req.sigma_range
     guess = math.sqrt(lo_hi[0] * lo_hi[1])
-    specs = [model_aware_isl(model, req.nu), adaptive_kbf(model, sigma_range=lo_hi, sigma_init=guess),
-             variational_kbf(model, sigma_init=guess), robust_kbf(model, sigma_range=lo_hi, sigma_init=guess),
-             imm_kbf(model)]
+    specs = [
+        model_aware_isl(model, req.nu),
+        adaptive_kbf(model, sigma_range=lo_hi, sigma_init=guess),
+        variational_kbf(model, sigma_init=guess),
+        robust_kbf(model, sigma_range=lo_hi, sigma_init=guess),
+        imm_kbf(model),
+    ]
     return specs, {s.name: "untuned: the constructor's default" for s in specs}
 
 
@@ -135,16 +149,30 @@ def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
     _, n, _ = scenario_grid(req.model, req.nu, req.scenario, [*extra, *(grid or [])], req.horizon)
     if n * req.runs > PICTURE_MAX_STEPS:
         most = max(1, PICTURE_MAX_STEPS // n)
-        raise ValueError(f"{req.runs} runs of {n:,} steps are {n * req.runs:,} steps, over the dashboard's "
-                         f"{PICTURE_MAX_STEPS:,} for a scenario: lower the runs averaged (sc_runs) to {most} or the "
-                         "scenario horizon (sc_horizon)")
+        raise ValueError(
+            f"{req.runs} runs of {n:,} steps are {n * req.runs:,} steps, over the dashboard's "
+            f"{PICTURE_MAX_STEPS:,} for a scenario: lower the runs averaged (sc_runs) to {most} or the "
+            "scenario horizon (sc_horizon)"
+        )
     windows = max(1, min(n, round(SHORT_PER_WINDOW * req.horizon / req.window)))
-    avg = average_scenario(req.model, req.nu, req.scenario, seeds=range(req.seed, req.seed + req.runs),
-                           horizon=req.horizon, windows=windows, extra=extra, progress=progress, grid_filters=grid)
+    avg = average_scenario(
+        req.model,
+        req.nu,
+        req.scenario,
+        seeds=range(req.seed, req.seed + req.runs),
+        horizon=req.horizon,
+        windows=windows,
+        extra=extra,
+        progress=progress,
+        grid_filters=grid,
+    )
     periods = avg.periods() if req.runs > 1 else None
     words = {"clairvoyant": "knows σ(t)", "kbf": "knows σ(0)", "isl": "the ν input", **words}
-    origin = tuning.origin.replace("r_min", R_MIN) if tuning is not None else (
-        "not tuned yet for this α, m and w: the filters that learn σ run at their constructors' defaults")
+    origin = (
+        tuning.origin.replace("r_min", R_MIN)
+        if tuning is not None
+        else ("not tuned yet for this α, m and w: the filters that learn σ run at their constructors' defaults")
+    )
     pic = Picture(req, avg, avg.rolling(req.window), periods, words, origin, tuple(extra), tuning)
     return dataclasses.replace(pic, costs=costs(pic))
 
@@ -170,14 +198,18 @@ def picture_csv(pic: Picture) -> str:
     """The picture's rolling ratios, intervals, σ(t) and σ̂(t) as CSV, its settings and tunings in ``#`` lines."""
     req, roll, run = pic.request, pic.rolling, pic.average.run
     out = io.StringIO()
-    out.write(f"# isl scenario picture: alpha={req.alpha:g} beta={req.beta:g} sigma(0)={req.sigma:g} m={req.m} "
-              f"nu={req.nu:g} seeds={req.seed}..{req.seed + req.runs - 1} horizon={req.horizon:g}/r_min "
-              f"window={roll.width:g}/r_min sigma_range={req.sigma_range[0]:g}..{req.sigma_range[1]:g}\n")
+    out.write(
+        f"# isl scenario picture: alpha={req.alpha:g} beta={req.beta:g} sigma(0)={req.sigma:g} m={req.m} "
+        f"nu={req.nu:g} seeds={req.seed}..{req.seed + req.runs - 1} horizon={req.horizon:g}/r_min "
+        f"window={roll.width:g}/r_min sigma_range={req.sigma_range[0]:g}..{req.sigma_range[1]:g}\n"
+    )
     out.write(f"# scenario: {req.scenario!r}\n# tuning: {pic.origin}\n")
     for name, label in zip(run.names, run.labels, strict=True):
         out.write(f"# {name}: {label} ({pic.tuning.get(name, '')})\n")
-    out.write("# ratio: RMSE of the filter over the clairvoyant filter's exact sd, worst coordinate, mean square over "
-              "the seeds (simulated; a maximum over noisy coordinates: biased upwards); low/high: 95 % interval\n")
+    out.write(
+        "# ratio: RMSE of the filter over the clairvoyant filter's exact sd, worst coordinate, mean square over "
+        "the seeds (simulated; a maximum over noisy coordinates: biased upwards); low/high: 95 % interval\n"
+    )
     names = run.names
     cols = ["t_over_r_min", "sigma"] + [f"sigma_hat_{n}" for n in pic.average.learning]
     for n in names:
@@ -186,8 +218,11 @@ def picture_csv(pic: Picture) -> str:
     for j, t in enumerate(roll.t):
         row = [f"{t:.6g}", f"{roll.sigma[j]:.6g}", *(f"{v:.6g}" for v in roll.sigma_hat[j])]
         for f in range(len(names)):
-            row += [f"{roll.ratio[j, f]:.6g}", f"{roll.low[j, f]:.6g}", f"{roll.high[j, f]:.6g}",
-                    str(int(roll.coordinate[j, f]) + 1)]
+            row += [
+                f"{roll.ratio[j, f]:.6g}",
+                f"{roll.low[j, f]:.6g}",
+                f"{roll.high[j, f]:.6g}",
+                str(int(roll.coordinate[j, f]) + 1),
+            ]
         out.write(",".join(row) + "\n")
     return out.getvalue()
-

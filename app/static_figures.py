@@ -11,6 +11,7 @@
 Views only: they take :class:`isl_core.SweepResult` / :class:`isl_core.runview.RunView` objects and never compute;
 the trajectories come decimated by the core (:mod:`isl_core.decimate`, the project's one decimation function).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -61,8 +62,7 @@ def fig2_png(res, path: str | Path, *, dpi: int = 110) -> Path:
                 col = _COLORS[b % len(_COLORS)]
                 y = res.ratio[a, b, :, i]
                 err = np.vstack([y - res.ratio_low[a, b, :, i], res.ratio_high[a, b, :, i] - y])
-                ax.errorbar(x, y, yerr=err, color=col, ls=_MPL_DASH[styles[b]], marker="o", ms=2.5, lw=1.2,
-                            capsize=1.5)
+                ax.errorbar(x, y, yerr=err, color=col, ls=_MPL_DASH[styles[b]], marker="o", ms=2.5, lw=1.2, capsize=1.5)
                 ax.plot(x, res.theory[a, b, :, i], color=col, ls=THEORY_DASH, lw=0.8, alpha=0.7)
             ax.axhline(1.0, color="0.6", lw=0.6)
             ax.set_xscale("log", base=2)
@@ -76,13 +76,26 @@ def fig2_png(res, path: str | Path, *, dpi: int = 110) -> Path:
                 ax.set_ylabel(f"α = {res.alphas[a]:g}")
             if a == na - 1:
                 ax.set_xlabel("ν/β")
-    handles = [Line2D([], [], color=_COLORS[b % len(_COLORS)], ls=_MPL_DASH[styles[b]], marker="o", ms=2.5,
-                      label=f"σ = {res.sigmas[b]:g} (simulated)") for b in range(ns)]
+    handles = [
+        Line2D(
+            [],
+            [],
+            color=_COLORS[b % len(_COLORS)],
+            ls=_MPL_DASH[styles[b]],
+            marker="o",
+            ms=2.5,
+            label=f"σ = {res.sigmas[b]:g} (simulated)",
+        )
+        for b in range(ns)
+    ]
     handles.append(Line2D([], [], color="0.4", ls=THEORY_DASH, lw=0.8, label="theory (statistical linearization)"))
     axes[0, -1].legend(handles=handles, fontsize=7, loc="best")
     model = f"β = {res.beta:g}" if res.beta is not None else f"w = {res.w:g}"
-    fig.suptitle(f"ISL / optimal RMSE ratio (m = {m}, {model}; horizon {res.horizon:g}/r_min × "
-                 f"{len(res.seeds)} seeds; {res.level:.0%} intervals)", fontsize=9)
+    fig.suptitle(
+        f"ISL / optimal RMSE ratio (m = {m}, {model}; horizon {res.horizon:g}/r_min × "
+        f"{len(res.seeds)} seeds; {res.level:.0%} intervals)",
+        fontsize=9,
+    )
     path = Path(path)
     fig.savefig(path, dpi=dpi)
     return path
@@ -108,24 +121,44 @@ def fig2_html(res, path: str | Path) -> Path:
     for a in range(na):
         row = []
         for i in range(m):
-            p = figure(width=330, height=230, x_axis_type="log", y_axis_type="log",
-                       title=f"α = {res.alphas[a]:g}, i = {i + 1}", tools="pan,wheel_zoom,box_zoom,reset,save,hover",
-                       tooltips=[("ν/β", "@x"), ("ratio", "@y"), ("theory", "@theory"), ("σ", "@sigma")],
-                       **({} if x_range is None else {"x_range": x_range}))
+            p = figure(
+                width=330,
+                height=230,
+                x_axis_type="log",
+                y_axis_type="log",
+                title=f"α = {res.alphas[a]:g}, i = {i + 1}",
+                tools="pan,wheel_zoom,box_zoom,reset,save,hover",
+                tooltips=[("ν/β", "@x"), ("ratio", "@y"), ("theory", "@theory"), ("σ", "@sigma")],
+                **({} if x_range is None else {"x_range": x_range}),
+            )
             x_range = x_range or p.x_range
             for b in range(ns):
                 col = _COLORS[b % len(_COLORS)]
                 style = _sigma_styles(res.sigmas)[b]
-                src = ColumnDataSource(dict(
-                    x=res.nu_over_beta, y=res.ratio[a, b, :, i], lo=res.ratio_low[a, b, :, i],
-                    hi=res.ratio_high[a, b, :, i], theory=res.theory[a, b, :, i],
-                    sigma=np.full(len(res.nu_over_beta), res.sigmas[b])))
+                src = ColumnDataSource(
+                    dict(
+                        x=res.nu_over_beta,
+                        y=res.ratio[a, b, :, i],
+                        lo=res.ratio_low[a, b, :, i],
+                        hi=res.ratio_high[a, b, :, i],
+                        theory=res.theory[a, b, :, i],
+                        sigma=np.full(len(res.nu_over_beta), res.sigmas[b]),
+                    )
+                )
                 legend = f"σ = {res.sigmas[b]:g}"
                 p.line("x", "y", source=src, color=col, line_dash=style, line_width=1.5, legend_label=legend)
                 p.scatter("x", "y", source=src, color=col, size=4, legend_label=legend)
                 p.add_layout(Whisker(source=src, base="x", lower="lo", upper="hi", line_color=col))
-                p.line("x", "theory", source=src, color=col, line_dash="8 3", line_width=1, alpha=0.7,
-                       legend_label="theory")
+                p.line(
+                    "x",
+                    "theory",
+                    source=src,
+                    color=col,
+                    line_dash="8 3",
+                    line_width=1,
+                    alpha=0.7,
+                    legend_label="theory",
+                )
             p.xaxis.axis_label = "ν/β" if a == na - 1 else ""
             p.legend.label_text_font_size = "7pt"
             p.legend.click_policy = "hide"
@@ -139,11 +172,13 @@ def _fig3_lines(view, i: int) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
     X̂ ± 3 s (one label) and each other filter's estimate. Styles are matplotlib's; ``ls`` "--" is dashed."""
     kbf, isl = view.tracks[0].estimate[i], view.tracks[1].estimate[i]
     tube = 3.0 * float(view.s[i])
-    lines = [("X (truth)", view.truth[i].t, view.truth[i].y, {"color": TRUTH, "lw": 0.9}),
-             ("X̂ (Kalman–Bucy, knows σ)", kbf.t, kbf.y, {"color": KBF, "lw": 0.9}),
-             ("X̌ (ISL, σ unknown)", isl.t, isl.y, {"color": ISL, "lw": 0.9}),
-             ("X̂ ± 3s (optimal RMSE)", kbf.t, kbf.y - tube, {"color": KBF, "ls": "--", "lw": 0.7}),
-             ("", kbf.t, kbf.y + tube, {"color": KBF, "ls": "--", "lw": 0.7})]
+    lines = [
+        ("X (truth)", view.truth[i].t, view.truth[i].y, {"color": TRUTH, "lw": 0.9}),
+        ("X̂ (Kalman–Bucy, knows σ)", kbf.t, kbf.y, {"color": KBF, "lw": 0.9}),
+        ("X̌ (ISL, σ unknown)", isl.t, isl.y, {"color": ISL, "lw": 0.9}),
+        ("X̂ ± 3s (optimal RMSE)", kbf.t, kbf.y - tube, {"color": KBF, "ls": "--", "lw": 0.7}),
+        ("", kbf.t, kbf.y + tube, {"color": KBF, "ls": "--", "lw": 0.7}),
+    ]
     for tr in view.tracks[2:]:
         est = tr.estimate[i]
         lines.append((tr.label, est.t, est.y, {"color": EXTRA_COLORS.get(tr.name, "gray"), "lw": 0.8}))
@@ -153,8 +188,10 @@ def _fig3_lines(view, i: int) -> list[tuple[str, np.ndarray, np.ndarray, dict]]:
 def _fig3_title(view, sep: str = " ") -> str:
     """The run's parameters (``sep`` between σ, the model and the grid: a new line where a column is narrow)."""
     md = view.model
-    return (f"σ = {md.sigma:g}{sep}(m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed},"
-            f"{sep}T = {view.T:.4g} = {view.horizon:.3g}/rₘᵢₙ, N = {view.N:,})")
+    return (
+        f"σ = {md.sigma:g}{sep}(m = {md.m}, α = {md.alpha:g}, β = {md.beta:g}, ν = {view.nu:g}, seed {view.seed},"
+        f"{sep}T = {view.T:.4g} = {view.horizon:.3g}/rₘᵢₙ, N = {view.N:,})"
+    )
 
 
 def fig3_png(views, path, *, dpi: int = 110, note: str = "", font: float = 1.0):
@@ -179,8 +216,13 @@ def fig3_png(views, path, *, dpi: int = 110, note: str = "", font: float = 1.0):
             if i == m - 1:
                 ax.set_xlabel("t", fontsize=10 * font)
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 2 if len(views) == 1 else 4),
-               fontsize=9.5 * font)
+    fig.legend(
+        handles,
+        labels,
+        loc="outside lower center",
+        ncols=min(len(labels), 2 if len(views) == 1 else 4),
+        fontsize=9.5 * font,
+    )
     if note:
         fig.suptitle(note, fontsize=9.5 * font)
     fig.savefig(path, dpi=dpi, format="png")
@@ -197,14 +239,24 @@ def fig3_html(runs, path: str | Path) -> Path:
     for run in runs:
         col, x_range = [], None
         for i in range(m):
-            p = figure(width=520, height=210, title=_fig3_title(run) if i == 0 else None,
-                       tools="pan,xwheel_zoom,box_zoom,reset,save", **({} if x_range is None else {"x_range": x_range}))
+            p = figure(
+                width=520,
+                height=210,
+                title=_fig3_title(run) if i == 0 else None,
+                tools="pan,xwheel_zoom,box_zoom,reset,save",
+                **({} if x_range is None else {"x_range": x_range}),
+            )
             x_range = x_range or p.x_range
             tube = ""
             for label, t, y, style in _fig3_lines(run, i):
                 tube = label or tube  # the tube's upper edge shares the lower edge's legend entry
-                p.line(t, y, color=style["color"], line_dash="dashed" if style.get("ls") == "--" else "solid",
-                       legend_label=label or tube)
+                p.line(
+                    t,
+                    y,
+                    color=style["color"],
+                    line_dash="dashed" if style.get("ls") == "--" else "solid",
+                    legend_label=label or tube,
+                )
             p.yaxis.axis_label = _coord(i)
             p.legend.label_text_font_size = "7pt"
             p.legend.click_policy = "hide"

@@ -4,6 +4,7 @@ The page says what it shows in words and symbols a student reads, never in the c
 rₘᵢₙ on the plots' canvas (Unicode subscripts: a canvas has no markup) and r<sub>min</sub> in HTML; a number is
 written plainly, never in a program's exponent notation ("1000/rₘᵢₙ", not "1e+03/r_min").
 """
+
 from __future__ import annotations
 
 import math
@@ -50,7 +51,9 @@ _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 def powers(text: str) -> str:
     """``2^-4`` written 2⁻⁴ (a whole exponent in superscript), ``2^-4.5`` written 2^(−4.5)."""
+
     def sup(match: re.Match) -> str:
         e = match.group(2)
         return match.group(1) + (e.translate(_SUPERSCRIPT) if "." not in e else f"^({e.replace('-', '−')})")
+
     return re.sub(r"(\d)\^(-?\d+(?:\.\d+)?)", sup, text)

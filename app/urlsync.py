@@ -19,6 +19,7 @@
   drag would land in the middle of the next update). Outside a served session (tests, scripts) it is written at
   once.
 """
+
 from __future__ import annotations
 
 import json
@@ -67,8 +68,10 @@ def read_query(search: str) -> tuple[dict[str, object], dict[str, str]]:
     once (its last value). Never raises, whatever the text."""
     search = search if isinstance(search, str) else ""
     if len(search) > MAX_QUERY:
-        return {}, {"": f"the link's query is {len(search):,} characters long (at most {MAX_QUERY:,} are read); "
-                        "every input keeps its default"}
+        return {}, {
+            "": f"the link's query is {len(search):,} characters long (at most {MAX_QUERY:,} are read); "
+            "every input keeps its default"
+        }
     try:
         pairs = urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True, max_num_fields=MAX_FIELDS)
     except ValueError:
@@ -95,8 +98,9 @@ def parse_query(search: str) -> dict[str, object]:
 
 def query_string(state: AppState, search: str = "") -> str:
     """``search`` with the known inputs replaced by the state's non-default ones (unknown keys are kept)."""
-    kept = [(k, v) for k, v in urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True)
-            if k not in URL_INPUTS]
+    kept = [
+        (k, v) for k, v in urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True) if k not in URL_INPUTS
+    ]
     ours = [(n, _encode(state.get(n))) for n in URL_INPUTS if state.get(n) != PARAMS[n].default]
     query = urllib.parse.urlencode(kept + ours, safe="[],:")
     return f"?{query}" if query else ""
@@ -105,8 +109,13 @@ def query_string(state: AppState, search: str = "") -> str:
 class UrlSync:
     """Two-way link between ``state``'s inputs and ``location`` (a Panel ``Location``), see the module doc."""
 
-    def __init__(self, state: AppState, location, defer: Callable[[Callable[[], None], float], None] | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        state: AppState,
+        location,
+        defer: Callable[[Callable[[], None], float], None] | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         """``defer(fn, after)`` runs ``fn`` ``after`` seconds later (:func:`after_pause`); without it the URL is
         written at once. ``clock``: seconds, for the time since the last input changed."""
         self.state, self.location = state, location

@@ -24,6 +24,7 @@ this one, in one run and one browser: each figure is printed for both.
 
 The machine's load average is printed: the figures are only comparable on an idle machine.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -153,9 +154,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--changes", type=int, default=25)
     ap.add_argument("--query", action="append", help="URL query of a scenario (repeatable)")
-    ap.add_argument("--before", type=Path, metavar="CHECKOUT",
-                    help="first measure a server started from this other checkout (e.g. a git worktree of an "
-                         "older commit), then this one's")
+    ap.add_argument(
+        "--before",
+        type=Path,
+        metavar="CHECKOUT",
+        help="first measure a server started from this other checkout (e.g. a git worktree of an "
+        "older commit), then this one's",
+    )
     args = ap.parse_args()
     queries = args.query or ["", "horizon=1000"]
     servers = ({"before": args.before.resolve()} if args.before else {}) | {"after" if args.before else "this": ROOT}

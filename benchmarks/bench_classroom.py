@@ -22,11 +22,11 @@ Prints one table: errors, liveness p50/p99/max, the students' latency p50/p95 (b
 times (idle and loaded), RSS (idle, peak, after close), and what the heavy sessions got done. The machine's load
 average is printed too: figures are only comparable on an otherwise idle machine.
 """
+
 from __future__ import annotations
 
 import argparse
 import asyncio
-import multiprocessing
 import os
 import random
 import re
@@ -42,9 +42,12 @@ from bokeh.models import Markup
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import load_test as lt  # the load scenario and the scripted client live in scripts/
 import session_client as sc
+from _liveness import LivenessProbe
 
-HEAVY = ("alpha=1&w=1&sigma=1&m=6&nu=10000&horizon=1000"
-         "&extra_filters=[\"kbf_mismatched\",\"kbf_minimax\",\"kbf_adaptive\",\"isl_model\"]")
+HEAVY = (
+    "alpha=1&w=1&sigma=1&m=6&nu=10000&horizon=1000"
+    '&extra_filters=["kbf_mismatched","kbf_minimax","kbf_adaptive","isl_model"]'
+)
 WORST = "m=6&wc_n_sigma=11&wc_horizon=2000"
 TIMELINE: list = []
 DONE = re.compile(r"Simulated in|Failed|Refused|refused|queue|Cancelled")
@@ -85,53 +88,15 @@ async def page_ready(base: str, figures: Figures, query: str = "") -> float | No
         figures.errors.append(f"page: {exc!r}")
         return None
     try:
-        if not await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]),
-                                        120.0):
+        if not await client.wait_until(
+            lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]), 120.0
+        ):
             figures.errors.append("page: no run within 120 s")
             return None
         return time.perf_counter() - t0
     finally:
         figures.errors.extend(client.errors)
         await client.close()
-
-
-def _probe_liveness(base: str, interval: float, stop, out) -> None:
-    """In a process of its own: GET /liveness every ``interval`` s until ``stop`` is set; ``(t0, seconds or an
-    error text)`` per probe go to ``out`` at the end. (Probed from the clients' event loop, the figure included that
-    loop's own stalls — applying 44 sessions' patches in one Python process stalls it for up to 0.8 s.)"""
-    import urllib.request
-
-    results = []
-    while not stop.is_set():
-        t0 = time.perf_counter()
-        try:
-            with urllib.request.urlopen(f"{base}/liveness", timeout=30.0) as r:
-                results.append((t0, time.perf_counter() - t0 if r.status == 200 else f"HTTP {r.status}"))
-        except Exception as exc:  # noqa: BLE001
-            results.append((t0, repr(exc)))
-        stop.wait(interval)
-    out.send(results)
-
-
-class LivenessProbe:
-    """``/liveness`` probed every 0.25 s from a separate process (:func:`_probe_liveness`)."""
-
-    def __init__(self, base: str, interval: float = 0.25) -> None:
-        ctx = multiprocessing.get_context("spawn")
-        self.stop, (self._recv, send) = ctx.Event(), ctx.Pipe(duplex=False)
-        self.process = ctx.Process(target=_probe_liveness, args=(base, interval, self.stop, send), daemon=True)
-        self.process.start()
-
-    async def finish(self, figures: Figures) -> None:
-        self.stop.set()
-        results = await asyncio.get_running_loop().run_in_executor(None, self._recv.recv)
-        self.process.join(10)
-        for t0, outcome in results:
-            if isinstance(outcome, str):
-                figures.errors.append(f"liveness: {outcome}")
-            else:
-                figures.liveness.append(outcome)
-                TIMELINE.append((t0, "liveness", outcome))
 
 
 def _button(doc, label: str):
@@ -147,8 +112,9 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
         while not stop.is_set() and not client.closed:
             before = list(_traj(client.doc).data["y"][:8])
             await client.send_event(ButtonClick(_button(client.doc, "new noise")))
-            changed = await client.wait_until(lambda b=before: list(_traj(client.doc).data["y"][:8]) != b
-                                              or stop.is_set(), 300.0)
+            changed = await client.wait_until(
+                lambda b=before: list(_traj(client.doc).data["y"][:8]) != b or stop.is_set(), 300.0
+            )
             if changed and not stop.is_set():
                 figures.heavy_runs += 1
                 TIMELINE.append((time.perf_counter(), "heavy run shown", 0.0))
@@ -172,8 +138,11 @@ async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
             TIMELINE.append((time.perf_counter(), "worst case pressed", 0.0))
 
             def answered(notes=notes) -> bool:
-                return stop.is_set() or any(isinstance(m, Markup) and m.text != notes.get(m.id)
-                                            and DONE.search(m.text or "") for m in client.doc.models)
+                return stop.is_set() or any(
+                    isinstance(m, Markup) and m.text != notes.get(m.id) and DONE.search(m.text or "")
+                    for m in client.doc.models
+                )
+
             if await client.wait_until(answered, 900.0) and not stop.is_set():
                 figures.worst_tables += 1
                 await client.wait_until(lambda: stop.is_set(), 2.0)  # a student reads the table, then asks again
@@ -182,13 +151,19 @@ async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
         await client.close()
 
 
-async def students(base: str, n: int, figures: Figures, phases: list[tuple[float, list[float]]],
-                   stop: asyncio.Event) -> None:
+async def students(
+    base: str, n: int, figures: Figures, phases: list[tuple[float, list[float]]], stop: asyncio.Event
+) -> None:
     """``n`` light sessions; in each phase (seconds, list to fill) each moves the σ slider every ~3 s."""
     clients = []
     for first in range(0, n, 10):
-        batch = await asyncio.gather(*(sc.BokehClient.connect(base, light=True, timeout=sc.CONNECT_TIMEOUT_S)
-                                       for _ in range(first, min(first + 10, n))), return_exceptions=True)
+        batch = await asyncio.gather(
+            *(
+                sc.BokehClient.connect(base, light=True, timeout=sc.CONNECT_TIMEOUT_S)
+                for _ in range(first, min(first + 10, n))
+            ),
+            return_exceptions=True,
+        )
         for c in batch:
             (figures.errors.append(f"student connect: {c!r}") if isinstance(c, BaseException) else clients.append(c))
         for c in clients[first:]:
@@ -213,8 +188,9 @@ async def students(base: str, n: int, figures: Figures, phases: list[tuple[float
     try:
         for seconds, out in phases:
             until = time.perf_counter() + seconds
-            results = await asyncio.gather(*(one(k, c, until, out) for k, c in enumerate(clients)),
-                                           return_exceptions=True)
+            results = await asyncio.gather(
+                *(one(k, c, until, out) for k, c in enumerate(clients)), return_exceptions=True
+            )
             figures.errors.extend(f"student: {r!r}" for r in results if isinstance(r, BaseException))
             if out is phases[0][1]:
                 stop.set()  # the baseline is over: the heavy sessions may start
@@ -234,8 +210,9 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
             fig.ready_idle.append(t)
     baseline_over, stop_heavy = asyncio.Event(), asyncio.Event()
     probe = LivenessProbe(base)
-    crowd = asyncio.ensure_future(students(base, n, fig, [(baseline, fig.baseline), (duration, fig.loaded)],
-                                           baseline_over))
+    crowd = asyncio.ensure_future(
+        students(base, n, fig, [(baseline, fig.baseline), (duration, fig.loaded)], baseline_over)
+    )
     await baseline_over.wait()
     heavy = [asyncio.ensure_future(heavy_runs(base, stop_heavy, fig)) for _ in range(2)]
     heavy += [asyncio.ensure_future(worst_cases(base, stop_heavy, fig)) for _ in range(2)]
@@ -256,7 +233,7 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
             await asyncio.wait_for(task, 60.0)
         except Exception as exc:  # noqa: BLE001
             fig.errors.append(f"heavy session: {exc!r}")
-    await probe.finish(fig)
+    await probe.finish(fig, TIMELINE)
     fig.rss.append(sc.rss_mb(pid))
     deadline = time.perf_counter() + 120.0  # unused sessions are released 10 s after their last connection
     while time.perf_counter() < deadline:
@@ -275,16 +252,28 @@ def rows(f: Figures) -> list[tuple[str, str]]:
     med = lambda xs: statistics.median(xs) if xs else float("nan")  # noqa: E731
     return [
         ("errors", f"{len(f.errors)}" + (f" (first: {f.errors[0][:60]})" if f.errors else "")),
-        ("/liveness p50 / p99 / max", f"{ms(pct(f.liveness, .5))} / {ms(pct(f.liveness, .99))} / "
-                                      f"{ms(pct(f.liveness, 1.0))} ({len(f.liveness)})"),
-        ("students' slider → data p50 / p95, baseline", f"{ms(pct(f.baseline, .5))} / {ms(pct(f.baseline, .95))}"
-                                                        f" ({len(f.baseline)})"),
-        ("students' slider → data p50 / p95, loaded", f"{ms(pct(f.loaded, .5))} / {ms(pct(f.loaded, .95))}"
-                                                      f" ({len(f.loaded)})"),
-        ("new default page ready, idle / loaded (median, max)",
-         f"{med(f.ready_idle):.2f} s / {med(f.ready_loaded):.2f} s, {max(f.ready_loaded, default=float('nan')):.2f} s"),
-        ("server RSS idle / peak / after close", f"{f.rss_idle:.0f} / {max(f.rss, default=float('nan')):.0f} / "
-                                                 f"{f.rss_closed:.0f} MB"),
+        (
+            "/liveness p50 / p99 / max",
+            f"{ms(pct(f.liveness, 0.5))} / {ms(pct(f.liveness, 0.99))} / "
+            f"{ms(pct(f.liveness, 1.0))} ({len(f.liveness)})",
+        ),
+        (
+            "students' slider → data p50 / p95, baseline",
+            f"{ms(pct(f.baseline, 0.5))} / {ms(pct(f.baseline, 0.95))} ({len(f.baseline)})",
+        ),
+        (
+            "students' slider → data p50 / p95, loaded",
+            f"{ms(pct(f.loaded, 0.5))} / {ms(pct(f.loaded, 0.95))} ({len(f.loaded)})",
+        ),
+        (
+            "new default page ready, idle / loaded (median, max)",
+            f"{med(f.ready_idle):.2f} s / {med(f.ready_loaded):.2f} s, "
+            f"{max(f.ready_loaded, default=float('nan')):.2f} s",
+        ),
+        (
+            "server RSS idle / peak / after close",
+            f"{f.rss_idle:.0f} / {max(f.rss, default=float('nan')):.0f} / {f.rss_closed:.0f} MB",
+        ),
         ("heavy runs shown / worst-case answers", f"{f.heavy_runs} / {f.worst_tables}"),
     ]
 
@@ -308,8 +297,13 @@ def measure(opts, repo: Path, env: list[str]) -> Figures:
     if url is None:
         port = sc.free_port()
         log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-classroom-{port}.log"
-        proc = sc.start_server(port, log, ["--stats-interval", "1000", *opts.server_args.split()], repo=repo,
-                               env=dict(item.split("=", 1) for item in env))
+        proc = sc.start_server(
+            port,
+            log,
+            ["--stats-interval", "1000", *opts.server_args.split()],
+            repo=repo,
+            env=dict(item.split("=", 1) for item in env),
+        )
         sc.wait_healthy(port, 180, proc)
         url, pid = f"http://127.0.0.1:{port}", proc.pid
     try:
@@ -328,15 +322,29 @@ def main() -> int:
     p.add_argument("--server-pid", type=int)
     p.add_argument("--log", type=Path, help="the running server's log (with --stats-interval 1000)")
     p.add_argument("--server-args", default="", help="more options for the server this script starts")
-    p.add_argument("--before", type=Path, metavar="CHECKOUT",
-                   help="first measure a server started from this other checkout (e.g. a git worktree of the "
-                        "previous commit), then this one's: the table's before and after columns")
-    p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
-                   help="environment of the server this script starts (repeatable; this checkout's is served as "
-                        "scripts/serve serves it), e.g. PYTHONMALLOC=pymalloc")
-    p.add_argument("--before-env", action="append", default=[], metavar="NAME=VALUE",
-                   help="environment of the --before server (repeatable); with --before . one checkout is measured "
-                        "twice, e.g. with and without an allocator setting")
+    p.add_argument(
+        "--before",
+        type=Path,
+        metavar="CHECKOUT",
+        help="first measure a server started from this other checkout (e.g. a git worktree of the "
+        "previous commit), then this one's: the table's before and after columns",
+    )
+    p.add_argument(
+        "--env",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="environment of the server this script starts (repeatable; this checkout's is served as "
+        "scripts/serve serves it), e.g. PYTHONMALLOC=pymalloc",
+    )
+    p.add_argument(
+        "--before-env",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="environment of the --before server (repeatable); with --before . one checkout is measured "
+        "twice, e.g. with and without an allocator setting",
+    )
     opts = p.parse_args()
     if any("=" not in item for item in opts.env + opts.before_env):
         p.error("--env and --before-env take NAME=VALUE")
@@ -347,8 +355,10 @@ def main() -> int:
         columns["before"] = measure(opts, opts.before.resolve(), opts.before_env)
         TIMELINE.clear()
     columns["after" if columns else "this checkout"] = figures = measure(opts, sc.REPO, opts.env)
-    print(f"classroom scenario: {opts.students} students, baseline {opts.baseline:g} s, loaded {opts.duration:g} s "
-          f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)")
+    print(
+        f"classroom scenario: {opts.students} students, baseline {opts.baseline:g} s, loaded {opts.duration:g} s "
+        f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)"
+    )
     print(report(columns))
     if os.environ.get("ISL_TIMELINE"):
         t0 = min(t for t, _, _ in TIMELINE)

@@ -11,6 +11,7 @@ Prints
 (c) the peak memory (tracemalloc) of ``simulate`` over 10⁶ steps against the bytes of the arrays it returns.
 Timings on a shared machine are noisy: compare medians of interleaved runs, and read the load average.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -49,8 +50,18 @@ def kernel_ns_per_step(n: int) -> float:
     e = np.tile(e0, (2, 1))
     sq = np.zeros((1, 2, 3))
     t0 = time.perf_counter()
-    advance(x, e, rng, n, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, packed, Batches(0, n, sq, np.empty((1, 0))),
-            Trajectory.none(2, 0, 3))
+    advance(
+        x,
+        e,
+        rng,
+        n,
+        0,
+        Grid(h, FIG3.alpha, FIG3.beta),
+        FIG3.sigma,
+        packed,
+        Batches(0, n, sq, np.empty((1, 0))),
+        Trajectory.none(2, 0, 3),
+    )
     return (time.perf_counter() - t0) / n * 1e9
 
 
@@ -80,20 +91,27 @@ def reference_ns_per_step(n: int) -> float:
 def part_a(steps: int, repeats: int) -> None:
     kernel_ns_per_step(1000)  # compile or load from cache
     simulate_ns_per_step(1000)
-    rows = {"kernel (advance)": kernel_ns_per_step, "simulate_rmse": rmse_ns_per_step,
-            "simulate (stores X, e, e)": simulate_ns_per_step}
+    rows = {
+        "kernel (advance)": kernel_ns_per_step,
+        "simulate_rmse": rmse_ns_per_step,
+        "simulate (stores X, e, e)": simulate_ns_per_step,
+    }
     times: dict[str, list[float]] = {name: [] for name in rows}
     for _ in range(repeats):  # interleaved, so that a burst of load hits every variant alike
         for name, fn in rows.items():
             times[name].append(fn(steps))
-    print(f"(a) m = 3, truth + KBF + ISL, noise included, {steps:,} steps, {repeats} repeats "
-          f"(load average {os.getloadavg()[0]:.2f}):")
+    print(
+        f"(a) m = 3, truth + KBF + ISL, noise included, {steps:,} steps, {repeats} repeats "
+        f"(load average {os.getloadavg()[0]:.2f}):"
+    )
     for name, ts in times.items():
         print(f"    {name:28s} median {statistics.median(ts):7.1f} ns/step   best {min(ts):7.1f}")
     n_ref = 2000
     ref = reference_ns_per_step(n_ref)
-    print(f"    {'numpy reference':28s} {ref:9.0f} ns/step on {n_ref:,} steps "
-          f"({ref / statistics.median(times['kernel (advance)']):,.0f}× the kernel)")
+    print(
+        f"    {'numpy reference':28s} {ref:9.0f} ns/step on {n_ref:,} steps "
+        f"({ref / statistics.median(times['kernel (advance)']):,.0f}× the kernel)"
+    )
 
 
 _FRESH = r"""
@@ -125,12 +143,18 @@ def part_b() -> None:
         walls.append(time.perf_counter() - t0)
         infos.append(json.loads(out.stdout.strip().splitlines()[-1]))
     i = infos[int(np.argsort(walls)[1])]  # the median run
-    print(f"(b) fresh process: import isl_core + Fig. 3 (σ = 20, N = {i['N']:,}) — wall time median "
-          f"{statistics.median(walls):.2f} s (runs: {', '.join(f'{w:.2f}' for w in walls)} s)")
-    print(f"    inside: import {i['imp']:.2f} s, first simulate {i['first'] * 1e3:.0f} ms, "
-          f"second simulate (σ = 200) {i['second'] * 1e3:.0f} ms")
-    print(f"    numba: kernel signatures {i['sigs']} → {i['sigs_after']} after the second call; cache hits "
-          f"{i['hits']}, cache misses (= compilations) {i['misses']} → {i['misses_after']}")
+    print(
+        f"(b) fresh process: import isl_core + Fig. 3 (σ = 20, N = {i['N']:,}) — wall time median "
+        f"{statistics.median(walls):.2f} s (runs: {', '.join(f'{w:.2f}' for w in walls)} s)"
+    )
+    print(
+        f"    inside: import {i['imp']:.2f} s, first simulate {i['first'] * 1e3:.0f} ms, "
+        f"second simulate (σ = 200) {i['second'] * 1e3:.0f} ms"
+    )
+    print(
+        f"    numba: kernel signatures {i['sigs']} → {i['sigs_after']} after the second call; cache hits "
+        f"{i['hits']}, cache misses (= compilations) {i['misses']} → {i['misses_after']}"
+    )
 
 
 def part_c(steps: int) -> None:
@@ -140,12 +164,16 @@ def part_c(steps: int) -> None:
     run = simulate(FIG3, NU, T=steps * h, h=h, seed=1)
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
-    arrays = {id(a.base if a.base is not None else a): (a.base if a.base is not None else a)
-              for a in (run.t, run.X, *(tr.error for tr in run.tracks))}
+    arrays = {
+        id(a.base if a.base is not None else a): (a.base if a.base is not None else a)
+        for a in (run.t, run.X, *(tr.error for tr in run.tracks))
+    }
     returned = sum(a.nbytes for a in arrays.values())
-    print(f"(c) simulate over {run.N:,} steps (truth and each filter's error stored): "
-          f"returned arrays {returned / 2**20:.1f} MiB, traced peak "
-          f"{peak / 2**20:.1f} MiB → peak/returned = {peak / returned:.2f}")
+    print(
+        f"(c) simulate over {run.N:,} steps (truth and each filter's error stored): "
+        f"returned arrays {returned / 2**20:.1f} MiB, traced peak "
+        f"{peak / 2**20:.1f} MiB → peak/returned = {peak / returned:.2f}"
+    )
 
 
 def main() -> None:

@@ -10,6 +10,7 @@ minus the loop's own three filters), the loop's own cost, the load average befor
 machine are noisy: read it). ``--save`` writes the figures as JSON; ``--compare`` prints them beside an earlier
 file's (before → now, and the ratio), e.g. across a change of the IMM kernel.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -21,8 +22,14 @@ from pathlib import Path
 from isl_core import Model, filter_costs, imm_kbf
 from isl_core.scenario.tuning import FAMILIES, family_filter, tune
 
-KNOBS = {"isl": {"ell": -4.0}, "isl_model": {"ell": -4.0}, "kbf_adaptive": {"memory": 10.0}, "vb": {"memory": 10.0},
-         "kbf_robust": {"c": 2.0, "memory": 10.0}, "imm": {"switch": 0.01, "modes": 16}}
+KNOBS = {
+    "isl": {"ell": -4.0},
+    "isl_model": {"ell": -4.0},
+    "kbf_adaptive": {"memory": 10.0},
+    "vb": {"memory": 10.0},
+    "kbf_robust": {"c": 2.0, "memory": 10.0},
+    "imm": {"switch": 0.01, "modes": 16},
+}
 
 
 def main() -> None:

@@ -13,6 +13,7 @@ The default base, 44a0182, is the last kernel that integrated the truth and the 
 arguments ``x, e, …, X_out, E_out, S_out, store, out0``). Both are timed without storing trajectories (the long-run
 mode), which is where the current kernel advances only X_m of the truth.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,8 +40,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _load_base(rev: str, where: Path):
-    src = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:isl_core/kernels.py"], check=True,
-                         capture_output=True, text=True).stdout
+    src = subprocess.run(
+        ["git", "-C", str(ROOT), "show", f"{rev}:isl_core/kernels.py"], check=True, capture_output=True, text=True
+    ).stdout
     (where / "kernels_base.py").write_text(src, "utf-8")
     spec = importlib.util.spec_from_file_location("kernels_base", where / "kernels_base.py")
     mod = importlib.util.module_from_spec(spec)
@@ -62,8 +64,18 @@ def run_current(n: int, adaptive: bool = False) -> float:
     e = np.tile(e0, (len(specs), 1))
     na = int(adaptive)
     t0 = time.thread_time()
-    advance(x, e, rng, n, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, pack(FIG3, specs),
-            Batches(0, n, np.zeros((1, len(specs), 3)), np.zeros((1, na))), Trajectory.none(len(specs), na, 3))
+    advance(
+        x,
+        e,
+        rng,
+        n,
+        0,
+        Grid(h, FIG3.alpha, FIG3.beta),
+        FIG3.sigma,
+        pack(FIG3, specs),
+        Batches(0, n, np.zeros((1, len(specs), 3)), np.zeros((1, na))),
+        Trajectory.none(len(specs), na, 3),
+    )
     return (time.thread_time() - t0) / n * 1e9
 
 
@@ -76,14 +88,50 @@ def run_base(base, n: int) -> float:
     params = inspect.signature(base.py_func).parameters
     t0 = time.thread_time()
     if "kind" in params:
-        base(x, z, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, *pack(FIG3, specs), 0, 0, n, np.zeros((1, 2, 3)),
-             np.zeros((1, 0)), np.empty((1, 3)), np.empty((2, 1, 3)), np.empty((0, 1)), False)
+        base(
+            x,
+            z,
+            rng,
+            n,
+            h,
+            FIG3.alpha,
+            FIG3.beta,
+            FIG3.sigma,
+            *pack(FIG3, specs),
+            0,
+            0,
+            n,
+            np.zeros((1, 2, 3)),
+            np.zeros((1, 0)),
+            np.empty((1, 3)),
+            np.empty((2, 1, 3)),
+            np.empty((0, 1)),
+            False,
+        )
     else:
         damp = np.array([f.damp for f in specs])
         coef = np.array([f.coef for f in specs])
         power = np.array([f.power for f in specs])
-        base(x, z, rng, n, h, FIG3.alpha, FIG3.beta, FIG3.sigma, damp, coef, power, 0, 0, n, np.zeros((1, 2, 3)),
-             np.empty((1, 3)), np.empty((2, 1, 3)), False)
+        base(
+            x,
+            z,
+            rng,
+            n,
+            h,
+            FIG3.alpha,
+            FIG3.beta,
+            FIG3.sigma,
+            damp,
+            coef,
+            power,
+            0,
+            0,
+            n,
+            np.zeros((1, 2, 3)),
+            np.empty((1, 3)),
+            np.empty((2, 1, 3)),
+            False,
+        )
     return (time.thread_time() - t0) / n * 1e9
 
 
@@ -104,14 +152,18 @@ def main() -> None:
             times["base"].append(run_base(base, args.steps))
             times["current"].append(run_current(args.steps))
             times["current + adaptive KBF"].append(run_current(args.steps, adaptive=True))
-    print(f"m = 3, truth + KBF + ISL (Fig. 3, σ = 20), {args.steps:,} steps × {args.repeats} interleaved repeats, "
-          "thread CPU time, "
-          f"base = {args.base} (load average {os.getloadavg()[0]:.2f}, python {sys.version.split()[0]}):")
+    print(
+        f"m = 3, truth + KBF + ISL (Fig. 3, σ = 20), {args.steps:,} steps × {args.repeats} interleaved repeats, "
+        "thread CPU time, "
+        f"base = {args.base} (load average {os.getloadavg()[0]:.2f}, python {sys.version.split()[0]}):"
+    )
     for name, ts in times.items():
         print(f"    {name:24s} median {statistics.median(ts):7.1f} ns/step   best {min(ts):7.1f}")
     ratio = [c / b for b, c in zip(times["base"], times["current"], strict=True)]
-    print(f"    current/base per interleaved pair: median {statistics.median(ratio):.3f} "
-          f"(range {min(ratio):.3f}..{max(ratio):.3f})")
+    print(
+        f"    current/base per interleaved pair: median {statistics.median(ratio):.3f} "
+        f"(range {min(ratio):.3f}..{max(ratio):.3f})"
+    )
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ read the load average.
 checkout's ``isl_core`` too, in the same run: each repeat runs both checkouts, each in a process of its own, one
 after the other, and the table shows the two ratios side by side.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -94,14 +95,33 @@ def loops_ns(n: int) -> tuple[float, float]:
         if scenario:
             clair = clairvoyant_state(np.array(kb.delta, dtype=float), 1)
             law = NoiseLaw(LAW_GAUSSIAN, 3.0, law_table("gaussian", 3.0), 0.0, 1.0, 1.0)
-            advance_scenario(x, e, rng, steps, 0, Grid(h, FIG3.alpha, FIG3.beta),
-                             Observation(np.full(1, FIG3.sigma), law, 1), bank._replace(ad=bank.ad.copy()),
-                             FilterState(np.zeros(2), np.full(2, -1), np.zeros((2, 3, 3)), np.zeros((2, 2)),
-                                         np.zeros((2, 2))), clair, imm_state(specs, 3, 1, h),
-                             Windows(np.array([0, steps]), np.zeros((1, 2, 3)), np.zeros((1, 0)), np.zeros((1, 4))))
+            advance_scenario(
+                x,
+                e,
+                rng,
+                steps,
+                0,
+                Grid(h, FIG3.alpha, FIG3.beta),
+                Observation(np.full(1, FIG3.sigma), law, 1),
+                bank._replace(ad=bank.ad.copy()),
+                FilterState(np.zeros(2), np.full(2, -1), np.zeros((2, 3, 3)), np.zeros((2, 2)), np.zeros((2, 2))),
+                clair,
+                imm_state(specs, 3, 1, h),
+                Windows(np.array([0, steps]), np.zeros((1, 2, 3)), np.zeros((1, 0)), np.zeros((1, 4))),
+            )
         else:
-            advance(x, e, rng, steps, 0, Grid(h, FIG3.alpha, FIG3.beta), FIG3.sigma, bank._replace(ad=bank.ad.copy()),
-                    Batches(0, steps, np.zeros((1, 2, 3)), np.empty((1, 0))), Trajectory.none(2, 0, 3))
+            advance(
+                x,
+                e,
+                rng,
+                steps,
+                0,
+                Grid(h, FIG3.alpha, FIG3.beta),
+                FIG3.sigma,
+                bank._replace(ad=bank.ad.copy()),
+                Batches(0, steps, np.zeros((1, 2, 3)), np.empty((1, 0))),
+                Trajectory.none(2, 0, 3),
+            )
         out.append((time.perf_counter() - t0) / steps * 1e9)
     return out[2], out[3]
 
@@ -149,15 +169,24 @@ def measure(steps: int) -> dict:
         for name, sc in SCENARIOS.items():
             ns, counts[name] = scenario_ns(sc, horizon)
             times[name].append(ns)
-    return {"today": fastest(base), "n": n,
-            "scenarios": {name: (fastest(ts), counts[name]) for name, ts in times.items()}}
+    return {
+        "today": fastest(base),
+        "n": n,
+        "scenarios": {name: (fastest(ts), counts[name]) for name, ts in times.items()},
+    }
 
 
 def measure_in(checkout: Path, steps: int) -> dict:
     """:func:`measure` with ``checkout``'s isl_core, in a process of its own."""
     env = {**os.environ, "PYTHONPATH": str(checkout)}
-    done = subprocess.run([sys.executable, __file__, "--measure", "--steps", str(steps)], env=env, cwd=checkout,
-                          capture_output=True, text=True, check=True)
+    done = subprocess.run(
+        [sys.executable, __file__, "--measure", "--steps", str(steps)],
+        env=env,
+        cwd=checkout,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return json.loads(done.stdout.splitlines()[-1])
 
 
@@ -182,11 +211,12 @@ def main() -> None:
         loops.append(loops_ns(opts.steps))
         draws.append(draws_ns(opts.steps))
     n = results[next(iter(trees))][0]["n"]
-    print(f"today's run: simulate_rmse of the Kalman–Bucy and ISL filters, {n:,} steps; "
-          f"fastest of {opts.repeats} × {INNER}")
+    print(
+        f"today's run: simulate_rmse of the Kalman–Bucy and ISL filters, {n:,} steps; "
+        f"fastest of {opts.repeats} × {INNER}"
+    )
     print(f"{'':34s}" + "".join(f"{label:>30s}" for label in trees))
-    print(f"{'today (ns/step)':34s}" + "".join(
-        f"{fastest(r['today'] for r in res):30.1f}" for res in results.values()))
+    print(f"{'today (ns/step)':34s}" + "".join(f"{fastest(r['today'] for r in res):30.1f}" for res in results.values()))
     for name in SCENARIOS:
         cells = []
         for res in results.values():
@@ -196,11 +226,16 @@ def main() -> None:
         steps = results[next(iter(trees))][0]["scenarios"][name][1]
         print(f"scenario {name:25s}" + "".join(f"{c:>30s}" for c in cells) + f"   ({steps:,} steps)")
     old, new = (fastest(c) for c in zip(*loops, strict=True))
-    print(f"the compiled loops alone (this checkout), KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, "
-          f"the scenario loop {new:.1f} ns/step ({new / old:4.2f}×)")
+    print(
+        f"the compiled loops alone (this checkout), KBF + ISL, {opts.steps:,} steps: today's {old:.1f} ns/step, "
+        f"the scenario loop {new:.1f} ns/step ({new / old:4.2f}×)"
+    )
     best = {name: fastest(d[name] for d in draws) for name in draws[0]}
-    print("the noise draws alone, ns per step: " + ", ".join(f"{name} {ns:.1f}" for name, ns in best.items())
-          + f" (a Student-t draw costs {best['Student-t'] - best['normal']:.1f} ns more than a normal one)")
+    print(
+        "the noise draws alone, ns per step: "
+        + ", ".join(f"{name} {ns:.1f}" for name, ns in best.items())
+        + f" (a Student-t draw costs {best['Student-t'] - best['normal']:.1f} ns more than a normal one)"
+    )
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

@@ -9,6 +9,7 @@
    burn-in, one seed, h by the :ref:`step-size` rule over each group's filters, on a local thread pool. Target ≤ 30 s on
    2 cores. "ns per configuration-step" = wall time / Σ_groups (steps × ν values of the group).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -34,8 +35,9 @@ def bench_one(reps: int = 2000) -> None:
     for s in sigmas:
         predicted_ratios(Model.from_w(0.5, 3.0, float(s), 3), 3.0)
     cold = (time.perf_counter() - t) / len(sigmas)
-    print(f"theory, one (model, nu): warm {warm * 1e3:.3f} ms, cold (CARE included) {cold * 1e3:.3f} ms "
-          "[target <= 1 ms]")
+    print(
+        f"theory, one (model, nu): warm {warm * 1e3:.3f} ms, cold (CARE included) {cold * 1e3:.3f} ms [target <= 1 ms]"
+    )
 
 
 def bench_grid(reps: int = 5) -> None:
@@ -49,23 +51,28 @@ def bench_grid(reps: int = 5) -> None:
                 model = Model.from_w(alpha, 3.0, sigma, 3)
                 predicted_ratios_grid(model, model.beta * nob)
         times.append(time.perf_counter() - t)
-    print(f"theory, Fig. 2 grid 5 x 3 x 111 nu x 3 coordinates: best {min(times):.3f} s, median "
-          f"{float(np.median(times)):.3f} s over {reps} (cold caches) [target <= 1 s]")
+    print(
+        f"theory, Fig. 2 grid 5 x 3 x 111 nu x 3 coordinates: best {min(times):.3f} s, median "
+        f"{float(np.median(times)):.3f} s over {reps} (cold caches) [target <= 1 s]"
+    )
 
 
 def bench_sweep(horizon: float, workers: int) -> None:
     sweep([1.0], [20.0], [1.0], horizon=5.0, seeds=(0,))  # compile / load the kernel once
     t = time.perf_counter()
-    res = sweep(FIG2_ALPHAS, FIG2_SIGMAS, FIG2_NU_OVER_BETA, m=3, w=3.0, horizon=horizon, seeds=(0,),
-                workers=workers)
+    res = sweep(FIG2_ALPHAS, FIG2_SIGMAS, FIG2_NU_OVER_BETA, m=3, w=3.0, horizon=horizon, seeds=(0,), workers=workers)
     wall = time.perf_counter() - t
     steps = int(res.steps.sum())
     config_steps = steps * len(res.nu_over_beta)
-    print(f"simulated Fig. 2 grid, {res.ratio.shape[0] * res.ratio.shape[1] * res.ratio.shape[2]} configurations, "
-          f"horizon {horizon:g}/r_min, {workers} worker thread(s): {wall:.2f} s [target <= 30 s on 2 cores]")
-    print(f"  {steps:,} time steps in {res.steps.size} groups (truth + Kalman–Bucy + {len(res.nu_over_beta)} ISL "
-          f"filters each); {wall / config_steps * 1e9:.2f} ns per configuration-step "
-          f"({wall / steps * 1e9 * workers:.0f} ns per group-step per core)")
+    print(
+        f"simulated Fig. 2 grid, {res.ratio.shape[0] * res.ratio.shape[1] * res.ratio.shape[2]} configurations, "
+        f"horizon {horizon:g}/r_min, {workers} worker thread(s): {wall:.2f} s [target <= 30 s on 2 cores]"
+    )
+    print(
+        f"  {steps:,} time steps in {res.steps.size} groups (truth + Kalman–Bucy + {len(res.nu_over_beta)} ISL "
+        f"filters each); {wall / config_steps * 1e9:.2f} ns per configuration-step "
+        f"({wall / steps * 1e9 * workers:.0f} ns per group-step per core)"
+    )
     print(f"  Kalman–Bucy's own ratio: {res.kbf_ratio.min():.3f} .. {res.kbf_ratio.max():.3f}")
 
 

@@ -6,6 +6,7 @@ the narrative pages be Markdown, as the README is. The pages need no internet: t
 pages, and equations are text (no math renderer fetched from a CDN), so a classroom without internet reads them at
 the dashboard's ``/docs``.
 """
+
 from __future__ import annotations
 
 import sys
@@ -13,7 +14,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-
 
 
 def _isl_version() -> str:

@@ -4,6 +4,7 @@ Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kal
 the ISL filter (A.16–A.18) and a compiled simulator of both on one Euler grid (B.30–B.34).
 Imports numpy, scipy and numba only — never a UI library.
 """
+
 __version__ = "0.2.0"  #: the project's one version string (pyproject.toml reads it; ``isl --version`` prints it)
 
 from .filters import (

@@ -5,6 +5,7 @@ truth at X(0), every filter's common start error e(0) = −e₀, :ref:`start`), 
 kernel (:func:`pack`), the chunked loop over the kernel with progress and cancellation (:func:`run_chunks`), what a
 run with tracks answers (:class:`Tracked`) and read-only result arrays (:func:`freeze`).
 """
+
 from __future__ import annotations
 
 import math
@@ -20,8 +21,21 @@ from .model import Model
 from .riccati import KalmanBucy
 from .validate import short
 
-__all__ = ["CHUNK", "STARTS", "DivergenceError", "Tracked", "check_progress", "check_start", "draw_noise", "draw_start",
-           "freeze", "initial_error", "initial_state", "pack", "run_chunks"]
+__all__ = [
+    "CHUNK",
+    "STARTS",
+    "DivergenceError",
+    "Tracked",
+    "check_progress",
+    "check_start",
+    "draw_noise",
+    "draw_start",
+    "freeze",
+    "initial_error",
+    "initial_state",
+    "pack",
+    "run_chunks",
+]
 
 CHUNK = 1 << 17  #: steps per kernel call (progress reports and cancellation happen between calls)
 STARTS = ("stationary", "truth")  #: how the filters start (module docstring)
@@ -122,8 +136,9 @@ def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False) ->
     nf = len(filters)
     for f in filters:
         if (f.variational is not None or f.huber is not None or f.imm is not None) and not scenario:
-            raise ValueError(f"the filter {f.label!r} runs in scenario runs only "
-                             "(isl_core.scenario.run.simulate_scenario)")
+            raise ValueError(
+                f"the filter {f.label!r} runs in scenario runs only (isl_core.scenario.run.simulate_scenario)"
+            )
     damp = np.array([f.damp for f in filters], dtype=np.float64)
     coef = np.array([f.coef for f in filters], dtype=np.float64).reshape(nf, model.m)
     kind = np.array([f.kind for f in filters], dtype=np.int8)
@@ -134,17 +149,29 @@ def pack(model: Model, filters: Sequence[FilterSpec], scenario: bool = False) ->
         gt = spec.adaptive
         if gt is None:
             continue
-        table[i, :len(gt.log_gain)] = gt.log_gain
-        table[i, len(gt.log_gain):] = gt.log_gain[-1]
+        table[i, : len(gt.log_gain)] = gt.log_gain
+        table[i, len(gt.log_gain) :] = gt.log_gain[-1]
         ad[i, AD_LOG_SIGMA0], ad[i, AD_INV_STEP], ad[i, AD_INV_MEMORY] = gt.log_sigma0, 1.0 / gt.step, 1.0 / gt.memory
         ad[i, AD_VAR], ad[i, AD_SIGMA] = gt.sigma_init**2, gt.sigma_init
     return FilterBank(damp, coef, kind, table, ad)
 
 
-def run_chunks(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec], h: float, n: int, seed: int, *,
-               start: str, burn: int, batches: int, out: Trajectory, progress: Callable[[float], None] | None = None,
-               on_block: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
-               chunk: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def run_chunks(
+    model: Model,
+    kb: KalmanBucy,
+    filters: Sequence[FilterSpec],
+    h: float,
+    n: int,
+    seed: int,
+    *,
+    start: str,
+    burn: int,
+    batches: int,
+    out: Trajectory,
+    progress: Callable[[float], None] | None = None,
+    on_block: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+    chunk: int | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Run the constant-σ kernel (:func:`isl_core.kernels.euler.advance`) over ``n`` steps, chunk by chunk.
 
     ``out`` (:class:`isl_core.kernels.bundles.Trajectory`): if ``store``, the trajectories are written to ``X``
@@ -163,8 +190,12 @@ def run_chunks(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec], h: f
         out.X[0], out.E[:, 0], out.S[:, 0] = x, e, bank.ad[adaptive, AD_SIGMA]
         if on_block is not None:
             on_block(out.X[:1], out.E[:, :1], out.S[:, :1])
-    sums = Batches(burn, (n - burn) // batches,  # the remainder goes to the last batch
-                   np.zeros((batches, len(filters), model.m)), np.zeros((batches, int(adaptive.sum()))))
+    sums = Batches(
+        burn,
+        (n - burn) // batches,  # the remainder goes to the last batch
+        np.zeros((batches, len(filters), model.m)),
+        np.zeros((batches, int(adaptive.sum()))),
+    )
     grid = Grid(float(h), model.alpha, model.beta)
     chunk = chunk or CHUNK
     k = 0
@@ -176,7 +207,7 @@ def run_chunks(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec], h: f
         if done < todo:
             raise divergence(model, filters, x if out.store else x[-1:], e, k + done, n, h)
         if on_block is not None:
-            on_block(out.X[1:done + 1], out.E[:, 1:done + 1], out.S[:, 1:done + 1])
+            on_block(out.X[1 : done + 1], out.E[:, 1 : done + 1], out.S[:, 1 : done + 1])
         k += done
         if progress is not None:
             progress(k / n)

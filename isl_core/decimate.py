@@ -13,6 +13,7 @@ is a real sample.
 block, for many traces at once (a simulation hands it each kernel chunk), and keeps O(points × traces) numbers —
 so a 10⁶-step run is drawn from a few MB instead of the 336 MB its full arrays take (m = 6, six filters).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -95,10 +96,10 @@ class MinMax:
             full = (hi - lo) // self.size if (lo - 1) % self.size == 0 else 0
             if full > 1:
                 end = lo + full * self.size
-                block = Y[lo - k0:end - k0].reshape(full, self.size, self.traces)
+                block = Y[lo - k0 : end - k0].reshape(full, self.size, self.traces)
                 self._merge(slice(b, b + full), lo + np.arange(full)[:, None] * self.size, block)
             else:
-                self._merge(slice(b, b + 1), np.full((1, 1), lo), Y[lo - k0:end - k0][None])
+                self._merge(slice(b, b + 1), np.full((1, 1), lo), Y[lo - k0 : end - k0][None])
             lo = end
 
     @property
@@ -128,12 +129,14 @@ class MinMax:
         if self.seen != self.n:
             raise ValueError(f"only {self.seen} of {self.n} samples were added")
         if self.n == 1:
-            return np.zeros(1, np.int64), self._ends[0, trace:trace + 1].copy()
+            return np.zeros(1, np.int64), self._ends[0, trace : trace + 1].copy()
         if self.whole and np.array_equal(self._lo_i[:, trace], np.arange(1, self.n - 1)):  # every sample, in order
-            return np.arange(self.n), np.concatenate([self._ends[:1, trace], self._lo_v[:, trace],
-                                                      self._ends[1:, trace]])
+            return np.arange(self.n), np.concatenate(
+                [self._ends[:1, trace], self._lo_v[:, trace], self._ends[1:, trace]]
+            )
         idx = np.concatenate([[0], self._lo_i[:, trace], self._hi_i[:, trace], [self.n - 1]])
-        val = np.concatenate([[self._ends[0, trace]], self._lo_v[:, trace], self._hi_v[:, trace],
-                              [self._ends[1, trace]]])
+        val = np.concatenate(
+            [[self._ends[0, trace]], self._lo_v[:, trace], self._hi_v[:, trace], [self._ends[1, trace]]]
+        )
         keep, first = np.unique(idx, return_index=True)
         return keep, val[first]

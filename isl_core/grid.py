@@ -14,6 +14,7 @@ whose slowest closed-loop mode (B.46) is slower needs longer to forget its start
 ("lengthened" by ``r_min / settling_rate``) when another filter is more than SETTLE_TOL = 10 % slower than the
 optimal one (a mode 10 % slower has still decayed by e⁻⁹ where the optimal one has by e⁻¹⁰).
 """
+
 from __future__ import annotations
 
 import math
@@ -32,8 +33,19 @@ from .theory import lyapunov
 from .validate import check_real, short
 
 __all__ = [
-    "EULER_BIAS", "H_RATE", "MAX_STEPS", "MAX_STORED_STEPS", "SETTLE_TOL", "RunPlan", "check_filters", "check_specs",
-    "euler_bias", "grid", "run_plan", "settling_rate", "step_size",
+    "EULER_BIAS",
+    "H_RATE",
+    "MAX_STEPS",
+    "MAX_STORED_STEPS",
+    "SETTLE_TOL",
+    "RunPlan",
+    "check_filters",
+    "check_specs",
+    "euler_bias",
+    "grid",
+    "run_plan",
+    "settling_rate",
+    "step_size",
 ]
 
 H_RATE = 0.02  #: h × (fastest rate): the margin of :ref:`step-size`
@@ -159,7 +171,6 @@ def grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: fl
         )
     n = max(1, math.ceil(steps - 1e-9))
     return T, T / n, n
-
 
 
 def check_filters(model: Model, nu, extra) -> list[FilterSpec]:

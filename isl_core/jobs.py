@@ -12,6 +12,7 @@ noise — and hand them to :func:`run`:
   ones stop at their next report (≤ one kernel chunk); the exception propagates.
 * a task that fails cancels the others and its own error propagates (not the cancellations it caused).
 """
+
 from __future__ import annotations
 
 import concurrent.futures as cf
@@ -141,7 +142,7 @@ def _local(tasks: Sequence[Task], workers: int, prog: Progress) -> list[TaskResu
 
 
 def _remote(tasks: Sequence[Task], executor, chunk: int, prog: Progress) -> list[TaskResult]:
-    chunks = [tasks[i:i + chunk] for i in range(0, len(tasks), chunk)]
+    chunks = [tasks[i : i + chunk] for i in range(0, len(tasks), chunk)]
     if isinstance(executor, cf.Executor):
         futures = [executor.submit(_run_chunk, c) for c in chunks]
         completed = cf.as_completed(futures)
@@ -164,8 +165,14 @@ def _remote(tasks: Sequence[Task], executor, chunk: int, prog: Progress) -> list
     return out
 
 
-def run(tasks: Sequence[Task], *, executor=None, workers: int = 1, chunk: int = 1,
-        progress: Callable[[float], None] | None = None) -> list[TaskResult]:
+def run(
+    tasks: Sequence[Task],
+    *,
+    executor=None,
+    workers: int = 1,
+    chunk: int = 1,
+    progress: Callable[[float], None] | None = None,
+) -> list[TaskResult]:
     """Every task's result (in no particular order), on local threads or ``executor`` (module docstring)."""
     prog = Progress({t.key: t.cost for t in tasks}, progress)
     return _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)

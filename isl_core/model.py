@@ -9,6 +9,7 @@ State ``X = (X_1..X_m)``, ``X_i`` the (i−1)-th derivative of a scalar signal:
 Symbols: ``A0`` ones on the superdiagonal (A.11), ``E = e_m``, ``C = e_1ᵀ``, ``A = A0 − α E Eᵀ`` (A.20).
 α = 0 is the white-noise-derivative model of paper B. Paper A fixes ``β²/(2α) = w²`` (A.25).
 """
+
 from __future__ import annotations
 
 import math

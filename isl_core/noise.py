@@ -21,6 +21,7 @@ method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log
 in lanes): Student-t noise 45.4 ns a step, Gaussian 43.7, outliers 44.5 (before the draws were loops of their own per
 law and the outliers geometric: 49.7, 45.9, 48.4); with the lanes, 37.1, 35.2 and 35.4.
 """
+
 from __future__ import annotations
 
 import math

@@ -14,6 +14,7 @@ For ξ ~ N(0, σ²) the power law has closed-form moments (:ref:`linearization`)
 
 Symbols: ``coef`` = c, ``q`` = exponents, ``L`` (m,), ``Phi`` (m, m).
 """
+
 from __future__ import annotations
 
 import math

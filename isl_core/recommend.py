@@ -9,6 +9,7 @@ bounded scalar refinement around its best point. The answer is then *verified* b
 and returned with its simulated worst-case ratio and interval. For comparison the best fixed-gain
 Kalman–Bucy filter (designed for one σ̄ ∈ [min σ, max σ], :ref:`mismatched-kbf`) has its own predicted worst case.
 """
+
 from __future__ import annotations
 
 import math
@@ -77,8 +78,9 @@ class Recommendation:
     stretch: tuple[float, ...] = ()
 
 
-def worst_case_theory(alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0,
-                      model_aware: bool = False) -> np.ndarray:
+def worst_case_theory(
+    alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0, model_aware: bool = False
+) -> np.ndarray:
     """Predicted ``max_{σ, i} š_i/s_i`` for each ν/β (same shape as ``nu_over_beta``), β = w√(2α) (A.25).
 
     ``model_aware``: of the ISL filter that propagates with A (damp = α) instead of A0.
@@ -101,8 +103,12 @@ def _search(alpha: float, sigmas, m: int, w: float, model_aware: bool = False) -
     worst = worst_case_theory(alpha, 2.0**grid, **kw)
     k = int(np.argmin(worst))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-    res = minimize_scalar(lambda ell: float(worst_case_theory(alpha, 2.0**ell, **kw)),
-                          bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
+    res = minimize_scalar(
+        lambda ell: float(worst_case_theory(alpha, 2.0**ell, **kw)),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-4},
+    )
     return float(res.x) if res.fun <= worst[k] else float(grid[k])
 
 
@@ -110,8 +116,7 @@ def best_fixed_kbf(alpha: float, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3
     """Best design σ̄ (log grid of ``n`` points in [min σ, max σ]) of a fixed-gain Kalman–Bucy filter and its
     predicted worst case ``max_{σ, i}`` ratio (:ref:`minimax-kbf`). Returns ``(worst, sigma_design)``."""
     designs = np.geomspace(min(sigmas), max(sigmas), n)
-    worst = [max(float(mismatched_kbf_ratios(Model.from_w(alpha, w, s, m), d).max()) for s in sigmas)
-             for d in designs]
+    worst = [max(float(mismatched_kbf_ratios(Model.from_w(alpha, w, s, m), d).max()) for s in sigmas) for d in designs]
     k = int(np.argmin(worst))
     return worst[k], float(designs[k])
 
@@ -183,13 +188,45 @@ def recommend_nu(
     ell = _search(alpha, sig, m, w, model_aware)
     nob = 2.0**ell
     kbf_worst, kbf_design = best_fixed_kbf(alpha, sigmas=sig, m=m, w=w)
-    cases, stretch = _worst_cases([nob, *compare], alpha, sig, m, w, verify, dict(
-        horizon=horizon, seeds=seeds, batches=batches, level=level, executor=executor, progress=progress,
-        model_aware=model_aware))
+    cases, stretch = _worst_cases(
+        [nob, *compare],
+        alpha,
+        sig,
+        m,
+        w,
+        verify,
+        dict(
+            horizon=horizon,
+            seeds=seeds,
+            batches=batches,
+            level=level,
+            executor=executor,
+            progress=progress,
+            model_aware=model_aware,
+        ),
+    )
     c = cases[0]
-    return Recommendation(alpha, beta, m, w, tuple(sig), beta * nob, nob, c.theory, c.simulated, c.low, c.high,
-                          c.sigma, c.i, kbf_worst, kbf_design, tuple(cases[1:]), model_aware,
-                          float(horizon) if verify else math.nan, stretch)
+    return Recommendation(
+        alpha,
+        beta,
+        m,
+        w,
+        tuple(sig),
+        beta * nob,
+        nob,
+        c.theory,
+        c.simulated,
+        c.low,
+        c.high,
+        c.sigma,
+        c.i,
+        kbf_worst,
+        kbf_design,
+        tuple(cases[1:]),
+        model_aware,
+        float(horizon) if verify else math.nan,
+        stretch,
+    )
 
 
 def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> tuple[list[WorstCase], tuple[float, ...]]:
@@ -209,8 +246,12 @@ def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> tuple[list[WorstCase]
             sim = float(ratio[b, i])
             low, high = float(res.ratio_low[0, :, n].max()), float(res.ratio_high[0, :, n].max())
         else:
-            ratio = np.array([predicted_ratios_grid(Model.from_w(alpha, w, s, m), [nob * w * math.sqrt(2 * alpha)],
-                                                    damp=damp)[0] for s in sigmas])
+            ratio = np.array(
+                [
+                    predicted_ratios_grid(Model.from_w(alpha, w, s, m), [nob * w * math.sqrt(2 * alpha)], damp=damp)[0]
+                    for s in sigmas
+                ]
+            )
             b, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
             sim = low = high = math.nan
         cases.append(WorstCase(float(nob), theory, sim, low, high, float(sigmas[b]), int(i) + 1))

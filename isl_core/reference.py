@@ -19,6 +19,7 @@ Adaptive Kalman–Bucy (:mod:`isl_core.adaptive`): the KBF step with the gain K(
 
 No shortcuts: full matrix products, ``pow`` for every exponent, one step at a time.
 """
+
 from __future__ import annotations
 
 import math

@@ -26,6 +26,7 @@ never a wrong number. The dashboard's ranges reach a ≤ 3.2·10⁴.
 
 Symbols: ``delta`` = Δ, ``K`` gain (m,), ``eig`` eigenvalues of ``A − K C``, ``rho`` = ϱ.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -140,11 +141,18 @@ def _result(model: Model, delta: np.ndarray, eig: np.ndarray | None = None) -> K
         closed = A.copy()
         closed[:, 0] -= K  # A − K C
         eig = np.linalg.eigvals(closed)
-    if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(K)) and np.all(np.isfinite(eig))
-            and np.all(np.diagonal(delta) > 0) and np.min(-eig.real) > 0):
-        raise ValueError(f"alpha = {model.alpha:g}, beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the "
-                         "Kalman–Bucy filter's covariance or rates leave the float64 range; bring sigma/beta closer "
-                         "to 1")
+    if not (
+        np.all(np.isfinite(delta))
+        and np.all(np.isfinite(K))
+        and np.all(np.isfinite(eig))
+        and np.all(np.diagonal(delta) > 0)
+        and np.min(-eig.real) > 0
+    ):
+        raise ValueError(
+            f"alpha = {model.alpha:g}, beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the "
+            "Kalman–Bucy filter's covariance or rates leave the float64 range; bring sigma/beta closer "
+            "to 1"
+        )
     for arr in (K, delta, eig):
         arr.flags.writeable = False
     s = np.sqrt(np.diag(delta))
@@ -192,7 +200,8 @@ def _solved(model: Model) -> KalmanBucy:
         raise ValueError(
             f"alpha = {model.alpha:g} with beta = {model.beta:g}, sigma = {model.sigma:g}, m = {model.m}: the "
             f"normalized damping alpha·(sigma/beta)^(1/m) = {a:.3g} is above {A_MAX:g}, beyond which the Riccati "
-            "equation (A.23) is not solved to 1e-9 here; lower alpha or sigma, or raise beta")
+            "equation (A.23) is not solved to 1e-9 here; lower alpha or sigma, or raise beta"
+        )
     scale = rho ** np.arange(1, model.m + 1)
     delta1 = normalized_care(model.m, a)
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):

@@ -4,6 +4,7 @@
 The same kernel, grid and start as :func:`isl_core.simulate`, without stored trajectories: per-batch sums of the
 squared errors after a burn-in, for batch-means confidence intervals.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
@@ -119,14 +120,25 @@ def simulate_rmse(
     if burn_steps < 0:
         raise ValueError(f"batches must be <= the number of steps {n}, got {batches}")
     adaptive = np.array([f.kind == KIND_ADAPTIVE for f in filters])
-    sq, sig_sum, sig_final = run_chunks(model, kb, filters, h, n, seed, start=start, burn=burn_steps, batches=batches,
-                                        out=Trajectory.none(len(filters), int(adaptive.sum()), model.m),
-                                        progress=progress)
+    sq, sig_sum, sig_final = run_chunks(
+        model,
+        kb,
+        filters,
+        h,
+        n,
+        seed,
+        start=start,
+        burn=burn_steps,
+        batches=batches,
+        out=Trajectory.none(len(filters), int(adaptive.sum()), model.m),
+        progress=progress,
+    )
     counts = np.full(batches, float((n - burn_steps) // batches))
     counts[-1] = (n - burn_steps) - counts[0] * (batches - 1)
     sigma_hat = np.full((batches, len(filters)), np.nan)
     sigma_hat[:, adaptive] = sig_sum / counts[:, None]
     final = np.full(len(filters), np.nan)
     final[adaptive] = sig_final
-    return RmseResult(tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T, sigma_hat, final,
-                      burn_steps * h)
+    return RmseResult(
+        tuple(f.name for f in filters), sq, counts, kb.s.copy(), kb.r_min, h, T, sigma_hat, final, burn_steps * h
+    )

@@ -10,6 +10,7 @@ view), an adaptive filter's σ̂; and it measures, over every step k = 1..N, eac
 of steps with ``|e_f,i| ≤ 3 s_i`` — for the optimal filter, the share of time the signal spends inside the tube
 X̂_i ± 3 s_i, which theory puts at 99.73 % (a Gaussian error of standard deviation s_i).
 """
+
 from __future__ import annotations
 
 import math
@@ -134,8 +135,21 @@ def simulate_view(
     rows = min(DISPLAY_CHUNK, n) + 1
     X, E, S = np.empty((rows, m)), np.empty((nf, rows, m)), np.empty((len(adaptive), rows))
     collect = _Collector(n, m, nf, len(adaptive), np.asarray(kb.s), points)
-    sq, _, _ = run_chunks(model, kb, filters, plan.h, n, seed, start=start, burn=0, batches=1,
-                          out=Trajectory(True, 0, X, E, S), progress=progress, on_block=collect, chunk=DISPLAY_CHUNK)
+    sq, _, _ = run_chunks(
+        model,
+        kb,
+        filters,
+        plan.h,
+        n,
+        seed,
+        start=start,
+        burn=0,
+        batches=1,
+        out=Trajectory(True, 0, X, E, S),
+        progress=progress,
+        on_block=collect,
+        chunk=DISPLAY_CHUNK,
+    )
     s = freeze(np.array(kb.s))
     truth = tuple(collect.trace(i, plan.h) for i in range(m))
     tracks = []
@@ -147,7 +161,19 @@ def simulate_view(
         if f in adaptive:
             sig = collect.trace(m * (1 + 2 * nf) + adaptive.index(f), plan.h)
             mean = float(collect.sigma_sum[adaptive.index(f)] / n)
-        tracks.append(TrackView(spec.name, spec.label, est, err, freeze(rmse), freeze(rmse / s),
-                                freeze(collect.inside[f] / n), sig, mean))
-    return RunView(model, float(nu), seed, n, plan.h, plan.T, kb.r_min, s, plan.stretch, start, truth,
-                   tuple(tracks), points)
+        tracks.append(
+            TrackView(
+                spec.name,
+                spec.label,
+                est,
+                err,
+                freeze(rmse),
+                freeze(rmse / s),
+                freeze(collect.inside[f] / n),
+                sig,
+                mean,
+            )
+        )
+    return RunView(
+        model, float(nu), seed, n, plan.h, plan.T, kb.r_min, s, plan.stretch, start, truth, tuple(tracks), points
+    )

@@ -17,6 +17,7 @@ the truth, as the papers do (its measured ratio is then below 1 on short runs).
 
 Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
@@ -181,15 +182,28 @@ def _trajectories(model, kb, filters, h, n, seed, start, every, progress):
     na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
     if every == 1:
         X, E, S = np.empty((n + 1, model.m)), np.empty((len(filters), n + 1, model.m)), np.empty((na, n + 1))
-        sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1,
-                              out=Trajectory(True, 0, X, E, S), progress=progress)
+        sq, _, _ = run_chunks(
+            model,
+            kb,
+            filters,
+            h,
+            n,
+            seed,
+            start=start,
+            burn=0,
+            batches=1,
+            out=Trajectory(True, 0, X, E, S),
+            progress=progress,
+        )
         return sq, X, E, S, np.arange(n + 1)
     keep = _Stride(every, n, model.m, len(filters), na)
     rows = min(CHUNK, n) + 1
-    buffers = Trajectory(True, 0, np.empty((rows, model.m)), np.empty((len(filters), rows, model.m)),
-                         np.empty((na, rows)))
-    sq, _, _ = run_chunks(model, kb, filters, h, n, seed, start=start, burn=0, batches=1, out=buffers,
-                          progress=progress, on_block=keep)
+    buffers = Trajectory(
+        True, 0, np.empty((rows, model.m)), np.empty((len(filters), rows, model.m)), np.empty((na, rows))
+    )
+    sq, _, _ = run_chunks(
+        model, kb, filters, h, n, seed, start=start, burn=0, batches=1, out=buffers, progress=progress, on_block=keep
+    )
     return sq, keep.X, keep.E, keep.S, keep.index
 
 
@@ -210,8 +224,11 @@ class _Stride:
     def __init__(self, every: int, n: int, m: int, nf: int, na: int) -> None:
         self.every, self.seen = every, 0
         self.index = np.arange(0, n + 1, every)
-        self.X, self.E, self.S = np.empty((len(self.index), m)), np.empty((nf, len(self.index), m)), np.empty(
-            (na, len(self.index)))
+        self.X, self.E, self.S = (
+            np.empty((len(self.index), m)),
+            np.empty((nf, len(self.index), m)),
+            np.empty((na, len(self.index))),
+        )
 
     def __call__(self, X: np.ndarray, E: np.ndarray, S: np.ndarray) -> None:
         k0, k1 = self.seen, self.seen + len(X)

@@ -23,6 +23,7 @@ Conventions, all documented choices:
   through the monotone ``√(·)/s_i``. Where the ISL filter loses lock (very small ν) its errors decorrelate
   slowly and the interval is too narrow — a known limit of batch means.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -154,17 +155,28 @@ class SweepResult:
             for b, sigma in enumerate(self.sigmas):
                 for n, nob in enumerate(self.nu_over_beta):
                     for i in range(self.m):
-                        rows.append({
-                            "alpha": float(alpha), "beta": float(self.betas[a]), "sigma": float(sigma),
-                            "nu_over_beta": float(nob), "nu": float(self.nus[a, n]), "i": i + 1,
-                            "ratio": float(self.ratio[a, b, n, i]), "ratio_low": float(self.ratio_low[a, b, n, i]),
-                            "ratio_high": float(self.ratio_high[a, b, n, i]), "theory": float(self.theory[a, b, n, i]),
-                            "kbf_ratio": float(self.kbf_ratio[a, b, i]), "kbf_low": float(self.kbf_low[a, b, i]),
-                            "kbf_high": float(self.kbf_high[a, b, i]), "s": float(self.s[a, b, i]),
-                            "r_min": float(self.r_min[a, b]), "h": float(self.h[a, b]),
-                            "burn_in_over_r_min": BURN * float(self.stretch[a, b]),
-                            "window_over_r_min": self.horizon * float(self.stretch[a, b]),
-                        })
+                        rows.append(
+                            {
+                                "alpha": float(alpha),
+                                "beta": float(self.betas[a]),
+                                "sigma": float(sigma),
+                                "nu_over_beta": float(nob),
+                                "nu": float(self.nus[a, n]),
+                                "i": i + 1,
+                                "ratio": float(self.ratio[a, b, n, i]),
+                                "ratio_low": float(self.ratio_low[a, b, n, i]),
+                                "ratio_high": float(self.ratio_high[a, b, n, i]),
+                                "theory": float(self.theory[a, b, n, i]),
+                                "kbf_ratio": float(self.kbf_ratio[a, b, i]),
+                                "kbf_low": float(self.kbf_low[a, b, i]),
+                                "kbf_high": float(self.kbf_high[a, b, i]),
+                                "s": float(self.s[a, b, i]),
+                                "r_min": float(self.r_min[a, b]),
+                                "h": float(self.h[a, b]),
+                                "burn_in_over_r_min": BURN * float(self.stretch[a, b]),
+                                "window_over_r_min": self.horizon * float(self.stretch[a, b]),
+                            }
+                        )
         return rows
 
 
@@ -185,8 +197,19 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             theory[a, b] = predicted_ratios_grid(model, model.beta * nob, damp=model.alpha if model_aware else None)
             for k, seed in enumerate(seeds):
-                tasks.append(Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
-                                  group_seed(seed, alpha, sigma, w, m, beta=beta), n))
+                tasks.append(
+                    Task(
+                        (a, b, k),
+                        model,
+                        filters,
+                        T,
+                        T / n,
+                        BURN * stretch[a, b] / kb.r_min,
+                        batches,
+                        group_seed(seed, alpha, sigma, w, m, beta=beta),
+                        n,
+                    )
+                )
     tasks.sort(key=lambda t: -t.cost)
     return tasks, s, r_min, h, steps, theory, stretch
 
@@ -199,9 +222,11 @@ def group_length(model: Model, kb, filters, horizon: float) -> tuple[float, int,
     T = (BURN + horizon) * stretch / kb.r_min
     steps = T / step_size(model, kb, filters)
     if not steps <= MAX_STEPS:
-        raise ValueError(f"horizon = {horizon:g} needs {steps:,.0f} steps at alpha = {model.alpha:g}, "
-                         f"sigma = {model.sigma:g} (lengthened ×{stretch:.3g} for the slowest filter), over the limit "
-                         f"of {MAX_STEPS:,}; shorten horizon")
+        raise ValueError(
+            f"horizon = {horizon:g} needs {steps:,.0f} steps at alpha = {model.alpha:g}, "
+            f"sigma = {model.sigma:g} (lengthened ×{stretch:.3g} for the slowest filter), over the limit "
+            f"of {MAX_STEPS:,}; shorten horizon"
+        )
     return T, math.ceil(steps - 1e-9), stretch
 
 
@@ -277,19 +302,36 @@ def sweep(
 
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
-    tasks, s, r_min, h, steps, theory, stretch = _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches,
-                                                         model_aware, beta)
+    tasks, s, r_min, h, steps, theory, stretch = _tasks(
+        alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware, beta
+    )
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
-    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory,
-                    stretch)
+    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory, stretch)
     return dataclasses.replace(res, model_aware=model_aware, beta=beta)
 
 
 def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory, stretch):
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
     return SweepResult(
-        freeze(alphas), freeze(sigmas), freeze(nob), m, w, horizon, seeds, batches, level,
-        freeze(ratio[:, :, 1:]), freeze(low[:, :, 1:]), freeze(high[:, :, 1:]),
-        freeze(ratio[:, :, 0]), freeze(low[:, :, 0]), freeze(high[:, :, 0]),
-        freeze(theory), freeze(s), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch),
+        freeze(alphas),
+        freeze(sigmas),
+        freeze(nob),
+        m,
+        w,
+        horizon,
+        seeds,
+        batches,
+        level,
+        freeze(ratio[:, :, 1:]),
+        freeze(low[:, :, 1:]),
+        freeze(high[:, :, 1:]),
+        freeze(ratio[:, :, 0]),
+        freeze(low[:, :, 0]),
+        freeze(high[:, :, 0]),
+        freeze(theory),
+        freeze(s),
+        freeze(r_min),
+        freeze(h),
+        freeze(steps, np.int64),
+        freeze(stretch),
     )

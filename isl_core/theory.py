@@ -32,6 +32,7 @@ The prediction is accurate near the best ν; it under-predicts badly when the fi
 
 Symbols: ``spec.damp`` = a, ``L``, ``Phi`` = Φ, ``lam`` = Λ, ``P`` the (m+1) covariance.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -48,7 +49,11 @@ from .riccati import kalman_bucy
 from .validate import check_real, check_reals, short
 
 __all__ = [
-    "lyapunov", "mismatched_kbf_ratios", "predicted_covariance", "predicted_ratios", "predicted_ratios_grid",
+    "lyapunov",
+    "mismatched_kbf_ratios",
+    "predicted_covariance",
+    "predicted_ratios",
+    "predicted_ratios_grid",
     "theory_ratios",
 ]
 
@@ -109,7 +114,7 @@ def _stationary(model: Model, damp: float, coef: np.ndarray, q: np.ndarray, h: f
     if coupled:
         M[..., m - 1, m] = alpha - damp  # (α − a) X_m E
         M[..., m, m] = -alpha  # dX_m = −α X_m dt + β dv   (A.5)
-        Q[..., m - 1, m] = Q[..., m, m - 1] = -beta**2  # Cov(−βE dv, β dv)
+        Q[..., m - 1, m] = Q[..., m, m - 1] = -(beta**2)  # Cov(−βE dv, β dv)
         Q[..., m, m] = beta**2
     M = np.where(stable[..., None, None], M, -np.eye(n))  # keep the solve regular; unstable ones → inf below
     P = lyapunov(M, Q, h)[..., :m, :m]

@@ -9,6 +9,7 @@ notation only (``20``, ``-3``, ``2.5e-1``; whole numbers of at most 15 digits), 
 ``1e999``, ``0x10``, Arabic-Indic or full-width digits (which Python's ``float`` would accept) and 5000-digit
 integers are refused with a reason, never turned into a number or an exception of another type.
 """
+
 from __future__ import annotations
 
 import math
@@ -18,8 +19,16 @@ import reprlib
 
 import numpy as np
 
-__all__ = ["check_int", "check_ints", "check_real", "check_reals", "check_sigma_range", "read_int", "read_real",
-           "short"]
+__all__ = [
+    "check_int",
+    "check_ints",
+    "check_real",
+    "check_reals",
+    "check_sigma_range",
+    "read_int",
+    "read_real",
+    "short",
+]
 
 _REAL = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,4})?", re.ASCII)
 _INT = re.compile(r"[+-]?\d{1,15}", re.ASCII)
@@ -158,13 +167,22 @@ def _flat(name: str, values, what: str, allow_empty: bool) -> list:
     return list(values)
 
 
-def check_reals(name: str, values, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False,
-                allow_empty: bool = False) -> np.ndarray:
+def check_reals(
+    name: str,
+    values,
+    *,
+    lo: float | None = None,
+    hi: float | None = None,
+    lo_open: bool = False,
+    allow_empty: bool = False,
+) -> np.ndarray:
     """A number or a flat sequence of numbers, each in range, as a float array — or ``ValueError`` naming ``name``
     (nested, ragged, empty, giant or non-numeric entries included)."""
     what = f"{'a' if allow_empty else 'a non-empty'} sequence of numbers ({_describe(lo, hi, lo_open, False)})"
-    return np.array([check_real(name, v, lo=lo, hi=hi, lo_open=lo_open)
-                     for v in _flat(name, values, what, allow_empty)], dtype=float)
+    return np.array(
+        [check_real(name, v, lo=lo, hi=hi, lo_open=lo_open) for v in _flat(name, values, what, allow_empty)],
+        dtype=float,
+    )
 
 
 def check_ints(name: str, values, *, lo: int, hi: int | None = None) -> tuple[int, ...]:
@@ -199,8 +217,7 @@ def check_int(name: str, value: object, *, lo: int, hi: int | None = None) -> in
 def check_sigma_range(sigma_range) -> tuple[float, float]:
     """``(σ_min, σ_max)`` with 0 < σ_min ≤ σ_max finite, or a ``ValueError`` naming ``sigma_range``."""
     if not (isinstance(sigma_range, list | tuple | np.ndarray) and len(sigma_range) == 2):
-        raise ValueError(
-            f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {short(sigma_range)}")
+        raise ValueError(f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {short(sigma_range)}")
     lo, hi = sigma_range
     lo = check_real("sigma_range[0]", lo, lo=0.0, lo_open=True)
     hi = check_real("sigma_range[1]", hi, lo=lo)

@@ -22,6 +22,7 @@ numbers). Choices, all documented:
 * the interval of a worst case is ``[max over (σ, i) of the lower bounds, max of the upper bounds]`` (as in
   :mod:`isl_core.recommend`); theory is the same max over the predictions (nan for the adaptive filter).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -51,8 +52,12 @@ __all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
 #: the filters of the table: the baselines, with paper A's filter twice — at the minimax ν and at table A.31's
 FILTERS = (*BASELINES[:2], "isl_a31", *BASELINES[2:])
 #: column labels: each filter AND where its tuning comes from
-LABELS = {**BASE_LABELS, "isl": "ISL, minimax ν", "isl_a31": "ISL, ν from table A.31",
-          "isl_model": "ISL model-aware, minimax ν"}
+LABELS = {
+    **BASE_LABELS,
+    "isl": "ISL, minimax ν",
+    "isl_a31": "ISL, ν from table A.31",
+    "isl_model": "ISL model-aware, minimax ν",
+}
 
 
 @dataclass(frozen=True)
@@ -139,15 +144,24 @@ class WorstCaseTable:
         at = self._argworst()[0]  # σ index of each worst case: its group's averaging window
         for a, alpha in enumerate(self.alphas):
             for f, name in enumerate(self.names):
-                rows.append({
-                    "alpha": float(alpha), "beta": float(self.w * math.sqrt(2.0 * alpha)), "filter": name,
-                    "label": LABELS[name], "worst": float(worst[a, f]), "worst_low": float(lo[a, f]),
-                    "worst_high": float(hi[a, f]), "worst_sigma": float(ws[a, f]), "worst_i": int(wi[a, f]),
-                    "theory_worst": float(th[a, f]), "nu": float(self.nu[a, f]),
-                    "sigma_design": float(self.sigma_design[a, f]),
-                    "burn_in_over_r_min": BURN * float(self.stretch[a, at[a, f]]),
-                    "window_over_r_min": self.horizon * float(self.stretch[a, at[a, f]]),
-                })
+                rows.append(
+                    {
+                        "alpha": float(alpha),
+                        "beta": float(self.w * math.sqrt(2.0 * alpha)),
+                        "filter": name,
+                        "label": LABELS[name],
+                        "worst": float(worst[a, f]),
+                        "worst_low": float(lo[a, f]),
+                        "worst_high": float(hi[a, f]),
+                        "worst_sigma": float(ws[a, f]),
+                        "worst_i": int(wi[a, f]),
+                        "theory_worst": float(th[a, f]),
+                        "nu": float(self.nu[a, f]),
+                        "sigma_design": float(self.sigma_design[a, f]),
+                        "burn_in_over_r_min": BURN * float(self.stretch[a, at[a, f]]),
+                        "window_over_r_min": self.horizon * float(self.stretch[a, at[a, f]]),
+                    }
+                )
         return rows
 
 
@@ -175,12 +189,19 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, bat
         best[:, a] = rec.kbf_worst, rec.kbf_sigma_design
         present = tuple(n for n in names if not (n == "isl_a31" and a31 is None))  # (A.31) holds 5 α only
         cols.append(tuple(names.index(n) for n in present))
-        kw = {"nu": rec.nu, "nu_model": nu_model, "sigma_design": sigma_design, "sigma_range": (lo, hi),
-              "memory": memory}
+        kw = {
+            "nu": rec.nu,
+            "nu_model": nu_model,
+            "sigma_design": sigma_design,
+            "sigma_range": (lo, hi),
+            "memory": memory,
+        }
         for f, name in enumerate(names):
             nu[a, f] = {"isl": rec.nu, "isl_model": nu_model, "isl_a31": nu_a31}.get(name, math.nan)
-            design[a, f] = {"kbf_mismatched": design_sigma((lo, hi)) if sigma_design is None else sigma_design,
-                            "kbf_minimax": hi}.get(name, math.nan)
+            design[a, f] = {
+                "kbf_mismatched": design_sigma((lo, hi)) if sigma_design is None else sigma_design,
+                "kbf_minimax": hi,
+            }.get(name, math.nan)
         for b, sigma in enumerate(sigmas):
             model = Model.from_w(alpha, w, sigma, m)
             kb = kalman_bucy(model)
@@ -190,8 +211,19 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, bat
             T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             for k, seed in enumerate(seeds):
-                tasks.append(Task((a, b, k), model, filters, T, T / n, BURN * stretch[a, b] / kb.r_min, batches,
-                                  group_seed(seed, alpha, sigma, w, m), n))
+                tasks.append(
+                    Task(
+                        (a, b, k),
+                        model,
+                        filters,
+                        T,
+                        T / n,
+                        BURN * stretch[a, b] / kb.r_min,
+                        batches,
+                        group_seed(seed, alpha, sigma, w, m),
+                        n,
+                    )
+                )
     tasks.sort(key=lambda t: -t.cost)
     return nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols
 
@@ -278,14 +310,35 @@ def worst_case(
     (('kbf', 'isl'), (1, 2, 2, 3))
     """
     alphas, sigmas, m, w, sigma_design, memory, horizon, seeds, batches, level = _check(
-        alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level)
+        alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level
+    )
     names = check_names(filters, "filters", FILTERS)
     chunk, workers = check_execution(chunk, workers, progress)
     nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols = _plan(
-        alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, batches)
+        alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, batches
+    )
     out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
     ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
-        freeze(alphas), freeze(sigmas), names, m, w, horizon, tuple(seeds), batches, level, freeze(ratio),
-        freeze(low), freeze(high), freeze(theory), freeze(nu), freeze(design), freeze(best[0]),
-        freeze(best[1]), freeze(r_min), freeze(h), freeze(steps, np.int64), freeze(stretch))
+        freeze(alphas),
+        freeze(sigmas),
+        names,
+        m,
+        w,
+        horizon,
+        tuple(seeds),
+        batches,
+        level,
+        freeze(ratio),
+        freeze(low),
+        freeze(high),
+        freeze(theory),
+        freeze(nu),
+        freeze(design),
+        freeze(best[0]),
+        freeze(best[1]),
+        freeze(r_min),
+        freeze(h),
+        freeze(steps, np.int64),
+        freeze(stretch),
+    )

@@ -17,18 +17,14 @@ the memory run (open and close 50 sessions three times; the server's RSS after e
 
     PYTHONPATH=. python scripts/load_test.py --memory 3 --sessions 50
 
-the classroom scenario with four hostile-heavy sessions beside 40 students, ``/liveness`` probed and new pages
-opened, before/after two checkouts (:ref:`performance-classroom`; built on this script's client):
-
-    PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before
-
 or against a running server (``./scripts/serve`` or the container)::
 
     python scripts/load_test.py --url http://127.0.0.1:5006 --server-pid <pid> --sessions 100 --duration 300
 
 It prints one line per figure: sessions held, errors, update latency (median, p95, max), the server's resident
 memory before / with every session open, and RSS per session. Only loopback URLs are accepted. The test suite
-(``tests/serving/test_load.py``) runs a short version of the same function, :func:`run_load`.
+(``tests/serving/test_load.py``) runs a short version of the same function, :func:`run_load`; the classroom benchmark
+(:ref:`performance-classroom`) is built on this script's client.
 """
 
 from __future__ import annotations
@@ -62,15 +58,15 @@ from session_client import (  # (the client lives beside this script)
 # -------------------------------------------------------------------------------------------------------- load
 @dataclass
 class LoadResult:
-    sessions: int                      # sessions that connected
-    held: int                          # sessions still connected with zero errors at the end
+    sessions: int  # sessions that connected
+    held: int  # sessions still connected with zero errors at the end
     updates: int
     errors: list[str]
-    latencies: list[float]             # seconds, one per slider change that got its update
+    latencies: list[float]  # seconds, one per slider change that got its update
     rss_before_mb: float
-    rss_loaded_mb: float               # all sessions open, before the slider changes
+    rss_loaded_mb: float  # all sessions open, before the slider changes
     rss_peak_mb: float = float("nan")  # sampled every 5 s while the sliders move
-    rss_end_mb: float = float("nan")   # when the last change was answered
+    rss_end_mb: float = float("nan")  # when the last change was answered
 
     def p(self, q: float) -> float:
         if not self.latencies:
@@ -83,24 +79,35 @@ class LoadResult:
         return (self.rss_loaded_mb - self.rss_before_mb) / max(self.sessions, 1)
 
     def report(self) -> str:
-        return "\n".join([
-            f"sessions connected        {self.sessions}",
-            f"sessions held, 0 errors   {self.held}",
-            f"slider updates            {self.updates}",
-            f"errors                    {len(self.errors)}" + (f"  (first: {self.errors[0]})" if self.errors else ""),
-            f"update latency median     {1000 * self.p(0.5):.0f} ms",
-            f"update latency p95        {1000 * self.p(0.95):.0f} ms",
-            f"update latency max        {1000 * self.p(1.0):.0f} ms",
-            f"server RSS before         {self.rss_before_mb:.0f} MB",
-            f"server RSS, all open      {self.rss_loaded_mb:.0f} MB",
-            f"RSS per session           {self.rss_per_session_mb:.1f} MB",
-            f"server RSS, peak / end    {self.rss_peak_mb:.0f} MB / {self.rss_end_mb:.0f} MB (sliders moving)",
-        ])
+        return "\n".join(
+            [
+                f"sessions connected        {self.sessions}",
+                f"sessions held, 0 errors   {self.held}",
+                f"slider updates            {self.updates}",
+                f"errors                    {len(self.errors)}"
+                + (f"  (first: {self.errors[0]})" if self.errors else ""),
+                f"update latency median     {1000 * self.p(0.5):.0f} ms",
+                f"update latency p95        {1000 * self.p(0.95):.0f} ms",
+                f"update latency max        {1000 * self.p(1.0):.0f} ms",
+                f"server RSS before         {self.rss_before_mb:.0f} MB",
+                f"server RSS, all open      {self.rss_loaded_mb:.0f} MB",
+                f"RSS per session           {self.rss_per_session_mb:.1f} MB",
+                f"server RSS, peak / end    {self.rss_peak_mb:.0f} MB / {self.rss_end_mb:.0f} MB (sliders moving)",
+            ]
+        )
 
 
-async def _student(base_url: str, index: int, slider_pattern: str, duration: float, interval: float,
-                   update_timeout: float, opened: asyncio.Event, all_open: asyncio.Event,
-                   out: dict[int, tuple[BokehClient | None, list[float], list[str]]]) -> None:
+async def _student(
+    base_url: str,
+    index: int,
+    slider_pattern: str,
+    duration: float,
+    interval: float,
+    update_timeout: float,
+    opened: asyncio.Event,
+    all_open: asyncio.Event,
+    out: dict[int, tuple[BokehClient | None, list[float], list[str]]],
+) -> None:
     rng = random.Random(index)
     latencies: list[float] = []
     errors: list[str] = []
@@ -137,9 +144,17 @@ async def _student(base_url: str, index: int, slider_pattern: str, duration: flo
         errors.append("connection lost")
 
 
-async def run_load(base_url: str, *, sessions: int, duration: float, interval: float = 3.0,
-                   slider: str = "", server_pid: int | None = None, update_timeout: float = 30.0,
-                   connect_batch: int = 10) -> LoadResult:
+async def run_load(
+    base_url: str,
+    *,
+    sessions: int,
+    duration: float,
+    interval: float = 3.0,
+    slider: str = "",
+    server_pid: int | None = None,
+    update_timeout: float = 30.0,
+    connect_batch: int = 10,
+) -> LoadResult:
     """Open ``sessions`` sessions (``connect_batch`` at a time), then move ``slider`` in each for ``duration`` s."""
     check_loopback(base_url)
     rss = (lambda: rss_mb(server_pid)) if server_pid else (lambda: float("nan"))
@@ -151,8 +166,11 @@ async def run_load(base_url: str, *, sessions: int, duration: float, interval: f
         events = []
         for i in range(first, min(first + connect_batch, sessions)):
             events.append(opened := asyncio.Event())
-            tasks.append(asyncio.ensure_future(_student(base_url, i, slider, duration, interval, update_timeout,
-                                                        opened, all_open, out)))
+            tasks.append(
+                asyncio.ensure_future(
+                    _student(base_url, i, slider, duration, interval, update_timeout, opened, all_open, out)
+                )
+            )
         await asyncio.gather(*(e.wait() for e in events))
     rss_loaded = rss()
     all_open.set()
@@ -172,8 +190,9 @@ async def run_load(base_url: str, *, sessions: int, duration: float, interval: f
     held = sum(1 for c, _, errs in out.values() if c is not None and not c.closed and not errs and not c.errors)
     latencies = [x for _, lat, _ in out.values() for x in lat]
     await asyncio.gather(*(c.close() for c in clients))
-    return LoadResult(len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded,
-                      max([*peak, rss_end]), rss_end)
+    return LoadResult(
+        len(clients), held, len(latencies), errors, latencies, rss_before, rss_loaded, max([*peak, rss_end]), rss_end
+    )
 
 
 # ------------------------------------------------------------------------------------------------------ memory
@@ -207,11 +226,11 @@ async def all_released(log_path: Path, trims_before: int, timeout: float = 120.0
 @dataclass
 class MemoryRound:
     rss_before_mb: float
-    live_open: int                     # sessions the server reported with all of the round's sessions open
-    rss_open_mb: float                 # all sessions of the round open and idle
-    rss_after_mb: float                # all closed, destroyed by the server, garbage collected
-    live_after: int                    # sessions the server still holds after the round
-    pending_after: int                 # of which release hooks have not run
+    live_open: int  # sessions the server reported with all of the round's sessions open
+    rss_open_mb: float  # all sessions of the round open and idle
+    rss_after_mb: float  # all closed, destroyed by the server, garbage collected
+    live_after: int  # sessions the server still holds after the round
+    pending_after: int  # of which release hooks have not run
 
 
 async def _wait_idle(client: BokehClient, quiet_s: float = 1.0, limit: float = 60.0) -> None:
@@ -223,8 +242,9 @@ async def _wait_idle(client: BokehClient, quiet_s: float = 1.0, limit: float = 6
             return
 
 
-async def memory_round(base_url: str, server_pid: int, log_path: Path, sessions: int, *, batch: int = 5,
-                       release_timeout: float = 120.0) -> MemoryRound:
+async def memory_round(
+    base_url: str, server_pid: int, log_path: Path, sessions: int, *, batch: int = 5, release_timeout: float = 120.0
+) -> MemoryRound:
     """Open ``sessions`` sessions, let them settle, close them, wait until the server has destroyed them."""
     check_loopback(base_url)
     rss_before = rss_mb(server_pid)
@@ -266,17 +286,27 @@ async def _next_stats(log_path: Path, timeout: float = 30.0) -> int:
 
 def memory_report(rounds: list[MemoryRound], sessions: int) -> str:
     first = rounds[0].rss_after_mb
-    lines = [f"round {i + 1}: RSS {r.rss_before_mb:.0f} MB → {r.rss_open_mb:.0f} MB with {r.live_open} open → "
-             f"{r.rss_after_mb:.0f} MB after closing ({r.live_after} sessions left, {r.pending_after} unreleased); "
-             f"per idle session {(r.rss_open_mb - r.rss_before_mb) / sessions:.1f} MB"
-             for i, r in enumerate(rounds)]
+    lines = [
+        f"round {i + 1}: RSS {r.rss_before_mb:.0f} MB → {r.rss_open_mb:.0f} MB with {r.live_open} open → "
+        f"{r.rss_after_mb:.0f} MB after closing ({r.live_after} sessions left, {r.pending_after} unreleased); "
+        f"per idle session {(r.rss_open_mb - r.rss_before_mb) / sessions:.1f} MB"
+        for i, r in enumerate(rounds)
+    ]
     drift = max(r.rss_after_mb for r in rounds[1:]) / first - 1 if len(rounds) > 1 else 0.0
     lines.append(f"RSS drift after round 1: {100 * drift:+.1f} % (limit +10 %)")
     return "\n".join(lines)
 
 
-MEMORY_SERVER_ARGS = ["--unused-session-lifetime", "1000", "--check-unused-sessions", "500", "--stats-interval", "500",
-                      "--trim-interval", "500"]
+MEMORY_SERVER_ARGS = [
+    "--unused-session-lifetime",
+    "1000",
+    "--check-unused-sessions",
+    "500",
+    "--stats-interval",
+    "500",
+    "--trim-interval",
+    "500",
+]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -290,9 +320,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--num-threads", type=int, default=4, help="worker threads of the server started here")
     p.add_argument("--num-procs", type=int, default=1, help="worker processes of the server started here")
     p.add_argument("--json", action="store_true", help="print the figures as JSON too")
-    p.add_argument("--memory", type=int, metavar="ROUNDS",
-                   help="instead: open and close --sessions sessions ROUNDS times and report the server's RSS "
-                        "(starts its own server)")
+    p.add_argument(
+        "--memory",
+        type=int,
+        metavar="ROUNDS",
+        help="instead: open and close --sessions sessions ROUNDS times and report the server's RSS "
+        "(starts its own server)",
+    )
     opts = p.parse_args(argv)
     if opts.memory:
         return memory_main(opts.sessions, opts.memory)
@@ -301,22 +335,41 @@ def main(argv: list[str] | None = None) -> int:
     if url is None:
         port = free_port()
         log_path = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-load-{port}.log"
-        proc = start_server(port, log_path, ["--num-threads", str(opts.num_threads),
-                                             "--num-procs", str(opts.num_procs)])
+        proc = start_server(
+            port, log_path, ["--num-threads", str(opts.num_threads), "--num-procs", str(opts.num_procs)]
+        )
         startup = wait_healthy(port, 180, proc)
         print(f"server started in {startup:.1f} s (log: {log_path})", flush=True)
         url, pid = f"http://127.0.0.1:{port}", proc.pid
     try:
-        result = asyncio.run(run_load(url, sessions=opts.sessions, duration=opts.duration, interval=opts.interval,
-                                      slider=opts.slider, server_pid=pid))
+        result = asyncio.run(
+            run_load(
+                url,
+                sessions=opts.sessions,
+                duration=opts.duration,
+                interval=opts.interval,
+                slider=opts.slider,
+                server_pid=pid,
+            )
+        )
     finally:
         if proc is not None:
             stop_server(proc)
     print(result.report())
     if opts.json:
-        print(json.dumps({"sessions": result.sessions, "held": result.held, "updates": result.updates,
-                          "errors": len(result.errors), "p50_ms": 1000 * result.p(0.5),
-                          "p95_ms": 1000 * result.p(0.95), "rss_per_session_mb": result.rss_per_session_mb}))
+        print(
+            json.dumps(
+                {
+                    "sessions": result.sessions,
+                    "held": result.held,
+                    "updates": result.updates,
+                    "errors": len(result.errors),
+                    "p50_ms": 1000 * result.p(0.5),
+                    "p95_ms": 1000 * result.p(0.95),
+                    "rss_per_session_mb": result.rss_per_session_mb,
+                }
+            )
+        )
     return 0 if not result.errors and result.held == opts.sessions else 1
 
 
@@ -335,8 +388,9 @@ def memory_main(sessions: int, rounds: int) -> int:
         stop_server(proc)
     print(memory_report(results, sessions))
     first = results[0].rss_after_mb
-    ok = all(r.live_after == 0 and r.pending_after == 0 for r in results) and \
-        all(r.rss_after_mb <= 1.10 * first for r in results[1:])
+    ok = all(r.live_after == 0 and r.pending_after == 0 for r in results) and all(
+        r.rss_after_mb <= 1.10 * first for r in results[1:]
+    )
     return 0 if ok else 1
 
 

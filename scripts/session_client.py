@@ -7,6 +7,7 @@ without rendering: it keeps its own copy of the document, so it sees every updat
 change widgets and fire events as a user would. Used by the load script (``scripts/load_test.py``), the classroom
 benchmark and the serving tests.
 """
+
 from __future__ import annotations
 
 import asyncio
@@ -43,7 +44,7 @@ LOOPBACK = {"127.0.0.1", "localhost", "::1"}
 DATA_EVENTS = {"ColumnDataChanged", "ColumnsStreamed", "ColumnsPatched"}
 # A session opens in a few seconds of server CPU, one after another: a generous bound that only catches hangs.
 CONNECT_TIMEOUT_S = 300.0
-TRACEBACK_MARKERS = ("Traceback (most recent call last)", 'File "/', ".py\", line ")
+TRACEBACK_MARKERS = ("Traceback (most recent call last)", 'File "/', '.py", line ')
 
 
 # ------------------------------------------------------------------------------------------------ protocol client
@@ -51,7 +52,7 @@ TRACEBACK_MARKERS = ("Traceback (most recent call last)", 'File "/', ".py\", lin
 class Reply:
     """What the server sent back after one of our messages."""
 
-    msgtype: str                       # OK or ERROR
+    msgtype: str  # OK or ERROR
     text: str = ""
     traceback: str | None = None
 
@@ -69,15 +70,23 @@ class BokehClient:
     errors: list[str] = field(default_factory=list)
     patches: list[tuple[float, set[str], set[str]]] = field(default_factory=list)  # (time, event kinds, models)
     closed: bool = False
-    light: bool = False                # record what each patch touches, do not apply it (a cheap load generator)
+    light: bool = False  # record what each patch touches, do not apply it (a cheap load generator)
     _changed: asyncio.Event = field(default_factory=asyncio.Event)
     _reader: asyncio.Task | None = None
     _cds: set[str] | None = None
 
     @classmethod
-    async def connect(cls, base_url: str, app_path: str = "/app", *, origin: str | None = None,
-                      timeout: float = 60.0, light: bool = False, query: str = "", host: str | None = None
-                      ) -> BokehClient:
+    async def connect(
+        cls,
+        base_url: str,
+        app_path: str = "/app",
+        *,
+        origin: str | None = None,
+        timeout: float = 60.0,
+        light: bool = False,
+        query: str = "",
+        host: str | None = None,
+    ) -> BokehClient:
         """Open a session like a browser on ``base_url`` would, pull the document and announce it ready.
 
         ``light``: apply the server's later patches to ``doc`` except plot data (those go stale; ``patches`` still
@@ -89,9 +98,12 @@ class BokehClient:
         session_id = generate_session_id()
         token = generate_jwt_token(session_id)
         ws_url = f"ws://{parsed.netloc}{app_path}/ws" + (f"?{query.lstrip('?')}" if query else "")
-        request = HTTPRequest(ws_url, headers={"Origin": origin or f"http://{parsed.netloc}",
-                                               **({"Host": host} if host else {})},
-                              connect_timeout=timeout, request_timeout=timeout)
+        request = HTTPRequest(
+            ws_url,
+            headers={"Origin": origin or f"http://{parsed.netloc}", **({"Host": host} if host else {})},
+            connect_timeout=timeout,
+            request_timeout=timeout,
+        )
         socket = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=256 * 2**20)
         socket.protocol.set_nodelay(True)  # as browsers do: a message's frames leave at once, not after an ACK
         protocol = Protocol()
@@ -126,6 +138,7 @@ class BokehClient:
     # -- sending
     async def _send(self, message: Any) -> str:
         from bokeh.client.websocket import WebSocketClientConnectionWrapper
+
         await message.send(WebSocketClientConnectionWrapper(self._socket))
         return message.header["msgid"]
 
@@ -173,8 +186,12 @@ class BokehClient:
             if not self.light:
                 message.apply_to_document(self.doc, self)
             else:  # the page's structure (deferred widgets, new panes) but not the plots' data
-                kept = [e for e in events if e.get("kind") not in DATA_EVENTS
-                        and not (e.get("kind") == "ModelChanged" and e.get("attr") == "data")]
+                kept = [
+                    e
+                    for e in events
+                    if e.get("kind") not in DATA_EVENTS
+                    and not (e.get("kind") == "ModelChanged" and e.get("attr") == "data")
+                ]
                 if kept:
                     payload = Serialized({**message.content, "events": kept}, message.payload.buffers)
                     # UnknownReferenceError: it referred to a model only a skipped data change carried
@@ -313,6 +330,7 @@ def rss_mb(pid: int) -> float:
 
 def free_port() -> int:
     import socket
+
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
@@ -334,23 +352,40 @@ def wait_healthy(port: int, timeout: float, proc: subprocess.Popen | None = None
     raise TimeoutError(f"server on port {port} not healthy after {timeout} s")
 
 
-def start_server(port: int, log_path: Path, extra: Iterable[str] = (), env: dict | None = None,
-                 script: str | None = None, repo: Path = REPO) -> subprocess.Popen:
+def start_server(
+    port: int,
+    log_path: Path,
+    extra: Iterable[str] = (),
+    env: dict | None = None,
+    script: str | None = None,
+    repo: Path = REPO,
+) -> subprocess.Popen:
     """Start ``python -m app.serving`` of checkout ``repo`` (default: this one) on 127.0.0.1:``port`` (optionally
     serving another app ``script``)."""
     # a checkout from before app/serving has app/serve.py (chosen by the tree: the editable install of this one
     # would supply a missing app.serving from here)
     module = "app.serving.serve" if (repo / "app" / "serving").is_dir() else "app.serve"
-    code = (f"import sys\nimport {module} as s\n"
-            + (f"s.app_script = lambda: {script!r}\n" if script else "")
-            + "sys.exit(s.main(sys.argv[1:]))")
+    code = (
+        f"import sys\nimport {module} as s\n"
+        + (f"s.app_script = lambda: {script!r}\n" if script else "")
+        + "sys.exit(s.main(sys.argv[1:]))"
+    )
     # this checkout served as scripts/serve serves it; an older checkout as it was (its scripts/serve set nothing)
     served_as = SERVE_ENV if repo.resolve() == REPO else {}
-    full_env = {**os.environ, **served_as, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
-                **(env or {})}
-    with open(log_path, "w") as log:                       # the child keeps its own descriptor
-        return subprocess.Popen([sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
-                                stdout=log, stderr=subprocess.STDOUT, env=full_env, cwd=repo)
+    full_env = {
+        **os.environ,
+        **served_as,
+        "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
+        **(env or {}),
+    }
+    with open(log_path, "w") as log:  # the child keeps its own descriptor
+        return subprocess.Popen(
+            [sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=full_env,
+            cwd=repo,
+        )
 
 
 def stop_server(proc: subprocess.Popen, timeout: float = 15.0) -> int:

@@ -3,6 +3,7 @@
 ``dashboard(url)`` opens a chromium page on it and waits for the first plot's data; ``NAMED`` / ``PLOT_DATA`` are
 the page-side functions the tests wait on.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -12,8 +13,19 @@ import time
 import urllib.request
 from pathlib import Path
 
-__all__ = ["ARGS", "CHROMIUM", "DEEP", "NAMED", "PLOT_DATA", "ROOT", "TAB_OPEN", "dashboard", "free_port", "launch",
-           "wait_http"]
+__all__ = [
+    "ARGS",
+    "CHROMIUM",
+    "DEEP",
+    "NAMED",
+    "PLOT_DATA",
+    "ROOT",
+    "TAB_OPEN",
+    "dashboard",
+    "free_port",
+    "launch",
+    "wait_http",
+]
 
 CHROMIUM = Path("/usr/bin/chromium")
 ROOT = Path(__file__).resolve().parent.parent
@@ -52,6 +64,7 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None, ready: st
     tab, ``ready`` (a page-side function) true — (``on_request(url)`` sees every request from the start); the test
     fails if the page raised a script error meanwhile."""
     from playwright import sync_api
+
     with sync_api.sync_playwright() as p:
         browser = launch(p)
         try:
@@ -65,8 +78,10 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None, ready: st
                 page.wait_for_function(ready or PLOT_DATA, timeout=30_000)
             except sync_api.TimeoutError:
                 models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
-                raise AssertionError(f"no plot data within 30 s; page errors: {errors}; models: {models}; "
-                                     f"page text: {page.inner_text('body')[:300]!r}") from None
+                raise AssertionError(
+                    f"no plot data within 30 s; page errors: {errors}; models: {models}; "
+                    f"page text: {page.inner_text('body')[:300]!r}"
+                ) from None
             yield page
         finally:
             browser.close()

@@ -1,4 +1,5 @@
 """A stand-in for a session's event loop in headless tests of the threaded app state."""
+
 from __future__ import annotations
 
 import queue

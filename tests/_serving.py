@@ -4,6 +4,7 @@ The websocket client and the server start/stop helpers live in ``scripts/session
 ``scripts/load_test.py`` (the documented load script); this module imports both and adds a context manager and a
 small fixture app.
 """
+
 from __future__ import annotations
 
 import asyncio
@@ -22,7 +23,7 @@ import session_client  # noqa: E402
 
 # A tiny Panel app with the dashboard's moving parts: a slider that redraws a plot, a button whose callback
 # fails with a message that must never reach the browser.
-FIXTURE_APP = '''
+FIXTURE_APP = """
 import numpy as np
 import panel as pn
 from bokeh.models import ColumnDataSource
@@ -43,7 +44,7 @@ def explode(event):
 slider.param.watch(redraw, "value_throttled")
 boom.on_click(explode)
 pn.Column(slider, boom, pn.pane.Bokeh(fig)).servable(title="fixture")
-'''
+"""
 
 
 def fixture_app(tmp_path: Path) -> str:
@@ -55,8 +56,9 @@ def fixture_app(tmp_path: Path) -> str:
 
 
 @contextlib.contextmanager
-def served(tmp_path: Path, *args: str, script: str | None = None, env: dict | None = None,
-           timeout: float = 180.0) -> Iterator[tuple[str, object, Path]]:
+def served(
+    tmp_path: Path, *args: str, script: str | None = None, env: dict | None = None, timeout: float = 180.0
+) -> Iterator[tuple[str, object, Path]]:
     """Run ``python -m app.serving`` on a free loopback port; yields (base URL, process, log path); always stops it."""
     port = session_client.free_port()
     log = tmp_path / f"server-{port}.log"

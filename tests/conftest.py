@@ -6,6 +6,7 @@ Tests live in folders by layer (``tests/core``, ``tests/app``, ``tests/serving``
 The helpers (``_browser``, ``_serving``, ``_loop``) sit in ``tests/`` and are importable from any folder.
 Fixture: ``app_server``, the dashboard served as users serve it, once per module.
 """
+
 from __future__ import annotations
 
 import os

@@ -3,6 +3,7 @@
 :mod:`app.jobs.threads` runs a session's jobs on thread pools, :mod:`app.jobs.long` the server's queue of long jobs
 in child processes; both import this module and neither imports the other.
 """
+
 from __future__ import annotations
 
 import logging
@@ -15,8 +16,17 @@ from typing import Any
 
 from isl_core.jobs import Cancelled
 
-__all__ = ["LARGE_NICE", "LONG_NICE", "RUN_NICE", "Cancelled", "Outcome", "QueueFull", "call", "in_steps",
-           "lower_priority"]
+__all__ = [
+    "LARGE_NICE",
+    "LONG_NICE",
+    "RUN_NICE",
+    "Cancelled",
+    "Outcome",
+    "QueueFull",
+    "call",
+    "in_steps",
+    "lower_priority",
+]
 
 log = logging.getLogger(__name__)
 
@@ -34,14 +44,16 @@ def lower_priority(nice: int) -> Callable[[], None]:
     the compute threads and one slider answer took seconds. With the compute threads niced, the kernel still gets
     every idle cycle, but the loop runs first.
     """
+
     def initializer() -> None:
         try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0)
-                                                                              + nice))
+            os.setpriority(
+                os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0) + nice)
+            )
         except (AttributeError, OSError):  # not Linux, or not allowed: same priority as the loop
             log.debug("could not lower a worker thread's priority", exc_info=True)
-    return initializer
 
+    return initializer
 
 
 class QueueFull(RuntimeError):
@@ -76,4 +88,5 @@ def in_steps(report: Callable[[float], None], step: float = 0.01) -> Callable[[f
         if fraction - last[0] >= step or fraction >= 1.0:
             last[0] = fraction
             report(fraction)
+
     return progress

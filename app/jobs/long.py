@@ -19,6 +19,7 @@ The rules, as data that a test can check without a browser:
 Each session reaches the queue through its :class:`app.jobs.threads.Jobs` (``submit_long``) and shows a job's progress,
 place and outcome through a :class:`LongTask`.
 """
+
 from __future__ import annotations
 
 import logging
@@ -58,21 +59,30 @@ class LongJobQueue:
         self._waiting: list[Ticket] = []
         self._running: list[Ticket] = []
         self._cv = threading.Condition()
-        self._threads = [threading.Thread(target=self._work, args=(lower_priority(nice),), daemon=True,
-                                          name=f"isl-long-{k}") for k in range(workers)]
+        self._threads = [
+            threading.Thread(target=self._work, args=(lower_priority(nice),), daemon=True, name=f"isl-long-{k}")
+            for k in range(workers)
+        ]
         for t in self._threads:
             t.start()
 
-    def submit(self, owner: object, fn: Callable[[threading.Event], Any], done: Callable[[Outcome], None],
-               on_position: Callable[[int], None]) -> Ticket:
+    def submit(
+        self,
+        owner: object,
+        fn: Callable[[threading.Event], Any],
+        done: Callable[[Outcome], None],
+        on_position: Callable[[int], None],
+    ) -> Ticket:
         """Queue ``fn(cancel_event)`` for ``owner``; ``done(outcome)`` when it ends. ``QueueFull`` if it may not."""
         ticket = Ticket(owner, fn, done, on_position)
         with self._cv:
             if any(t.owner is owner for t in (*self._waiting, *self._running)):
                 raise QueueFull("you already have a long computation waiting or running; wait for it or cancel it")
             if len(self._waiting) >= self.max_waiting:
-                raise QueueFull(f"the server is busy: {len(self._waiting)} long computations are waiting already; "
-                                "try again in a minute")
+                raise QueueFull(
+                    f"the server is busy: {len(self._waiting)} long computations are waiting already; "
+                    "try again in a minute"
+                )
             self._waiting.append(ticket)
             self._cv.notify()
         self._report()
@@ -167,8 +177,9 @@ def ping(*, progress: Callable[[float], None]) -> str:
     return "ok"
 
 
-def in_process(fn: Callable[..., Any], progress: Callable[[float], None], cancel: threading.Event,
-               nice: int = LONG_NICE) -> Any:
+def in_process(
+    fn: Callable[..., Any], progress: Callable[[float], None], cancel: threading.Event, nice: int = LONG_NICE
+) -> Any:
     """``fn(progress=…)`` computed in a child process at CPU priority ``nice``; returns its value or raises its
     error. ``progress(fraction)`` is called here (on the calling thread) as the child reports; if ``cancel`` is set,
     or ``progress`` raises, the child is stopped at once and :class:`Cancelled` (or that error) is raised.
@@ -188,8 +199,10 @@ def in_process(fn: Callable[..., Any], progress: Callable[[float], None], cancel
                 kind, value = here.recv()
             except EOFError:
                 child.join()
-                raise RuntimeError(f"the computation's process ended without an answer (exit code {child.exitcode}"
-                                   + (", perhaps out of memory)" if child.exitcode == -9 else ")")) from None
+                raise RuntimeError(
+                    f"the computation's process ended without an answer (exit code {child.exitcode}"
+                    + (", perhaps out of memory)" if child.exitcode == -9 else ")")
+                ) from None
             if kind == "progress":
                 progress(value)
             elif kind == "value":
@@ -227,14 +240,17 @@ class LongTask:
                 if cancel.is_set():
                     raise Cancelled()
                 show(fraction)
+
             if self.state.jobs.long_in_process:
                 return in_process(fn, progress, cancel)
             return fn(progress=progress)
 
         def waiting(ahead: int) -> None:
             what = "another long computation is" if ahead == 1 else f"{ahead} long computations are"
-            self._set(token, note=f"Waiting: {what} ahead of yours (the server runs them one at a time). {note}"
-                      if ahead else note)
+            self._set(
+                token,
+                note=f"Waiting: {what} ahead of yours (the server runs them one at a time). {note}" if ahead else note,
+            )
 
         self._cancel = self.state.jobs.submit_long(run, lambda outcome: self._finish(token, apply, outcome), waiting)
 

@@ -9,6 +9,7 @@ document lock held — so the state and the plots are only ever touched from tha
 
 Without an executor (tests, scripts) a job runs inline and its outcome is applied at once.
 """
+
 from __future__ import annotations
 
 import logging
@@ -49,8 +50,12 @@ class Jobs:
     loop; it is called from worker threads.
     """
 
-    def __init__(self, executors: Mapping[str, Executor] | None = None,
-                 schedule: Callable[[Callable[[], None]], None] | None = None, long_queue=None) -> None:
+    def __init__(
+        self,
+        executors: Mapping[str, Executor] | None = None,
+        schedule: Callable[[Callable[[], None]], None] | None = None,
+        long_queue=None,
+    ) -> None:
         self._executors: Mapping[str, Executor] = executors or {}
         self._long = long_queue  # an app.jobs.long.LongJobQueue, shared by the server's sessions (None: inline)
         self._tickets: set = set()
@@ -69,8 +74,15 @@ class Jobs:
         """Long jobs compute in child processes (the server's queue, :mod:`app.jobs.long`)."""
         return self._long is not None and self._long.processes
 
-    def submit(self, kind: str, fn: Callable[..., Any], done: Callable[[Outcome, bool], None], *,
-               pool: str | None = None, cancellable: bool = False) -> None:
+    def submit(
+        self,
+        kind: str,
+        fn: Callable[..., Any],
+        done: Callable[[Outcome, bool], None],
+        *,
+        pool: str | None = None,
+        cancellable: bool = False,
+    ) -> None:
         """Compute ``fn()`` off the loop (on the executor named ``pool``, default ``kind``), then call
         ``done(outcome, superseded)`` on it.
 
@@ -98,8 +110,9 @@ class Jobs:
         if self.closed or kind in self._waiting:
             raise Superseded(kind)
 
-    def _start(self, kind: str, executor: Executor, fn: Callable[[], Any],
-               done: Callable[[Outcome, bool], None]) -> None:
+    def _start(
+        self, kind: str, executor: Executor, fn: Callable[[], Any], done: Callable[[Outcome, bool], None]
+    ) -> None:
         future = executor.submit(call, fn)
         future.add_done_callback(lambda f: self._deliver(partial(self._finish, kind, done, f.result())))
 
@@ -126,8 +139,9 @@ class Jobs:
             if waiting is not None and not self.closed:
                 self._start(kind, *waiting)
 
-    def submit_long(self, fn: Callable[[threading.Event], Any], done: Callable[[Outcome], None],
-                    on_position: Callable[[int], None]) -> Callable[[], None]:
+    def submit_long(
+        self, fn: Callable[[threading.Event], Any], done: Callable[[Outcome], None], on_position: Callable[[int], None]
+    ) -> Callable[[], None]:
         """Queue ``fn(cancel_event)`` as this session's long job (:class:`app.jobs.long.LongJobQueue`); ``done`` and
         ``on_position`` run on the session's loop. Returns a function that cancels it. Inline without a queue."""
         if self.closed:

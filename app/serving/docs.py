@@ -11,6 +11,7 @@ and compression apply to these pages too):
 
 See :ref:`serving-docs`.
 """
+
 from __future__ import annotations
 
 import html
@@ -37,12 +38,14 @@ def docs_dir() -> Path:
 
 def not_built_page(root: Path) -> str:
     """The short HTML page ``/docs/`` answers while ``root`` holds no built documentation."""
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>isl: documentation not built"
-            "</title></head><body><main><h1>The documentation is not built</h1>"
-            f"<p>This server serves the documentation from <code>{html.escape(str(root))}</code>, which holds no "
-            "built pages yet.</p><p>Build them in the repository with <code>./scripts/docs</code> (or set "
-            f"<code>{DOCS_ENV}</code> to a directory of built pages) and reload this page; no restart is needed."
-            "</p><p><a href=\"../\">Back to the dashboard</a></p></main></body></html>\n")
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>isl: documentation not built'
+        "</title></head><body><main><h1>The documentation is not built</h1>"
+        f"<p>This server serves the documentation from <code>{html.escape(str(root))}</code>, which holds no "
+        "built pages yet.</p><p>Build them in the repository with <code>./scripts/docs</code> (or set "
+        f"<code>{DOCS_ENV}</code> to a directory of built pages) and reload this page; no restart is needed."
+        '</p><p><a href="../">Back to the dashboard</a></p></main></body></html>\n'
+    )
 
 
 class _Docs(StaticFileHandler):
@@ -80,7 +83,8 @@ def install(application: Application, root: Path | None = None) -> Path:
     root = Path(root) if root is not None else docs_dir()
     application.wildcard_router.rules[0:0] = [
         Rule(PathMatches(re.escape(DOCS_PATH) + "$"), _ToSlash),
-        Rule(PathMatches(re.escape(DOCS_PATH) + "/(.*)$"), _Docs,
-             {"path": str(root), "default_filename": "index.html"}),
+        Rule(
+            PathMatches(re.escape(DOCS_PATH) + "/(.*)$"), _Docs, {"path": str(root), "default_filename": "index.html"}
+        ),
     ]
     return root

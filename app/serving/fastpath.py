@@ -37,14 +37,20 @@ gives the models those stylesheets while the page is built.
 
 :func:`install` is idempotent; :mod:`app.page` calls it when the dashboard is imported.
 """
+
 from __future__ import annotations
 
 from typing import Any
 
 from .patches import mark
 
-__all__ = ["install", "lazy_serializer_references", "serialize_set_properties_only", "settle_markup_stylesheets",
-           "skip_unused_design_params"]
+__all__ = [
+    "install",
+    "lazy_serializer_references",
+    "serialize_set_properties_only",
+    "settle_markup_stylesheets",
+    "skip_unused_design_params",
+]
 
 
 def skip_unused_design_params() -> None:
@@ -102,8 +108,11 @@ def serialize_set_properties_only() -> None:
             else:
                 if key not in selected:
                     continue
-                if key not in themed_keys and isinstance(value, PropertyValueContainer) \
-                        and key in self._unstable_default_values:
+                if (
+                    key not in themed_keys
+                    and isinstance(value, PropertyValueContainer)
+                    and key in self._unstable_default_values
+                ):
                     continue
             result[key] = value
         return result

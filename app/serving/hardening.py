@@ -33,6 +33,7 @@ Usage inside a session (e.g. in ``create_app()``)::
     state = AppState()
     hardening.release_on_destroy(state.close)   # or an object: its release(), else its payload attributes
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -51,8 +52,10 @@ from .patches import mark
 
 log = logging.getLogger("isl.app")
 
-USER_MESSAGE = ("Something went wrong while updating the dashboard (incident {incident}). "
-                "The last good result is still shown; the server log has the details.")
+USER_MESSAGE = (
+    "Something went wrong while updating the dashboard (incident {incident}). "
+    "The last good result is still shown; the server log has the details."
+)
 NOTIFICATION_MS = 8000
 # Outputs of app.state.AppState that hold a session's large data (the run's arrays, their display copies, the
 # sweep's curves and points); on a param.Parameterized they are reset to their defaults.
@@ -143,14 +146,16 @@ def quiet_closed_websockets(loop) -> None:
             log.debug("a page closed during a write: %s", context.get("message"))
         else:
             loop.default_exception_handler(context)
+
     loop.set_exception_handler(handler)
 
 
 def handle_exception(exc: BaseException) -> None:
     """Log ``exc`` with its traceback under a new incident id; tell the user only that id."""
     incident = uuid.uuid4().hex[:8]
-    log.error("unhandled error in a dashboard callback [incident %s]", incident,
-              exc_info=(type(exc), exc, exc.__traceback__))
+    log.error(
+        "unhandled error in a dashboard callback [incident %s]", incident, exc_info=(type(exc), exc, exc.__traceback__)
+    )
     try:
         notifications = pn.state.notifications
         if notifications is not None:
@@ -330,8 +335,9 @@ def release_on_destroy(target: Any) -> None:
 
 
 def _on_destroyed(key: str) -> Callable[[Any], None]:
-    def on_session_destroyed(session_context: Any) -> None:    # bokeh checks this exact signature
+    def on_session_destroyed(session_context: Any) -> None:  # bokeh checks this exact signature
         release_session(session_context, key=key)
+
     return on_session_destroyed
 
 
@@ -374,4 +380,3 @@ def release_session(session_context: Any = None, *, key: str | None = None) -> N
 def live_release_hooks() -> int:
     """Number of sessions with release hooks still pending (0 once every session is destroyed)."""
     return len(_releases)
-

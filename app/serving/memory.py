@@ -3,6 +3,7 @@
 :mod:`app.serving.serve` starts a :class:`MemoryTrimmer` and calls :func:`quiet_garbage_collection` from Panel's
 ``customize_server`` hook; :func:`log_stats` writes the periodic ``isl stats`` line.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -59,8 +60,9 @@ class CollectorPauses:
 
     def take(self) -> str:
         """``gen=count/total ms/longest ms`` for each generation, then start counting afresh."""
-        text = " ".join(f"gc{g}={self.count[g]}/{self.total[g] * 1e3:.0f}/{self.longest[g] * 1e3:.0f}ms"
-                        for g in range(3))
+        text = " ".join(
+            f"gc{g}={self.count[g]}/{self.total[g] * 1e3:.0f}/{self.longest[g] * 1e3:.0f}ms" for g in range(3)
+        )
         self.count, self.total, self.longest = [0, 0, 0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
         return text
 
@@ -77,8 +79,14 @@ def log_stats(server) -> None:
 
     sessions = server.get_sessions()
     connections = sum(s.connection_count for s in sessions)
-    log.info("isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f %s", len(sessions), connections,
-             hardening.live_release_hooks(), rss_mb(), PAUSES.take())
+    log.info(
+        "isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f %s",
+        len(sessions),
+        connections,
+        hardening.live_release_hooks(),
+        rss_mb(),
+        PAUSES.take(),
+    )
 
 
 class MemoryTrimmer:
@@ -129,8 +137,13 @@ class MemoryTrimmer:
             if self._trim is not None:
                 self._trim(0)
             # the event a memory measurement waits for (scripts/load_test.py), instead of a guess at the interval
-            log.info("isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f", sessions, pending,
-                     collected, rss_mb())
+            log.info(
+                "isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f",
+                sessions,
+                pending,
+                collected,
+                rss_mb(),
+            )
         else:
             young_then_freeze()
         self.sessions = sessions + pending
@@ -166,9 +179,15 @@ def check_allocator() -> bool:
     """
     name, value = ALLOCATOR_ENV
     chosen = os.environ.get(name) == value
-    log.info("memory: %s (%s=%s %s)", "glibc's allocator: closed sessions' memory goes back" if chosen else
-             "Python's allocator: the memory a class used stays for the next one", name, value,
-             "set" if chosen else "hands it back (scripts/serve and the image set it)")
+    log.info(
+        "memory: %s (%s=%s %s)",
+        "glibc's allocator: closed sessions' memory goes back"
+        if chosen
+        else "Python's allocator: the memory a class used stays for the next one",
+        name,
+        value,
+        "set" if chosen else "hands it back (scripts/serve and the image set it)",
+    )
     return chosen
 
 

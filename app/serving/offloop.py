@@ -37,6 +37,7 @@ stopped following its sliders (CI's load run: one session of 20 got no plot upda
 the same steps lost 1 registration in 20 000). :func:`install` makes ``execute`` hand such a callback to the
 session's loop first (tornado's thread-safe ``add_callback``), which registers it there.
 """
+
 from __future__ import annotations
 
 import asyncio
@@ -136,8 +137,12 @@ def _execute_via_loop(execute):
     def execute_via_loop(self, callback, schedule="auto"):
         doc = self.curdoc
         loop = session_loop(doc)
-        if (loop is not None and (schedule is True or (schedule == "auto" and not self._unblocked(doc)))
-                and not iscoroutinefunction(callback) and not _on_loop(loop)):  # Panel: add_next_tick_callback
+        if (
+            loop is not None
+            and (schedule is True or (schedule == "auto" and not self._unblocked(doc)))
+            and not iscoroutinefunction(callback)
+            and not _on_loop(loop)
+        ):  # Panel: add_next_tick_callback
             loop.add_callback(_register, doc, self._handle_exception_wrapper(callback, doc))
             return None
         return execute(self, callback, schedule)

@@ -1,5 +1,6 @@
 """Marks on the functions the dashboard installs in place of a library's own (:mod:`app.serving.fastpath`,
 :mod:`app.serving.hardening`): a second install sees its mark and does nothing, and the original stays reachable."""
+
 from __future__ import annotations
 
 from collections.abc import Callable

@@ -39,6 +39,7 @@ documents), rather than spawning ``panel serve`` as a child. That lets it
 the Docker build uses it. ``--health`` asks ``/liveness`` of a local server and exits 0/1: the image's
 HEALTHCHECK uses it (no curl in a slim image).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -63,8 +64,14 @@ STATS_INTERVAL_MS = 60_000
 # Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
 WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 LIVENESS_ENDPOINT = "liveness"
-ENV = {"address": "ISL_ADDRESS", "port": "ISL_PORT", "origins": "ISL_ALLOWED_ORIGINS", "frames": "ISL_FRAME_ANCESTORS",
-       "num_procs": "ISL_NUM_PROCS", "num_threads": "ISL_NUM_THREADS"}
+ENV = {
+    "address": "ISL_ADDRESS",
+    "port": "ISL_PORT",
+    "origins": "ISL_ALLOWED_ORIGINS",
+    "frames": "ISL_FRAME_ANCESTORS",
+    "num_procs": "ISL_NUM_PROCS",
+    "num_threads": "ISL_NUM_THREADS",
+}
 # Bokeh reads this variable and lets it REPLACE the allow-list; the origins come from ISL_ALLOWED_ORIGINS only.
 BOKEH_ORIGIN_ENV = "BOKEH_ALLOW_WS_ORIGIN"
 
@@ -112,9 +119,15 @@ def _env_int(name: str, default: int) -> int:
 
 def check_counts(opts: argparse.Namespace) -> None:
     """``ValueError`` naming the option if a port, process, thread or interval count is out of range."""
-    limits = {"port": (1, 65535), "num_procs": (0, 256), "num_threads": (1, 256),
-              "unused_session_lifetime": (100, 10**8), "check_unused_sessions": (100, 10**8),
-              "stats_interval": (0, 10**8), "trim_interval": (100, 10**8)}
+    limits = {
+        "port": (1, 65535),
+        "num_procs": (0, 256),
+        "num_threads": (1, 256),
+        "unused_session_lifetime": (100, 10**8),
+        "check_unused_sessions": (100, 10**8),
+        "stats_interval": (0, 10**8),
+        "trim_interval": (100, 10**8),
+    }
     for name, (lo, hi) in limits.items():
         value = getattr(opts, name)
         if not lo <= value <= hi:
@@ -124,30 +137,74 @@ def check_counts(opts: argparse.Namespace) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The ``isl serve`` / ``python -m app.serving`` command line."""
     p = argparse.ArgumentParser(prog="isl serve", description="Serve the isl dashboard with safe defaults.")
-    p.add_argument("--address", default=os.environ.get(ENV["address"], DEFAULT_ADDRESS),
-                   help=f"interface to listen on; 0.0.0.0 for every interface (env {ENV['address']}, "
-                        f"default {DEFAULT_ADDRESS})")
-    p.add_argument("--port", type=int, default=_env_int(ENV["port"], DEFAULT_PORT),
-                   help=f"port to listen on, 1..65535 (env {ENV['port']}, default {DEFAULT_PORT})")
-    p.add_argument("--allow-websocket-origin", action="append", default=[], metavar="HOST[:PORT]",
-                   help=f"a host a browser may open the dashboard from (repeatable; added to env "
-                        f"{ENV['origins']}, comma-separated; default localhost and 127.0.0.1 on PORT)")
-    p.add_argument("--num-procs", type=int, default=_env_int(ENV["num_procs"], 1),
-                   help=f"worker processes, 0 = one per core (env {ENV['num_procs']}, default 1)")
-    p.add_argument("--num-threads", type=int, default=_env_int(ENV["num_threads"], DEFAULT_NUM_THREADS),
-                   help=f"threads per process that run callbacks and simulations (env {ENV['num_threads']}, "
-                        f"default {DEFAULT_NUM_THREADS})")
-    p.add_argument("--unused-session-lifetime", type=int, default=UNUSED_SESSION_LIFETIME_MS, metavar="MS",
-                   help=f"how long a session outlives its last connection (default {UNUSED_SESSION_LIFETIME_MS})")
-    p.add_argument("--check-unused-sessions", type=int, default=CHECK_UNUSED_SESSIONS_MS, metavar="MS",
-                   help=f"interval of the sweep for unused sessions (default {CHECK_UNUSED_SESSIONS_MS})")
-    p.add_argument("--stats-interval", type=int, default=STATS_INTERVAL_MS, metavar="MS",
-                   help=f"log live sessions, connections and RSS this often, 0 = never (default {STATS_INTERVAL_MS})")
-    p.add_argument("--trim-interval", type=int, default=TRIM_INTERVAL_MS, metavar="MS",
-                   help=f"how often to look for ended sessions and hand their memory back (default {TRIM_INTERVAL_MS})")
-    p.add_argument("--frame-ancestors", action="append", default=[], metavar="SITE",
-                   help=f"a site that may show the dashboard in a frame, e.g. https://lms.example.edu (repeatable; "
-                        f"added to env {ENV['frames']}; default: none, only the dashboard itself)")
+    p.add_argument(
+        "--address",
+        default=os.environ.get(ENV["address"], DEFAULT_ADDRESS),
+        help=f"interface to listen on; 0.0.0.0 for every interface (env {ENV['address']}, default {DEFAULT_ADDRESS})",
+    )
+    p.add_argument(
+        "--port",
+        type=int,
+        default=_env_int(ENV["port"], DEFAULT_PORT),
+        help=f"port to listen on, 1..65535 (env {ENV['port']}, default {DEFAULT_PORT})",
+    )
+    p.add_argument(
+        "--allow-websocket-origin",
+        action="append",
+        default=[],
+        metavar="HOST[:PORT]",
+        help=f"a host a browser may open the dashboard from (repeatable; added to env "
+        f"{ENV['origins']}, comma-separated; default localhost and 127.0.0.1 on PORT)",
+    )
+    p.add_argument(
+        "--num-procs",
+        type=int,
+        default=_env_int(ENV["num_procs"], 1),
+        help=f"worker processes, 0 = one per core (env {ENV['num_procs']}, default 1)",
+    )
+    p.add_argument(
+        "--num-threads",
+        type=int,
+        default=_env_int(ENV["num_threads"], DEFAULT_NUM_THREADS),
+        help=f"threads per process that run callbacks and simulations (env {ENV['num_threads']}, "
+        f"default {DEFAULT_NUM_THREADS})",
+    )
+    p.add_argument(
+        "--unused-session-lifetime",
+        type=int,
+        default=UNUSED_SESSION_LIFETIME_MS,
+        metavar="MS",
+        help=f"how long a session outlives its last connection (default {UNUSED_SESSION_LIFETIME_MS})",
+    )
+    p.add_argument(
+        "--check-unused-sessions",
+        type=int,
+        default=CHECK_UNUSED_SESSIONS_MS,
+        metavar="MS",
+        help=f"interval of the sweep for unused sessions (default {CHECK_UNUSED_SESSIONS_MS})",
+    )
+    p.add_argument(
+        "--stats-interval",
+        type=int,
+        default=STATS_INTERVAL_MS,
+        metavar="MS",
+        help=f"log live sessions, connections and RSS this often, 0 = never (default {STATS_INTERVAL_MS})",
+    )
+    p.add_argument(
+        "--trim-interval",
+        type=int,
+        default=TRIM_INTERVAL_MS,
+        metavar="MS",
+        help=f"how often to look for ended sessions and hand their memory back (default {TRIM_INTERVAL_MS})",
+    )
+    p.add_argument(
+        "--frame-ancestors",
+        action="append",
+        default=[],
+        metavar="SITE",
+        help=f"a site that may show the dashboard in a frame, e.g. https://lms.example.edu (repeatable; "
+        f"added to env {ENV['frames']}; default: none, only the dashboard itself)",
+    )
     p.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error", "critical"])
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--check", action="store_true", help="run the warm-up (numba cache, the app once) and exit")
@@ -157,12 +214,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 def panel_argv(opts: argparse.Namespace, script: str, origins: Sequence[str]) -> list[str]:
     """Arguments for Panel's ``serve`` sub-command (without the leading ``serve``)."""
-    argv = [script, "--address", opts.address, "--port", str(opts.port),
-            "--num-procs", str(opts.num_procs), "--num-threads", str(opts.num_threads),
-            "--unused-session-lifetime", str(opts.unused_session_lifetime),
-            "--check-unused-sessions", str(opts.check_unused_sessions),
-            "--websocket-max-message-size", str(WEBSOCKET_MAX_MESSAGE_BYTES),
-            "--log-level", opts.log_level, "--warm"]  # /liveness: webguard's (Panel's can build a session)
+    argv = [
+        script,
+        "--address",
+        opts.address,
+        "--port",
+        str(opts.port),
+        "--num-procs",
+        str(opts.num_procs),
+        "--num-threads",
+        str(opts.num_threads),
+        "--unused-session-lifetime",
+        str(opts.unused_session_lifetime),
+        "--check-unused-sessions",
+        str(opts.check_unused_sessions),
+        "--websocket-max-message-size",
+        str(WEBSOCKET_MAX_MESSAGE_BYTES),
+        "--log-level",
+        opts.log_level,
+        "--warm",
+    ]  # /liveness: webguard's (Panel's can build a session)
     for origin in origins:
         argv += ["--allow-websocket-origin", origin]
     return argv
@@ -174,8 +245,12 @@ def browser_url(address: str, port: int) -> str:
     return f"http://{host}:{port}/"
 
 
-def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Sequence[str] = (),
-                   trim_interval_ms: int = TRIM_INTERVAL_MS):
+def _serve_command(
+    origins: Sequence[str],
+    stats_interval_ms: int,
+    ancestors: Sequence[str] = (),
+    trim_interval_ms: int = TRIM_INTERVAL_MS,
+):
     """Panel's ``serve`` sub-command with a strict warm-up and a URL banner (imports panel lazily)."""
     from panel.command.serve import Serve
 
@@ -186,11 +261,16 @@ def _serve_command(origins: Sequence[str], stats_interval_ms: int, ancestors: Se
 
         def customize_server(self, server):
             from tornado.process import task_id
+
             if task_id() in (None, 0):
-                print(f"isl dashboard: {browser_url(server.address or '', server.port)}  (listening on "
-                      f"{server.address}:{server.port}; websocket origins: {', '.join(origins)}; "
-                      f"set {ENV['origins']} to add hosts)", flush=True)
+                print(
+                    f"isl dashboard: {browser_url(server.address or '', server.port)}  (listening on "
+                    f"{server.address}:{server.port}; websocket origins: {', '.join(origins)}; "
+                    f"set {ENV['origins']} to add hosts)",
+                    flush=True,
+                )
             from tornado.ioloop import PeriodicCallback
+
             if stats_interval_ms > 0:
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
             quiet_garbage_collection()
@@ -246,7 +326,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     except AppStartupError as exc:
         log.error("%s", exc)
         return 1
-    except SystemExit as exc:            # bokeh exits 1 when the port is in use
+    except SystemExit as exc:  # bokeh exits 1 when the port is in use
         return exc.code if isinstance(exc.code, int) else 1
     except KeyboardInterrupt:
         pass
@@ -281,4 +361,3 @@ def main(argv: list[str] | None = None) -> int:
         print("isl dashboard: warm-up passed", flush=True)
         return 0
     return serve(opts, origins, ancestors)
-

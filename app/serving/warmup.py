@@ -1,5 +1,6 @@
 """The server's warm-up before it listens: the kernels compiled (or loaded from the numba cache), the long jobs'
 fork server started, the app script run once in a session (:ref:`performance-warm-up`)."""
+
 from __future__ import annotations
 
 import logging
@@ -18,8 +19,9 @@ def raise_if_failed(applications) -> None:
     for application in applications:
         for handler in application.handlers:
             if getattr(handler, "failed", False):
-                raise AppStartupError(f"the dashboard app failed during warm-up: "
-                                      f"{getattr(handler, 'error', 'unknown error')}")
+                raise AppStartupError(
+                    f"the dashboard app failed during warm-up: {getattr(handler, 'error', 'unknown error')}"
+                )
 
 
 def warm_core() -> None:
@@ -29,6 +31,7 @@ def warm_core() -> None:
     from isl_core import Model, Scenario
     from isl_core.runview import simulate_view
     from isl_core.scenario.run import simulate_scenario
+
     model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
     simulate_view(model, 3.0, seed=0, horizon=1.0)
     simulate_scenario(model, 3.0, Scenario(), horizon=1.0, windows=1)

@@ -17,6 +17,7 @@ Panel's ``customize_server`` hook):
 * ``GET /liveness``: 200 with ``{"alive": true}`` as long as the event loop answers — nothing else is done: Panel's
   own handler builds a whole session when asked with ``?endpoint=/app`` (1.2–1.8 s on the loop).
 """
+
 from __future__ import annotations
 
 import re
@@ -38,15 +39,20 @@ def check_frame_ancestors(spec: str | None) -> list[str]:
     sources = [s for s in re.split(r"[\s,]+", spec or "") if s]
     for s in sources:
         if not _SOURCE.match(s):
-            raise ValueError(f"--frame-ancestors / ISL_FRAME_ANCESTORS must list sites like https://lms.example.edu "
-                             f"(scheme://host[:port], a leading *. allowed), got {s!r}")
+            raise ValueError(
+                f"--frame-ancestors / ISL_FRAME_ANCESTORS must list sites like https://lms.example.edu "
+                f"(scheme://host[:port], a leading *. allowed), got {s!r}"
+            )
     return list(dict.fromkeys(s for s in sources if s != "'self'"))
 
 
 def frame_policy(ancestors: Sequence[str]) -> dict[str, str]:
     """The framing and related headers for these extra frame ancestors (module docstring)."""
-    headers = {"Content-Security-Policy": "frame-ancestors " + " ".join(["'self'", *ancestors]),
-               "X-Content-Type-Options": "nosniff", "Referrer-Policy": "same-origin"}
+    headers = {
+        "Content-Security-Policy": "frame-ancestors " + " ".join(["'self'", *ancestors]),
+        "X-Content-Type-Options": "nosniff",
+        "Referrer-Policy": "same-origin",
+    }
     if not ancestors:
         headers["X-Frame-Options"] = "SAMEORIGIN"
     return headers
@@ -78,8 +84,9 @@ def install(application: tornado.web.Application, origins: Sequence[str], ancest
     application.transforms.insert(0, SecurityHeaders)
     if tornado.web.GZipContentEncoding not in application.transforms:
         application.transforms.append(tornado.web.GZipContentEncoding)
-    application.wildcard_router.rules.insert(0, tornado.routing.Rule(
-        tornado.routing.PathMatches(re.escape(LIVENESS_PATH) + "$"), _Liveness))
+    application.wildcard_router.rules.insert(
+        0, tornado.routing.Rule(tornado.routing.PathMatches(re.escape(LIVENESS_PATH) + "$"), _Liveness)
+    )
     find = application.find_handler
 
     def find_handler(request, **kwargs):

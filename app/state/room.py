@@ -9,6 +9,7 @@ session (:meth:`app.state.AppState.admit`): a bad one is refused in words, besid
 A room reaches the rest of the session only through its host: the model's inputs, the session's jobs
 (:meth:`later`, :meth:`describe`, :attr:`jobs`) and the refusals.
 """
+
 from __future__ import annotations
 
 from typing import Any, ClassVar

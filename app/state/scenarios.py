@@ -13,6 +13,7 @@ input) and computes three things through the core:
 * **the tuning** (:func:`isl_core.scenario.tuning.tune` for the page's α, m and w): a long job, then cached, which every
   later picture of that model uses.
 """
+
 from __future__ import annotations
 
 import io
@@ -36,8 +37,19 @@ from .room import Room
 
 __all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "ScenarioRoom"]
 
-PICTURE_INPUTS = ("sc_change", "sc_change_at", "sc_sigma_after", "sc_noise", "sc_dof", "sc_outlier_rate",
-                  "sc_outlier_scale", "sc_sensor", "sc_horizon", "sc_window", "sc_runs")
+PICTURE_INPUTS = (
+    "sc_change",
+    "sc_change_at",
+    "sc_sigma_after",
+    "sc_noise",
+    "sc_dof",
+    "sc_outlier_rate",
+    "sc_outlier_scale",
+    "sc_sensor",
+    "sc_horizon",
+    "sc_window",
+    "sc_runs",
+)
 MAP_INPUTS = ("sc_map", "sc_map_seeds")
 INPUTS = PICTURE_INPUTS + MAP_INPUTS
 #: the model's inputs that change the picture
@@ -52,16 +64,32 @@ CHOICE_LABELS = {
 
 def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
     knots = scenario.sigma_knots
-    change = {"sc_change": "none"} if not knots else {
-        "sc_change": "step" if scenario.sigma_shape == "steps" else "drift", "sc_change_at": knots[0][0],
-        "sc_sigma_after": knots[0][1]}
+    change = (
+        {"sc_change": "none"}
+        if not knots
+        else {
+            "sc_change": "step" if scenario.sigma_shape == "steps" else "drift",
+            "sc_change_at": knots[0][0],
+            "sc_sigma_after": knots[0][1],
+        }
+    )
     beta = 3.0 * math.sqrt(2.0)  # the table's model: α = 1, w = 3, m = 3 (A.25)
     nu_over_beta = a31_nu_over_beta(1.0, 3, 3.0)
     assert nu_over_beta is not None  # table (A.31) holds this model
-    return {"alpha": 1.0, "beta_from_w": True, "w": 3.0, "m": 3, "nu": beta * nu_over_beta,
-            "sigma": sigma0, **change, "sc_noise": scenario.noise, "sc_dof": scenario.dof,
-            "sc_outlier_rate": scenario.outlier_rate, "sc_outlier_scale": scenario.outlier_scale,
-            "sc_sensor": scenario.sensor_interval}
+    return {
+        "alpha": 1.0,
+        "beta_from_w": True,
+        "w": 3.0,
+        "m": 3,
+        "nu": beta * nu_over_beta,
+        "sigma": sigma0,
+        **change,
+        "sc_noise": scenario.noise,
+        "sc_dof": scenario.dof,
+        "sc_outlier_rate": scenario.outlier_rate,
+        "sc_outlier_scale": scenario.outlier_scale,
+        "sc_sensor": scenario.sensor_interval,
+    }
 
 
 #: the columns of the scenario table (isl_core.scenario.table.PRESETS) as dashboard inputs: α = 1, w = 3, m = 3 and
@@ -74,31 +102,75 @@ class ScenarioRoom(Room):
 
     KEYS: ClassVar[dict[str, str]] = {key: key[3:] for key in INPUTS}
 
-    change = param.Selector(objects=["none", "step", "drift"], default="step", label="σ change", doc=(
-        "How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."))
-    change_at = param.Number(10.0, bounds=(0.1, 1000.0), label=f"change at (× 1/{R_MIN})", doc=(
-        f"When σ has changed: the step's time, or the end of the drift, in units of 1/{R_MIN} at σ(0)."))
-    sigma_after = param.Number(2.0, bounds=(0.1, 1000.0), label="σ after", doc=(
-        "σ after the change (σ before it is the σ input)."))
-    noise = param.Selector(objects=list(NOISE_LAWS), default="gaussian", label="noise law",
-                              doc="The observation noise's law per step, scaled so that σ stays its intensity.")
-    dof = param.Number(3.0, bounds=(2.1, 1000.0), label="Student-t degrees of freedom", doc=(
-        "d of the Student-t noise (d > 2: finite variance); small d, heavy tails."))
-    outlier_rate = param.Number(0.01, bounds=(0.0, 0.5), label="outlier fraction", doc=(
-        "Fraction ε of the steps whose noise is k times larger."))
-    outlier_scale = param.Number(30.0, bounds=(1.0, 1000.0), label="outlier size k", doc=(
-        "How much larger an outlier's noise is (k)."))
-    sensor = param.Number(0.0, bounds=(0.0, 5.0), label=f"sensor interval (× 1/{R_MIN})", doc=(
-        "The filters read the integrated observation every Δ (0: at every simulation step)."))
-    horizon = param.Number(30.0, bounds=(5.0, 500.0), label=f"scenario horizon (× 1/{R_MIN})", doc=(
-        f"Length of each scenario run in units of 1/{R_MIN} at σ(0)."))
-    window = param.Number(1.0, bounds=(0.1, 50.0), label=f"rolling window (× 1/{R_MIN})", doc=(
-        "Width of the window over which each point's RMSE ratio is taken."))
-    runs = param.Integer(32, bounds=(1, 256), label="runs averaged", doc=(
-        "Independent runs (seeds from the seed input on) whose mean squared errors are averaged."))
-    map = param.Selector(objects=list(MAPS), default="sigma_step", label="map over", doc=(
-        "The who-wins map's axis: the σ step's ratio (× time since the step), the tails' degrees of freedom, or the "
-        "sensor interval."))
+    change = param.Selector(
+        objects=["none", "step", "drift"],
+        default="step",
+        label="σ change",
+        doc=("How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."),
+    )
+    change_at = param.Number(
+        10.0,
+        bounds=(0.1, 1000.0),
+        label=f"change at (× 1/{R_MIN})",
+        doc=(f"When σ has changed: the step's time, or the end of the drift, in units of 1/{R_MIN} at σ(0)."),
+    )
+    sigma_after = param.Number(
+        2.0, bounds=(0.1, 1000.0), label="σ after", doc=("σ after the change (σ before it is the σ input).")
+    )
+    noise = param.Selector(
+        objects=list(NOISE_LAWS),
+        default="gaussian",
+        label="noise law",
+        doc="The observation noise's law per step, scaled so that σ stays its intensity.",
+    )
+    dof = param.Number(
+        3.0,
+        bounds=(2.1, 1000.0),
+        label="Student-t degrees of freedom",
+        doc=("d of the Student-t noise (d > 2: finite variance); small d, heavy tails."),
+    )
+    outlier_rate = param.Number(
+        0.01,
+        bounds=(0.0, 0.5),
+        label="outlier fraction",
+        doc=("Fraction ε of the steps whose noise is k times larger."),
+    )
+    outlier_scale = param.Number(
+        30.0, bounds=(1.0, 1000.0), label="outlier size k", doc=("How much larger an outlier's noise is (k).")
+    )
+    sensor = param.Number(
+        0.0,
+        bounds=(0.0, 5.0),
+        label=f"sensor interval (× 1/{R_MIN})",
+        doc=("The filters read the integrated observation every Δ (0: at every simulation step)."),
+    )
+    horizon = param.Number(
+        30.0,
+        bounds=(5.0, 500.0),
+        label=f"scenario horizon (× 1/{R_MIN})",
+        doc=(f"Length of each scenario run in units of 1/{R_MIN} at σ(0)."),
+    )
+    window = param.Number(
+        1.0,
+        bounds=(0.1, 50.0),
+        label=f"rolling window (× 1/{R_MIN})",
+        doc=("Width of the window over which each point's RMSE ratio is taken."),
+    )
+    runs = param.Integer(
+        32,
+        bounds=(1, 256),
+        label="runs averaged",
+        doc=("Independent runs (seeds from the seed input on) whose mean squared errors are averaged."),
+    )
+    map = param.Selector(
+        objects=list(MAPS),
+        default="sigma_step",
+        label="map over",
+        doc=(
+            "The who-wins map's axis: the σ step's ratio (× time since the step), the tails' degrees of freedom, "
+            "or the sensor interval."
+        ),
+    )
     map_seeds = param.Integer(16, bounds=(2, 128), label="map seeds", doc="Independent runs per cell of the map.")
 
     picture = param.ClassSelector(class_=Picture, default=None, allow_None=True, precedence=-1)
@@ -109,8 +181,13 @@ class ScenarioRoom(Room):
     map_busy = param.Boolean(False, precedence=-1)
     map_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
     map_note = param.String("", precedence=-1, doc="Status line of the who-wins map.")
-    tuning = param.ClassSelector(class_=Tuning, default=None, allow_None=True, precedence=-1,
-                                    doc="The tuning of the page's α, m and w, when there is one (the tuning curves).")
+    tuning = param.ClassSelector(
+        class_=Tuning,
+        default=None,
+        allow_None=True,
+        precedence=-1,
+        doc="The tuning of the page's α, m and w, when there is one (the tuning curves).",
+    )
     tune_busy = param.Boolean(False, precedence=-1)
     tune_progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
     tune_note = param.String("", precedence=-1, doc="Status line of the tuning.")
@@ -132,15 +209,34 @@ class ScenarioRoom(Room):
     def request(self) -> ScenarioRequest:
         """The picture's request from the current inputs (``ValueError`` in words for an impossible scenario)."""
         knots = () if self.change == "none" else ((self.change_at, self.sigma_after),)
-        scenario = Scenario(sigma_knots=knots, sigma_shape="drift" if self.change == "drift" else "steps",
-                            noise=self.noise, dof=self.dof, outlier_rate=self.outlier_rate,
-                            outlier_scale=self.outlier_scale, sensor_interval=self.sensor)
+        scenario = Scenario(
+            sigma_knots=knots,
+            sigma_shape="drift" if self.change == "drift" else "steps",
+            noise=self.noise,
+            dof=self.dof,
+            outlier_rate=self.outlier_rate,
+            outlier_scale=self.outlier_scale,
+            sensor_interval=self.sensor,
+        )
         if self.window > self.horizon:
-            raise ValueError(f"the rolling window (sc_window = {self.window:g}) must not be longer than the "
-                             f"scenario horizon (sc_horizon = {self.horizon:g})")
+            raise ValueError(
+                f"the rolling window (sc_window = {self.window:g}) must not be longer than the "
+                f"scenario horizon (sc_horizon = {self.horizon:g})"
+            )
         h = self._host
-        return ScenarioRequest(h.alpha, h.beta_effective, h.sigma, h.m, h.nu, h.seed, h.baselines.sigma_range,
-                               scenario, self.horizon, self.window, self.runs)
+        return ScenarioRequest(
+            h.alpha,
+            h.beta_effective,
+            h.sigma,
+            h.m,
+            h.nu,
+            h.seed,
+            h.baselines.sigma_range,
+            scenario,
+            self.horizon,
+            self.window,
+            self.runs,
+        )
 
     def want(self) -> None:
         """The Scenario tab is on screen: compute its picture, now and whenever an input changes."""
@@ -170,10 +266,16 @@ class ScenarioRoom(Room):
             return
         pic: Picture = outcome.value
         req = pic.request
-        self.param.update(picture=pic, tuning=pic.tuned, busy=False, note=(
-            f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs (seeds {req.seed}–{req.seed + req.runs - 1}) of "
-            f"{per_r_min(req.horizon)}, {pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: "
-            f"{pic.origin}."))
+        self.param.update(
+            picture=pic,
+            tuning=pic.tuned,
+            busy=False,
+            note=(
+                f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs "
+                f"(seeds {req.seed}–{req.seed + req.runs - 1}) of {per_r_min(req.horizon)}, "
+                f"{pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: {pic.origin}."
+            ),
+        )
 
     def csv(self) -> io.StringIO:
         """The picture on screen as CSV (:func:`app.scenario_picture.picture_csv`), for the download button."""
@@ -189,8 +291,7 @@ class ScenarioRoom(Room):
         if self._host.alpha <= 0.0:
             self.map_note = "Not started: the map is for paper A's model, which needs α > 0."
             return
-        fn = partial(who_wins_map, self.map, self._host.alpha, m=self._host.m, w=self._model_w(),
-                     seeds=self.map_seeds)
+        fn = partial(who_wins_map, self.map, self._host.alpha, m=self._host.m, w=self._model_w(), seeds=self.map_seeds)
         cells = len(MAPS[self.map])
         self._map_task.start(fn, self._apply_map, f"Simulating {cells} cells × {self.map_seeds} runs …")
 
@@ -206,9 +307,11 @@ class ScenarioRoom(Room):
             return
         values = PRESETS[label]
         host.set_inputs(values)
-        text = (f"Scenario preset “{label}”: the model's inputs in the sidebar were set too — α = "
-                f"{num(values['alpha'])}, w = {num(values['w'])}, m = {values['m']}, σ(0) = {num(values['sigma'])}, "
-                f"ν = {num(values['nu'], 3)} (paper A's table A.31) — as the scenario table runs them.")
+        text = (
+            f"Scenario preset “{label}”: the model's inputs in the sidebar were set too — α = "
+            f"{num(values['alpha'])}, w = {num(values['w'])}, m = {values['m']}, σ(0) = {num(values['sigma'])}, "
+            f"ν = {num(values['nu'], 3)} (paper A's table A.31) — as the scenario table runs them."
+        )
         host.say(text, "info")
         self.preset_note = text
 
@@ -239,11 +342,15 @@ class ScenarioRoom(Room):
 
     def _apply_map(self, outcome) -> None:
         res: WhoWinsMap = outcome.value
-        self.param.update(map_result=res, map_note=(
-            f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
-            f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
-            f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
-            f"{per_r_min(res.window)}; filters tuned as in the scenario table: {res.origin}."))
+        self.param.update(
+            map_result=res,
+            map_note=(
+                f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
+                f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
+                f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
+                f"{per_r_min(res.window)}; filters tuned as in the scenario table: {res.origin}."
+            ),
+        )
 
     def release(self) -> None:
         """The session ends: drop the picture and the map without a redraw."""

@@ -15,6 +15,7 @@ messages too.
 Runs (:mod:`app.pipeline`) are computed by :class:`app.jobs.Jobs`: off the event loop when the app gives it thread
 pools, inline otherwise (tests, scripts). Outputs are written only by the state and its rooms.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -38,17 +39,32 @@ from .session_inputs import DISPLAY_INPUTS, INPUTS, TABS, VIEWS, SessionInputs
 from .sweep import SweepRoom
 from .worstcase import WorstCaseRoom
 
-__all__ = ["ALL_INPUTS", "DISPLAY_INPUTS", "INPUTS", "KINDS", "PARAMS", "ROOMS", "TABS", "VIEWS", "AppState",
-           "input_label"]
+__all__ = [
+    "ALL_INPUTS",
+    "DISPLAY_INPUTS",
+    "INPUTS",
+    "KINDS",
+    "PARAMS",
+    "ROOMS",
+    "TABS",
+    "VIEWS",
+    "AppState",
+    "input_label",
+]
 
 
 #: the session's rooms: attribute → class (built in this order: a room may watch the ones before it)
-ROOMS: dict[str, type[Room]] = {"baselines": BaselinesRoom, "sweep": SweepRoom, "worstcase": WorstCaseRoom,
-                                "scenarios": ScenarioRoom}
+ROOMS: dict[str, type[Room]] = {
+    "baselines": BaselinesRoom,
+    "sweep": SweepRoom,
+    "worstcase": WorstCaseRoom,
+    "scenarios": ScenarioRoom,
+}
 #: every input's key → (the room's attribute, None for the session's own, and the parameter's name)
 OWNERS: dict[str, tuple[str | None, str]] = {
     **{k: (None, k) for k in (*INPUTS, *DISPLAY_INPUTS)},
-    **{key: (attr, name) for attr, cls in ROOMS.items() for key, name in cls.KEYS.items()}}
+    **{key: (attr, name) for attr, cls in ROOMS.items() for key, name in cls.KEYS.items()},
+}
 ALL_INPUTS = tuple(OWNERS)  #: every input's key: what a link carries
 
 
@@ -64,16 +80,18 @@ def input_label(name: str, link: bool = False) -> str:
 class AppState(SessionInputs):
     """The session's inputs, validated on assignment, its run and message, and its rooms (the module docstring)."""
 
-    run = param.ClassSelector(class_=RunView, default=None, allow_None=True, precedence=-1,
-                              doc="The latest good run (decimated for display).")
+    run = param.ClassSelector(
+        class_=RunView, default=None, allow_None=True, precedence=-1, doc="The latest good run (decimated for display)."
+    )
     traces = param.ClassSelector(class_=Traces, default=None, allow_None=True, precedence=-1)
     prediction = param.Array(default=None, allow_None=True, precedence=-1, doc="Predicted š_i/s_i of `run`.")
     compute_seconds = param.Number(0.0, precedence=-1, doc="Wall time of the latest run's computation.")
     busy = param.Boolean(False, precedence=-1, doc="A large run (not followed live) is being computed.")
     message = param.String("", precedence=-1, doc="What the user should know: a refused input, an error.")
     message_kind = param.Selector(objects=["info", "warning", "danger"], default="info", precedence=-1)
-    refusals = param.Dict(default={}, precedence=-1,
-                          doc="Input name → why its last value was refused (shown beside it).")
+    refusals = param.Dict(
+        default={}, precedence=-1, doc="Input name → why its last value was refused (shown beside it)."
+    )
     message_inline = param.Boolean(False, precedence=-1, doc="The message is one input's refusal, shown beside it.")
     extra_prediction = param.Dict(default={}, precedence=-1, doc="Predicted ratios of the run's extra filters.")
 
@@ -170,8 +188,9 @@ class AppState(SessionInputs):
         """
         value = inputs.clean(self.label_of(name, link), value, KINDS[name])
         if name in ("sigma_min", "sigma_max"):
-            self.baselines.check(name, value, {k: v for k, v in (pending or {}).items()
-                                               if k in ("sigma_min", "sigma_max")})
+            self.baselines.check(
+                name, value, {k: v for k, v in (pending or {}).items() if k in ("sigma_min", "sigma_max")}
+            )
         return value
 
     def set_inputs(self, values: dict, problems: dict[str, str] | None = None, *, link: bool = False) -> list[str]:
@@ -195,8 +214,9 @@ class AppState(SessionInputs):
         if bad:
             kept = "the last good run is kept" if self.run is not None else "nothing was simulated for them"
             what = "a value" if len(bad) == 1 else f"{len(bad)} values"
-            self.say(f"Refused {what} (each keeps its previous setting; {kept}): " + "; ".join(bad.values()) + ".",
-                     "danger")
+            self.say(
+                f"Refused {what} (each keeps its previous setting; {kept}): " + "; ".join(bad.values()) + ".", "danger"
+            )
             self.refusals = {key: f"Refused: {text}." for key, text in bad.items() if key in OWNERS}
         return list(bad.values())
 
@@ -249,8 +269,18 @@ class AppState(SessionInputs):
     def request(self) -> Request:
         """The run the inputs ask for."""
         extra = self.baselines
-        return Request(self.alpha, self.beta_effective, self.sigma, self.nu, self.m, self.seed, self.horizon,
-                       tuple(extra.extra_filters), extra.sigma_design, extra.sigma_range)
+        return Request(
+            self.alpha,
+            self.beta_effective,
+            self.sigma,
+            self.nu,
+            self.m,
+            self.seed,
+            self.horizon,
+            tuple(extra.extra_filters),
+            extra.sigma_design,
+            extra.sigma_range,
+        )
 
     # ---- runs ----------------------------------------------------------------------------------------
     def start(self) -> None:
@@ -262,8 +292,12 @@ class AppState(SessionInputs):
         if self.alpha == 0.0 and self.beta_from_w:
             self._switch_to_beta()
         self.busy = True
-        self.jobs.submit("run", partial(compute, self.request(), nearest=True), partial(self._apply_run, self._serial),
-                         cancellable=True)
+        self.jobs.submit(
+            "run",
+            partial(compute, self.request(), nearest=True),
+            partial(self._apply_run, self._serial),
+            cancellable=True,
+        )
         self.sweep.refresh_curves()
 
     def _switch_to_beta(self) -> None:
@@ -282,9 +316,13 @@ class AppState(SessionInputs):
             return
         self.busy = not self.live  # a small run is back before a spinner could be seen
         nearest = self.run is None  # nothing on screen to keep: show the nearest allowed setting instead
-        self.jobs.submit("run", partial(compute, self.request(), nearest=nearest),
-                         partial(self._apply_run, self._serial), pool="run" if self.live else "large",
-                         cancellable=True)
+        self.jobs.submit(
+            "run",
+            partial(compute, self.request(), nearest=nearest),
+            partial(self._apply_run, self._serial),
+            pool="run" if self.live else "large",
+            cancellable=True,
+        )
 
     def _on_extra_inputs(self, *events) -> None:
         """σ̄ and the σ range change the run only when an extra filter is drawn (or the selection changed)."""
@@ -306,8 +344,14 @@ class AppState(SessionInputs):
             finally:
                 self._quiet = False
         self.shown_request = res.request
-        self.param.update(run=res.run, traces=res.traces, prediction=res.prediction,
-                          extra_prediction=res.extra_prediction or {}, compute_seconds=outcome.seconds, busy=superseded)
+        self.param.update(
+            run=res.run,
+            traces=res.traces,
+            prediction=res.prediction,
+            extra_prediction=res.extra_prediction or {},
+            compute_seconds=outcome.seconds,
+            busy=superseded,
+        )
         if res.adjusted and not superseded:
             self.say(f"Showing the nearest allowed setting: {res.adjusted}.", "warning")
         elif serial == self._serial and not self.refusals:
@@ -348,5 +392,6 @@ class AppState(SessionInputs):
 #: every input's declaration (a param.Parameter: label, doc, bounds), by key
 PARAMS = {key: (AppState if attr is None else ROOMS[attr]).param[name] for key, (attr, name) in OWNERS.items()}
 #: kind and range of every input (:mod:`app.inputs`), from the declarations above
-KINDS = inputs.kinds_of(ALL_INPUTS, PARAMS, {k: v for cls in ROOMS.values()
-                                             for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()})
+KINDS = inputs.kinds_of(
+    ALL_INPUTS, PARAMS, {k: v for cls in ROOMS.values() for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()}
+)

@@ -5,6 +5,7 @@ The curves (:func:`app.sweeps.theory_curves`) are computed once the sweep's tab 
 context — α, β, m, the sweep's σ values, the extra filters — changes; simulated points and recommendations are the
 session's long jobs (:class:`app.jobs.LongTask`). A recommendation sets the model's ν.
 """
+
 from __future__ import annotations
 
 from functools import partial
@@ -31,10 +32,19 @@ class SweepRoom(Room):
     #: the range of each entry of a list input
     ITEM_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {"sweep_sigmas": SWEEP_SIGMA_BOUNDS}
 
-    sigmas = param.List([2.0, 20.0, 200.0], item_type=float, bounds=(1, 5), label="σ values", doc=(
-        "σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."))
-    horizon = param.Number(200.0, bounds=(20.0, 2000.0), label=f"sweep horizon (× 1/{R_MIN})", doc=(
-        f"Length of each simulated sweep run in units of 1/{R_MIN}; ±2 % needs about 1000."))
+    sigmas = param.List(
+        [2.0, 20.0, 200.0],
+        item_type=float,
+        bounds=(1, 5),
+        label="σ values",
+        doc=("σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."),
+    )
+    horizon = param.Number(
+        200.0,
+        bounds=(20.0, 2000.0),
+        label=f"sweep horizon (× 1/{R_MIN})",
+        doc=(f"Length of each simulated sweep run in units of 1/{R_MIN}; ±2 % needs about 1000."),
+    )
 
     curves = param.ClassSelector(class_=sweeps.SweepCurves, default=None, allow_None=True, precedence=-1)
     curves_note = param.String("", precedence=-1, doc="Why there are no theory curves, if there are none.")
@@ -85,9 +95,17 @@ class SweepRoom(Room):
         if not self._wanted:
             return
         extra = self._host.baselines
-        self.jobs.submit("theory", partial(sweeps.theory_curves, *self.model(), extras=tuple(extra.extra_filters),
-                                           sigma_design=extra.sigma_design, sigma_range=extra.sigma_range),
-                         self._apply_curves)
+        self.jobs.submit(
+            "theory",
+            partial(
+                sweeps.theory_curves,
+                *self.model(),
+                extras=tuple(extra.extra_filters),
+                sigma_design=extra.sigma_design,
+                sigma_range=extra.sigma_range,
+            ),
+            self._apply_curves,
+        )
 
     def _apply_curves(self, outcome: Outcome, superseded: bool) -> None:
         if outcome.error is None:
@@ -106,8 +124,9 @@ class SweepRoom(Room):
             return
         alpha, beta, m, sigmas = self.model()
         fn = partial(sweeps.simulate_points, alpha, beta, m, sigmas, horizon=self.horizon, seed=self._host.seed)
-        self._task.start(fn, self._apply_points,
-                         f"Simulating {len(sigmas)} × {len(sweeps.SIM_LEVELS)} configurations …")
+        self._task.start(
+            fn, self._apply_points, f"Simulating {len(sigmas)} × {len(sweeps.SIM_LEVELS)} configurations …"
+        )
 
     def _apply_points(self, outcome: Outcome) -> None:
         pts: sweeps.SweepPoints = outcome.value
@@ -124,8 +143,9 @@ class SweepRoom(Room):
             return
         alpha, beta, m, sigmas = self.model()
         fn = partial(sweeps.recommend, alpha, beta, m, sigmas, horizon=self.horizon, seed=self._host.seed)
-        self._task.start(fn, self._apply_recommendation,
-                         "Searching the theory for the best ν, then checking it by simulation …")
+        self._task.start(
+            fn, self._apply_recommendation, "Searching the theory for the best ν, then checking it by simulation …"
+        )
 
     def _apply_recommendation(self, outcome: Outcome) -> None:
         nu, text = outcome.value

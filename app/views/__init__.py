@@ -1,4 +1,5 @@
 """Views of the dashboard: small Viewers that only build widgets and figures over :class:`app.state.AppState`."""
+
 from .about import about_card
 from .controls import ControlsView
 from .numbers import NumbersView

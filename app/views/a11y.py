@@ -27,6 +27,7 @@ views of the page (those drawn already and, through their prototypes, those draw
 If BokehJS no longer has what a part patches (another version), that part does nothing, and the browser tests fail on
 what they check (axe-core's rules and the keyboard walk in ``tests/test_browser_a11y.py``).
 """
+
 from __future__ import annotations
 
 from bokeh.models import CustomJS
@@ -44,12 +45,15 @@ input:focus-visible, select:focus-visible, textarea:focus-visible, .bk-tab:focus
 """
 
 #: the page's own rules: the skip link (off screen until focused), the focus ring outside the shadow roots
-PAGE_CSS = FOCUS_CSS + """
+PAGE_CSS = (
+    FOCUS_CSS
+    + """
 .isl-skip { position: absolute; left: -10000px; top: 8px; z-index: 10000; background: #fff; color: #111;
             padding: 8px 14px; font-size: 16px; border-radius: 4px; }
 .isl-skip:focus { left: 8px; }
 #sidebar-button { cursor: pointer; }
 """
+)
 
 #: accessible names of the sliders, by their visible title (the title alone is a symbol such as "σ")
 SLIDER_NAMES = {
@@ -320,5 +324,6 @@ refocus_toggle();
 def install(doc) -> None:
     """Run :data:`A11Y_SCRIPT` in the browser when ``doc`` is ready (nothing without a document)."""
     if doc is not None:
-        doc.js_on_event("document_ready", CustomJS(code=A11Y_SCRIPT, args={"names": SLIDER_NAMES,
-                                                                            "focus_css": FOCUS_CSS}))
+        doc.js_on_event(
+            "document_ready", CustomJS(code=A11Y_SCRIPT, args={"names": SLIDER_NAMES, "focus_css": FOCUS_CSS})
+        )

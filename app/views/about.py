@@ -1,4 +1,5 @@
 """The "what am I looking at" text of the sidebar."""
+
 from __future__ import annotations
 
 import panel as pn
@@ -14,8 +15,10 @@ __all__ = ["ABOUT", "DOCS_LINK", "VERSION", "about_card", "docs_link"]
 VERSION = f"isl {__version__}"
 
 #: the documentation this server serves at /docs/ (app.serving.docs); relative, so it stays under a proxy's prefix
-DOCS_LINK = ('<a href="./docs/" target="_blank" rel="noopener" class="isl-docs-link" title="The documentation: the '
-             'model and its equations, the filters, a guide to this page (opens in a new tab)">Docs</a>')
+DOCS_LINK = (
+    '<a href="./docs/" target="_blank" rel="noopener" class="isl-docs-link" title="The documentation: the '
+    'model and its equations, the filters, a guide to this page (opens in a new tab)">Docs</a>'
+)
 
 ABOUT = r"""
 **The signal.** X₁ is a position, X₂ its velocity, X₃ its acceleration, … (m coordinates). The top
@@ -77,14 +80,24 @@ page — is served with it: [Docs](./docs/) (also in the header).
 
 def about_card() -> pn.Card:
     """The card at the top of the sidebar, folded: its title is the first thing a newcomer reads there."""
-    return pn.Card(pn.pane.Markdown(ABOUT.format(a=PAPER_A, b=PAPER_B), styles={"font-size": TEXT_FONT}),
-                   title="What am I looking at?", collapsed=True, sizing_mode="stretch_width", margin=(10, 5))
+    return pn.Card(
+        pn.pane.Markdown(ABOUT.format(a=PAPER_A, b=PAPER_B), styles={"font-size": TEXT_FONT}),
+        title="What am I looking at?",
+        collapsed=True,
+        sizing_mode="stretch_width",
+        margin=(10, 5),
+    )
 
 
 def docs_link() -> pn.pane.HTML:
     """The header's link to the documentation served with the dashboard, after the version the server runs (white
     on the header's blue)."""
-    return pn.pane.HTML(f'<span class="isl-version">{VERSION}</span> {DOCS_LINK}', margin=(18, 10),
-                        stylesheets=[".isl-docs-link { color: #fff; font-size: 16px; font-weight: 600; }"
-                                     ".isl-docs-link:hover, .isl-docs-link:focus { text-decoration: underline; }"
-                                     ".isl-version { color: #fff; font-size: 14px; margin-right: 12px; }"])
+    return pn.pane.HTML(
+        f'<span class="isl-version">{VERSION}</span> {DOCS_LINK}',
+        margin=(18, 10),
+        stylesheets=[
+            ".isl-docs-link { color: #fff; font-size: 16px; font-weight: 600; }"
+            ".isl-docs-link:hover, .isl-docs-link:focus { text-decoration: underline; }"
+            ".isl-version { color: #fff; font-size: 14px; margin-right: 12px; }"
+        ],
+    )

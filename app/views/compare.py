@@ -7,6 +7,7 @@ the measured ratios of both runs are tabulated below it. Drawn on request ("Comp
 large runs (off the event loop, below the slider runs' priority); a run on screen that changes afterwards marks
 the picture as out of date instead of redrawing it at every slider move.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -50,9 +51,11 @@ def alt_text(runs) -> str:
     """What the comparison picture shows, for a screen reader (its numbers are in the table below it)."""
     m = runs[0].model.m
     sigmas = " and ".join(f"σ = {r.model.sigma:g}" for r in runs)
-    return (f"Paper A's Fig. 3 for {sigmas}, side by side: for each of the {m} coordinates, the signal, the "
-            "Kalman–Bucy estimate, the ISL estimate and the Kalman–Bucy estimate ± 3 sᵢ, against time; the measured "
-            "RMSE ratios of both runs are in the table below the picture.")
+    return (
+        f"Paper A's Fig. 3 for {sigmas}, side by side: for each of the {m} coordinates, the signal, the "
+        "Kalman–Bucy estimate, the ISL estimate and the Kalman–Bucy estimate ± 3 sᵢ, against time; the measured "
+        "RMSE ratios of both runs are in the table below the picture."
+    )
 
 
 def ratios_html(runs) -> str:
@@ -83,8 +86,9 @@ class CompareView(Viewer):
         self._input._refuse = self._take
         self._input.param.watch(lambda event: self._take(event.new), "value")
         self._refusal = pn.pane.HTML("", visible=False, stylesheets=[REFUSAL_CSS], margin=(0, 10, 6, 10))
-        self._button = pn.widgets.Button(label="Compare", color="primary", width=px(self.state, 130),
-                                         margin=(24, 10, 0, 10))
+        self._button = pn.widgets.Button(
+            label="Compare", color="primary", width=px(self.state, 130), margin=(24, 10, 0, 10)
+        )
         self._button.on_click(lambda event: self.draw())
         self._drawn: Request | None = None
         self.state.param.watch(self._stale, ["run"])
@@ -106,8 +110,9 @@ class CompareView(Viewer):
             return
         shown, self._drawn = self.state.run, self.state.shown_request
         self._note.object = f"Simulating σ = {self.sigma_b:g} beside the run on screen (σ = {shown.model.sigma:g}) …"
-        self.state.submit("compare", lambda req=self._drawn, b=self.sigma_b: compare_figure(shown, req, b),
-                          self._show, pool="large")
+        self.state.submit(
+            "compare", lambda req=self._drawn, b=self.sigma_b: compare_figure(shown, req, b), self._show, pool="large"
+        )
 
     def _stale(self, *events) -> None:
         if self._drawn is not None and self._drawn != self.state.shown_request:
@@ -122,14 +127,25 @@ class CompareView(Viewer):
         png, runs = outcome.value
         self._image.param.update(object=png, alt_text=alt_text(runs))
         self._table.object = ratios_html(runs)
-        self._note.object = (f"Both runs: seed {runs[0].seed}, horizon {per_r_min(runs[0].horizon, 3)} of each "
-                             f"run's own {R_MIN}; computed in {outcome.seconds:.2g} s; drawn by the renderer of the "
-                             "command `isl figure3`.")
+        self._note.object = (
+            f"Both runs: seed {runs[0].seed}, horizon {per_r_min(runs[0].horizon, 3)} of each "
+            f"run's own {R_MIN}; computed in {outcome.seconds:.2g} s; drawn by the renderer of the "
+            "command `isl figure3`."
+        )
 
     def __panel__(self):
         intro = pn.pane.Markdown(
             "The run on screen beside the same run at another σ — paper A's Fig. 3 compares σ = 20 and σ = 200. "
-            "Both use the same seed and every other input, so what changes is σ's doing.", margin=(0, 10),
-            styles={"font-size": TEXT_FONT})
-        return pn.Column(intro, pn.Row(self._input, self._button), self._refusal, self._note, self._image, self._table,
-                         sizing_mode="stretch_width")
+            "Both use the same seed and every other input, so what changes is σ's doing.",
+            margin=(0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
+        return pn.Column(
+            intro,
+            pn.Row(self._input, self._button),
+            self._refusal,
+            self._note,
+            self._image,
+            self._table,
+            sizing_mode="stretch_width",
+        )

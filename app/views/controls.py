@@ -5,6 +5,7 @@ value, shows the value itself, and hands the state the value rounded to 3 signif
 read ``sigma=20``, not ``sigma=19.952623…``). A slider follows the mouse while it is dragged when the
 current run is small (:attr:`AppState.live`), otherwise it applies on release (``value_throttled``).
 """
+
 from __future__ import annotations
 
 import math
@@ -22,8 +23,17 @@ from ..state import PARAMS, AppState
 from ..text import num
 from .fields import field, refusal
 
-__all__ = ["ControlsView", "Guarded", "IntSlider", "NumberInput", "Slider", "WholeInput", "log_slider", "round_sig",
-           "with_help"]
+__all__ = [
+    "ControlsView",
+    "Guarded",
+    "IntSlider",
+    "NumberInput",
+    "Slider",
+    "WholeInput",
+    "log_slider",
+    "round_sig",
+    "with_help",
+]
 
 _LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toString();"
 
@@ -42,8 +52,9 @@ class Guarded:
 
     def fits(self, value) -> bool:
         """Whether Panel can take ``value`` for this widget."""
-        return value is None or (isinstance(value, numbers.Real) and not isinstance(value, bool)
-                                 and math.isfinite(value))
+        return value is None or (
+            isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+        )
 
     def _process_events(self, events: dict) -> None:
         refuse = getattr(self, "_refuse", None)
@@ -152,8 +163,14 @@ def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float 
     """A slider over log10 of input ``name`` between ``lo`` and ``hi`` (within the input's bounds)."""
     p = PARAMS[name]
     a, b = math.log10(lo), math.log10(hi)
-    widget = Slider(label=p.label, start=a, end=b, step=step,
-                                    format=CustomJSTickFormatter(code=_LOG_FORMAT), sizing_mode="stretch_width")
+    widget = Slider(
+        label=p.label,
+        start=a,
+        end=b,
+        step=step,
+        format=CustomJSTickFormatter(code=_LOG_FORMAT),
+        sizing_mode="stretch_width",
+    )
 
     def to_widget(x: float) -> float | None:
         v = min(max(math.log10(x), a), b) if x > 0 else a
@@ -198,17 +215,18 @@ class ControlsView(Viewer):
         self._beta = log_slider(s, "beta", 0.01, 1000.0)
         self._sigma = log_slider(s, "sigma", 0.1, 1000.0)
         self._nu = log_slider(s, "nu", 0.001, 10000.0)
-        self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6,
-                                                      sizing_mode="stretch_width"))
+        self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6, sizing_mode="stretch_width"))
         # no range on the box: BokehJS's box drops a value outside it silently; the state refuses it in words
         # a box for any number: BokehJS's whole-number box turned a typed "1.5" into 15 and ran it
-        self._seed = _plain(s, "seed", NumberInput(label="seed", width=120, description=s.param.seed.doc,
-                                                   value=float(s.seed)))
+        self._seed = _plain(
+            s, "seed", NumberInput(label="seed", width=120, description=s.param.seed.doc, value=float(s.seed))
+        )
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
         self._sync_alpha_zero()
         self._derived = pn.pane.Markdown(self._derived_text, margin=(0, 10))
-        self._status = pn.pane.Alert(self._status_text, alert_type=self._status_kind, visible=self._has_status,
-                                     margin=(5, 10))
+        self._status = pn.pane.Alert(
+            self._status_text, alert_type=self._status_kind, visible=self._has_status, margin=(5, 10)
+        )
 
     # ---- α = 0 -------------------------------------------------------------------------------------
     def _on_alpha_zero(self, event) -> None:
@@ -221,9 +239,11 @@ class ControlsView(Viewer):
         zero = self.state.alpha == 0.0
         self._alpha_zero.value = zero
         # at α = 0 the slider cannot show the value (its scale is log α): no number rather than its end, 0.01
-        self._alpha.param.update(disabled=zero, show_value=not zero,
-                                 name=f"{self.state.param.alpha.label} = 0 (ticked below)" if zero
-                                 else self.state.param.alpha.label)
+        self._alpha.param.update(
+            disabled=zero,
+            show_value=not zero,
+            name=f"{self.state.param.alpha.label} = 0 (ticked below)" if zero else self.state.param.alpha.label,
+        )
 
     # ---- reactive text -----------------------------------------------------------------------------
     @param.depends("state.alpha", "state.beta_from_w", "state.w", "state.beta", "state.nu")
@@ -232,8 +252,9 @@ class ControlsView(Viewer):
         beta = s.beta_effective
         if beta <= 0.0:
             return "β = w√(2α) = 0: untick **β from w** or raise α."
-        return (f"β = **{num(beta)}** · ν/β = **{num(s.nu / beta, 3)}** "
-                f"(ℓ = log₂ ν/β = {num(math.log2(s.nu / beta), 3)})")
+        return (
+            f"β = **{num(beta)}** · ν/β = **{num(s.nu / beta, 3)}** (ℓ = log₂ ν/β = {num(math.log2(s.nu / beta), 3)})"
+        )
 
     @param.depends("state.message")
     def _status_text(self) -> str:
@@ -254,8 +275,14 @@ class ControlsView(Viewer):
     def _preset_buttons(self) -> pn.Column:
         buttons = []
         for name, preset in PRESETS.items():
-            b = pn.widgets.Button(label=name, description=preset.description, color="primary",
-                                  variant="outline", sizing_mode="stretch_width", margin=(2, 10))
+            b = pn.widgets.Button(
+                label=name,
+                description=preset.description,
+                color="primary",
+                variant="outline",
+                sizing_mode="stretch_width",
+                margin=(2, 10),
+            )
             b.on_click(lambda event, name=name: self.state.apply_preset(name))
             buttons.append(b)
         return pn.Column("### Presets", *buttons, sizing_mode="stretch_width")
@@ -264,12 +291,24 @@ class ControlsView(Viewer):
         s = self.state
         new_seed = pn.widgets.Button(label="new noise", width=110, margin=(22, 10, 5, 5))
         new_seed.on_click(lambda event: setattr(s, "seed", (s.seed + 1) % (2**31)))
-        download = pn.widgets.FileDownload(callback=s.csv, filename="isl_run.csv", label="Download run (CSV)",
-                                           color="success", variant="outline",
-                                           sizing_mode="stretch_width", margin=(10, 10))
-        figure_png = pn.widgets.FileDownload(callback=s.png, filename="isl_figure.png", label="Download figure (PNG)",
-                                             color="success", variant="outline", sizing_mode="stretch_width",
-                                             margin=(0, 10, 10, 10))
+        download = pn.widgets.FileDownload(
+            callback=s.csv,
+            filename="isl_run.csv",
+            label="Download run (CSV)",
+            color="success",
+            variant="outline",
+            sizing_mode="stretch_width",
+            margin=(10, 10),
+        )
+        figure_png = pn.widgets.FileDownload(
+            callback=s.png,
+            filename="isl_figure.png",
+            label="Download figure (PNG)",
+            color="success",
+            variant="outline",
+            sizing_mode="stretch_width",
+            margin=(0, 10, 10, 10),
+        )
         spinner = pn.indicators.LoadingSpinner(value=s.param.busy, visible=s.param.busy, size=20, margin=(0, 10))
 
         def helped(name: str, widget):
@@ -279,13 +318,20 @@ class ControlsView(Viewer):
             self._status,
             self._preset_buttons(),
             pn.Row(pn.pane.Markdown("### Model", margin=(0, 10)), spinner),
-            self._alpha_zero, helped("alpha", self._alpha),
+            self._alpha_zero,
+            helped("alpha", self._alpha),
             self._from_w,
-            self._beta_widget, refusal(s, "w"), refusal(s, "beta"),
-            helped("sigma", self._sigma), helped("m", self._m),
+            self._beta_widget,
+            refusal(s, "w"),
+            refusal(s, "beta"),
+            helped("sigma", self._sigma),
+            helped("m", self._m),
             pn.pane.Markdown("### ISL filter and run", margin=(0, 10)),
-            helped("nu", self._nu), self._derived, helped("horizon", self._horizon),
+            helped("nu", self._nu),
+            self._derived,
+            helped("horizon", self._horizon),
             field(s, "seed", pn.Row(self._seed, new_seed)),
-            download, figure_png,
+            download,
+            figure_png,
             sizing_mode="stretch_width",
         )

@@ -5,6 +5,7 @@
 reader reads it when it appears), so that a refusal made in the ν-sweep's tab, the scenario's inputs or the sidebar's
 last box is read beside what caused it, not at the top of a sidebar scrolled out of view.
 """
+
 from __future__ import annotations
 
 import html
@@ -21,8 +22,9 @@ REFUSAL_CSS = """
 
 def refusal(state, name: str) -> pn.pane.HTML:
     """A pane showing why input ``name``'s last value was refused (hidden while there is nothing to say)."""
-    pane = pn.pane.HTML("", visible=False, stylesheets=[REFUSAL_CSS], margin=(0, 10, 6, 10),
-                        sizing_mode="stretch_width")
+    pane = pn.pane.HTML(
+        "", visible=False, stylesheets=[REFUSAL_CSS], margin=(0, 10, 6, 10), sizing_mode="stretch_width"
+    )
 
     def show(*events) -> None:
         text = state.refusals.get(name, "")

@@ -5,6 +5,7 @@ The checked filters (:mod:`app.extras`) ride on the displayed run (same noise) a
 mismatched Kalman–Bucy filter; [σ min, σ max] is the range the minimax and adaptive filters and the
 worst-case tab assume.
 """
+
 from __future__ import annotations
 
 import panel as pn
@@ -58,8 +59,10 @@ def number(state: AppState, name: str, **widget):
 
 def _swatch_css(name: str) -> str:
     """A square of the filter's plot colour before its checkbox's label."""
-    return (f".bk-label::before {{ content: '\\25A0'; color: {EXTRA_COLORS[name]}; font-size: 18px; "
-            "margin-right: 6px; vertical-align: -2px; }")
+    return (
+        f".bk-label::before {{ content: '\\25A0'; color: {EXTRA_COLORS[name]}; font-size: 18px; "
+        "margin-right: 6px; vertical-align: -2px; }"
+    )
 
 
 class FiltersPanel(Viewer):
@@ -72,9 +75,14 @@ class FiltersPanel(Viewer):
         s = self.state
         self._boxes = {}
         for name in EXTRA_NAMES:  # the label names the box for a screen reader; its colour swatch is drawn by CSS
-            box = pn.widgets.Checkbox(value=name in s.baselines.extra_filters, label=LABELS[name], margin=(6, 10),
-                                      css_classes=[f"extra-{name}"], sizing_mode="stretch_width",
-                                      stylesheets=[_swatch_css(name)])
+            box = pn.widgets.Checkbox(
+                value=name in s.baselines.extra_filters,
+                label=LABELS[name],
+                margin=(6, 10),
+                css_classes=[f"extra-{name}"],
+                sizing_mode="stretch_width",
+                stylesheets=[_swatch_css(name)],
+            )
             box.param.watch(self._on_box, "value")
             self._boxes[name] = box
         s.baselines.param.watch(self._from_state, ["extra_filters"])
@@ -98,8 +106,16 @@ class FiltersPanel(Viewer):
         help_text = pn.pane.Markdown(
             "Drawn on the same run (same noise). The model-aware ISL filter uses the ν above; the Kalman–Bucy "
             "filter 'for max σ' and the adaptive one assume σ ∈ [σ min, σ max].",
-            styles={"font-size": NOTE_FONT}, margin=(0, 10))
+            styles={"font-size": NOTE_FONT},
+            margin=(0, 10),
+        )
         s = self.state
-        return pn.Card(*rows, field(s, "sigma_design", self._design),
-                       pn.Row(field(s, "sigma_min", self._lo), field(s, "sigma_max", self._hi)), help_text,
-                       title="Other filters (σ unknown)", collapsed=False, sizing_mode="stretch_width")
+        return pn.Card(
+            *rows,
+            field(s, "sigma_design", self._design),
+            pn.Row(field(s, "sigma_min", self._lo), field(s, "sigma_max", self._hi)),
+            help_text,
+            title="Other filters (σ unknown)",
+            collapsed=False,
+            sizing_mode="stretch_width",
+        )

@@ -8,6 +8,7 @@ lies in the tube X̂_i ± 3 s_i (theory: 99.73 % for a Gaussian error of standar
 the theory beside it (Lyapunov for the fixed-gain Kalman–Bucy filters, :ref:`linearization` for the model-aware ISL
 filter, none for the adaptive one, whose time-averaged σ̂ is shown instead). Below: r_min (A.24), T, h, N.
 """
+
 from __future__ import annotations
 
 import html
@@ -62,8 +63,10 @@ def theory_cell(measured: float, theory: float) -> str:
     if not np.isfinite(theory):
         return "<td class='theory'>—<span class='tag'>unstable in theory</span></td>"
     if measured > THEORY_OFF * theory or measured < theory / THEORY_OFF:
-        return (f"<td class='theory'>not valid<span class='tag'>measured is {measured / theory:.3g}× it: the filter "
-                "has lost lock, the linearization does not hold (ν sweep tab)</span></td>")
+        return (
+            f"<td class='theory'>not valid<span class='tag'>measured is {measured / theory:.3g}× it: the filter "
+            "has lost lock, the linearization does not hold (ν sweep tab)</span></td>"
+        )
     return f"<td class='theory'>{_fmt(theory)}</td>"
 
 
@@ -73,13 +76,18 @@ def extras_html(run, extra_prediction: dict | None) -> str:
     if not tracks:
         return ""
     pred = extra_prediction or {}
-    head = "".join(f"<th>š{str(i + 1).translate(SUBSCRIPT)}/s{str(i + 1).translate(SUBSCRIPT)}"
-                   "<span class='tag'>measured (theory)</span></th>" for i in range(run.model.m))
+    head = "".join(
+        f"<th>š{str(i + 1).translate(SUBSCRIPT)}/s{str(i + 1).translate(SUBSCRIPT)}"
+        "<span class='tag'>measured (theory)</span></th>"
+        for i in range(run.model.m)
+    )
     rows = []
     for tr in tracks:
         th = pred.get(tr.name)
-        cells = "".join(f"<td>{tr.ratio[i]:.3f}{_theory_aside(tr.ratio[i], None if th is None else th[i])}</td>"
-                        for i in range(run.model.m))
+        cells = "".join(
+            f"<td>{tr.ratio[i]:.3f}{_theory_aside(tr.ratio[i], None if th is None else th[i])}</td>"
+            for i in range(run.model.m)
+        )
         note = "" if tr.sigma_hat_mean is None else f"<span class='tag'>mean σ̂ = {tr.sigma_hat_mean:.4g}</span>"
         color = EXTRA_COLORS.get(tr.name, "#000")
         key = f"<span style='color:{color}'>&#9632;</span>"
@@ -91,11 +99,13 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
     """The tables (per-coordinate ratios; the extra filters' ratios, if any; run figures) as HTML."""
     if run is None:
         return "<p><i>The numbers appear with the first run.</i></p>"
-    head = ("<tr><th>coordinate</th><th>s<sub>i</sub><span class='tag'>theory</span></th>"
-            "<th>ŝ<sub>i</sub>/s<sub>i</sub> KBF<span class='tag'>measured</span></th>"
-            "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>measured</span></th>"
-            "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>theory</span></th>"
-            f"<th>X<sub>i</sub> in tube<span class='tag'>measured (theory {100 * TUBE_THEORY:.1f} %)</span></th></tr>")
+    head = (
+        "<tr><th>coordinate</th><th>s<sub>i</sub><span class='tag'>theory</span></th>"
+        "<th>ŝ<sub>i</sub>/s<sub>i</sub> KBF<span class='tag'>measured</span></th>"
+        "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>measured</span></th>"
+        "<th>š<sub>i</sub>/s<sub>i</sub> ISL<span class='tag'>theory</span></th>"
+        f"<th>X<sub>i</sub> in tube<span class='tag'>measured (theory {100 * TUBE_THEORY:.1f} %)</span></th></tr>"
+    )
     rows = []
     for i in range(run.model.m):
         k = str(i + 1).translate(SUBSCRIPT)
@@ -104,9 +114,14 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
             f"<td>{run.ratio_hat[i]:.3f}</td><td>{run.ratio_check[i]:.3f}</td>"
             f"{theory_cell(run.ratio_check[i], prediction[i])}<td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
         )
-    longer = "" if run.stretch == 1.0 else (
-        f"<span class='tag'>lengthened ×{run.stretch:.3g}: the ISL filter at this ν settles that much slower than "
-        "the optimal one (B.46)</span>")
+    longer = (
+        ""
+        if run.stretch == 1.0
+        else (
+            f"<span class='tag'>lengthened ×{run.stretch:.3g}: the ISL filter at this ν settles that much slower than "
+            "the optimal one (B.46)</span>"
+        )
+    )
     facts = (
         f"<tr><td>r<sub>min</sub> (settling rate, theory)</td><td>{_fmt(run.r_min)}</td></tr>"
         f"<tr><td>T (simulated time)</td><td>{_fmt(run.T)} = {per_r_min_html(run.T * run.r_min, 3)}{longer}</td></tr>"
@@ -116,8 +131,10 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         f"<tr><td>N (steps)</td><td>{run.N:,}</td></tr>"
         f"<tr><td>compute time (server)</td><td>{1000 * compute_seconds:.0f} ms</td></tr>"
     )
-    return (f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>"
-            f"{extras_html(run, extra_prediction)}<table class='isl-numbers run'>{facts}</table>")
+    return (
+        f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>"
+        f"{extras_html(run, extra_prediction)}<table class='isl-numbers run'>{facts}</table>"
+    )
 
 
 class NumbersView(Viewer):
@@ -143,6 +160,9 @@ class NumbersView(Viewer):
             self._pane,
             pn.pane.Markdown(
                 "Ratios are RMSE / s<sub>i</sub>: 1 is optimal. Measured ratios on one short run scatter by "
-                "±10 % or more; a longer horizon narrows them.", margin=(0, 10), styles={"font-size": NOTE_FONT}),
+                "±10 % or more; a longer horizon narrows them.",
+                margin=(0, 10),
+                styles={"font-size": NOTE_FONT},
+            ),
             width=round(430 * text_scale(self.state)),
         )

@@ -6,6 +6,7 @@ filter is drawn. With no extra filter selected nothing is sent: the sources stay
 entries hidden (a hidden line costs the browser nothing on a redraw; an empty visible one still goes through
 painting).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -60,9 +61,9 @@ class Overlay:
     def __init__(self, key_figure: figure) -> None:
         self._keys: dict[str, GlyphRenderer] = {
             n: key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), visible=False, **_style(n))
-            for n in EXTRA_NAMES}
-        self.items = [LegendItem(label=value(LABELS[n]), renderers=[self._keys[n]], visible=False)
-                      for n in EXTRA_NAMES]
+            for n in EXTRA_NAMES
+        }
+        self.items = [LegendItem(label=value(LABELS[n]), renderers=[self._keys[n]], visible=False) for n in EXTRA_NAMES]
         self._followers = {n: follow(key) for n, key in self._keys.items()}
         self._figures: list[figure] = []
         self._sources: list[dict[str, ColumnDataSource]] = []

@@ -15,6 +15,7 @@ The script is a document-ready callback of the session's document: it runs once 
 the plots (built after the page connects) are drawn. If BokehJS no longer has the method (another version), it does
 nothing, and the browser test of the page (``tests/test_browser_*``) fails on the check it makes.
 """
+
 from __future__ import annotations
 
 from bokeh.models import CustomJS

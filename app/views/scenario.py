@@ -6,6 +6,7 @@ own level) and σ(t) with the σ̂(t) of each filter that learns σ. A dashed li
 table and the map's cells are HTML tables; the map colours each cell by its winner and marks a tie. Figures are built
 once and updated in place.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,6 +28,7 @@ from .style import TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
 from .tuning import TuningView
 
 __all__ = ["ScenarioView"]
+
 
 def _finite(a: np.ndarray) -> np.ndarray:
     """Positive finite values kept, the rest NaN (a gap on a log axis)."""
@@ -63,22 +65,46 @@ class ScenarioView(Viewer):
     def _figures(self):
         scale = text_scale(self.state)
         # the y range fits the lines, not their bands: with few runs a band's lower end falls decades below
-        ratio = styled(figure(y_axis_type="log", height=520, sizing_mode="stretch_width", x_range=Range1d(0, 1),
-                              y_range=DataRange1d(renderers=[]),
-                              title="RMSE ratio to the clairvoyant filter in time (simulated)",
-                              tools="pan,xwheel_zoom,box_zoom,reset,save"), scale)
+        ratio = styled(
+            figure(
+                y_axis_type="log",
+                height=520,
+                sizing_mode="stretch_width",
+                x_range=Range1d(0, 1),
+                y_range=DataRange1d(renderers=[]),
+                title="RMSE ratio to the clairvoyant filter in time (simulated)",
+                tools="pan,xwheel_zoom,box_zoom,reset,save",
+            ),
+            scale,
+        )
         ratio.yaxis.axis_label = "RMSE / clairvoyant sd (worst coordinate)"
         ratio_axis(ratio, scale)
         ratio.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
-        sigma = styled(figure(y_axis_type="log", height=330, sizing_mode="stretch_width", x_range=ratio.x_range,
-                              title="σ(t) and the σ̂(t) of the filters that learn it", tools="pan,xwheel_zoom,reset"),
-                       scale)
+        sigma = styled(
+            figure(
+                y_axis_type="log",
+                height=330,
+                sizing_mode="stretch_width",
+                x_range=ratio.x_range,
+                title="σ(t) and the σ̂(t) of the filters that learn it",
+                tools="pan,xwheel_zoom,reset",
+            ),
+            scale,
+        )
         sigma.xaxis.axis_label = f"time t, in units of 1/{R_MIN} at σ(0)"
         sigma.yaxis.axis_label = "σ"
         sigma.yaxis.ticker = LogTicker(mantissas=[1, 2, 5])  # labels at every decade's 1, 2, 5
         for fig in (ratio, sigma):  # below the plot, in two columns: the filters' labels are long
-            fig.add_layout(Legend(items=[], orientation="horizontal", ncols=2, click_policy="hide",
-                                  label_text_font_size=f"{10 * scale:.3g}pt"), "below")
+            fig.add_layout(
+                Legend(
+                    items=[],
+                    orientation="horizontal",
+                    ncols=2,
+                    click_policy="hide",
+                    label_text_font_size=f"{10 * scale:.3g}pt",
+                ),
+                "below",
+            )
         return ratio, sigma
 
     def _update(self, *events) -> None:
@@ -112,21 +138,39 @@ class ScenarioView(Viewer):
                 _relabel(self._legend_items[name], label)
                 continue
             color = SCENARIO_COLORS[name]
-            band = self._ratio_fig.varea("t", f"{name}_low", f"{name}_high", source=self._ratio_src, color=color,
-                                         fill_alpha=0.12)
-            line = self._ratio_fig.line("t", name, source=self._ratio_src, color=color, line_width=2,
-                                        line_dash="dashed" if name == "clairvoyant" else "solid")
+            band = self._ratio_fig.varea(
+                "t", f"{name}_low", f"{name}_high", source=self._ratio_src, color=color, fill_alpha=0.12
+            )
+            line = self._ratio_fig.line(
+                "t",
+                name,
+                source=self._ratio_src,
+                color=color,
+                line_width=2,
+                line_dash="dashed" if name == "clairvoyant" else "solid",
+            )
             self._ratio_fig.y_range.renderers = [*self._ratio_fig.y_range.renderers, line]
             self._legend_items[name] = LegendItem(label=value(label), renderers=[line, band])
             legend.items = [*legend.items, self._legend_items[name]]
         sigma_legend = self._sigma_fig.legend[0]
         if not sigma_legend.items:
-            items = [LegendItem(label=value("σ(t), simulated"), renderers=[
-                self._sigma_fig.line("t", "sigma", source=self._sigma_src, color="#000", line_width=2)])]
+            items = [
+                LegendItem(
+                    label=value("σ(t), simulated"),
+                    renderers=[self._sigma_fig.line("t", "sigma", source=self._sigma_src, color="#000", line_width=2)],
+                )
+            ]
             for name in learning:
-                items.append(LegendItem(label=value(""), renderers=[
-                    self._sigma_fig.line("t", name, source=self._sigma_src, color=SCENARIO_COLORS[name],
-                                         line_width=2)]))
+                items.append(
+                    LegendItem(
+                        label=value(""),
+                        renderers=[
+                            self._sigma_fig.line(
+                                "t", name, source=self._sigma_src, color=SCENARIO_COLORS[name], line_width=2
+                            )
+                        ],
+                    )
+                )
             sigma_legend.items = items
         for item, name in zip(sigma_legend.items[1:], learning, strict=True):
             _relabel(item, f"σ̂: {run.labels[run.names.index(name)]}")
@@ -141,43 +185,86 @@ class ScenarioView(Viewer):
         def choice(name: str, width: int = 130):
             decl = PARAMS[name]
             options = {CHOICE_LABELS[name][v]: v for v in decl.objects}
-            return field(s, name, bind(s, name, pn.widgets.Select(
-                label=decl.label, options=options, width=px(s, width), description=decl.doc)))
+            return field(
+                s,
+                name,
+                bind(
+                    s,
+                    name,
+                    pn.widgets.Select(label=decl.label, options=options, width=px(s, width), description=decl.doc),
+                ),
+            )
 
-        preset = pn.widgets.Select(label="scenario preset (the table's columns)", options=["—", *PRESETS],
-                                   width=px(self.state, 260))
+        preset = pn.widgets.Select(
+            label="scenario preset (the table's columns)", options=["—", *PRESETS], width=px(self.state, 260)
+        )
 
         def pick(event) -> None:
             if event.new != "—":
                 s.scenarios.apply_preset(event.new)
                 preset.value = "—"
+
         preset.param.watch(pick, "value")
-        download = pn.widgets.FileDownload(callback=s.scenarios.csv, filename="isl_scenario.csv",
-                                           label="Download (CSV)", color="success", variant="outline",
-                                           width=px(self.state, 150), margin=(24, 10, 0, 10))
-        spinner = pn.indicators.LoadingSpinner(value=p.busy, visible=p.busy, size=20,
-                                               margin=(30, 10))
+        download = pn.widgets.FileDownload(
+            callback=s.scenarios.csv,
+            filename="isl_scenario.csv",
+            label="Download (CSV)",
+            color="success",
+            variant="outline",
+            width=px(self.state, 150),
+            margin=(24, 10, 0, 10),
+        )
+        spinner = pn.indicators.LoadingSpinner(value=p.busy, visible=p.busy, size=20, margin=(30, 10))
         row = dict(flex_wrap="wrap", sizing_mode="stretch_width")
         return pn.Column(
             pn.FlexBox(preset, choice("sc_change"), number("sc_change_at"), number("sc_sigma_after", 120), **row),
-            pn.FlexBox(choice("sc_noise"), number("sc_dof", 190), number("sc_outlier_rate", 130),
-                       number("sc_outlier_scale", 130), number("sc_sensor", 190), **row),
-            pn.FlexBox(number("sc_horizon", 190), number("sc_window", 170), number("sc_runs", 120), download,
-                       spinner, **row),
-            pn.pane.Markdown(p.preset_note, margin=(0, 10)), pn.pane.Markdown(p.note, margin=(0, 10)),
-            sizing_mode="stretch_width")
+            pn.FlexBox(
+                choice("sc_noise"),
+                number("sc_dof", 190),
+                number("sc_outlier_rate", 130),
+                number("sc_outlier_scale", 130),
+                number("sc_sensor", 190),
+                **row,
+            ),
+            pn.FlexBox(
+                number("sc_horizon", 190), number("sc_window", 170), number("sc_runs", 120), download, spinner, **row
+            ),
+            pn.pane.Markdown(p.preset_note, margin=(0, 10)),
+            pn.pane.Markdown(p.note, margin=(0, 10)),
+            sizing_mode="stretch_width",
+        )
 
     def _map_controls(self) -> pn.Column:
         s = self.state
         p, decl = s.scenarios.param, PARAMS["sc_map"]
-        kind = field(s, "sc_map", bind(s, "sc_map", pn.widgets.Select(
-            label=decl.label, options={CHOICE_LABELS["sc_map"][v]: v for v in decl.objects},
-            width=px(self.state, 170))))
+        kind = field(
+            s,
+            "sc_map",
+            bind(
+                s,
+                "sc_map",
+                pn.widgets.Select(
+                    label=decl.label,
+                    options={CHOICE_LABELS["sc_map"][v]: v for v in decl.objects},
+                    width=px(self.state, 170),
+                ),
+            ),
+        )
         seeds = field(s, "sc_map_seeds", number_box(s, "sc_map_seeds", width=px(self.state, 110)))
-        run, cancel, progress = job_buttons(p.map_busy, p.map_progress, "Compute map", s.scenarios.compute_map,
-                                            s.scenarios.cancel_map, width=140, scale=text_scale(s))
-        return pn.Column(pn.FlexBox(kind, seeds, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
-                         pn.pane.Markdown(p.map_note, margin=(0, 10)), sizing_mode="stretch_width")
+        run, cancel, progress = job_buttons(
+            p.map_busy,
+            p.map_progress,
+            "Compute map",
+            s.scenarios.compute_map,
+            s.scenarios.cancel_map,
+            width=140,
+            scale=text_scale(s),
+        )
+        return pn.Column(
+            pn.FlexBox(kind, seeds, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
+            pn.pane.Markdown(p.map_note, margin=(0, 10)),
+            sizing_mode="stretch_width",
+        )
 
     def __panel__(self):
         intro = pn.pane.Markdown(
@@ -186,19 +273,36 @@ class ScenarioView(Viewer):
             "Kalman filter, which knows σ(t), the noise's variance and the sensor. The filters that do not know σ(t) "
             "— the ISL filters, the adaptive, variational-Bayes, robust (Huber) and IMM filters — each take the knob "
             "one rule gives them (below: **tuning curves**), when this model has been tuned; the page's own ISL "
-            "filter runs at the ν input.", margin=(0, 10), styles={"font-size": TEXT_FONT})
+            "filter runs at the ν input.",
+            margin=(0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
         map_intro = pn.pane.Markdown(
             "**Who wins where** — per cell, the filter with the lowest ratio to the clairvoyant one (all coordinates, "
             "pooled over the runs, over the periods after the step) and its margin over the runner-up, paired over the "
             "runs; a light cell with a dashed border, marked ≈, is a tie (the margin's 95 % lower bound is ≤ 1). "
             "Paper A's model at this α, m and w, σ(0) = 20, with the scenario table's tuning (the command line's "
-            "`isl scenario --map` computes the same map).", margin=(10, 10, 0, 10), styles={"font-size": TEXT_FONT})
+            "`isl scenario --map` computes the same map).",
+            margin=(10, 10, 0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
         bias = pn.pane.Markdown(
             "The rolling ratio takes each window's worst coordinate: it lies above 1 by its noise, the clairvoyant "
             "filter's own line too. The table below is the comparison's statistic: all coordinates over fixed periods, "
-            "on which the clairvoyant filter reads 1.", margin=(0, 10), styles={"font-size": TEXT_FONT})
-        return pn.Column(intro, self._controls(),
-                         pn.pane.Bokeh(self._ratio_fig, margin=5, sizing_mode="stretch_width"), bias,
-                         pn.pane.Bokeh(self._sigma_fig, margin=5, sizing_mode="stretch_width"),
-                         self._periods, self._tuning, map_intro, self._map_controls(), self._map,
-                         sizing_mode="stretch_width")
+            "on which the clairvoyant filter reads 1.",
+            margin=(0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
+        return pn.Column(
+            intro,
+            self._controls(),
+            pn.pane.Bokeh(self._ratio_fig, margin=5, sizing_mode="stretch_width"),
+            bias,
+            pn.pane.Bokeh(self._sigma_fig, margin=5, sizing_mode="stretch_width"),
+            self._periods,
+            self._tuning,
+            map_intro,
+            self._map_controls(),
+            self._map,
+            sizing_mode="stretch_width",
+        )

@@ -7,6 +7,7 @@ colours each cell of the who-wins map by its winner, in black or white text, whi
 it; a tie (the winner's margin over the runner-up not told apart by the runs) is a light shade of the winner's
 colour with a dashed border. A key under the map names its short labels.
 """
+
 from __future__ import annotations
 
 import html
@@ -24,12 +25,28 @@ __all__ = ["SCENARIO_COLORS", "SHORT", "TABLE_CSS", "map_html", "periods_html"]
 
 #: every filter of a picture or a map; the clairvoyant reference in grey, the two filters paper A compares as
 #: everywhere, the ISL filter at the tuned ν a lighter blue
-SCENARIO_COLORS = {"clairvoyant": "#6b6b6b", "kbf": KBF, "isl": ISL, "isl_tuned": "#7b9be0", "vb": "#7b3294",
-                   "kbf_robust": "#d6604d", "imm": "#1b7837", **{k: v for k, v in EXTRA_COLORS.items() if k != "kbf"}}
+SCENARIO_COLORS = {
+    "clairvoyant": "#6b6b6b",
+    "kbf": KBF,
+    "isl": ISL,
+    "isl_tuned": "#7b9be0",
+    "vb": "#7b3294",
+    "kbf_robust": "#d6604d",
+    "imm": "#1b7837",
+    **{k: v for k, v in EXTRA_COLORS.items() if k != "kbf"},
+}
 #: the map's short names (its key spells them out)
-SHORT = {"clairvoyant": "clairvoyant", "kbf": "KBF σ(0)", "isl": "ISL", "isl_tuned": "ISL tuned",
-         "kbf_adaptive": "adaptive", "vb": "VB", "kbf_robust": "robust", "isl_model": "ISL model-aware",
-         "imm": "IMM"}
+SHORT = {
+    "clairvoyant": "clairvoyant",
+    "kbf": "KBF σ(0)",
+    "isl": "ISL",
+    "isl_tuned": "ISL tuned",
+    "kbf_adaptive": "adaptive",
+    "vb": "VB",
+    "kbf_robust": "robust",
+    "isl_model": "ISL model-aware",
+    "imm": "IMM",
+}
 REFERENCES = ("clairvoyant", "kbf")  #: filters that know σ: they do not compete
 TABLE_CSS = """
 table.isl-scn { border-collapse: collapse; font-size: var(--isl-table-font, 14px); margin: 4px 0 8px 0; }
@@ -76,21 +93,29 @@ def periods_html(pic, costs: dict[str, float] | None = None) -> str:
     pr, run = pic.periods, pic.average.run
     competing = np.array([name not in REFERENCES for name in pr.filters])
     best = np.argmin(np.where(competing[:, None] & np.isfinite(pr.ratio), pr.ratio, np.inf), axis=0)
-    head = "".join(f"<th>{html.escape(p.label.replace('r_min', R_MIN))}<span class='ci'>ratio [95 %]</span></th>"
-                   for p in pr.periods)
+    head = "".join(
+        f"<th>{html.escape(p.label.replace('r_min', R_MIN))}<span class='ci'>ratio [95 %]</span></th>"
+        for p in pr.periods
+    )
     rows = []
     for f, (name, label) in enumerate(zip(run.names, run.labels, strict=True)):
-        cells = "".join(_cell(pr.ratio[f, c], pr.low[f, c], pr.high[f, c], competing[f] and best[c] == f)
-                        for c in range(len(pr.periods)))
+        cells = "".join(
+            _cell(pr.ratio[f, c], pr.low[f, c], pr.high[f, c], competing[f] and best[c] == f)
+            for c in range(len(pr.periods))
+        )
         cost = _cost_cell(name, run.names, costs)
-        rows.append(f"<tr><td>{_swatch(name)}{html.escape(label)}</td><td class='tuning'>"
-                    f"{html.escape(pic.tuning.get(name, ''))}</td>{cells}{cost}</tr>")
+        rows.append(
+            f"<tr><td>{_swatch(name)}{html.escape(label)}</td><td class='tuning'>"
+            f"{html.escape(pic.tuning.get(name, ''))}</td>{cells}{cost}</tr>"
+        )
     cost_head = "<th>cost<span class='ci'>ns a step, measured</span></th>"
-    return (f"<table class='isl-scn'><tr><th>filter</th><th>tuning</th>{head}{cost_head}</tr>{''.join(rows)}</table>"
-            f"<p class='isl-key'>Each ratio is the filter's RMSE over the clairvoyant filter's exact standard "
-            f"deviation, all coordinates, pooled over the {len(pic.average.seeds)} runs, with Student's 95 % interval "
-            "over them: the clairvoyant row reads 1 up to that interval. Bold: the lowest ratio in a period among the "
-            "filters that do not know σ.</p>")
+    return (
+        f"<table class='isl-scn'><tr><th>filter</th><th>tuning</th>{head}{cost_head}</tr>{''.join(rows)}</table>"
+        f"<p class='isl-key'>Each ratio is the filter's RMSE over the clairvoyant filter's exact standard "
+        f"deviation, all coordinates, pooled over the {len(pic.average.seeds)} runs, with Student's 95 % interval "
+        "over them: the clairvoyant row reads 1 up to that interval. Bold: the lowest ratio in a period among the "
+        "filters that do not know σ.</p>"
+    )
 
 
 def map_html(res) -> str:
@@ -108,13 +133,20 @@ def map_html(res) -> str:
             tie = bool(res.tie[r, c])
             back = tint(SCENARIO_COLORS[name], 0.3) if tie else SCENARIO_COLORS[name]
             ink = text_on(back)
-            cells.append(f"<td class='cell{' tie' if tie else ''}' style='background:{back};color:{ink}' "
-                         f"title='{html.escape(res.labels[res.winner[r, c]])}'>{'≈ ' if tie else ''}"
-                         f"{html.escape(SHORT[name])}<span class='ci' style='color:{ink}'>×{res.margin[r, c]:.2f}"
-                         "</span></td>")
+            cells.append(
+                f"<td class='cell{' tie' if tie else ''}' style='background:{back};color:{ink}' "
+                f"title='{html.escape(res.labels[res.winner[r, c]])}'>{'≈ ' if tie else ''}"
+                f"{html.escape(SHORT[name])}<span class='ci' style='color:{ink}'>×{res.margin[r, c]:.2f}"
+                "</span></td>"
+            )
         rows.append(f"<tr><td>{label}</td>{''.join(cells)}</tr>")
     corner = f"time since the step (1/{R_MIN_HTML}) \\ " if res.kind == "sigma_step" else ""
-    key = " · ".join(f"{_swatch(n)}<b>{html.escape(SHORT[n])}</b>: {html.escape(lab)}"
-                     for n, lab in zip(res.filters, res.labels, strict=True) if n in SHORT)
-    return (f"<table class='isl-scn'><tr><th>{corner}{html.escape(AXIS_LABELS[res.kind])}</th>{head}</tr>"
-            f"{''.join(rows)}</table><p class='isl-key'>{key}</p>")
+    key = " · ".join(
+        f"{_swatch(n)}<b>{html.escape(SHORT[n])}</b>: {html.escape(lab)}"
+        for n, lab in zip(res.filters, res.labels, strict=True)
+        if n in SHORT
+    )
+    return (
+        f"<table class='isl-scn'><tr><th>{corner}{html.escape(AXIS_LABELS[res.kind])}</th>{head}</tr>"
+        f"{''.join(rows)}</table><p class='isl-key'>{key}</p>"
+    )

@@ -1,4 +1,5 @@
 """Colours and fonts shared by the plots (sized to stay readable on a projector), and a long job's buttons."""
+
 from __future__ import annotations
 
 import panel as pn
@@ -7,9 +8,28 @@ from bokeh.plotting import figure
 
 from ..colors import EXTRA_COLORS, ISL, KBF, TRUTH
 
-__all__ = ["EXTRA_COLORS", "EXTRA_DASHES", "FILTER_COLORS", "ISL", "KBF", "NOTE_FONT", "PRESENTER_SCALE",
-           "RATIO_MANTISSAS", "SIGMA_COLORS", "SIGMA_DASHES", "SUBSCRIPT", "TEXT_FONT", "TRUTH", "job_buttons", "line",
-           "px", "ratio_axis", "ratio_ticker", "styled", "text_scale"]
+__all__ = [
+    "EXTRA_COLORS",
+    "EXTRA_DASHES",
+    "FILTER_COLORS",
+    "ISL",
+    "KBF",
+    "NOTE_FONT",
+    "PRESENTER_SCALE",
+    "RATIO_MANTISSAS",
+    "SIGMA_COLORS",
+    "SIGMA_DASHES",
+    "SUBSCRIPT",
+    "TEXT_FONT",
+    "TRUTH",
+    "job_buttons",
+    "line",
+    "px",
+    "ratio_axis",
+    "ratio_ticker",
+    "styled",
+    "text_scale",
+]
 
 #: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
@@ -55,8 +75,9 @@ def styled(fig: figure, scale: float = 1.0) -> figure:
     return fig
 
 
-def line(fig: figure, source: ColumnDataSource, *, x: str = "t", y: str = "y", visible: bool = True,
-         **style) -> GlyphRenderer:
+def line(
+    fig: figure, source: ColumnDataSource, *, x: str = "t", y: str = "y", visible: bool = True, **style
+) -> GlyphRenderer:
     """A line of ``source`` in ``fig``, built directly: ``fig.line`` also builds a non-selection and a muted copy of
     the glyph per line (two more models each, 100 of 644 in the m = 6 trajectories), which these plots never use —
     left to the browser ("auto") here."""
@@ -67,8 +88,14 @@ def line(fig: figure, source: ColumnDataSource, *, x: str = "t", y: str = "y", v
 
 #: tick values of a log axis of RMSE ratios, per decade, finest first: a ratio's point is in its first digits
 #: (1.06 vs 1.23), which ticks at 1, 10, 100 only (or 5, 10, 15) do not let a reader see
-RATIO_MANTISSAS = ((1, 1.05, 1.1, 1.2, 1.3, 1.5, 1.7, 2, 2.5, 3, 4, 5, 7), (1, 1.1, 1.2, 1.5, 2, 3, 5, 7),
-                   (1, 1.2, 1.5, 2, 3, 5), (1, 2, 5), (1, 3), (1,))
+RATIO_MANTISSAS = (
+    (1, 1.05, 1.1, 1.2, 1.3, 1.5, 1.7, 2, 2.5, 3, 4, 5, 7),
+    (1, 1.1, 1.2, 1.5, 2, 3, 5, 7),
+    (1, 1.2, 1.5, 2, 3, 5),
+    (1, 2, 5),
+    (1, 3),
+    (1,),
+)
 
 
 def ratio_axis(fig: figure, scale: float = 1.0) -> None:
@@ -108,12 +135,15 @@ def ratio_ticker(fig: figure | None = None, max_ticks: int = 9, min_gap: int = T
         for (let d = d0; d <= d1; d += step) { const v = Math.pow(10, d); if (v >= lo && v <= hi) ticks.push(v); }
         return ticks;
     """
-    return CustomJSTicker(major_code=code, args={"sets": [list(m) for m in RATIO_MANTISSAS], "max_ticks": max_ticks,
-                                                 "plot": fig, "min_gap": min_gap})
+    return CustomJSTicker(
+        major_code=code,
+        args={"sets": [list(m) for m in RATIO_MANTISSAS], "max_ticks": max_ticks, "plot": fig, "min_gap": min_gap},
+    )
 
 
-def job_buttons(busy, progress, label: str, start, cancel, *, width: int = 120, below_label: bool = True,
-                scale: float = 1.0) -> tuple:
+def job_buttons(
+    busy, progress, label: str, start, cancel, *, width: int = 120, below_label: bool = True, scale: float = 1.0
+) -> tuple:
     """A long job's start button (disabled while it runs), cancel button and progress bar (both shown while it
     runs), over the state's ``busy`` and ``progress`` parameters; ``below_label``: aligned with labelled inputs;
     ``scale``: the text's (presenter mode's larger text needs wider buttons)."""
@@ -122,6 +152,11 @@ def job_buttons(busy, progress, label: str, start, cancel, *, width: int = 120, 
     run.on_click(lambda event: start())
     stop = pn.widgets.Button(label="Cancel", color="danger", width=round(90 * scale), visible=busy, margin=margin)
     stop.on_click(lambda event: cancel())
-    bar = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), progress), max=100, width=200, visible=busy,
-                                 margin=(34, 10) if below_label else (18, 10))
+    bar = pn.indicators.Progress(
+        value=pn.bind(lambda f: round(100 * f), progress),
+        max=100,
+        width=200,
+        visible=busy,
+        margin=(34, 10) if below_label else (18, 10),
+    )
     return run, stop, bar

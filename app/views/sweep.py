@@ -7,6 +7,7 @@ optimum) as a horizontal one. Extra filters (:mod:`app.extras`) with a theory ad
 colour, with the σ line styles: the model-aware ISL filter over ν, the fixed-gain Kalman–Bucy filters flat.
 Plots are built once and updated in place.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -47,11 +48,13 @@ _EXTRA_CURVES = ("kbf_mismatched", "kbf_minimax", "isl_model")  #: extra filters
 def parse_sigmas(text: str) -> list[float | str]:
     """``"2, 20, 200"`` → ``[2.0, 20.0, 200.0]``; an entry that is not a number stays text, which the state refuses
     by name (``"2, abc"``: "abc" is not a number)."""
+
     def entry(v: str) -> float | str:
         try:
             return float(v)
         except ValueError:
             return v.strip()
+
     return [entry(v) for v in text.replace(";", ",").split(",") if v.strip()]
 
 
@@ -92,8 +95,17 @@ class SweepView(Viewer):
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
         scale = text_scale(self.state)
-        fig = styled(figure(x_axis_type="log", y_axis_type="log", height=400, sizing_mode="stretch_width",
-                            title=f"X{k} — {COORDINATES[i]}", tools="pan,wheel_zoom,box_zoom,reset,save"), scale)
+        fig = styled(
+            figure(
+                x_axis_type="log",
+                y_axis_type="log",
+                height=400,
+                sizing_mode="stretch_width",
+                title=f"X{k} — {COORDINATES[i]}",
+                tools="pan,wheel_zoom,box_zoom,reset,save",
+            ),
+            scale,
+        )
         fig.xaxis.axis_label = "ν/β"
         fig.yaxis.axis_label = f"š{k}/s{k}  (ISL RMSE / optimal)"
         ratio_axis(fig, scale)
@@ -104,16 +116,27 @@ class SweepView(Viewer):
         for j in range(_SLOTS):
             line_src = ColumnDataSource({"x": [], "y": []}, name=f"sweep-theory-{i + 1}-{j}")
             pt_src = ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"sweep-sim-{i + 1}-{j}")
-            line = fig.line("x", "y", source=line_src, line_color=SIGMA_COLORS[j], line_dash=SIGMA_DASHES[j],
-                            line_width=2.2)
+            line = fig.line(
+                "x", "y", source=line_src, line_color=SIGMA_COLORS[j], line_dash=SIGMA_DASHES[j], line_width=2.2
+            )
             dots = fig.scatter("x", "y", source=pt_src, size=8, color=SIGMA_COLORS[j], marker="circle")
-            fig.add_layout(Whisker(source=pt_src, base="x", lower="lower", upper="upper", dimension="height",
-                                   line_color=SIGMA_COLORS[j], line_width=1.5))
+            fig.add_layout(
+                Whisker(
+                    source=pt_src,
+                    base="x",
+                    lower="lower",
+                    upper="upper",
+                    dimension="height",
+                    line_color=SIGMA_COLORS[j],
+                    line_width=1.5,
+                )
+            )
             items.append(LegendItem(label=value(""), renderers=[line, dots], visible=False))
             lines.append(line_src)
             points.append(pt_src)
-        legend = Legend(items=items, orientation="horizontal", label_text_font_size=f"{11 * scale:.3g}pt", padding=2,
-                        margin=2)
+        legend = Legend(
+            items=items, orientation="horizontal", label_text_font_size=f"{11 * scale:.3g}pt", padding=2, margin=2
+        )
         fig.add_layout(legend, "above")
         extra_lines = {}  # their legend is one HTML line above the plots (three legends per plot do not fit)
         for name in _EXTRA_CURVES:
@@ -150,10 +173,18 @@ class SweepView(Viewer):
                         item.label = value(f"σ = {curves.sigmas[j]:g}")
                 self._update_extra(i, curves)
             names = [n for n in _EXTRA_CURVES if curves is not None and n in curves.extra]
-            self._extra_legend.object = "" if not names else (
-                "Other filters, theory (line style = σ as in each legend): " + " &nbsp; ".join(
-                    f"<span style='color:{EXTRA_COLORS[n]};font-weight:bold'>&#9472;&#9472;</span> {LABELS[n]}"
-                    + (" (flat: fixed gain)" if n != "isl_model" else "") for n in names))
+            self._extra_legend.object = (
+                ""
+                if not names
+                else (
+                    "Other filters, theory (line style = σ as in each legend): "
+                    + " &nbsp; ".join(
+                        f"<span style='color:{EXTRA_COLORS[n]};font-weight:bold'>&#9472;&#9472;</span> {LABELS[n]}"
+                        + (" (flat: fixed gain)" if n != "isl_model" else "")
+                        for n in names
+                    )
+                )
+            )
 
     def _update_extra(self, i: int, curves) -> None:
         """Curves of the extra filters in plot i (empty when not selected)."""
@@ -172,9 +203,12 @@ class SweepView(Viewer):
             for i in range(M_MAX):
                 for j in range(_SLOTS):
                     if pts is not None and i < pts.m and j < len(pts.sigmas):
-                        data = {"x": pts.nu_over_beta, "y": _positive(pts.ratio[j, :, i]),
-                                "lower": _positive(np.maximum(pts.low[j, :, i], 1e-3)),
-                                "upper": _positive(pts.high[j, :, i])}
+                        data = {
+                            "x": pts.nu_over_beta,
+                            "y": _positive(pts.ratio[j, :, i]),
+                            "lower": _positive(np.maximum(pts.low[j, :, i], 1e-3)),
+                            "upper": _positive(pts.high[j, :, i]),
+                        }
                     else:
                         data = {"x": [], "y": [], "lower": [], "upper": []}
                     self._points[i][j].data = data
@@ -188,24 +222,52 @@ class SweepView(Viewer):
     # ---- controls ----------------------------------------------------------------------------------
     def _controls(self) -> pn.Column:
         s = self.state
-        sigmas = pn.widgets.TextInput(label="σ values (comma separated)",
-                                      value=", ".join(f"{v:g}" for v in s.sweep.sigmas), width=px(self.state, 220))
+        sigmas = pn.widgets.TextInput(
+            label="σ values (comma separated)",
+            value=", ".join(f"{v:g}" for v in s.sweep.sigmas),
+            width=px(self.state, 220),
+        )
         sigmas.param.watch(lambda e: s.set("sweep_sigmas", parse_sigmas(e.new)), "value")
         s.sweep.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sigmas")
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
         horizon.width = 260
-        run, cancel, progress = job_buttons(s.sweep.param.busy, s.sweep.param.progress, "Simulate points",
-                                            s.sweep.simulate, s.sweep.cancel, width=150, below_label=False,
-                                            scale=text_scale(s))
-        recommend = pn.widgets.Button(label="Use recommended ν", color="success", width=px(self.state, 180),
-                                      disabled=pn.bind(lambda busy, a: busy or a == 0.0,
-                                                       s.sweep.param.busy, s.param.alpha))
+        run, cancel, progress = job_buttons(
+            s.sweep.param.busy,
+            s.sweep.param.progress,
+            "Simulate points",
+            s.sweep.simulate,
+            s.sweep.cancel,
+            width=150,
+            below_label=False,
+            scale=text_scale(s),
+        )
+        recommend = pn.widgets.Button(
+            label="Use recommended ν",
+            color="success",
+            width=px(self.state, 180),
+            disabled=pn.bind(lambda busy, a: busy or a == 0.0, s.sweep.param.busy, s.param.alpha),
+        )
         recommend.on_click(lambda e: s.sweep.recommend())
-        note = pn.pane.Markdown(pn.bind(self._note, s.sweep.param.note, s.sweep.param.curves_note,
-                                        s.sweep.param.points, s.sweep.param.curves), margin=(0, 10))
-        return pn.Column(pn.FlexBox(field(s, "sweep_sigmas", sigmas), field(s, "sweep_horizon", horizon), run, cancel,
-                                    progress, recommend, flex_wrap="wrap", sizing_mode="stretch_width"), note,
-                         sizing_mode="stretch_width")
+        note = pn.pane.Markdown(
+            pn.bind(
+                self._note, s.sweep.param.note, s.sweep.param.curves_note, s.sweep.param.points, s.sweep.param.curves
+            ),
+            margin=(0, 10),
+        )
+        return pn.Column(
+            pn.FlexBox(
+                field(s, "sweep_sigmas", sigmas),
+                field(s, "sweep_horizon", horizon),
+                run,
+                cancel,
+                progress,
+                recommend,
+                flex_wrap="wrap",
+                sizing_mode="stretch_width",
+            ),
+            note,
+            sizing_mode="stretch_width",
+        )
 
     def _note(self, sweep_note: str, curves_note: str, points, curves) -> str:
         parts = [p for p in (curves_note, sweep_note) if p]
@@ -213,14 +275,20 @@ class SweepView(Viewer):
             parts.insert(0, "Computing the theory curves …")
         if curves is not None and curves.alpha == 0.0:
             if len(curves.sigmas) > 1 and np.allclose(curves.ratios, curves.ratios[:1], rtol=1e-9, equal_nan=True):
-                parts.append("The theory curves of every σ coincide (drawn on top of each other): at α = 0 the "
-                             "ratio depends on ν/β only, not on σ.")
+                parts.append(
+                    "The theory curves of every σ coincide (drawn on top of each other): at α = 0 the "
+                    "ratio depends on ν/β only, not on σ."
+                )
             parts.append("*Use recommended ν* needs α > 0: its search is over paper A's β = w·√(2α).")
         if points is not None:
-            kbf = ", ".join(f"σ = {s:g}: " + " / ".join(
-                                f"{r:.2f} [{lo:.2f}, {hi:.2f}]"
-                                for r, lo, hi in zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j], strict=True))
-                            for j, s in enumerate(points.sigmas))
+            kbf = ", ".join(
+                f"σ = {s:g}: "
+                + " / ".join(
+                    f"{r:.2f} [{lo:.2f}, {hi:.2f}]"
+                    for r, lo, hi in zip(points.kbf[j], points.kbf_low[j], points.kbf_high[j], strict=True)
+                )
+                for j, s in enumerate(points.sigmas)
+            )
             parts.append(f"Check — Kalman–Bucy measured ratios (should be 1 within the interval): {kbf}.")
         return "  \n".join(parts)
 
@@ -229,5 +297,7 @@ class SweepView(Viewer):
             "ISL filter's RMSE ratio š<sub>i</sub>/s<sub>i</sub> against ν/β for the current α, β and m. "
             "**Lines: theory** (statistical linearization; it under-predicts where the filter loses lock at "
             "small ν). **Dots: simulation** with 95 % intervals (on demand). Red line: the current ν.",
-            margin=(0, 10), styles={"font-size": TEXT_FONT})
+            margin=(0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
         return pn.Column(intro, self._controls(), self._extra_legend, *self._rows, sizing_mode="stretch_width")

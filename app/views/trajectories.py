@@ -18,6 +18,7 @@ The **error view** (a switch above the plots) draws each filter's error X̂_i �
 the band ±3 s_i around 0 and the signal as the zero line: at high orders X_1 spans ±10⁶ and the tube is invisible
 beside it, while the errors show at their own scale. The errors are decimated by the core like the estimates.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -60,9 +61,18 @@ def _legend_figure(row: float) -> figure:
     legend inside one is redrawn with it. Its entries' glyphs are unseen lines of this figure, not the plotted
     lines (see :func:`app.views.overlay.follow`), so nothing a run changes is reachable from the legend.
     """
-    fig = figure(height=round(2 * row) + 8, sizing_mode="stretch_width", toolbar_location=None, x_axis_type=None,
-                 y_axis_type=None, x_range=Range1d(0, 1), y_range=Range1d(0, 1), outline_line_color=None,
-                 min_border=0, min_border_left=70)
+    fig = figure(
+        height=round(2 * row) + 8,
+        sizing_mode="stretch_width",
+        toolbar_location=None,
+        x_axis_type=None,
+        y_axis_type=None,
+        x_range=Range1d(0, 1),
+        y_range=Range1d(0, 1),
+        outline_line_color=None,
+        min_border=0,
+        min_border_left=70,
+    )
     fig.grid.visible = False
     return fig
 
@@ -74,8 +84,12 @@ def plot_height(m: int) -> int:
 
 SIGNAL, ERRORS = "Signal and estimates", "Errors (estimate − signal)"  #: the view switch's two options
 #: legend texts: (signal view, error view)
-KEY_LABELS = {"truth": ("Xᵢ signal", "0 (no error)"), "kbf": ("X̂ᵢ Kalman–Bucy (knows σ)", "X̂ᵢ − Xᵢ Kalman–Bucy"),
-              "isl": ("X̌ᵢ ISL (σ unknown)", "X̌ᵢ − Xᵢ ISL"), "tube": ("X̂ᵢ ± 3 sᵢ (optimal RMSE)", "± 3 sᵢ")}
+KEY_LABELS = {
+    "truth": ("Xᵢ signal", "0 (no error)"),
+    "kbf": ("X̂ᵢ Kalman–Bucy (knows σ)", "X̂ᵢ − Xᵢ Kalman–Bucy"),
+    "isl": ("X̌ᵢ ISL (σ unknown)", "X̌ᵢ − Xᵢ ISL"),
+    "tube": ("X̂ᵢ ± 3 sᵢ (optimal RMSE)", "± 3 sᵢ"),
+}
 
 
 def shown_series(series: dict, errors: bool, T: float) -> dict:
@@ -85,7 +99,7 @@ def shown_series(series: dict, errors: bool, T: float) -> dict:
     if not errors:
         return {n: v for n, v in series.items() if not n.startswith("error:")}
     zero = (np.array([0.0, T], np.float32), np.zeros(2, np.float32))
-    return {"truth": zero, **{n[len("error:"):]: v for n, v in series.items() if n.startswith("error:")}}
+    return {"truth": zero, **{n[len("error:") :]: v for n, v in series.items() if n.startswith("error:")}}
 
 
 def _y_limits(series: dict, tube: float, around_zero: bool = False) -> tuple[float, float]:
@@ -127,21 +141,38 @@ class TrajectoriesView(Viewer):
         self._figures: list[figure] = []
         self._panes: list[pn.pane.Bokeh] = []
         self._bands: list[Band] = []
-        self._mode = pn.widgets.RadioButtonGroup(options={SIGNAL: "signal", ERRORS: "errors"}, value=self.state.view,
-                                                 margin=(5, 10), variant="outline",
-                                                 stylesheets=[f":host {{ font-size: {round(14 * self.scale)}px; }}"])
+        self._mode = pn.widgets.RadioButtonGroup(
+            options={SIGNAL: "signal", ERRORS: "errors"},
+            value=self.state.view,
+            margin=(5, 10),
+            variant="outline",
+            stylesheets=[f":host {{ font-size: {round(14 * self.scale)}px; }}"],
+        )
         self._mode.param.watch(lambda event: setattr(self.state, "view", event.new), "value")
         self.state.param.watch(self._on_view, ["view"])
         self._ensure(self.state.m)  # the plots of the coordinates shown; more are built when m grows
-        self._legend = Legend(items=[*self._keys.values(), *self._overlay.items], orientation="horizontal", ncols=2,
-                              label_text_font_size=f"{11 * self.scale:.3g}pt", click_policy="hide", padding=2, margin=2,
-                              spacing=14, location="top_left", border_line_alpha=0, background_fill_alpha=0)
+        self._legend = Legend(
+            items=[*self._keys.values(), *self._overlay.items],
+            orientation="horizontal",
+            ncols=2,
+            label_text_font_size=f"{11 * self.scale:.3g}pt",
+            click_policy="hide",
+            padding=2,
+            margin=2,
+            spacing=14,
+            location="top_left",
+            border_line_alpha=0,
+            background_fill_alpha=0,
+        )
         self._key_figure.add_layout(self._legend, "center")
         self._key_pane = pn.pane.Bokeh(self._key_figure, sizing_mode="stretch_width", margin=(0, 5))
         self._plots = pn.Column(sizing_mode="stretch_width", margin=0)  # the mode, the legend and the m plots
-        self._waiting = pn.Row(pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
-                               pn.pane.Markdown("**Simulating the first run …**", margin=(6, 0)),
-                               sizing_mode="stretch_width", margin=(20, 10))
+        self._waiting = pn.Row(
+            pn.indicators.LoadingSpinner(value=True, size=28, margin=(4, 10)),
+            pn.pane.Markdown("**Simulating the first run …**", margin=(6, 0)),
+            sizing_mode="stretch_width",
+            margin=(20, 10),
+        )
         self._reason = pn.pane.Alert("", alert_type="danger", sizing_mode="stretch_width", margin=(20, 10))
         self._column = pn.Column(self._waiting, self._reason, self._plots, sizing_mode="stretch_width")
         self.state.param.watch(self._update, ["traces"])
@@ -157,20 +188,30 @@ class TrajectoriesView(Viewer):
 
     def _legend_keys(self) -> dict[str, LegendItem]:
         """The legend's entries for the four traces, each with an unseen line of the same style as its glyph."""
+
         def empty(**style):
             return self._key_figure.line("t", "y", source=ColumnDataSource(dict(KEY_DATA)), **style)
 
         keys = {"truth": empty(**_TRUTH), "kbf": empty(**_KBF), "isl": empty(**_ISL), "tube": empty(**_TUBE)}
-        return {name: LegendItem(label=value(KEY_LABELS[name][self.errors]), renderers=[key])
-                for name, key in keys.items()}
+        return {
+            name: LegendItem(label=value(KEY_LABELS[name][self.errors]), renderers=[key]) for name, key in keys.items()
+        }
 
     def _figure(self, i: int) -> figure:
         k = str(i + 1).translate(SUBSCRIPT)
-        fig = styled(figure(
-            x_range=self._x_range, y_range=Range1d(-1.0, 1.0), height=plot_height(3), sizing_mode="stretch_width",
-            title=f"X{k} — {COORDINATES[i]}", tools="xpan,xwheel_zoom,box_zoom,reset,save",
-            active_scroll=None, output_backend="canvas",
-        ), self.scale)
+        fig = styled(
+            figure(
+                x_range=self._x_range,
+                y_range=Range1d(-1.0, 1.0),
+                height=plot_height(3),
+                sizing_mode="stretch_width",
+                title=f"X{k} — {COORDINATES[i]}",
+                tools="xpan,xwheel_zoom,box_zoom,reset,save",
+                active_scroll=None,
+                output_backend="canvas",
+            ),
+            self.scale,
+        )
         fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
         fig.xaxis.axis_label = "time t"
         src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
@@ -183,8 +224,12 @@ class TrajectoriesView(Viewer):
             stands_on.js_on_change("data", recompute)
         fig.add_layout(band)
         self._bands.append(band)
-        drawn = {"tube": band, "truth": line(fig, src["truth"], **_TRUTH), "kbf": line(fig, src["kbf"], **_KBF),
-                 "isl": line(fig, src["isl"], **_ISL)}
+        drawn = {
+            "tube": band,
+            "truth": line(fig, src["truth"], **_TRUTH),
+            "kbf": line(fig, src["kbf"], **_KBF),
+            "isl": line(fig, src["isl"], **_ISL),
+        }
         for name, model in drawn.items():  # a click on a legend entry hides that trace in every plot
             self._followers[name].append(model)
             model.visible = self._keys[name].renderers[0].visible  # a plot built later: as its legend entry says
@@ -217,7 +262,7 @@ class TrajectoriesView(Viewer):
                     up.value, down.value = 3.0 * float(run.s[i]), -3.0 * float(run.s[i])
                     self._bands[i].source = self._sources[i]["truth" if errors else "kbf"]
                     k = str(i + 1).translate(SUBSCRIPT)
-                    fig.yaxis.axis_label = (f"error in X{k}" if errors else f"{COORDINATES[i]} X{k}")
+                    fig.yaxis.axis_label = f"error in X{k}" if errors else f"{COORDINATES[i]} X{k}"
                     _set_range(fig.y_range, *_y_limits(shown, 3.0 * float(run.s[i]), around_zero=errors))
                     fig.height = plot_height(m) + (round(SUMMARY_HEIGHT * self.scale) if i == 0 else 0)
                     fig.xaxis.visible = i == m - 1  # one shared time axis, under the last plot
@@ -283,9 +328,11 @@ class TrajectoriesView(Viewer):
         if run is None:
             return "No run yet."
         mo = run.model
-        return (f"m = {mo.m}, α = {num(mo.alpha)}, β = {num(mo.beta)}, σ = {num(mo.sigma)}, ν = {num(run.nu)} "
-                f"(ν/β = {num(run.nu / mo.beta, 3)}) · T = {num(run.T)} = {per_r_min(run.T * run.r_min, 3)} · "
-                f"N = {run.N:,}")
+        return (
+            f"m = {mo.m}, α = {num(mo.alpha)}, β = {num(mo.beta)}, σ = {num(mo.sigma)}, ν = {num(run.nu)} "
+            f"(ν/β = {num(run.nu / mo.beta, 3)}) · T = {num(run.T)} = {per_r_min(run.T * run.r_min, 3)} · "
+            f"N = {run.N:,}"
+        )
 
     def __panel__(self):
         return self._column

@@ -9,6 +9,7 @@ family with two knobs is drawn along its first (W for the robust filter, the swi
 tuned value of the other. The tuning is the one cached for the page's α, m and w (computed on demand as the session's
 long job).
 """
+
 from __future__ import annotations
 
 import html
@@ -31,10 +32,14 @@ from .style import SIGMA_COLORS, TEXT_FONT, job_buttons, px, ratio_axis, styled,
 __all__ = ["AXIS", "TuningView", "curves"]
 
 #: per family: the knob drawn on the x axis, its label, and how a grid value maps to the axis (ν/β = 2^ℓ)
-AXIS = {"isl": ("ell", "ν/β", lambda v: 2.0**v), "isl_model": ("ell", "ν/β", lambda v: 2.0**v),
-        "kbf_adaptive": ("memory", "memory W (sensor readings)", float), "vb": ("memory", "memory W (readings)", float),
-        "kbf_robust": ("memory", "memory W (readings), at the tuned c", float),
-        "imm": ("switch", "switch probability a reading, at the tuned number of modes", float)}
+AXIS = {
+    "isl": ("ell", "ν/β", lambda v: 2.0**v),
+    "isl_model": ("ell", "ν/β", lambda v: 2.0**v),
+    "kbf_adaptive": ("memory", "memory W (sensor readings)", float),
+    "vb": ("memory", "memory W (readings)", float),
+    "kbf_robust": ("memory", "memory W (readings), at the tuned c", float),
+    "imm": ("switch", "switch probability a reading, at the tuned number of modes", float),
+}
 PRESET_COLORS = (*SIGMA_COLORS, "#666666")  #: one per preset (six)
 
 
@@ -58,8 +63,12 @@ class TuningView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._family = pn.widgets.Select(label="family", options={label: f for f, (label, _) in FAMILIES.items()},
-                                         value="vb", width=px(self.state, 260))
+        self._family = pn.widgets.Select(
+            label="family",
+            options={label: f for f, (label, _) in FAMILIES.items()},
+            value="vb",
+            width=px(self.state, 260),
+        )
         self._sources = [ColumnDataSource({"x": [], "y": []}, name=f"tuning-{p}") for p in range(len(PRESET_COLORS))]
         self._all = ColumnDataSource({"x": [], "y": []}, name="tuning-all")
         self._oracle = ColumnDataSource({"x": [], "y": [], "color": []}, name="tuning-oracle")
@@ -73,9 +82,17 @@ class TuningView(Viewer):
 
     def _chart(self) -> figure:
         scale = text_scale(self.state)
-        fig = styled(figure(x_axis_type="log", y_axis_type="log", height=360, sizing_mode="stretch_width",
-                            title="Tuning curve: the statistic against the knob (simulated)",
-                            tools="pan,wheel_zoom,box_zoom,reset,save"), scale)
+        fig = styled(
+            figure(
+                x_axis_type="log",
+                y_axis_type="log",
+                height=360,
+                sizing_mode="stretch_width",
+                title="Tuning curve: the statistic against the knob (simulated)",
+                tools="pan,wheel_zoom,box_zoom,reset,save",
+            ),
+            scale,
+        )
         fig.yaxis.axis_label = "largest ratio over periods"  # per preset (the title and note say which)
         ratio_axis(fig, scale)
         fig.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
@@ -85,19 +102,33 @@ class TuningView(Viewer):
             self._items.append(LegendItem(label=value(""), renderers=[line], visible=False))
         every = fig.line("x", "y", source=self._all, color="#000", line_width=4, line_alpha=0.8)
         self._items.append(LegendItem(label=value("largest over the presets (the rule's)"), renderers=[every]))
-        best = fig.scatter("x", "y", source=self._oracle, size=11 * scale, marker="circle", fill_color="color",
-                           line_color="#000", line_width=1.5)
+        best = fig.scatter(
+            "x",
+            "y",
+            source=self._oracle,
+            size=11 * scale,
+            marker="circle",
+            fill_color="color",
+            line_color="#000",
+            line_width=1.5,
+        )
         self._items.append(LegendItem(label=value("each preset's own best (oracle, a reference)"), renderers=[best]))
-        fig.add_layout(Legend(items=self._items, location="top_left", label_text_font_size=f"{10 * scale:.3g}pt",
-                              click_policy="hide"), "right")
+        fig.add_layout(
+            Legend(
+                items=self._items, location="top_left", label_text_font_size=f"{10 * scale:.3g}pt", click_policy="hide"
+            ),
+            "right",
+        )
         return fig
 
     def _update(self) -> None:
         t, family = self.state.scenarios.tuning, self._family.value
         if t is None:
-            self._note.object = ("No tuning for this α, m and w yet: **Tune** computes it (≈ 2 min on two cores, then "
-                                 "kept) — until then the Scenario picture runs the filters at their constructors' "
-                                 "defaults, labelled *untuned*.")
+            self._note.object = (
+                "No tuning for this α, m and w yet: **Tune** computes it (≈ 2 min on two cores, then "
+                "kept) — until then the Scenario picture runs the filters at their constructors' "
+                "defaults, labelled *untuned*."
+            )
             for src in (*self._sources, self._all):
                 src.data = {"x": [], "y": []}
             self._oracle.data = {"x": [], "y": [], "color": []}
@@ -112,29 +143,49 @@ class TuningView(Viewer):
                 self._items[p].label = value(t.preset_labels[p].replace("r_min", R_MIN))
         self._all.data = {"x": x, "y": largest}
         low = per_preset.argmin(axis=1)  # each preset's best along this curve: a reference no rule can pick blind
-        self._oracle.data = {"x": x[low], "y": per_preset[np.arange(len(low)), low],
-                             "color": list(PRESET_COLORS[:len(low)])}
+        self._oracle.data = {
+            "x": x[low],
+            "y": per_preset[np.arange(len(low)), low],
+            "color": list(PRESET_COLORS[: len(low)]),
+        }
         self._figure.xaxis.axis_label = AXIS[family][1]
         self._mark.update(location=float(x[best]), visible=True)
         knob, origin = powers(knob_text(t.knobs[t.minimax(family)])), t.origin.replace("r_min", R_MIN)
-        oracle = "; ".join(f"{t.preset_labels[p].replace('r_min', R_MIN)}: {powers(knob_text(t.knobs[j]))}"
-                           for p, j in enumerate(t.oracle(family, p) for p in range(len(t.presets))))
-        self._note.object = (f"**{html.escape(FAMILIES[family][0])}**: tuned at {knob} (red line), where its largest "
-                             f"ratio over every preset and period is least: {largest[best]:.3g}. Oracle-tuned, each "
-                             f"preset at its own best knob (dots; a reference, since a filter that does not know σ "
-                             f"cannot know the preset either): {html.escape(oracle)}. Tuning: {origin}.")
+        oracle = "; ".join(
+            f"{t.preset_labels[p].replace('r_min', R_MIN)}: {powers(knob_text(t.knobs[j]))}"
+            for p, j in enumerate(t.oracle(family, p) for p in range(len(t.presets)))
+        )
+        self._note.object = (
+            f"**{html.escape(FAMILIES[family][0])}**: tuned at {knob} (red line), where its largest "
+            f"ratio over every preset and period is least: {largest[best]:.3g}. Oracle-tuned, each "
+            f"preset at its own best knob (dots; a reference, since a filter that does not know σ "
+            f"cannot know the preset either): {html.escape(oracle)}. Tuning: {origin}."
+        )
 
     def __panel__(self):
         s = self.state
         p = s.scenarios.param
-        run, cancel, progress = job_buttons(p.tune_busy, p.tune_progress, "Tune", s.scenarios.compute_tuning,
-                                            s.scenarios.cancel_tuning, width=110, scale=text_scale(s))
+        run, cancel, progress = job_buttons(
+            p.tune_busy,
+            p.tune_progress,
+            "Tune",
+            s.scenarios.compute_tuning,
+            s.scenarios.cancel_tuning,
+            width=110,
+            scale=text_scale(s),
+        )
         intro = pn.pane.Markdown(
             "**One tuning rule for every filter.** Each family's knob is the one whose largest ratio over the "
             "scenario table's presets and periods is least (the minimax); the curves show the statistic against the "
-            "knob, preset by preset.", margin=(10, 10, 0, 10), styles={"font-size": TEXT_FONT})
-        return pn.Column(intro, pn.FlexBox(self._family, run, cancel, progress, flex_wrap="wrap",
-                                           sizing_mode="stretch_width"),
-                         pn.pane.Markdown(p.tune_note, margin=(0, 10)), self._note,
-                         pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width"),
-                         sizing_mode="stretch_width")
+            "knob, preset by preset.",
+            margin=(10, 10, 0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
+        return pn.Column(
+            intro,
+            pn.FlexBox(self._family, run, cancel, progress, flex_wrap="wrap", sizing_mode="stretch_width"),
+            pn.pane.Markdown(p.tune_note, margin=(0, 10)),
+            self._note,
+            pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width"),
+            sizing_mode="stretch_width",
+        )

@@ -6,6 +6,7 @@ worst case beside it (Lyapunov / statistical linearization, :ref:`linearization`
 the ISL filters from ``recommend_nu`` over the same σ grid. The dot chart shows the same numbers against α.
 The computation runs off the event loop with a progress bar and a cancel button.
 """
+
 from __future__ import annotations
 
 import html
@@ -48,9 +49,11 @@ def _cell(rec: dict, best: bool) -> str:
         sim = "<span>diverged</span>"
     else:
         cls = " class='best'" if best else ""
-        sim = (f"<span{cls}>{rec['worst']:.3g}</span>"
-               f"<span class='ci'>[{rec['worst_low']:.3g}, {rec['worst_high']:.3g}] at σ = {rec['worst_sigma']:.3g}"
-               f", X{rec['worst_i']}</span>")
+        sim = (
+            f"<span{cls}>{rec['worst']:.3g}</span>"
+            f"<span class='ci'>[{rec['worst_low']:.3g}, {rec['worst_high']:.3g}] at σ = {rec['worst_sigma']:.3g}"
+            f", X{rec['worst_i']}</span>"
+        )
     th = "no theory" if math.isnan(rec["theory_worst"]) else f"theory {rec['theory_worst']:.3g}"
     extra = f", ν = {rec['nu']:.3g}" if math.isfinite(rec["nu"]) else ""
     extra += f", σ̄ = {rec['sigma_design']:.3g}" if math.isfinite(rec["sigma_design"]) else ""
@@ -66,7 +69,7 @@ def worst_case_html(table: WorstCaseTable | None) -> str:
     head = "".join(f"<th>{html.escape(LABELS[n])}<span class='ci'>measured</span></th>" for n in table.names)
     rows = []
     for a, alpha in enumerate(table.alphas):
-        part = recs[a * nf:(a + 1) * nf]
+        part = recs[a * nf : (a + 1) * nf]
         worst = [r["worst"] if math.isfinite(r["worst"]) else math.inf for r in part]
         best = int(np.argmin(worst[1:])) + 1 if nf > 1 else 0  # the oracle (column 0) does not compete
         cells = "".join(_cell(r, f == best) for f, r in enumerate(part))
@@ -81,8 +84,9 @@ class WorstCaseView(Viewer):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._sources = {n: ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"worst-{n}")
-                         for n in FILTERS}
+        self._sources = {
+            n: ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"worst-{n}") for n in FILTERS
+        }
         self._figure = self._chart()
         self._table = pn.pane.HTML(worst_case_html(self.state.worstcase.table), stylesheets=[_CSS], margin=(0, 10))
         self.state.worstcase.param.watch(self._update, ["table"])
@@ -90,10 +94,18 @@ class WorstCaseView(Viewer):
 
     def _chart(self) -> figure:
         scale = text_scale(self.state)
-        fig = styled(figure(x_axis_type="log", y_axis_type="log", height=420, sizing_mode="stretch_width",
-                            y_range=Range1d(0.9, 2.0),  # set from each table's intervals (whiskers are not data)
-                            title="Worst-case RMSE ratio over the σ range (simulated, 95 % intervals)",
-                            tools="pan,wheel_zoom,box_zoom,reset,save"), scale)
+        fig = styled(
+            figure(
+                x_axis_type="log",
+                y_axis_type="log",
+                height=420,
+                sizing_mode="stretch_width",
+                y_range=Range1d(0.9, 2.0),  # set from each table's intervals (whiskers are not data)
+                title="Worst-case RMSE ratio over the σ range (simulated, 95 % intervals)",
+                tools="pan,wheel_zoom,box_zoom,reset,save",
+            ),
+            scale,
+        )
         fig.xaxis.axis_label = "α"
         fig.yaxis.axis_label = "max over σ and i of RMSEᵢ / sᵢ"
         ratio_axis(fig, scale)
@@ -102,12 +114,22 @@ class WorstCaseView(Viewer):
         for name, src in self._sources.items():
             color = FILTER_COLORS[name]
             dots = fig.scatter("x", "y", source=src, size=10, color=color, marker="circle")
-            fig.add_layout(Whisker(source=src, base="x", lower="lower", upper="upper", dimension="height",
-                                   line_color=color, line_width=1.5))
+            fig.add_layout(
+                Whisker(
+                    source=src,
+                    base="x",
+                    lower="lower",
+                    upper="upper",
+                    dimension="height",
+                    line_color=color,
+                    line_width=1.5,
+                )
+            )
             items.append(LegendItem(label=value(LABELS[name]), renderers=[dots]))
-        fig.add_layout(Legend(items=items, location="top_left", label_text_font_size=f"{11 * scale:.3g}pt",
-                              click_policy="hide"),
-                       "right")
+        fig.add_layout(
+            Legend(items=items, location="top_left", label_text_font_size=f"{11 * scale:.3g}pt", click_policy="hide"),
+            "right",
+        )
         return fig
 
     def _update(self, *events) -> None:
@@ -122,8 +144,7 @@ class WorstCaseView(Viewer):
                 shift = 1.06 ** (f - (len(t.names) - 1) / 2)  # side by side on the log axis
                 y, lo, hi = t.worst[:, f], t.worst_low[:, f], t.worst_high[:, f]
                 ok = np.isfinite(y) & (y > 0)
-                src.data = {"x": t.alphas[ok] * shift, "y": y[ok], "lower": np.maximum(lo[ok], 1e-3),
-                            "upper": hi[ok]}
+                src.data = {"x": t.alphas[ok] * shift, "y": y[ok], "lower": np.maximum(lo[ok], 1e-3), "upper": hi[ok]}
             # the chart shows once there is a table: an empty log-log chart has no range to show. (The figure's
             # own flag: toggling the Panel pane's makes it copy the figure's stylesheets back and fail a type check.)
             self._figure.visible = t is not None
@@ -140,19 +161,35 @@ class WorstCaseView(Viewer):
         p = s.worstcase.param
         lo = field(s, "sigma_min", number(s, "sigma_min", width=px(self.state, 110)))
         hi = field(s, "sigma_max", number(s, "sigma_max", width=px(self.state, 110)))
-        alphas = pn.widgets.TextInput(label="α values (comma separated)", width=px(self.state, 220),
-                                      value=", ".join(f"{v:g}" for v in s.worstcase.alphas))
+        alphas = pn.widgets.TextInput(
+            label="α values (comma separated)",
+            width=px(self.state, 220),
+            value=", ".join(f"{v:g}" for v in s.worstcase.alphas),
+        )
         alphas.param.watch(lambda e: s.set("wc_alphas", parse_sigmas(e.new)), "value")
         p.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "alphas")
         n = field(s, "wc_n_sigma", number(s, "wc_n_sigma", width=px(self.state, 110)))
         horizon = field(s, "wc_horizon", number(s, "wc_horizon", step=50.0, width=px(self.state, 190)))
-        run, cancel, progress = job_buttons(p.busy, p.progress, "Compute", s.worstcase.compute,
-                                            s.worstcase.cancel, scale=text_scale(s))
+        run, cancel, progress = job_buttons(
+            p.busy, p.progress, "Compute", s.worstcase.compute, s.worstcase.cancel, scale=text_scale(s)
+        )
         note = pn.pane.Markdown(p.note, margin=(0, 10))
-        return pn.Column(pn.FlexBox(lo, hi, n, field(s, "wc_alphas", alphas), horizon, run, cancel, progress,
-                                    flex_wrap="wrap",
-                                    sizing_mode="stretch_width"), note,  # wraps on a narrow screen (1280 × 720)
-                         sizing_mode="stretch_width")
+        return pn.Column(
+            pn.FlexBox(
+                lo,
+                hi,
+                n,
+                field(s, "wc_alphas", alphas),
+                horizon,
+                run,
+                cancel,
+                progress,
+                flex_wrap="wrap",
+                sizing_mode="stretch_width",
+            ),
+            note,  # wraps on a narrow screen (1280 × 720)
+            sizing_mode="stretch_width",
+        )
 
     def __panel__(self):
         intro = pn.pane.Markdown(
@@ -161,8 +198,14 @@ class WorstCaseView(Viewer):
             "filters run on the same noise. Paper A's ISL filter appears twice: at the **minimax ν** this project "
             "computes for the same σ grid (from the theory) and at the **ν of paper A's table (A.31)**, as "
             "published (for the α that table lists, m = 3, w = 3). The Kalman–Bucy oracle knows σ (≈ 1, a check "
-            "of the horizon). **Bold**: the best filter that does not know σ.", margin=(0, 10),
-            styles={"font-size": TEXT_FONT})
-        return pn.Column(intro, self._controls(), self._table, pn.pane.Bokeh(self._figure, margin=5,
-                                                                              sizing_mode="stretch_width"),
-                         sizing_mode="stretch_width")
+            "of the horizon). **Bold**: the best filter that does not know σ.",
+            margin=(0, 10),
+            styles={"font-size": TEXT_FONT},
+        )
+        return pn.Column(
+            intro,
+            self._controls(),
+            self._table,
+            pn.pane.Bokeh(self._figure, margin=5, sizing_mode="stretch_width"),
+            sizing_mode="stretch_width",
+        )

@@ -5,6 +5,7 @@
 * :mod:`~isl_core.cli.commands` — what run, sweep, recommend and worstcase compute and print;
 * :mod:`~isl_core.cli.scenario` — ``isl scenario``: the fair table, the tuning curves and the who-wins maps.
 """
+
 from __future__ import annotations
 
 from .commands import UsageError

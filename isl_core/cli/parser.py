@@ -10,6 +10,7 @@ These are the core's (``python -m isl_core``); the dashboard's ``isl`` console s
 command with an :class:`Extension`: ``isl figure3``, ``isl serve`` and the sweep's HTML and PNG figures.
 Bad arguments end with exit code 2 and one line on stderr; a diverged filter with exit code 1.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -85,13 +86,13 @@ def seed_number(text: str) -> int:
     return k
 
 
-
 def _comma(kind):
     """argparse type: a comma-separated list of ``kind`` (``"0.04,0.2,1"``)."""
+
     def parse(text: str) -> list:
         return [kind(part) for part in text.split(",") if part.strip()] or [kind(text)]
-    return parse
 
+    return parse
 
 
 def _execution(p: argparse.ArgumentParser) -> None:
@@ -126,12 +127,18 @@ def _add_sweep(sub) -> argparse.ArgumentParser:
     """``isl sweep``: paper A's Fig. 2 grid."""
     from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
 
-    p = sub.add_parser("sweep", help="paper A's Fig. 2 grid (or any model's): CSV and JSON (the dashboard's isl adds "
-                            "HTML and PNG)")
-    p.add_argument("--alphas", type=_nonneg, nargs="+", default=list(FIG2_ALPHAS),
-                   help="OU rates α (α = 0 needs --beta)")
-    p.add_argument("--beta", type=positive, default=None,
-                   help="one β for every α: any model, α = 0 included (default: paper A's β = w√(2α))")
+    p = sub.add_parser(
+        "sweep", help="paper A's Fig. 2 grid (or any model's): CSV and JSON (the dashboard's isl adds HTML and PNG)"
+    )
+    p.add_argument(
+        "--alphas", type=_nonneg, nargs="+", default=list(FIG2_ALPHAS), help="OU rates α (α = 0 needs --beta)"
+    )
+    p.add_argument(
+        "--beta",
+        type=positive,
+        default=None,
+        help="one β for every α: any model, α = 0 included (default: paper A's β = w√(2α))",
+    )
     p.add_argument("--sigmas", type=positive, nargs="+", default=list(FIG2_SIGMAS))
     p.add_argument("--ell-min", type=_whole, default=-8, help="smallest ℓ of ν/β = 2^ℓ (default −8)")
     p.add_argument("--ell-max", type=_whole, default=2, help="largest ℓ (default 2)")
@@ -167,17 +174,35 @@ def _add_worstcase(sub) -> argparse.ArgumentParser:
     from isl_core.worstcase import FILTERS
 
     p = sub.add_parser("worstcase", help="each filter's worst-case ratio over a sigma range, per alpha")
-    p.add_argument("--alphas", type=_comma(positive), nargs="+", default=[list(FIG2_ALPHAS)],
-                   help="alpha values, comma- or space-separated (default 0.04,0.2,1,5,25)")
+    p.add_argument(
+        "--alphas",
+        type=_comma(positive),
+        nargs="+",
+        default=[list(FIG2_ALPHAS)],
+        help="alpha values, comma- or space-separated (default 0.04,0.2,1,5,25)",
+    )
     p.add_argument("--sigma-min", type=positive, default=2.0, help="smallest sigma (default 2)")
     p.add_argument("--sigma-max", type=positive, default=200.0, help="largest sigma (default 200)")
     p.add_argument("--n-sigma", type=_whole, default=5, help="log-spaced sigma values in the range (default 5)")
-    p.add_argument("--filters", type=_comma(str), nargs="+", default=[list(FILTERS)],
-                   help=f"filters to compare (default {','.join(FILTERS)})")
-    p.add_argument("--sigma-design", type=positive, default=None,
-                   help="sigma of the mismatched KBF (default the geometric middle of the range)")
-    p.add_argument("--memory", type=positive, default=1000.0,
-                   help="adaptive KBF memory W in readings (= steps in these runs; default 1000)")
+    p.add_argument(
+        "--filters",
+        type=_comma(str),
+        nargs="+",
+        default=[list(FILTERS)],
+        help=f"filters to compare (default {','.join(FILTERS)})",
+    )
+    p.add_argument(
+        "--sigma-design",
+        type=positive,
+        default=None,
+        help="sigma of the mismatched KBF (default the geometric middle of the range)",
+    )
+    p.add_argument(
+        "--memory",
+        type=positive,
+        default=1000.0,
+        help="adaptive KBF memory W in readings (= steps in these runs; default 1000)",
+    )
     p.add_argument("--seeds", type=_comma(seed_number), nargs="+", default=[[0, 1]])
     _execution(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
@@ -191,28 +216,54 @@ def _add_scenario(sub) -> argparse.ArgumentParser:
     """``isl scenario``: the fair table, the tuning curves, the who-wins maps."""
     from isl_core.scenario.table import PRESETS
 
-    p = sub.add_parser("scenario", help="beyond constant sigma: the fair table of every filter's period ratio to the "
-                       "clairvoyant Kalman filter, each family tuned by one rule; --tune: the tuning curves")
+    p = sub.add_parser(
+        "scenario",
+        help="beyond constant sigma: the fair table of every filter's period ratio to the "
+        "clairvoyant Kalman filter, each family tuned by one rule; --tune: the tuning curves",
+    )
     p.add_argument("--alpha", type=positive, default=1.0, help="alpha of paper A's model (default 1)")
-    p.add_argument("--scenarios", type=_comma(str), nargs="+", default=[list(PRESETS)],
-                   help=f"scenarios (default {','.join(PRESETS)}): also the set the knobs are tuned over")
-    p.add_argument("--tune", action="store_true",
-                   help="instead of the table: the tuning curves (each variant's ratio per scenario and period)")
-    p.add_argument("--map", choices=["sigma_step", "tails", "sensor"], default=None,
-                   help="instead of the table: who wins over sigma-step ratio x time since the step, over the noise's "
-                        "degrees of freedom, or over the sensor interval (the table's tuning)")
-    p.add_argument("--values", type=_comma(_nonneg), nargs="+", default=None,
-                   help="the map's values (default: sigma ratios 0.1..10, d = 2.5..100, intervals 0..0.5/r_min)")
+    p.add_argument(
+        "--scenarios",
+        type=_comma(str),
+        nargs="+",
+        default=[list(PRESETS)],
+        help=f"scenarios (default {','.join(PRESETS)}): also the set the knobs are tuned over",
+    )
+    p.add_argument(
+        "--tune",
+        action="store_true",
+        help="instead of the table: the tuning curves (each variant's ratio per scenario and period)",
+    )
+    p.add_argument(
+        "--map",
+        choices=["sigma_step", "tails", "sensor"],
+        default=None,
+        help="instead of the table: who wins over sigma-step ratio x time since the step, over the noise's "
+        "degrees of freedom, or over the sensor interval (the table's tuning)",
+    )
+    p.add_argument(
+        "--values",
+        type=_comma(_nonneg),
+        nargs="+",
+        default=None,
+        help="the map's values (default: sigma ratios 0.1..10, d = 2.5..100, intervals 0..0.5/r_min)",
+    )
     p.add_argument("--untuned", action="store_true", help="the map's filters at the constructors' defaults")
     p.add_argument("--seeds", type=_whole, default=None, help="independent noises pooled (default 32: seeds 0..31)")
-    p.add_argument("--window", type=positive, default=1.0, help="the sigma_step map's rows, units of 1/r_min "
-                   "(default 1)")
-    p.add_argument("--burn", type=_nonneg, default=2.0, help="start left out where sigma does not change, units of "
-                   "1/r_min (default 2)")
+    p.add_argument(
+        "--window", type=positive, default=1.0, help="the sigma_step map's rows, units of 1/r_min (default 1)"
+    )
+    p.add_argument(
+        "--burn",
+        type=_nonneg,
+        default=2.0,
+        help="start left out where sigma does not change, units of 1/r_min (default 2)",
+    )
     p.add_argument("--level", type=positive, default=0.95, help="confidence level of the intervals (default 0.95)")
     p.add_argument("--workers", type=_whole, default=None, help="threads of the tuning runs (default: CPU count)")
-    p.add_argument("--no-cache", action="store_true", help="compute the tuning even if it is cached, keep it in "
-                   "memory only")
+    p.add_argument(
+        "--no-cache", action="store_true", help="compute the tuning even if it is cached, keep it in memory only"
+    )
     p.add_argument("--no-cost", action="store_true", help="do not measure each filter's ns per step")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.add_argument("--csv", type=Path, default=None, help="also write the table (or the curves) as CSV to this file")
@@ -224,13 +275,22 @@ def _add_scenario(sub) -> argparse.ArgumentParser:
 
 def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
     """The ``isl`` parser: the core's commands and what ``extension`` adds."""
-    top = _Parser(prog="isl", description="Kalman–Bucy vs the ISL filter: simulations, paper A's Fig. 2 sweep, "
-                  "recommended nu, worst cases.")
+    top = _Parser(
+        prog="isl",
+        description="Kalman–Bucy vs the ISL filter: simulations, paper A's Fig. 2 sweep, recommended nu, worst cases.",
+    )
     top.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    parsers = {name: add(sub) for name, add in (("run", _add_run), ("sweep", _add_sweep),
-                                                ("recommend", _add_recommend), ("worstcase", _add_worstcase),
-                                                ("scenario", _add_scenario))}
+    parsers = {
+        name: add(sub)
+        for name, add in (
+            ("run", _add_run),
+            ("sweep", _add_sweep),
+            ("recommend", _add_recommend),
+            ("worstcase", _add_worstcase),
+            ("scenario", _add_scenario),
+        )
+    }
     if extension is not None and extension.add is not None:
         extension.add(sub, parsers, _common)
     return top

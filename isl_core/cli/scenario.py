@@ -4,6 +4,7 @@ Every figure comes from :mod:`isl_core.scenario.tuning` (one tuning rule for eve
 :mod:`isl_core.scenario.table` and :mod:`isl_core.scenario.map`; this module only prints them or writes them
 as CSV/JSON.
 """
+
 from __future__ import annotations
 
 import json
@@ -27,9 +28,18 @@ def _tuning(args, *, quiet: bool):
     unknown = [n for n in names if n not in PRESETS]
     if unknown:
         raise UsageError(f"isl scenario: unknown scenario {unknown[0]!r}; choose from {', '.join(PRESETS)}")
-    return tune(args.alpha, m=args.m, w=args.w, presets={n: PRESETS[n] for n in names},
-                seeds=32 if args.seeds is None else args.seeds, horizon=args.horizon, burn=args.burn,
-                workers=args.workers, cache=not args.no_cache, progress=progress_bar("tuning", not quiet))
+    return tune(
+        args.alpha,
+        m=args.m,
+        w=args.w,
+        presets={n: PRESETS[n] for n in names},
+        seeds=32 if args.seeds is None else args.seeds,
+        horizon=args.horizon,
+        burn=args.burn,
+        workers=args.workers,
+        cache=not args.no_cache,
+        progress=progress_bar("tuning", not quiet),
+    )
 
 
 def cmd_scenario(args) -> int:
@@ -41,14 +51,21 @@ def cmd_scenario(args) -> int:
 
 
 def _meta(res) -> dict:
-    return {"alpha": res.alpha, "m": res.m, "w": res.w, "seeds": [res.seeds[0], res.seeds[-1]],
-            "horizon_over_r_min": res.horizon, "burn_over_r_min": res.burn, "origin": res.origin,
-            "statistic": "per period: sqrt of the coordinates' mean of (sum over seeds and steps of e_i^2) / "
-                         "(seeds x sum over steps of the clairvoyant P_ii); interval: Student's over the seeds' "
-                         "contributions, under the square root",
-            "scenarios": dict(zip(res.presets, res.preset_labels, strict=True)),
-            "one_reading_over_r_min": dict(zip(res.presets, res.reading_time, strict=True)),
-            "steps": dict(zip(res.presets, res.steps, strict=True))}
+    return {
+        "alpha": res.alpha,
+        "m": res.m,
+        "w": res.w,
+        "seeds": [res.seeds[0], res.seeds[-1]],
+        "horizon_over_r_min": res.horizon,
+        "burn_over_r_min": res.burn,
+        "origin": res.origin,
+        "statistic": "per period: sqrt of the coordinates' mean of (sum over seeds and steps of e_i^2) / "
+        "(seeds x sum over steps of the clairvoyant P_ii); interval: Student's over the seeds' "
+        "contributions, under the square root",
+        "scenarios": dict(zip(res.presets, res.preset_labels, strict=True)),
+        "one_reading_over_r_min": dict(zip(res.presets, res.reading_time, strict=True)),
+        "steps": dict(zip(res.presets, res.steps, strict=True)),
+    }
 
 
 def _cell_key(res, c: int) -> str:
@@ -85,21 +102,62 @@ def _table_out(args, res) -> int:
     ns, cost_meta = _costs(res, tab, args)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
     rows = _table_rows(res, tab, keys, ns)
-    winners = [{"cell": k, "winner": tab.rows[tab.winner[c]].name, "runner_up": tab.rows[tab.runner_up[c]].name,
-                "margin": tab.margin[c], "margin_low95": tab.margin_low[c], "tie": bool(tab.tie[c])}
-               for c, k in enumerate(keys)]
+    winners = [
+        {
+            "cell": k,
+            "winner": tab.rows[tab.winner[c]].name,
+            "runner_up": tab.rows[tab.runner_up[c]].name,
+            "margin": tab.margin[c],
+            "margin_low95": tab.margin_low[c],
+            "tie": bool(tab.tie[c]),
+        }
+        for c, k in enumerate(keys)
+    ]
     check = {k: bool(tab.low[0, c] <= 1.0 <= tab.high[0, c]) for c, k in enumerate(keys)}
     if args.csv is not None:
-        write_csv(args.csv, nan_to_none([{"filter": row["name"], "label": row["label"], "role": row["role"],
-                                          "tuning": json.dumps(row["tuning"], ensure_ascii=False),
-                                          "cell": k, **row["cells"][k]} for row in rows for k in keys]))
+        write_csv(
+            args.csv,
+            nan_to_none(
+                [
+                    {
+                        "filter": row["name"],
+                        "label": row["label"],
+                        "role": row["role"],
+                        "tuning": json.dumps(row["tuning"], ensure_ascii=False),
+                        "cell": k,
+                        **row["cells"][k],
+                    }
+                    for row in rows
+                    for k in keys
+                ]
+            ),
+        )
     if args.json:
-        meta = {**_meta(res), "level": tab.level, "cells": [
-            {"cell": k, "scenario": res.presets[p], "period": per.name, "label": per.label, "from": per.start,
-             "to": per.end} for k, (p, per) in zip(keys, res.cells, strict=True)],
-            "clairvoyant_reads_1_within_its_interval": check, "cost": cost_meta}
-        print(json.dumps(nan_to_none({"meta": meta, "rows": rows, "winners": winners}), indent=1, allow_nan=False,
-                         ensure_ascii=False))
+        meta = {
+            **_meta(res),
+            "level": tab.level,
+            "cells": [
+                {
+                    "cell": k,
+                    "scenario": res.presets[p],
+                    "period": per.name,
+                    "label": per.label,
+                    "from": per.start,
+                    "to": per.end,
+                }
+                for k, (p, per) in zip(keys, res.cells, strict=True)
+            ],
+            "clairvoyant_reads_1_within_its_interval": check,
+            "cost": cost_meta,
+        }
+        print(
+            json.dumps(
+                nan_to_none({"meta": meta, "rows": rows, "winners": winners}),
+                indent=1,
+                allow_nan=False,
+                ensure_ascii=False,
+            )
+        )
         return 0
     _print_table(res, tab, keys, ns, cost_meta, check)
     return 0
@@ -109,24 +167,37 @@ def _table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
     """The fair table's rows as data: each filter's tuning, origin and cost, its cells and its worst per preset."""
     rows: list[dict[str, Any]] = []
     for r, row in enumerate(tab.rows):
-        cells = {k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]}
-                 for c, k in enumerate(keys)}
+        cells = {
+            k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]} for c, k in enumerate(keys)
+        }
         presets = {}
         for p, name in enumerate(res.presets):
             worst, lo, hi = (a[r] for a in tab.preset(p))
             presets[name] = {"worst": worst, "low": lo, "high": hi}
-        rows.append({"name": row.name, "label": row.label, "role": row.role, "knows": row.knows,
-                     "tuning": row.tuning, "origin": row.origin, "ns_per_step": ns.get(row.name),
-                     "cells": cells, "presets": presets})
+        rows.append(
+            {
+                "name": row.name,
+                "label": row.label,
+                "role": row.role,
+                "knows": row.knows,
+                "tuning": row.tuning,
+                "origin": row.origin,
+                "ns_per_step": ns.get(row.name),
+                "cells": cells,
+                "presets": presets,
+            }
+        )
     return rows
 
 
 def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
     from ..scenario.table import knob_text
 
-    print(f"fair table: the normalized RMSE ratio to the clairvoyant Kalman filter per period (coordinates averaged, "
-          f"pooled over seeds {res.seeds[0]}-{res.seeds[-1]}), {100 * tab.level:g} % Student interval over the "
-          f"seeds; alpha = {res.alpha:g}, m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min")
+    print(
+        f"fair table: the normalized RMSE ratio to the clairvoyant Kalman filter per period (coordinates averaged, "
+        f"pooled over seeds {res.seeds[0]}-{res.seeds[-1]}), {100 * tab.level:g} % Student interval over the "
+        f"seeds; alpha = {res.alpha:g}, m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min"
+    )
     print(f"tuned rows: every family at its minimax knob; {res.origin}")
     for p, name in enumerate(res.presets):
         cells = res.preset_cells(p)
@@ -134,21 +205,38 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
         print(f"  {'filter':64}" + "".join(f" | {res.cells[c][1].label[:26]:>26}" for c in cells))
         for r, row in enumerate(tab.rows):
             label = row.label if row.role != "oracle" else f"{row.name}: {knob_text(row.tuning[p])}"
-            print(f"  {label[:64]:64}" + "".join(
-                f" | {f'{_ratio(tab.ratio[r, c])} [{_ratio(tab.low[r, c])}, {_ratio(tab.high[r, c])}]':>26}"
-                for c in cells))
-    print("\nwho wins each cell (the lowest of the tuned and paper rows; a tie where the paired margin's lower bound "
-          "is <= 1):")
+            print(
+                f"  {label[:64]:64}"
+                + "".join(
+                    f" | {f'{_ratio(tab.ratio[r, c])} [{_ratio(tab.low[r, c])}, {_ratio(tab.high[r, c])}]':>26}"
+                    for c in cells
+                )
+            )
+    print(
+        "\nwho wins each cell (the lowest of the tuned and paper rows; a tie where the paired margin's lower bound "
+        "is <= 1):"
+    )
     for c, k in enumerate(keys):
         w, r = tab.rows[tab.winner[c]].name, tab.rows[tab.runner_up[c]].name
         m, lo = tab.margin[c], tab.margin_low[c]
-        print(f"  {k}: " + (f"tie, {w} and {r} ({m:.2f}x, lower bound {lo:.2f}x)" if tab.tie[c] else
-                            f"{w}, {m:.2f}x ahead of {r} (lower bound {lo:.2f}x)"))
-    print("the clairvoyant filter reads 1 within its interval in " + (
-        "every cell" if all(check.values()) else "every cell but " + ", ".join(k for k, v in check.items() if not v)))
+        print(
+            f"  {k}: "
+            + (
+                f"tie, {w} and {r} ({m:.2f}x, lower bound {lo:.2f}x)"
+                if tab.tie[c]
+                else f"{w}, {m:.2f}x ahead of {r} (lower bound {lo:.2f}x)"
+            )
+        )
+    print(
+        "the clairvoyant filter reads 1 within its interval in "
+        + ("every cell" if all(check.values()) else "every cell but " + ", ".join(k for k, v in check.items() if not v))
+    )
     if ns:
-        print(f"cost, ns per step ({cost_meta['how']}): " + ", ".join(f"{n} {v:.0f}" for n, v in ns.items())
-              + f"; the loop with its three filters {cost_meta['loop_with_clairvoyant_kbf_isl_ns_per_step']:.0f}")
+        print(
+            f"cost, ns per step ({cost_meta['how']}): "
+            + ", ".join(f"{n} {v:.0f}" for n, v in ns.items())
+            + f"; the loop with its three filters {cost_meta['loop_with_clairvoyant_kbf_isl_ns_per_step']:.0f}"
+        )
 
 
 def _tune_out(args, res) -> int:
@@ -165,34 +253,64 @@ def _tune_out(args, res) -> int:
             knob = res.knobs[j]
             for c, k in enumerate(keys):
                 p = res.cells[c][0]
-                curves.append({"family": f, "variant": res.names[j], **knob,
-                               **({"memory_over_r_min": knob["memory"] * res.reading_time[p]} if "memory" in knob
-                                  else {}),
-                               "cell": k, "ratio": r[j, c], "low": lo[j, c], "high": hi[j, c],
-                               "minimax": bool(j == best[f]), "oracle": bool(j == oracle[f][p])})
-    summary = {f: {"minimax": {"knob": res.knobs[best[f]], "worst": float(r[best[f]].max()),
-                               "worst_cell": keys[int(r[best[f]].argmax())]},
-                   "oracle": {name: {"knob": res.knobs[oracle[f][p]],
-                                     "worst": float(r[oracle[f][p], res.preset_cells(p)].max())}
-                              for p, name in enumerate(res.presets)}} for f in FAMILIES}
+                curves.append(
+                    {
+                        "family": f,
+                        "variant": res.names[j],
+                        **knob,
+                        **({"memory_over_r_min": knob["memory"] * res.reading_time[p]} if "memory" in knob else {}),
+                        "cell": k,
+                        "ratio": r[j, c],
+                        "low": lo[j, c],
+                        "high": hi[j, c],
+                        "minimax": bool(j == best[f]),
+                        "oracle": bool(j == oracle[f][p]),
+                    }
+                )
+    summary = {
+        f: {
+            "minimax": {
+                "knob": res.knobs[best[f]],
+                "worst": float(r[best[f]].max()),
+                "worst_cell": keys[int(r[best[f]].argmax())],
+            },
+            "oracle": {
+                name: {"knob": res.knobs[oracle[f][p]], "worst": float(r[oracle[f][p], res.preset_cells(p)].max())}
+                for p, name in enumerate(res.presets)
+            },
+        }
+        for f in FAMILIES
+    }
     if args.csv is not None:
-        fields = sorted({k for row in curves for k in row}, key=lambda k: list(curves[0]).index(k)
-                        if k in curves[0] else 99)
+        fields = sorted(
+            {k for row in curves for k in row}, key=lambda k: list(curves[0]).index(k) if k in curves[0] else 99
+        )
         write_csv(args.csv, nan_to_none([{k: row.get(k) for k in fields} for row in curves]))
     if args.json:
-        print(json.dumps(nan_to_none({"meta": _meta(res), "tuned": summary, "curves": curves}), indent=1,
-                         allow_nan=False, ensure_ascii=False))
+        print(
+            json.dumps(
+                nan_to_none({"meta": _meta(res), "tuned": summary, "curves": curves}),
+                indent=1,
+                allow_nan=False,
+                ensure_ascii=False,
+            )
+        )
         return 0
-    print(f"tuning curves: each variant's largest ratio over each scenario's periods, and over all (the minimax rule "
-          f"picks the least of these, *; + the best for that scenario alone); {res.origin}")
+    print(
+        f"tuning curves: each variant's largest ratio over each scenario's periods, and over all (the minimax rule "
+        f"picks the least of these, *; + the best for that scenario alone); {res.origin}"
+    )
     for f in FAMILIES:
         idx = res.variants(f)
         print(f"\n{f}:  {'knob':38}" + "".join(f" | {n[:10]:>10}" for n in res.presets) + " |   all")
         for j in idx:
             marks = ["+" if j == oracle[f][p] else " " for p in range(len(res.presets))]
             vals = [r[j, res.preset_cells(p)].max() for p in range(len(res.presets))]
-            print(f"{'*' if j == best[f] else ' '} {knob_text(res.knobs[j])[:44]:44}" + "".join(
-                f" | {_ratio(v):>9}{mk}" for v, mk in zip(vals, marks, strict=True)) + f" | {_ratio(r[j].max()):>6}")
+            print(
+                f"{'*' if j == best[f] else ' '} {knob_text(res.knobs[j])[:44]:44}"
+                + "".join(f" | {_ratio(v):>9}{mk}" for v, mk in zip(vals, marks, strict=True))
+                + f" | {_ratio(r[j].max()):>6}"
+            )
     return 0
 
 
@@ -203,40 +321,78 @@ def _scenario_map(args) -> int:
 
     after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
     if after < args.window:
-        raise UsageError(f"isl scenario: --horizon must be at least {STEP_AT:g} (the sigma step's time) + --window "
-                         f"for the sigma_step map, got {args.horizon:g}")
+        raise UsageError(
+            f"isl scenario: --horizon must be at least {STEP_AT:g} (the sigma step's time) + --window "
+            f"for the sigma_step map, got {args.horizon:g}"
+        )
     tuning = None
     if not args.untuned:
         from ..scenario.tuning import tune
 
-        tuning = tune(args.alpha, m=args.m, w=args.w, workers=args.workers, cache=not args.no_cache,
-                      progress=progress_bar("tuning", not (args.quiet or args.json)))
-    res = who_wins_map(args.map, args.alpha, values=None if args.values is None else flat(args.values), m=args.m,
-                       w=args.w, seeds=32 if args.seeds is None else args.seeds, window=args.window, after=after,
-                       burn=args.burn, tuning=tuning, untuned=args.untuned,
-                       progress=progress_bar("scenario map", not (args.quiet or args.json)))
+        tuning = tune(
+            args.alpha,
+            m=args.m,
+            w=args.w,
+            workers=args.workers,
+            cache=not args.no_cache,
+            progress=progress_bar("tuning", not (args.quiet or args.json)),
+        )
+    res = who_wins_map(
+        args.map,
+        args.alpha,
+        values=None if args.values is None else flat(args.values),
+        m=args.m,
+        w=args.w,
+        seeds=32 if args.seeds is None else args.seeds,
+        window=args.window,
+        after=after,
+        burn=args.burn,
+        tuning=tuning,
+        untuned=args.untuned,
+        progress=progress_bar("scenario map", not (args.quiet or args.json)),
+    )
     winner, margin, tie = res.winner, res.margin, res.tie
-    rows = [{"since_step_over_r_min": None if math.isnan(t) else float(t), "value": float(x),
-             "winner": res.filters[winner[r, c]], "margin": float(margin[r, c]),
-             "margin_low95": float(res.margin_low[r, c]), "tie": bool(tie[r, c]),
-             **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)}}
-            for r, t in enumerate(res.rows) for c, x in enumerate(res.x)]
+    rows = [
+        {
+            "since_step_over_r_min": None if math.isnan(t) else float(t),
+            "value": float(x),
+            "winner": res.filters[winner[r, c]],
+            "margin": float(margin[r, c]),
+            "margin_low95": float(res.margin_low[r, c]),
+            "tie": bool(tie[r, c]),
+            **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)},
+        }
+        for r, t in enumerate(res.rows)
+        for c, x in enumerate(res.x)
+    ]
     if args.csv is not None:
         write_csv(args.csv, rows)
     if args.json:
-        meta = {"map": res.kind, "axis": AXIS_LABELS[res.kind], "alpha": res.alpha, "beta": res.model.beta,
-                "m": res.model.m, "sigma0": res.model.sigma, "seeds": res.seeds, "origin": res.origin,
-                "window_over_r_min": res.window, "filters": dict(zip(res.filters, res.labels, strict=True))}
+        meta = {
+            "map": res.kind,
+            "axis": AXIS_LABELS[res.kind],
+            "alpha": res.alpha,
+            "beta": res.model.beta,
+            "m": res.model.m,
+            "sigma0": res.model.sigma,
+            "seeds": res.seeds,
+            "origin": res.origin,
+            "window_over_r_min": res.window,
+            "filters": dict(zip(res.filters, res.labels, strict=True)),
+        }
         print(json.dumps(nan_to_none({"meta": meta, "cells": rows}), indent=1, allow_nan=False, ensure_ascii=False))
         return 0
-    print(f"who wins ({res.kind}): the filter with the lowest period ratio to the clairvoyant Kalman filter "
-          f"(coordinates averaged, pooled over {res.seeds} seeds; rows of {res.window:g}/r_min), x its margin over the "
-          f"runner-up, '~' a tie (the paired margin's 95 % lower bound is <= 1); alpha = {res.alpha:g}; {res.origin}")
+    print(
+        f"who wins ({res.kind}): the filter with the lowest period ratio to the clairvoyant Kalman filter "
+        f"(coordinates averaged, pooled over {res.seeds} seeds; rows of {res.window:g}/r_min), x its margin over the "
+        f"runner-up, '~' a tie (the paired margin's 95 % lower bound is <= 1); alpha = {res.alpha:g}; {res.origin}"
+    )
     head = "since step" if res.kind == "sigma_step" else ""
     print(f"{head:>10} | {AXIS_LABELS[res.kind]}: " + " | ".join(f"{x:>18g}" for x in res.x))
     for r, t in enumerate(res.rows):
-        cells = [f"{'~' if tie[r, c] else ''}{res.filters[winner[r, c]]} x{margin[r, c]:.2f}"
-                 for c in range(len(res.x))]
+        cells = [
+            f"{'~' if tie[r, c] else ''}{res.filters[winner[r, c]]} x{margin[r, c]:.2f}" for c in range(len(res.x))
+        ]
         label = "" if math.isnan(t) else f"{t:g}"
         print(f"{label:>10} | " + " " * (len(AXIS_LABELS[res.kind]) + 2) + " | ".join(f"{c:>18}" for c in cells))
     return 0

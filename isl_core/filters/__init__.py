@@ -9,6 +9,7 @@
 * :mod:`~isl_core.filters.imm` — the interacting-multiple-model bank of Kalman filters (Blom & Bar-Shalom 1988);
 * :mod:`~isl_core.filters.baselines` — the set a user who does not know σ compares, by stable name.
 """
+
 from .adaptive import adaptive_kbf
 from .base import (
     KIND_ADAPTIVE,
@@ -32,8 +33,29 @@ from .robust import robust_kbf
 from .variational import variational_kbf
 
 __all__ = [
-    "BASELINES", "KIND_ADAPTIVE", "KIND_CLAIRVOYANT", "KIND_IMM", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB",
-    "LABELS", "AdaptiveGain", "FilterSpec", "IMMBank", "VariationalGain", "adaptive_kbf", "baseline_filters",
-    "design_sigma", "imm_kbf", "isl_filter", "linearized_matrix", "minimax_kbf", "mismatched_kbf", "model_aware_isl",
-    "optimal_kbf", "robust_kbf", "variational_kbf",
+    "BASELINES",
+    "KIND_ADAPTIVE",
+    "KIND_CLAIRVOYANT",
+    "KIND_IMM",
+    "KIND_LINEAR",
+    "KIND_POWER",
+    "KIND_ROBUST",
+    "KIND_VB",
+    "LABELS",
+    "AdaptiveGain",
+    "FilterSpec",
+    "IMMBank",
+    "VariationalGain",
+    "adaptive_kbf",
+    "baseline_filters",
+    "design_sigma",
+    "imm_kbf",
+    "isl_filter",
+    "linearized_matrix",
+    "minimax_kbf",
+    "mismatched_kbf",
+    "model_aware_isl",
+    "optimal_kbf",
+    "robust_kbf",
+    "variational_kbf",
 ]

@@ -38,6 +38,7 @@ the ends beyond it. The table comes from the normalized CARE (:mod:`isl_core.ric
 No theory (statistical linearization) exists for this filter: its predicted ratio is nan.
 Symbols: ``memory`` = W (readings), ``sigma_init`` = σ̂ before the first innovation, ``v`` the innovation variance.
 """
+
 from __future__ import annotations
 
 import math
@@ -51,8 +52,14 @@ from ..validate import check_real, check_sigma_range, short
 from .base import AdaptiveGain, FilterSpec
 
 __all__ = [
-    "MEMORY", "TABLE_MARGIN", "TABLE_PER_DECADE", "adaptive_kbf", "gain_table", "normalized_gains",
-    "sigma_hat_sd", "sigma_limit",
+    "MEMORY",
+    "TABLE_MARGIN",
+    "TABLE_PER_DECADE",
+    "adaptive_kbf",
+    "gain_table",
+    "normalized_gains",
+    "sigma_hat_sd",
+    "sigma_limit",
 ]
 
 MEMORY = 1000.0  #: the constructors' default memory W of the innovation variance, in sensor readings
@@ -81,8 +88,9 @@ def gain_table(model: Model, sigmas) -> np.ndarray:
     """Stationary Kalman–Bucy gains K(σ) (len(sigmas), m) of ``model``'s α, β, m at each σ (A.21–A.23)."""
     sig = np.atleast_1d(np.asarray(sigmas, dtype=float))
     log_rho = (math.log(model.beta) - np.log(sig)) / model.m
-    return np.exp(np.arange(1, model.m + 1) * log_rho[:, None]) * normalized_gains(model.m, model.alpha * np.exp(
-        -log_rho))
+    return np.exp(np.arange(1, model.m + 1) * log_rho[:, None]) * normalized_gains(
+        model.m, model.alpha * np.exp(-log_rho)
+    )
 
 
 def adaptive_kbf(
@@ -127,20 +135,29 @@ def adaptive_kbf(
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     lo, hi = check_sigma_range(sigma_range)
     memory = check_real("memory (W, in sensor readings)", memory, lo=1.0)
-    sigma_init = math.sqrt(lo * hi) if sigma_init is None else check_real("sigma_init", sigma_init, lo=0.0,
-                                                                          lo_open=True)
+    sigma_init = (
+        math.sqrt(lo * hi) if sigma_init is None else check_real("sigma_init", sigma_init, lo=0.0, lo_open=True)
+    )
     top = sigma_limit(model)
     if hi > top:
-        raise ValueError(f"sigma_range must end at or below {top:.4g} for alpha = {model.alpha:g}, "
-                         f"beta = {model.beta:g}, m = {model.m} (the Riccati equation's domain, "
-                         f"isl_core.riccati.A_MAX), got {short(sigma_range)}")
+        raise ValueError(
+            f"sigma_range must end at or below {top:.4g} for alpha = {model.alpha:g}, "
+            f"beta = {model.beta:g}, m = {model.m} (the Riccati equation's domain, "
+            f"isl_core.riccati.A_MAX), got {short(sigma_range)}"
+        )
     log_lo, log_hi = math.log(lo / TABLE_MARGIN), math.log(min(hi * TABLE_MARGIN, top))
     n = max(2, math.ceil(TABLE_PER_DECADE * (log_hi - log_lo) / math.log(10.0)) + 1)
     step = (log_hi - log_lo) / (n - 1)
     table = _table(model.alpha, model.beta, model.m, log_lo, step, n)
     gain = AdaptiveGain(log_lo, step, table, memory, sigma_init)
-    return FilterSpec("kbf_adaptive", f"Kalman–Bucy, adaptive σ̂ (W = {memory:g} readings)", model.alpha,
-                      gain.gain(sigma_init), False, gain)
+    return FilterSpec(
+        "kbf_adaptive",
+        f"Kalman–Bucy, adaptive σ̂ (W = {memory:g} readings)",
+        model.alpha,
+        gain.gain(sigma_init),
+        False,
+        gain,
+    )
 
 
 def sigma_limit(model: Model) -> float:

@@ -23,6 +23,7 @@ Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law, ``ada
 :data:`KIND_ADAPTIVE`, :data:`KIND_CLAIRVOYANT`, :data:`KIND_VB`, :data:`KIND_ROBUST`, :data:`KIND_IMM` — module
 ints that the compiled kernels read as compile-time constants (never a bare number).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -33,8 +34,18 @@ from ..model import Model
 from ..nonlinearity import isl_exponents, linearization
 
 __all__ = [
-    "KIND_ADAPTIVE", "KIND_CLAIRVOYANT", "KIND_IMM", "KIND_LINEAR", "KIND_POWER", "KIND_ROBUST", "KIND_VB",
-    "AdaptiveGain", "FilterSpec", "IMMBank", "VariationalGain", "linearized_matrix",
+    "KIND_ADAPTIVE",
+    "KIND_CLAIRVOYANT",
+    "KIND_IMM",
+    "KIND_LINEAR",
+    "KIND_POWER",
+    "KIND_ROBUST",
+    "KIND_VB",
+    "AdaptiveGain",
+    "FilterSpec",
+    "IMMBank",
+    "VariationalGain",
+    "linearized_matrix",
 ]
 
 KIND_LINEAR = 0  #: φ linear, K u (B.30)

@@ -24,6 +24,7 @@ Fixed-gain Kalman–Bucy filters are linear, so their Lyapunov equation
 ``(A − K̄C)P + P(A − K̄C)ᵀ + β²EEᵀ + σ²K̄K̄ᵀ = 0`` is exact (in continuous time; the Euler grid adds O(h·rate)).
 With α = 0 the model-aware ISL filter is paper A's filter, bit for bit (damp = α = 0).
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -107,7 +108,8 @@ def baseline_filters(
         "kbf": lambda: optimal_kbf(model, kalman_bucy(model)),
         "isl": lambda: isl_filter(model, nu),
         "kbf_mismatched": lambda: mismatched_kbf(
-            model, design_sigma(sigma_range) if sigma_design is None else sigma_design),
+            model, design_sigma(sigma_range) if sigma_design is None else sigma_design
+        ),
         "kbf_minimax": lambda: minimax_kbf(model, sigma_range),
         "kbf_adaptive": lambda: adaptive_kbf(model, sigma_range=sigma_range, memory=memory),
         "isl_model": lambda: model_aware_isl(model, nu if nu_model is None else nu_model),
@@ -124,5 +126,3 @@ def check_names(names, param: str = "names", allowed: Sequence[str] = BASELINES)
     if not (names and all(isinstance(n, str) and n in allowed for n in names) and len(set(names)) == len(names)):
         raise ValueError(f"{what}, got {short(names)}")
     return names
-
-

@@ -36,6 +36,7 @@ smallest (the log-sum-exp guard), so the best-fitting mode's factor is 1 and a r
 stationary covariance Δ of its σ_j (A.23), weights 1/J. Its σ̂ (for the pictures) is Σ_j μ_j σ_j.
 Symbols: J = ``modes``, p = ``switch``, σ_j = ``IMMBank.sigmas``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -55,8 +56,9 @@ MODES_MAX = 64
 SWITCH_MIN = 1e-12  #: keeps every prior weight c̄_j ≥ p/(J − 1) far from the float range's end
 
 
-def imm_kbf(model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, modes: int = MODES,
-            switch: float = SWITCH) -> FilterSpec:
+def imm_kbf(
+    model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, modes: int = MODES, switch: float = SWITCH
+) -> FilterSpec:
     """The IMM filter (module docstring) for ``model``'s α, β, m (σ is not used): ``modes`` σ_j log-spaced over
     ``sigma_range`` (its ends included), switch probability ``switch`` per reading (10⁻¹² ≤ p < 1).
 
@@ -100,5 +102,6 @@ def imm_kbf(model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, mod
     cov = np.array([kalman_bucy(Model(model.alpha, model.beta, float(s), model.m)).delta for s in sigmas])
     bank = IMMBank(sigmas, float(switch), cov)
     span = f"σ = {lo:g}" if modes == 1 else f"{modes} σ modes over [{lo:g}, {hi:g}]"
-    return FilterSpec("imm", f"IMM ({span}, switch {switch:g} a reading)", model.alpha, np.zeros(model.m), False,
-                      imm=bank)
+    return FilterSpec(
+        "imm", f"IMM ({span}, switch {switch:g} a reading)", model.alpha, np.zeros(model.m), False, imm=bank
+    )

@@ -6,6 +6,7 @@ with the innovation u = ΔY/√h − √h·Ž_1 and the power law of :mod:`isl_c
 a = 0 (A0: it does not use α); the model-aware one a = α (:func:`model_aware_isl`), so that at α = 0 the two are the
 same filter, bit for bit.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -47,5 +48,4 @@ def isl_filter(model: Model, nu: float) -> FilterSpec:
 def model_aware_isl(model: Model, nu: float) -> FilterSpec:
     """ISL filter with paper A's φ (A.17) that propagates with the true A = A0 − αEEᵀ (damp = α)."""
     spec = isl_filter(model, nu)  # validates nu
-    return dataclasses.replace(spec, name="isl_model", label=f"ISL model-aware (ν = {float(nu):.4g})",
-                               damp=model.alpha)
+    return dataclasses.replace(spec, name="isl_model", label=f"ISL model-aware (ν = {float(nu):.4g})", damp=model.alpha)

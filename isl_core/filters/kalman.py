@@ -9,6 +9,7 @@ With σ̄ = σ the gain is the optimal K (:func:`optimal_kbf`); otherwise the fi
 guess (:func:`design_sigma`); "assume the largest noise" is :func:`minimax_kbf`. Every one propagates with the true A
 (damp = α).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -90,5 +91,6 @@ def design_sigma(sigma_range: tuple[float, float]) -> float:
 def minimax_kbf(model: Model, sigma_range: tuple[float, float]) -> FilterSpec:
     """Kalman–Bucy filter designed for the top of the σ range, σ̄ = σ_max (module docstring)."""
     _, hi = check_sigma_range(sigma_range)
-    return dataclasses.replace(mismatched_kbf(model, hi), name="kbf_minimax",
-                               label=f"Kalman–Bucy for the largest σ (σ̄ = {hi:.4g})")
+    return dataclasses.replace(
+        mismatched_kbf(model, hi), name="kbf_minimax", label=f"Kalman–Bucy for the largest σ (σ̄ = {hi:.4g})"
+    )

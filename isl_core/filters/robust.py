@@ -14,6 +14,7 @@ Gaussian data the filter is the adaptive one up to the clipped 2·Φ(−c) share
 Huber's 95 % efficiency at the Gaussian. A single outlier k times the noise then moves the state by at most
 c·σ̂·√(qh)·K instead of k·σ·√(qh)·K.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -36,8 +37,14 @@ def huber_kappa(c: float) -> float:
     return (1.0 - 2.0 * tail) - 2.0 * c * density + 2.0 * c * c * tail
 
 
-def robust_kbf(model: Model, *, c: float = HUBER_C, sigma_range: tuple[float, float] = (2.0, 200.0),
-               memory: float = MEMORY, sigma_init: float | None = None) -> FilterSpec:
+def robust_kbf(
+    model: Model,
+    *,
+    c: float = HUBER_C,
+    sigma_range: tuple[float, float] = (2.0, 200.0),
+    memory: float = MEMORY,
+    sigma_init: float | None = None,
+) -> FilterSpec:
     """The robust adaptive filter (module docstring) for ``model``'s α, β, m; the rest as :func:`adaptive_kbf`
     (``memory`` W in sensor readings).
 

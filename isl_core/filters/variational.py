@@ -26,6 +26,7 @@ b₀ = a₀·σ_init².
 In error coordinates (e = X̂ − X, as every filter of the kernel) the residual after the update is
 y − H X̂ = u·(1 − √(qh)·K_1) and the prediction adds F·K·u to the propagated error.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -42,8 +43,14 @@ ITERATIONS = 3  #: fixed-point iterations per reading (the paper reports converg
 SHAPE0 = 1.0  #: a₀: the initial guess weighs as much as about two readings
 
 
-def variational_kbf(model: Model, *, sigma_init: float | None = None, memory: float = MEMORY,
-                    shape0: float = SHAPE0, iterations: int = ITERATIONS) -> FilterSpec:
+def variational_kbf(
+    model: Model,
+    *,
+    sigma_init: float | None = None,
+    memory: float = MEMORY,
+    shape0: float = SHAPE0,
+    iterations: int = ITERATIONS,
+) -> FilterSpec:
     """The variational-Bayes adaptive Kalman filter for ``model`` (module docstring); ``sigma_init`` its guess
     before the first reading (default: the model's σ, as for the other filters' start), ``memory`` W in sensor
     readings (> 1: ρ = 1 − 1/W > 0).
@@ -79,6 +86,11 @@ def variational_kbf(model: Model, *, sigma_init: float | None = None, memory: fl
     shape0 = check_real("shape0", shape0, lo=0.0, lo_open=True)
     iterations = check_int("iterations", iterations, lo=1, hi=50)
     kb = kalman_bucy(Model(model.alpha, model.beta, sigma0, model.m))
-    return FilterSpec("vb", f"variational Bayes (σ learnt, Särkkä & Nummenmaa; W = {memory:g} readings)", model.alpha,
-                      np.array(kb.K, dtype=float), False,
-                      variational=VariationalGain(memory, sigma0, shape0, iterations))
+    return FilterSpec(
+        "vb",
+        f"variational Bayes (σ learnt, Särkkä & Nummenmaa; W = {memory:g} readings)",
+        model.alpha,
+        np.array(kb.K, dtype=float),
+        False,
+        variational=VariationalGain(memory, sigma0, shape0, iterations),
+    )

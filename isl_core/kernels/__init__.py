@@ -11,6 +11,7 @@
 
 Kernels trust their inputs: the public functions that call them validate (:mod:`isl_core.validate`).
 """
+
 from .cache import CACHE, sources_digest
 from .common import fast_cbrt
 from .euler import advance, minmax_block

@@ -24,14 +24,27 @@ bundle              what it holds
 :class:`Tube`       a display run's counts inside the ±3 s tube and σ̂ sums
 =================== ==========================================================================================
 """
+
 from __future__ import annotations
 
 from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Batches", "Buckets", "ClairvoyantState", "FilterBank", "FilterState", "Grid", "IMMState", "NoiseLaw",
-           "Observation", "Trajectory", "Tube", "Windows"]
+__all__ = [
+    "Batches",
+    "Buckets",
+    "ClairvoyantState",
+    "FilterBank",
+    "FilterState",
+    "Grid",
+    "IMMState",
+    "NoiseLaw",
+    "Observation",
+    "Trajectory",
+    "Tube",
+    "Windows",
+]
 
 
 class Grid(NamedTuple):

@@ -16,6 +16,7 @@ compiles without a cache (each process then compiles once, ≈ 10 s). Either fal
 keeps IEEE nan/inf semantics, so a diverging filter still shows up as non-finite. Results are bit-identical
 from run to run on one machine.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -62,8 +63,9 @@ def _cache_flag() -> bool:
     directory if need be."""
     here = f"isl-{sources_digest()}"
     place = os.path.join(numba.config.CACHE_DIR or os.path.join(PACKAGE, "__pycache__"), here)
-    fallback = os.path.join(tempfile.gettempdir(), f"isl-numba-cache-{os.getuid() if hasattr(os, 'getuid') else 0}",
-                            here)
+    fallback = os.path.join(
+        tempfile.gettempdir(), f"isl-numba-cache-{os.getuid() if hasattr(os, 'getuid') else 0}", here
+    )
     for where in (place, fallback):
         if _writable(where):
             numba.config.CACHE_DIR = where
@@ -72,13 +74,14 @@ def _cache_flag() -> bool:
             except RuntimeError:  # "cannot cache function …: no locator available"
                 continue
             if where == fallback:
-                logging.getLogger("isl_core").warning("numba: the cache directory is not writable (%s); caching in %s",
-                                                      place, fallback)
+                logging.getLogger("isl_core").warning(
+                    "numba: the cache directory is not writable (%s); caching in %s", place, fallback
+                )
             return True
     numba.config.CACHE_DIR = ""
     logging.getLogger("isl_core").warning(
-        "numba: no writable cache directory (%s; %s neither): the kernels are compiled in each process", place,
-        fallback)
+        "numba: no writable cache directory (%s; %s neither): the kernels are compiled in each process", place, fallback
+    )
     return False
 
 

@@ -5,6 +5,7 @@ The filter and its equations are :mod:`isl_core.scenario`'s (:func:`isl_core.sce
 recursion on the state (X, S), one step at a time (:func:`clairvoyant_step`, which the scenario loop runs in line),
 and over a whole noise path (:func:`riccati_path`). :func:`clairvoyant_state` is its state at t_0.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -117,8 +118,14 @@ def clairvoyant_state(P0: np.ndarray, q: int = 1) -> ClairvoyantState:
     P = np.zeros((m + 1, m + 1))
     P[:m, :m] = P0
     qc = q if 1 < q <= CYCLE_MAX else 0
-    return ClairvoyantState(P, np.array([0.0, 0.0, np.nan, 0.0, 0.0]), np.zeros(m), np.diagonal(P0).copy(),
-                            np.zeros((qc, m + 1, m + 1)), np.zeros(qc))
+    return ClairvoyantState(
+        P,
+        np.array([0.0, 0.0, np.nan, 0.0, 0.0]),
+        np.zeros(m),
+        np.diagonal(P0).copy(),
+        np.zeros((qc, m + 1, m + 1)),
+        np.zeros(qc),
+    )
 
 
 @njit(cache=CACHE, nogil=True)

@@ -5,6 +5,7 @@ The power law uses its fixed exponents: with r = |u|^{1/m}, ``|u|^{1−i/m} = r^
 and filter replaces m calls to ``pow``. For m = 3 the root is :func:`fast_cbrt` (division-free, a few ulp),
 m = 2, 4, 6 use ``sqrt`` and that cube root, m = 5 ``pow``.
 """
+
 from __future__ import annotations
 
 import math
@@ -14,8 +15,18 @@ from numba import njit
 
 from .cache import CACHE, FASTMATH
 
-__all__ = ["AD_INV_MEMORY", "AD_INV_STEP", "AD_LOG_SIGMA0", "AD_SIGMA", "AD_VAR", "AD_WIDTH", "FLUSH", "fast_cbrt",
-           "root", "table_gain"]
+__all__ = [
+    "AD_INV_MEMORY",
+    "AD_INV_STEP",
+    "AD_LOG_SIGMA0",
+    "AD_SIGMA",
+    "AD_VAR",
+    "AD_WIDTH",
+    "FLUSH",
+    "fast_cbrt",
+    "root",
+    "table_gain",
+]
 
 #: steps between flushes of the squared-error accumulator into the batch sums (see the module docstring)
 FLUSH = 1024

@@ -7,6 +7,7 @@ is 4–5 ns a step faster (Gaussian noise: 50.5 → 46.1 ns, fastest of 60).
 
 :func:`fill` draws ε_k alone (:meth:`isl_core.scenario.Scenario.draw_noise`), with the same arithmetic.
 """
+
 from __future__ import annotations
 
 import math

@@ -34,6 +34,7 @@ in :mod:`isl_core.simulate`).
 The root of the power law, the adaptive gain's table lookup and the flush interval are shared with the scenario
 loop (:mod:`isl_core.kernels.common`); how the kernels are compiled and cached: :mod:`isl_core.kernels.cache`.
 """
+
 from __future__ import annotations
 
 import math

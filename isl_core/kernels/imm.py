@@ -4,6 +4,7 @@ The filter, its equations and its error coordinates are :mod:`isl_core.filters.i
 which the scenario loop runs in line for every IMM filter (:mod:`isl_core.kernels.scenario`), and
 :func:`imm_state`, the banks' state for that loop.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,8 +43,21 @@ def imm_state(filters: Sequence[FilterSpec], m: int, q: int, h: float) -> IMMSta
         par[b] = spec.imm.switch, J
         b += 1
     nv = 4 * -(-(m + m * (m + 1) // 2) // 4)  # d_i and the upper triangle, padded to a multiple of 4 (_mix)
-    return IMMState(slot, P, np.zeros((nb, jm, m)), np.zeros((nb, jm)), mu, R, par, sig, np.zeros((jm, jm)),
-                    np.zeros((jm, nv)), np.zeros((jm, nv)), np.zeros(jm), np.zeros(m))
+    return IMMState(
+        slot,
+        P,
+        np.zeros((nb, jm, m)),
+        np.zeros((nb, jm)),
+        mu,
+        R,
+        par,
+        sig,
+        np.zeros((jm, jm)),
+        np.zeros((jm, nv)),
+        np.zeros((jm, nv)),
+        np.zeros(jm),
+        np.zeros(m),
+    )
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")

@@ -39,6 +39,7 @@ Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl
 :data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window w for the steps k in
 [``edges[w]``, ``edges[w + 1]``), σ̂ likewise.
 """
+
 from __future__ import annotations
 
 import math

@@ -2,6 +2,7 @@
 2009), which the scenario loop runs in line (:mod:`isl_core.kernels.scenario`). The filter and its equations are
 :mod:`isl_core.filters.variational`'s.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -11,6 +11,7 @@
 * :mod:`~isl_core.scenario.map` — who wins over a grid of scenarios (:func:`who_wins_map`);
 * :mod:`~isl_core.scenario.cost` — each filter's cost per step in the scenario loop (:func:`filter_costs`).
 """
+
 from __future__ import annotations
 
 from .average import Rolling, ScenarioAverage, average_scenario
@@ -24,10 +25,37 @@ from .table import ScenarioTable, TableRow, scenario_table, table_from
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 
 __all__ = [
-    "FAMILIES", "MAPS", "NOISE_LAWS", "PRESETS", "SIGMA_SHAPES",
-    "Clairvoyant", "Costs", "Period", "PeriodRatios", "Rolling", "Scenario", "ScenarioAverage", "ScenarioPlan",
-    "ScenarioRun", "ScenarioTable", "TableRow", "Tuning", "TuningGrids", "WhoWinsMap",
-    "average_scenario", "clairvoyant", "filter_costs", "paired_margin", "period_ratios", "plan_scenario",
-    "scenario_grid", "scenario_periods", "scenario_table", "sigma_path", "simulate_scenario", "table_from", "tune",
+    "FAMILIES",
+    "MAPS",
+    "NOISE_LAWS",
+    "PRESETS",
+    "SIGMA_SHAPES",
+    "Clairvoyant",
+    "Costs",
+    "Period",
+    "PeriodRatios",
+    "Rolling",
+    "Scenario",
+    "ScenarioAverage",
+    "ScenarioPlan",
+    "ScenarioRun",
+    "ScenarioTable",
+    "TableRow",
+    "Tuning",
+    "TuningGrids",
+    "WhoWinsMap",
+    "average_scenario",
+    "clairvoyant",
+    "filter_costs",
+    "paired_margin",
+    "period_ratios",
+    "plan_scenario",
+    "scenario_grid",
+    "scenario_periods",
+    "scenario_table",
+    "sigma_path",
+    "simulate_scenario",
+    "table_from",
+    "tune",
     "who_wins_map",
 ]

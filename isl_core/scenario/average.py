@@ -19,6 +19,7 @@ and coordinates, with the basic bootstrap interval over seeds — biased above 1
 seeds) and its interval can exclude its own estimate; the table and the maps now use the period statistic
 (:mod:`isl_core.scenario.periods`). :func:`margin_low` says whether the lowest of them is told apart from the next one.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
@@ -147,8 +148,16 @@ class ScenarioAverage:
         sigma_hat = (self._slide(self.sigma_hat, 1, k) / total[None, :, None]).mean(axis=0)  # nan once diverged
         edges = run.t * run.r_min
         centre = (edges[:-k] + edges[k:]) / 2
-        return Rolling(centre, np.sqrt(pick / den), low, high, coordinate, self._slide(run.sigma, 0, k) / total,
-                       sigma_hat, float(edges[k] - edges[0]))
+        return Rolling(
+            centre,
+            np.sqrt(pick / den),
+            low,
+            high,
+            coordinate,
+            self._slide(run.sigma, 0, k) / total,
+            sigma_hat,
+            float(edges[k] - edges[0]),
+        )
 
     def periods(self, periods=None, *, burn: float = 2.0, level: float = 0.95):
         """The period statistic (:func:`isl_core.scenario.periods.period_ratios`): every filter's normalized RMSE ratio
@@ -172,7 +181,7 @@ class ScenarioAverage:
             raise ValueError("a worst case with an interval needs 2 seeds or more")
         burn = check_real("burn (in units of 1/r_min)", burn, lo=0.0, hi=run.t[-1] * run.r_min, hi_open=True)
         _, total, mse, ref = self._pooled(width)
-        keep = run.starts_after(burn)[:len(total)]
+        keep = run.starts_after(burn)[: len(total)]
         if not np.any(keep):
             raise ValueError(f"no window of {width:g}/r_min starts after the burn-in of {burn:g}/r_min")
         return worst_ratio(mse[:, keep], ref[keep], level, np.random.default_rng(rng_seed))
@@ -236,8 +245,9 @@ def average_scenario(
     seeds = tuple(check_int("seed", s, lo=0) for s in seeds)
     if not seeds:
         raise ValueError("seeds must name at least one seed")
-    plan = plan_scenario(model, nu, scenario, horizon=horizon, windows=windows, extra=extra, edges=edges,
-                         grid_filters=grid_filters)
+    plan = plan_scenario(
+        model, nu, scenario, horizon=horizon, windows=windows, extra=extra, edges=edges, grid_filters=grid_filters
+    )
     runs = []
     for s, seed in enumerate(seeds):
         runs.append(plan.run(seed))

@@ -1,5 +1,6 @@
 """The σ-learning filters of a scenario run at their start: which filters learn σ, and the state the variational,
 robust and IMM filters begin from (:ref:`variational-kbf`, :ref:`robust-kbf`, :ref:`imm`)."""
+
 from __future__ import annotations
 
 import numpy as np

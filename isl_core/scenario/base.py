@@ -34,6 +34,7 @@ S + Σ σ_k·√h·ε_k at the interval's end, after which S restarts at 0. For 
 P_k settles at the grid's stationary covariance, within O(h) (the grid's Euler bias, :mod:`isl_core.grid`) of the
 Kalman–Bucy Δ of (A.23): it is then today's optimal filter.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -105,22 +106,31 @@ class Scenario:
         for j, knot in enumerate(self.sigma_knots):
             if not isinstance(knot, (tuple, list)) or len(knot) != 2:
                 raise ValueError(f"sigma_knots[{j}] must be a pair (time in 1/r_min, sigma); got {knot!r}")
-            t = check_real(f"sigma step time #{j + 1} (in units of 1/r_min)", knot[0], lo=last, lo_open=True,
-                           hi=TIME_MAX)
+            t = check_real(
+                f"sigma step time #{j + 1} (in units of 1/r_min)", knot[0], lo=last, lo_open=True, hi=TIME_MAX
+            )
             s = check_real(f"sigma after step #{j + 1}", knot[1], lo=SIGMA_BOUNDS[0], hi=SIGMA_BOUNDS[1])
             knots.append((t, s))
             last = t
         object.__setattr__(self, "sigma_knots", tuple(knots))
         _choice("sigma_shape", self.sigma_shape, SIGMA_SHAPES)
         _choice("noise", self.noise, NOISE_LAWS)
-        object.__setattr__(self, "dof", check_real("dof (degrees of freedom of the Student-t noise)", self.dof,
-                                                   lo=2.0, lo_open=True, hi=DOF_MAX))
-        object.__setattr__(self, "outlier_rate", check_real("outlier_rate", self.outlier_rate, lo=0.0, hi=1.0,
-                                                            hi_open=True))
-        object.__setattr__(self, "outlier_scale", check_real("outlier_scale", self.outlier_scale, lo=1.0,
-                                                             hi=OUTLIER_SCALE_MAX))
-        object.__setattr__(self, "sensor_interval", check_real("sensor_interval (in units of 1/r_min)",
-                                                               self.sensor_interval, lo=0.0, hi=TIME_MAX))
+        object.__setattr__(
+            self,
+            "dof",
+            check_real("dof (degrees of freedom of the Student-t noise)", self.dof, lo=2.0, lo_open=True, hi=DOF_MAX),
+        )
+        object.__setattr__(
+            self, "outlier_rate", check_real("outlier_rate", self.outlier_rate, lo=0.0, hi=1.0, hi_open=True)
+        )
+        object.__setattr__(
+            self, "outlier_scale", check_real("outlier_scale", self.outlier_scale, lo=1.0, hi=OUTLIER_SCALE_MAX)
+        )
+        object.__setattr__(
+            self,
+            "sensor_interval",
+            check_real("sensor_interval (in units of 1/r_min)", self.sensor_interval, lo=0.0, hi=TIME_MAX),
+        )
 
     @property
     def is_default(self) -> bool:
@@ -163,8 +173,14 @@ class Scenario:
 
     def noise_law(self) -> NoiseLaw:
         """The noise law as the compiled loops take it (:class:`isl_core.kernels.bundles.NoiseLaw`)."""
-        return NoiseLaw(LAWS[self.noise], self.dof, law_table(self.noise, self.dof), self.outlier_rate,
-                        self.outlier_scale, self.noise_variance)
+        return NoiseLaw(
+            LAWS[self.noise],
+            self.dof,
+            law_table(self.noise, self.dof),
+            self.outlier_rate,
+            self.outlier_scale,
+            self.noise_variance,
+        )
 
 
 def sigma_path(scenario: Scenario, model: Model, r_min: float, h: float, n: int) -> np.ndarray:
@@ -216,6 +232,14 @@ def clairvoyant(model: Model, scenario: Scenario, h: float, n: int) -> Clairvoya
     sigmas = sigma_path(scenario, model, kb.r_min, h, n)
     gain, var = np.zeros((n, model.m)), np.zeros((n + 1, model.m))
     q = scenario.sensor_steps(h, kb.r_min)
-    riccati_path(clairvoyant_state(np.array(kb.delta, dtype=float), q), float(h), model.alpha, model.beta**2,
-                 h * sigmas**2 * scenario.noise_variance, q, gain, var)
+    riccati_path(
+        clairvoyant_state(np.array(kb.delta, dtype=float), q),
+        float(h),
+        model.alpha,
+        model.beta**2,
+        h * sigmas**2 * scenario.noise_variance,
+        q,
+        gain,
+        var,
+    )
     return Clairvoyant(gain, var, q)

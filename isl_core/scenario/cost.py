@@ -11,6 +11,7 @@ several filters does, so a lane filter's figure is its share of a full lane, not
 padding; the IMM filter's bank runs outside the lanes and costs per mode. Timings depend on the machine and on what
 else runs on it: they are figures to compare side by side in one call, not constants.
 """
+
 from __future__ import annotations
 
 import time
@@ -49,8 +50,15 @@ def _best(plan, repeats: int) -> float:
     return best
 
 
-def filter_costs(model: Model, filters: Sequence[FilterSpec], *, scenario: Scenario | None = None,
-                 horizon: float = 200.0, copies: int = 8, repeats: int = 7) -> Costs:
+def filter_costs(
+    model: Model,
+    filters: Sequence[FilterSpec],
+    *,
+    scenario: Scenario | None = None,
+    horizon: float = 200.0,
+    copies: int = 8,
+    repeats: int = 7,
+) -> Costs:
     """ns per step of each of ``filters`` (module docstring) on ``scenario`` (default σ constant) over ``horizon``
     (1/r_min) of ``model``, the ISL filter of the base at ν = β.
 
@@ -93,12 +101,17 @@ def filter_costs(model: Model, filters: Sequence[FilterSpec], *, scenario: Scena
     for spec in filters:
         plan = _narrowed(model, scenario, horizon, [spec] * copies, grid=grid_of_all)
         out[spec.name] = max(0.0, (_best(plan, repeats) - base) / (copies * n) * 1e9)
-    return Costs(out, base / n * 1e9, n, copies, repeats,
-                 f"min of {repeats} runs of {n:,} steps (h = {h:.3g}, σ constant), {copies} copies of a filter beside "
-                 "the loop's clairvoyant, Kalman–Bucy and ISL filters, minus those alone, per copy and step")
+    return Costs(
+        out,
+        base / n * 1e9,
+        n,
+        copies,
+        repeats,
+        f"min of {repeats} runs of {n:,} steps (h = {h:.3g}, σ constant), {copies} copies of a filter beside "
+        "the loop's clairvoyant, Kalman–Bucy and ISL filters, minus those alone, per copy and step",
+    )
 
 
 def _narrowed(model, scenario, horizon, extra, grid=None):
     """A plan with ``extra`` on the grid set by ``grid`` (default ``extra``): the same h and N for every one."""
-    return plan_scenario(model, model.beta, scenario, horizon=horizon, windows=1, extra=extra,
-                         grid_filters=grid)
+    return plan_scenario(model, model.beta, scenario, horizon=horizon, windows=1, extra=extra, grid_filters=grid)

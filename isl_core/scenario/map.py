@@ -18,6 +18,7 @@ over the seeds, with a tie where the margin's lower 95 % bound is ≤ 1:
 Times are in units of 1/r_min of the model at σ(0) = 20. Any model with α > 0 is paper A's for one w: β = w√(2α)
 (A.25), so a model given by its β is mapped with w = β/√(2α).
 """
+
 from __future__ import annotations
 
 import math
@@ -48,8 +49,11 @@ MAPS = {
     "tails": (2.5, 3.0, 4.0, 6.0, 10.0, 30.0, 100.0),
     "sensor": (0.0, 0.02, 0.05, 0.1, 0.2, 0.5),
 }
-AXIS_LABELS = {"sigma_step": "σ after / σ before", "tails": "degrees of freedom d",
-               "sensor": "sensor interval Δ (1/r_min)"}
+AXIS_LABELS = {
+    "sigma_step": "σ after / σ before",
+    "tails": "degrees of freedom d",
+    "sensor": "sensor interval Δ (1/r_min)",
+}
 
 
 @dataclass(frozen=True)
@@ -109,11 +113,17 @@ def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | N
         return nu, specs[0].label, specs[1:], f"tuned: {tuning.origin}"
     nu, label = paper_nu(model, alpha, m, w)
     guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
-    extra = [model_aware_isl(model, nu), adaptive_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
-             variational_kbf(model, sigma_init=guess), robust_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
-             imm_kbf(model)]
-    origin = (f"untuned: the constructors' defaults (ISL ν of table (A.31) or β) — no tuning is cached for α = "
-              f"{alpha:g}, m = {m}, w = {w:g} (isl scenario --tune computes it)")
+    extra = [
+        model_aware_isl(model, nu),
+        adaptive_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
+        variational_kbf(model, sigma_init=guess),
+        robust_kbf(model, sigma_range=SIGMA_RANGE, sigma_init=guess),
+        imm_kbf(model),
+    ]
+    origin = (
+        f"untuned: the constructors' defaults (ISL ν of table (A.31) or β) — no tuning is cached for α = "
+        f"{alpha:g}, m = {m}, w = {w:g} (isl scenario --tune computes it)"
+    )
     return nu, label, [replace(e, label=f"{e.label} (untuned)") for e in extra], origin
 
 
@@ -121,8 +131,12 @@ def _periods(kind: str, window: float, after: float, burn: float) -> tuple[tuple
     """The map's rows as periods, and the horizon."""
     if kind == "sigma_step":
         n = max(1, math.floor(after / window + 1e-9))
-        return tuple(Period(f"since_{r}", f"{r * window:g}/r_min after the step", STEP_AT + r * window,
-                            STEP_AT + (r + 1) * window) for r in range(n)), STEP_AT + after
+        return tuple(
+            Period(
+                f"since_{r}", f"{r * window:g}/r_min after the step", STEP_AT + r * window, STEP_AT + (r + 1) * window
+            )
+            for r in range(n)
+        ), STEP_AT + after
     return (Period("settled", f"settled, after {burn:g}/r_min", burn, after),), after
 
 
@@ -179,8 +193,13 @@ def who_wins_map(
         raise ValueError(f"kind must be one of {', '.join(MAPS)}; got {kind!r}")
     alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
     lo = {"sigma_step": 0.01, "tails": 2.0, "sensor": 0.0}[kind]
-    grid = check_reals("values", MAPS[kind] if values is None else values, lo=lo, lo_open=kind != "sensor",
-                         hi={"sigma_step": 100.0, "tails": 1e6, "sensor": 10.0}[kind])
+    grid = check_reals(
+        "values",
+        MAPS[kind] if values is None else values,
+        lo=lo,
+        lo_open=kind != "sensor",
+        hi={"sigma_step": 100.0, "tails": 1e6, "sensor": 10.0}[kind],
+    )
     seeds = check_int("seeds", seeds, lo=2, hi=10_000)
     window = check_real("window", window, lo=0.0, lo_open=True, hi=100.0)
     after = check_real("after", after, lo=window, hi=1e4)
@@ -192,9 +211,18 @@ def who_wins_map(
     names: tuple[str, ...] = ()
     labels: tuple[str, ...] = ()
     for c, value in enumerate(grid):
-        avg = average_scenario(model, nu, _scenario(kind, value), seeds=range(seeds), horizon=horizon, extra=extra,
-                               edges=edge_times(periods, horizon), progress=progress, done=c * seeds,
-                               total=len(grid) * seeds)
+        avg = average_scenario(
+            model,
+            nu,
+            _scenario(kind, value),
+            seeds=range(seeds),
+            horizon=horizon,
+            extra=extra,
+            edges=edge_times(periods, horizon),
+            progress=progress,
+            done=c * seeds,
+            total=len(grid) * seeds,
+        )
         names = avg.run.names
         labels = (avg.run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *avg.run.labels[3:])
         y = per_seed(avg.mse, avg.run, periods)  # (seeds, rows, filters)
@@ -204,5 +232,17 @@ def who_wins_map(
         cells.append(ratio)
         lows.append(np.array(low))
     rows = np.array([p.start - STEP_AT for p in periods]) if kind == "sigma_step" else np.array([math.nan])
-    return WhoWinsMap(kind, alpha, np.array(grid, dtype=float), rows, names, labels,
-                      np.stack(cells, axis=1), seeds, window, np.stack(lows, axis=1), model, origin)
+    return WhoWinsMap(
+        kind,
+        alpha,
+        np.array(grid, dtype=float),
+        rows,
+        names,
+        labels,
+        np.stack(cells, axis=1),
+        seeds,
+        window,
+        np.stack(lows, axis=1),
+        model,
+        origin,
+    )

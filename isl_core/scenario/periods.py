@@ -24,6 +24,7 @@ noise): the ratio of mean squares R = ȳ_b/ȳ_a with the delta-method standard e
 sd(d)/(√S·ȳ_a) (Fieller's linearisation); the margin is √R and its lower bound √(R − t·se). A lower bound ≤ 1 is
 a tie: the seeds cannot tell the two filters apart.
 """
+
 from __future__ import annotations
 
 import math
@@ -36,8 +37,17 @@ from ..validate import check_real
 from .base import Scenario
 from .run import ScenarioRun, first_step
 
-__all__ = ["BURN", "Period", "PeriodRatios", "edge_times", "paired_margin", "per_seed", "period_ratios", "ratios_from",
-           "scenario_periods"]
+__all__ = [
+    "BURN",
+    "Period",
+    "PeriodRatios",
+    "edge_times",
+    "paired_margin",
+    "per_seed",
+    "period_ratios",
+    "ratios_from",
+    "scenario_periods",
+]
 
 BURN = 2.0  #: the start left out of a scenario without a change (each filter's start from its own guess), 1/r_min
 AFTER = (1.0, 2.0)  #: the periods just after a change: its first 1/r_min and its first 2/r_min
@@ -90,8 +100,11 @@ def scenario_periods(scenario: Scenario, horizon: float, *, burn: float = BURN) 
             tag = "" if len(knots) == 1 else f"_{j + 1}"
             for a in AFTER:
                 if t_c + a <= horizon:
-                    out.append(Period(f"after{tag}_{a:g}", f"first {a:g}/r_min after the change at {t_c:g}/r_min",
-                                      t_c, t_c + a))
+                    out.append(
+                        Period(
+                            f"after{tag}_{a:g}", f"first {a:g}/r_min after the change at {t_c:g}/r_min", t_c, t_c + a
+                        )
+                    )
         last = knots[-1]
         if last + SETTLE < horizon:
             out.append(Period("settled", f"settled, from {SETTLE:g}/r_min after the change", last + SETTLE, horizon))
@@ -114,8 +127,10 @@ def _windows(run: ScenarioRun, period: Period) -> np.ndarray:
     edges = np.concatenate([[0], np.cumsum(run.steps)])
     inside = (edges[:-1] >= k0) & (edges[1:] <= k1)
     if not np.any(inside):
-        raise ValueError(f"no window of the run lies within the period {period.label} "
-                         f"[{period.start:g}, {period.end:g})/r_min: plan it with edges at the periods")
+        raise ValueError(
+            f"no window of the run lies within the period {period.label} "
+            f"[{period.start:g}, {period.end:g})/r_min: plan it with edges at the periods"
+        )
     return inside
 
 
@@ -174,8 +189,9 @@ def ratios_from(y: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np
     return np.sqrt(mean).T, low.T, high.T
 
 
-def period_ratios(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...], *,
-                  level: float = 0.95) -> PeriodRatios:
+def period_ratios(
+    mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...], *, level: float = 0.95
+) -> PeriodRatios:
     """The period statistic of every filter of ``run`` (module docstring) from every seed's windowed mean squares
     ``mse`` (seeds, windows, filters, m).
 

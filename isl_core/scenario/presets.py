@@ -1,6 +1,7 @@
 """The table's scenarios: the presets over which every family's knob is tuned (:mod:`isl_core.scenario.tuning`) and the
 fair table (:mod:`isl_core.scenario.table`) is drawn. Times in units of 1/r_min of paper A's model at σ(0).
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping

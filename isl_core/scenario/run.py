@@ -18,6 +18,7 @@ clairvoyant filter's P_0. With the default scenario the Kalman–Bucy and ISL fi
 :func:`isl_core.simulate.simulate` with the same seed, bit for bit at every step (same grid, same draws, same
 arithmetic; a test compares every step's squared error with one window per step).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -43,8 +44,16 @@ from .bank import learning_state, learns_sigma
 from .base import Scenario
 from .windows import first_step, memory_time, window_edges, window_times
 
-__all__ = ["MAX_SCENARIO_STEPS", "ScenarioPlan", "ScenarioRun", "first_step", "memory_time", "plan_scenario",
-           "scenario_grid", "simulate_scenario"]
+__all__ = [
+    "MAX_SCENARIO_STEPS",
+    "ScenarioPlan",
+    "ScenarioRun",
+    "first_step",
+    "memory_time",
+    "plan_scenario",
+    "scenario_grid",
+    "simulate_scenario",
+]
 
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
 
@@ -122,16 +131,17 @@ def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[F
     T = horizon / r_min  # exactly: not lengthened for a slowly settling filter as simulate's default run is
     plan = run_plan(model, nu, T=T, extra=extra, cap=MAX_STEPS)
     # σ(t) is monotone between knots: its extremes on [0, T] are at 0, the knots and T
-    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < horizon),
-                                                   horizon]))
+    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < horizon), horizon]))
     h = plan.h
     for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
         other = Model(model.alpha, model.beta, s, model.m)
         h = min(h, run_plan(other, nu, T=T, extra=extra, cap=MAX_STEPS).h)
     n = math.ceil(plan.T / h)
     if n > MAX_SCENARIO_STEPS:
-        raise ValueError(f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
-                         f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon or σ values closer together")
+        raise ValueError(
+            f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
+            f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon or σ values closer together"
+        )
     return T / n, n, r_min
 
 
@@ -171,8 +181,9 @@ class ScenarioPlan:
         state = FilterState(np.zeros(nf), np.full(nf, -1, dtype=np.int64), *(a.copy() for a in self.learning_state))
         imm = IMMState(*(a.copy() for a in self.imm))
         imm.e[:] = e0  # every mode of every bank at the common start
-        windows = Windows(self.edges, np.zeros((nw, nf, model.m)), np.zeros((nw, int(learning.sum()))),
-                          np.zeros((nw, model.m + 1)))
+        windows = Windows(
+            self.edges, np.zeros((nw, nf, model.m)), np.zeros((nw, int(learning.sum()))), np.zeros((nw, model.m + 1))
+        )
         clair = clairvoyant_state(self.delta, self.q)  # its P_0: Δ at σ(0)
         self._advance(x, e, rng, bank, state, clair, imm, windows, progress)
         return self._result(seed, windows, state.died, learning)
@@ -189,11 +200,14 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.array([t0]))
             else:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
-            done = advance_scenario(x, e, rng, todo, k, grid, Observation(sig, law, self.q), bank, state, clair, imm,
-                                    windows)
+            done = advance_scenario(
+                x, e, rng, todo, k, grid, Observation(sig, law, self.q), bank, state, clair, imm, windows
+            )
             if done < todo:
-                raise DivergenceError(f"the simulated truth diverged at t = {(k + done) * h:.4g} "
-                                      f"(step {k + done:,} of {n:,}, h = {h:.3g})")
+                raise DivergenceError(
+                    f"the simulated truth diverged at t = {(k + done) * h:.4g} "
+                    f"(step {k + done:,} of {n:,}, h = {h:.3g})"
+                )
             k += done
             if progress is not None:
                 progress(k / n)
@@ -211,11 +225,26 @@ class ScenarioPlan:
                 sigma_hat[w_died:, slots[f]] = np.nan
         # window w holds the errors at t_{k+1} for steps k in [edges[w], edges[w+1]): P_{k+1}; and σ_k
         ref_var, mean_sigma = windows.ref[:, :-1] / steps[:, None], windows.ref[:, -1] / steps
-        return ScenarioRun(self.model, self.scenario, self.nu, seed, h, self.N, self.q, self.r_min,
-                           tuple(f.name for f in filters), tuple(f.label for f in filters), edges * h,
-                           mse, ref_var, mean_sigma, sigma_hat, steps,
-                           tuple(float(d * h) if d >= 0 else None for d in died),
-                           tuple(f.name for f, a in zip(filters, learning, strict=True) if a))
+        return ScenarioRun(
+            self.model,
+            self.scenario,
+            self.nu,
+            seed,
+            h,
+            self.N,
+            self.q,
+            self.r_min,
+            tuple(f.name for f in filters),
+            tuple(f.label for f in filters),
+            edges * h,
+            mse,
+            ref_var,
+            mean_sigma,
+            sigma_hat,
+            steps,
+            tuple(float(d * h) if d >= 0 else None for d in died),
+            tuple(f.name for f, a in zip(filters, learning, strict=True) if a),
+        )
 
 
 def plan_scenario(
@@ -273,16 +302,30 @@ def plan_scenario(
     more = check_specs("grid_filters", model, grid_filters or (), allow_empty=True)
     h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon)
     kb = kalman_bucy(model)
-    clair = FilterSpec("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha,
-                       np.zeros(model.m), False)
+    clair = FilterSpec(
+        "clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha, np.zeros(model.m), False
+    )
     constant = dataclasses.replace(optimal_kbf(model, kb), label=f"Kalman–Bucy for constant σ = σ(0) = {model.sigma:g}")
     filters = (clair, constant, isl_filter(model, nu), *specs[1:])
     bank = pack(model, filters, scenario=True)
     bank.kind[0] = KIND_CLAIRVOYANT
     learning = learning_state(model, filters, bank.ad)
     q = scenario.sensor_steps(h, r_min)
-    return ScenarioPlan(model, scenario, float(nu), h, n, q, r_min, window_edges(times, h * r_min, n), filters,
-                        bank, learning, np.array(kb.delta, dtype=float), imm_state(filters, model.m, q, h))
+    return ScenarioPlan(
+        model,
+        scenario,
+        float(nu),
+        h,
+        n,
+        q,
+        r_min,
+        window_edges(times, h * r_min, n),
+        filters,
+        bank,
+        learning,
+        np.array(kb.delta, dtype=float),
+        imm_state(filters, model.m, q, h),
+    )
 
 
 def simulate_scenario(

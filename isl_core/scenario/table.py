@@ -19,6 +19,7 @@ winner of a cell is the lowest of the tuned and paper rows, with the paired marg
 (:func:`isl_core.scenario.periods.paired_margin`) — a tie where its lower bound is ≤ 1.
 Times are in units of 1/r_min of the model at σ(0).
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
@@ -34,6 +35,7 @@ from .presets import PRESETS
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 
 __all__ = ["PRESETS", "ScenarioTable", "TableRow", "knob_text", "scenario_table", "table_from"]
+
 
 @dataclass(frozen=True)
 class TableRow:
@@ -75,13 +77,16 @@ class ScenarioTable:
     def preset(self, p: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per row, the largest ratio over preset ``p``'s periods and the largest ends of their intervals."""
         cells = self.tuning.preset_cells(p)
-        return (self.ratio[:, cells].max(axis=1), self.low[:, cells].max(axis=1),
-                self.high[:, cells].max(axis=1))
+        return (self.ratio[:, cells].max(axis=1), self.low[:, cells].max(axis=1), self.high[:, cells].max(axis=1))
 
 
-KNOB_TEXT = {"ell": lambda v: f"ν/β = 2^{v:g} = {2.0 ** v:.3g}", "memory": lambda v: f"W = {v:g} readings",
-              "c": lambda v: f"c = {v:g}", "switch": lambda v: f"switch {v:g} a reading",
-              "modes": lambda v: f"{v:g} modes"}
+KNOB_TEXT = {
+    "ell": lambda v: f"ν/β = 2^{v:g} = {2.0**v:.3g}",
+    "memory": lambda v: f"W = {v:g} readings",
+    "c": lambda v: f"c = {v:g}",
+    "switch": lambda v: f"switch {v:g} a reading",
+    "modes": lambda v: f"{v:g} modes",
+}
 
 
 def knob_text(knob: Mapping) -> str:
@@ -91,22 +96,64 @@ def knob_text(knob: Mapping) -> str:
 
 def _rows(tuning: Tuning) -> list[TableRow]:
     npre = len(tuning.presets)
-    rows = [TableRow("clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", "reference", "σ(t)", {},
-                     "the reference: its exact covariance P is every ratio's denominator", (0,) * npre),
-            TableRow("kbf", "Kalman–Bucy for constant σ = σ(0)", "reference", "σ(0)", {},
-                     "the stationary filter of σ(0) (A.21–A.23)", (1,) * npre)]
+    rows = [
+        TableRow(
+            "clairvoyant",
+            "Kalman filter that knows σ(t) (clairvoyant)",
+            "reference",
+            "σ(t)",
+            {},
+            "the reference: its exact covariance P is every ratio's denominator",
+            (0,) * npre,
+        ),
+        TableRow(
+            "kbf",
+            "Kalman–Bucy for constant σ = σ(0)",
+            "reference",
+            "σ(0)",
+            {},
+            "the stationary filter of σ(0) (A.21–A.23)",
+            (1,) * npre,
+        ),
+    ]
     for fam, (label, _) in FAMILIES.items():
         j = tuning.minimax(fam)
-        rows.append(TableRow(fam, f"{label}, {knob_text(tuning.knobs[j])}", "tuned", "nothing of σ",
-                             dict(tuning.knobs[j]), tuning.origin, (j,) * npre))
+        rows.append(
+            TableRow(
+                fam,
+                f"{label}, {knob_text(tuning.knobs[j])}",
+                "tuned",
+                "nothing of σ",
+                dict(tuning.knobs[j]),
+                tuning.origin,
+                (j,) * npre,
+            )
+        )
     if "(A.31)" in tuning.knobs[2]["paper"]:
-        rows.append(TableRow("isl_a31", tuning.knobs[2]["paper"], "paper", "nothing of σ", {},
-                             "paper A, table (A.31): the ν/β the authors read off their Fig. 2", (2,) * npre))
+        rows.append(
+            TableRow(
+                "isl_a31",
+                tuning.knobs[2]["paper"],
+                "paper",
+                "nothing of σ",
+                {},
+                "paper A, table (A.31): the ν/β the authors read off their Fig. 2",
+                (2,) * npre,
+            )
+        )
     for fam, (label, _) in FAMILIES.items():
         cols = tuple(tuning.oracle(fam, p) for p in range(npre))
-        rows.append(TableRow(f"oracle:{fam}", f"{label}, oracle-tuned (best knob per preset)", "oracle",
-                             "nothing of σ", tuple(dict(tuning.knobs[j]) for j in cols),
-                             "the least largest ratio over each preset's periods, on the same runs", cols))
+        rows.append(
+            TableRow(
+                f"oracle:{fam}",
+                f"{label}, oracle-tuned (best knob per preset)",
+                "oracle",
+                "nothing of σ",
+                tuple(dict(tuning.knobs[j]) for j in cols),
+                "the least largest ratio over each preset's periods, on the same runs",
+                cols,
+            )
+        )
     return rows
 
 
@@ -143,11 +190,16 @@ def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
     pick = np.take_along_axis
     ratio, low, high = (pick(a, col, axis=0) for a in (r, lo, hi))
     contenders = np.array([i for i, row in enumerate(rows) if row.role in ("tuned", "paper")])
-    winner, runner, margin, mlow = (np.empty(len(cells), dtype=int), np.empty(len(cells), dtype=int),
-                                    np.empty(len(cells)), np.empty(len(cells)))
+    winner, runner, margin, mlow = (
+        np.empty(len(cells), dtype=int),
+        np.empty(len(cells), dtype=int),
+        np.empty(len(cells)),
+        np.empty(len(cells)),
+    )
     for c in cells:
-        order = contenders[np.argsort(np.where(np.isnan(ratio[contenders, c]), np.inf, ratio[contenders, c]),
-                                      kind="stable")]
+        order = contenders[
+            np.argsort(np.where(np.isnan(ratio[contenders, c]), np.inf, ratio[contenders, c]), kind="stable")
+        ]
         winner[c], runner[c] = order[0], order[1]
         ya, yb = tuning.y[:, c, col[order[0], c]], tuning.y[:, c, col[order[1], c]]
         margin[c], mlow[c] = paired_margin(ya, yb, level)
@@ -204,7 +256,18 @@ def scenario_table(
     ['clairvoyant', 'kbf', 'isl']
     """
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
-    res = tune(alpha, m=m, w=w, presets=scenarios, seeds=seeds, horizon=horizon, burn=burn, grids=grids,
-               workers=workers, progress=progress, cache=cache)
+    res = tune(
+        alpha,
+        m=m,
+        w=w,
+        presets=scenarios,
+        seeds=seeds,
+        horizon=horizon,
+        burn=burn,
+        grids=grids,
+        workers=workers,
+        progress=progress,
+        cache=cache,
+    )
     assert res is not None  # tune computes what is not cached (compute=True)
     return table_from(res, level)

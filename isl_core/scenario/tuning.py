@@ -19,6 +19,7 @@ the threads that run it) and is cached on disk per (α, m, w, seeds, horizon, bu
 sources digest) in :func:`cache_dir` — ``$ISL_CACHE_DIR``, else ``$XDG_CACHE_HOME/isl`` or ``~/.cache/isl`` — or
 kept in memory if that is not writable (a read-only dashboard). Its ``origin`` says which.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -46,8 +47,17 @@ from .presets import PRESETS
 from .run import plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
 
-__all__ = ["FAMILIES", "SIGMA_RANGE", "Tuning", "TuningGrids", "cache_dir", "family_filter", "paper_nu", "tune",
-           "variant_name"]
+__all__ = [
+    "FAMILIES",
+    "SIGMA_RANGE",
+    "Tuning",
+    "TuningGrids",
+    "cache_dir",
+    "family_filter",
+    "paper_nu",
+    "tune",
+    "variant_name",
+]
 
 SIGMA_RANGE = (2.0, 200.0)  #: the σ range of the σ-learners' gain tables; they start at its geometric middle
 #: family: (its label, its knobs in order)
@@ -218,8 +228,9 @@ def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids):
     return plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edge_times(periods, horizon)), periods
 
 
-def _compute(alpha, m, w, presets, seeds, horizon, burn, grids, workers,
-             progress) -> tuple[list[np.ndarray], list, list]:
+def _compute(
+    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
+) -> tuple[list[np.ndarray], list, list]:
     """Every (preset, seed) run on ``workers`` threads (the kernels release the GIL): y per preset, plans, periods."""
     plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
     tasks = [(p, s) for p in range(len(plans)) for s in range(len(seeds))]
@@ -246,12 +257,26 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
     plan = plans[0]
     _, paper = paper_nu(plan.model, alpha, m, w)
     variants = _variants(grids)
-    return Tuning(float(alpha), m, float(w), tuple(seeds), float(horizon), float(burn), grids, tuple(presets),
-                  tuple(v[0] for v in presets.values()), cells, tuple(f.name for f in plan.filters),
-                  ("clairvoyant", "kbf", "isl_paper", *(f for f, _ in variants)),
-                  ({}, {}, {"paper": paper}, *(k for _, k in variants)), np.concatenate(ys, axis=1),
-                  tuple(pl.memory_time(1.0) for pl in plans), tuple(pl.N for pl in plans), tuple(pl.h for pl in plans),
-                  float(seconds))
+    return Tuning(
+        float(alpha),
+        m,
+        float(w),
+        tuple(seeds),
+        float(horizon),
+        float(burn),
+        grids,
+        tuple(presets),
+        tuple(v[0] for v in presets.values()),
+        cells,
+        tuple(f.name for f in plan.filters),
+        ("clairvoyant", "kbf", "isl_paper", *(f for f, _ in variants)),
+        ({}, {}, {"paper": paper}, *(k for _, k in variants)),
+        np.concatenate(ys, axis=1),
+        tuple(pl.memory_time(1.0) for pl in plans),
+        tuple(pl.N for pl in plans),
+        tuple(pl.h for pl in plans),
+        float(seconds),
+    )
 
 
 def tune(
@@ -308,13 +333,16 @@ def tune(
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
     presets = dict(PRESETS if presets is None else presets)
     if not presets or not isinstance(grids, TuningGrids):
-        raise ValueError("presets must name at least one scenario and grids must be an "
-                         "isl_core.scenario.tuning.TuningGrids")
+        raise ValueError(
+            "presets must name at least one scenario and grids must be an isl_core.scenario.tuning.TuningGrids"
+        )
     key = cache_key(alpha, m, w, seed_ids, horizon, burn, presets, grids)
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"tuning-{digest}.npz"
-    span = (f"minimax over {len(presets)} presets × their periods of the period statistic (isl scenario --tune), "
-            f"seeds {seed_ids[0]}–{seed_ids[-1]}, horizon {horizon:g}/r_min")
+    span = (
+        f"minimax over {len(presets)} presets × their periods of the period statistic (isl scenario --tune), "
+        f"seeds {seed_ids[0]}–{seed_ids[-1]}, horizon {horizon:g}/r_min"
+    )
     if cache and digest in _MEMORY_CACHE:
         return _MEMORY_CACHE[digest]
     found = load(path, key) if cache else None
@@ -323,15 +351,28 @@ def tune(
         plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
         cells = [len(per) for _, per in plans]
         ys = np.split(y, np.cumsum(cells)[:-1], axis=1)
-        res = _assemble(alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, [p for p, _ in plans],
-                        [per for _, per in plans], seconds)
+        res = _assemble(
+            alpha,
+            m,
+            w,
+            presets,
+            seed_ids,
+            horizon,
+            burn,
+            grids,
+            ys,
+            [p for p, _ in plans],
+            [per for _, per in plans],
+            seconds,
+        )
         return _named(res, f"{span}; read from the cache {path} (computed in {seconds:.0f} s)", digest, cache)
     if not compute:
         return None
     start = time.perf_counter()
     ys, plan_list, periods = _compute(alpha, m, w, presets, seed_ids, horizon, burn, grids, workers, progress)
-    res = _assemble(alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, plan_list, periods,
-                    time.perf_counter() - start)
+    res = _assemble(
+        alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, plan_list, periods, time.perf_counter() - start
+    )
     saved = cache and save(path, res.y, res.seconds, key)
     where = f"cached in {path}" if saved else "kept in memory (the cache is not writable)"
     return _named(res, f"{span}; computed now in {res.seconds:.0f} s, {where}", digest, cache)

@@ -1,5 +1,6 @@
 """Tunings on disk: where they are kept (:func:`cache_dir`), what a stored tuning was computed from (its key: the
 arguments, the grids and the core's sources), and storing and reading one atomically (:ref:`tuning-rule`)."""
+
 from __future__ import annotations
 
 import json
@@ -26,9 +27,17 @@ def cache_dir() -> Path:
 
 def cache_key(alpha, m, w, seeds, horizon, burn, presets, grids) -> dict:
     """What a cached tuning was computed from: its arguments, the grids and the digest of the core's sources."""
-    return {"alpha": alpha, "m": m, "w": w, "seeds": list(seeds), "horizon": horizon, "burn": burn,
-            "presets": {k: [s0, repr(sc)] for k, (_, s0, sc) in presets.items()}, "grids": asdict(grids),
-            "sources": sources_digest()}
+    return {
+        "alpha": alpha,
+        "m": m,
+        "w": w,
+        "seeds": list(seeds),
+        "horizon": horizon,
+        "burn": burn,
+        "presets": {k: [s0, repr(sc)] for k, (_, s0, sc) in presets.items()},
+        "grids": asdict(grids),
+        "sources": sources_digest(),
+    }
 
 
 def save(path: Path, y: np.ndarray, seconds: float, key: dict) -> bool:

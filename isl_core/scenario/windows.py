@@ -1,5 +1,6 @@
 """Where a scenario's windows and periods start, on the Euler grid, and a memory of W readings as time
 (:ref:`scenario-lanes`, :ref:`memory-in-readings`)."""
+
 from __future__ import annotations
 
 import math

@@ -1,4 +1,5 @@
 """The page assembly (app.app): a session's job outcomes wait until its page is connected."""
+
 from __future__ import annotations
 
 import threading

@@ -1,5 +1,6 @@
 """Smoke tests of the dashboard's ``isl`` console script (``app.cli``: the core's command line with ``figure3``,
 ``serve`` and the sweep's HTML and PNG figures); the core's commands alone are tested in ``tests/core/test_cli.py``."""
+
 from __future__ import annotations
 
 import csv
@@ -39,8 +40,26 @@ def test_console_script_is_declared():
 
 def test_sweep_writes_csv_json_html_png(tmp_path, capsys):
     out = tmp_path / "fig2"
-    argv = ["sweep", "--alphas", "1", "--sigmas", "2", "20", "--ell-min", "-2", "--ell-max", "0", "--horizon", "20",
-            "--seeds", "1", "--batches", "4", "--out", str(out)]
+    argv = [
+        "sweep",
+        "--alphas",
+        "1",
+        "--sigmas",
+        "2",
+        "20",
+        "--ell-min",
+        "-2",
+        "--ell-max",
+        "0",
+        "--horizon",
+        "20",
+        "--seeds",
+        "1",
+        "--batches",
+        "4",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     captured = capsys.readouterr()
     assert "wrote" in captured.out and "100%" in captured.err  # the progress bar went to stderr
@@ -79,9 +98,32 @@ def test_dashboard_sweep_points_are_what_isl_sweep_prints(tmp_path, capsys):
     from app.sweeps import BATCHES, SIM_LEVELS, simulate_points
 
     pts = simulate_points(0.0, 3.0, 2, [2.0, 20.0], horizon=20.0, seed=4)
-    argv = ["sweep", "--alphas", "0", "--beta", "3", "--m", "2", "--sigmas", "2", "20", "--horizon", "20",
-            "--ell-min", str(int(SIM_LEVELS[0])), "--ell-max", str(int(SIM_LEVELS[-1])), "--seeds", "4",
-            "--batches", str(BATCHES), "--no-png", "--quiet", "--out", str(tmp_path)]
+    argv = [
+        "sweep",
+        "--alphas",
+        "0",
+        "--beta",
+        "3",
+        "--m",
+        "2",
+        "--sigmas",
+        "2",
+        "20",
+        "--horizon",
+        "20",
+        "--ell-min",
+        str(int(SIM_LEVELS[0])),
+        "--ell-max",
+        str(int(SIM_LEVELS[-1])),
+        "--seeds",
+        "4",
+        "--batches",
+        str(BATCHES),
+        "--no-png",
+        "--quiet",
+        "--out",
+        str(tmp_path),
+    ]
     assert main(argv) == 0
     capsys.readouterr()
     data = json.loads((tmp_path / "fig2.json").read_text("utf-8"))
@@ -90,8 +132,14 @@ def test_dashboard_sweep_points_are_what_isl_sweep_prints(tmp_path, capsys):
     assert len(rows) == 2 * len(SIM_LEVELS) * 2
     for row in rows:
         j, k, i = [2.0, 20.0].index(row["sigma"]), list(pts.nu_over_beta).index(row["nu_over_beta"]), row["i"] - 1
-        dashboard = (pts.ratio[j, k, i], pts.low[j, k, i], pts.high[j, k, i], pts.kbf[j, i], pts.kbf_low[j, i],
-                     pts.kbf_high[j, i])
+        dashboard = (
+            pts.ratio[j, k, i],
+            pts.low[j, k, i],
+            pts.high[j, k, i],
+            pts.kbf[j, i],
+            pts.kbf_low[j, i],
+            pts.kbf_high[j, i],
+        )
         cli = (row["ratio"], row["ratio_low"], row["ratio_high"], row["kbf_ratio"], row["kbf_low"], row["kbf_high"])
         assert [repr(float(x)) for x in dashboard] == [repr(x) for x in cli], row
 
@@ -101,11 +149,38 @@ def test_dashboard_worst_case_table_is_what_isl_worstcase_prints(capsys):
     --json`` prints for the same α, σ range, m, w, design σ, horizon and seed (the tab's one seed, 10 batches)."""
     from app.extras import worst_case_table
 
-    table = worst_case_table([1.0], sigma_range=(2.0, 200.0), n_sigma=2, m=2, w=3.0, sigma_design=20.0,
-                             horizon=20.0, seed=7)
-    assert main(["worstcase", "--alphas", "1", "--sigma-min", "2", "--sigma-max", "200", "--n-sigma", "2", "--m", "2",
-                 "--w", "3", "--sigma-design", "20", "--horizon", "20", "--seeds", "7", "--batches", "10",
-                 "--json"]) == 0
+    table = worst_case_table(
+        [1.0], sigma_range=(2.0, 200.0), n_sigma=2, m=2, w=3.0, sigma_design=20.0, horizon=20.0, seed=7
+    )
+    assert (
+        main(
+            [
+                "worstcase",
+                "--alphas",
+                "1",
+                "--sigma-min",
+                "2",
+                "--sigma-max",
+                "200",
+                "--n-sigma",
+                "2",
+                "--m",
+                "2",
+                "--w",
+                "3",
+                "--sigma-design",
+                "20",
+                "--horizon",
+                "20",
+                "--seeds",
+                "7",
+                "--batches",
+                "10",
+                "--json",
+            ]
+        )
+        == 0
+    )
     cli = _json(capsys)["rows"]
     dashboard = json.loads(json.dumps(table.records()), parse_constant=lambda c: None)
     keys = ("filter", "worst", "worst_low", "worst_high", "worst_sigma", "worst_i", "nu", "sigma_design")

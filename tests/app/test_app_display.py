@@ -1,6 +1,7 @@
 """What the page says and keeps, headless: refusals beside their input, the view and the tab in the link, α = 0
 unticked back to the α before, a scenario preset that says what it set, a theory that is refused where it does not
 hold, numbers written plainly, and widgets that turn an impossible browser value into a refusal."""
+
 from __future__ import annotations
 
 import math
@@ -82,8 +83,18 @@ def test_the_theory_is_refused_where_the_filter_has_lost_lock(state):
     assert theory_cell(1.2, 1.1).endswith(">1.1</td>") and "unstable" in theory_cell(1.2, math.inf)
 
 
-@pytest.mark.parametrize(("x", "text"), [(1000.0, "1000"), (0.849, "0.849"), (12345.6, "12346"), (2.5e8, "2.5 × 10^8"),
-                                         (-3.2, "−3.2"), (3.333e-4, "0.0003333"), (1e-7, "1 × 10^−7")])
+@pytest.mark.parametrize(
+    ("x", "text"),
+    [
+        (1000.0, "1000"),
+        (0.849, "0.849"),
+        (12345.6, "12346"),
+        (2.5e8, "2.5 × 10^8"),
+        (-3.2, "−3.2"),
+        (3.333e-4, "0.0003333"),
+        (1e-7, "1 × 10^−7"),
+    ],
+)
 def test_numbers_are_written_plainly(x, text):
     assert num(x) == text
     assert per_r_min(1000.0) == "1000/rₘᵢₙ"  # not 1e+03/r_min
@@ -98,8 +109,17 @@ def test_a_value_a_widget_cannot_take_is_refused_by_the_state_without_an_error(s
     m = _plain(state, "m", IntSlider(label="m", start=1, end=6, value=3))
     seed = _plain(state, "seed", WholeInput(label="seed", value=1))
     run = state.run
-    cases = [(sigma, "sigma", math.nan), (sigma, "sigma", math.inf), (sigma, "sigma", 1e308), (m, "m", math.nan),
-             (m, "m", 2.5), (m, "m", -7.0), (seed, "seed", 2.5), (seed, "seed", math.inf), (seed, "seed", math.nan)]
+    cases = [
+        (sigma, "sigma", math.nan),
+        (sigma, "sigma", math.inf),
+        (sigma, "sigma", 1e308),
+        (m, "m", math.nan),
+        (m, "m", 2.5),
+        (m, "m", -7.0),
+        (seed, "seed", 2.5),
+        (seed, "seed", math.inf),
+        (seed, "seed", math.nan),
+    ]
     for widget, name, bad in cases:
         before = getattr(state, name)
         widget._process_events({"value": bad})  # what Panel calls with a browser's change (it raised before)

@@ -2,6 +2,7 @@
 
 Headless: no server, no browser. Jobs run inline unless a test gives the state a thread pool.
 """
+
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -38,8 +39,13 @@ def test_extra_filters_ride_on_the_same_run(state):
     run = state.run
     assert [tr.name for tr in run.tracks] == ["kbf", "isl", *extras.EXTRA_NAMES] and state.message == ""
     # the same noise: an independent simulate with the same filters, grid and seed reproduces every track
-    specs = baseline_filters(run.model, nu=run.nu, sigma_design=state.baselines.sigma_design,
-                             sigma_range=state.baselines.sigma_range, names=extras.EXTRA_NAMES)
+    specs = baseline_filters(
+        run.model,
+        nu=run.nu,
+        sigma_design=state.baselines.sigma_design,
+        sigma_range=state.baselines.sigma_range,
+        names=extras.EXTRA_NAMES,
+    )
     again = simulate(run.model, run.nu, T=run.T, h=run.h, seed=run.seed, extra=specs)
     for a, b in zip(run.tracks, again.tracks, strict=True):
         for i in range(run.model.m):
@@ -50,8 +56,7 @@ def test_extra_filters_ride_on_the_same_run(state):
     assert set(state.traces.series[0]) == names | {f"error:{n}" for n in names - {"truth"}}
     np.testing.assert_allclose(state.extra_prediction["kbf_mismatched"], 1.0, rtol=1e-9)
     assert np.all(np.isnan(state.extra_prediction["kbf_adaptive"]))
-    np.testing.assert_array_equal(state.extra_prediction["isl_model"],
-                                  theory_ratios(run.model, specs[-1]))
+    np.testing.assert_array_equal(state.extra_prediction["isl_model"], theory_ratios(run.model, specs[-1]))
     html = numbers_html(run, state.prediction, 0.0, state.extra_prediction)
     assert "other filters" in html and all(tr.label in html for tr in run.tracks[2:])
 
@@ -61,16 +66,30 @@ def test_design_sigma_and_range_reach_the_filters(state):
     state.set_inputs({"sigma_design": 5.0, "sigma_max": 100.0})
     assert "5" in state.run.track("kbf_mismatched").label and "100" in state.run.track("kbf_minimax").label
     model = state.run.model
-    spec, = baseline_filters(model, nu=3.0, sigma_design=5.0, names=("kbf_mismatched",))
+    (spec,) = baseline_filters(model, nu=3.0, sigma_design=5.0, names=("kbf_mismatched",))
     np.testing.assert_array_equal(state.extra_prediction["kbf_mismatched"], theory_ratios(model, spec))
 
 
-@pytest.mark.parametrize("name, bad", [
-    ("sigma_design", float("nan")), ("sigma_design", 0.0), ("sigma_design", "20"), ("sigma_design", 1e308),
-    ("sigma_min", 500.0), ("sigma_min", -1.0), ("sigma_max", 1.0), ("sigma_max", None),
-    ("extra_filters", ["kbf"]), ("extra_filters", "isl_model"), ("extra_filters", ["isl_model", "isl_model"]),
-    ("wc_alphas", []), ("wc_alphas", [0.0]), ("wc_n_sigma", 1), ("wc_horizon", float("inf")),
-])
+@pytest.mark.parametrize(
+    "name, bad",
+    [
+        ("sigma_design", float("nan")),
+        ("sigma_design", 0.0),
+        ("sigma_design", "20"),
+        ("sigma_design", 1e308),
+        ("sigma_min", 500.0),
+        ("sigma_min", -1.0),
+        ("sigma_max", 1.0),
+        ("sigma_max", None),
+        ("extra_filters", ["kbf"]),
+        ("extra_filters", "isl_model"),
+        ("extra_filters", ["isl_model", "isl_model"]),
+        ("wc_alphas", []),
+        ("wc_alphas", [0.0]),
+        ("wc_n_sigma", 1),
+        ("wc_horizon", float("inf")),
+    ],
+)
 def test_bad_values_are_refused_with_a_message(state, name, bad):
     state.baselines.extra_filters = ["isl_model"]
     run, before = state.run, state.get(name)
@@ -143,8 +162,9 @@ def test_worst_case_can_be_cancelled():
 
 def test_worst_case_model_is_the_papers_parametrization():
     # the table's β per α is w√(2α) (A.25), with the state's w
-    t = extras.worst_case_table([0.5], sigma_range=(2.0, 20.0), n_sigma=2, m=2, w=2.0, sigma_design=6.0,
-                                horizon=20.0, seed=3)
+    t = extras.worst_case_table(
+        [0.5], sigma_range=(2.0, 20.0), n_sigma=2, m=2, w=2.0, sigma_design=6.0, horizon=20.0, seed=3
+    )
     rec = t.records()
     assert rec[0]["beta"] == pytest.approx(Model.from_w(0.5, 2.0, 2.0, 2).beta)
     assert t.sigma_design[0, t.names.index("kbf_mismatched")] == 6.0 and t.seeds == (3,)

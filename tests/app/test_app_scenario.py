@@ -1,4 +1,5 @@
 """The dashboard's Scenario group (app.scenario, app.views.scenario): inputs, the picture through the core, the map."""
+
 from __future__ import annotations
 
 import csv
@@ -27,11 +28,19 @@ def state():
     return s
 
 
-@pytest.mark.parametrize("name, bad, named", [
-    ("sc_change", "jump", "σ change"), ("sc_noise", "cauchy", "noise law"), ("sc_dof", 2.0, "degrees of freedom"),
-    ("sc_outlier_rate", 0.9, "outlier fraction"), ("sc_sensor", -1.0, "sensor interval"),
-    ("sc_runs", 1000, "runs averaged"), ("sc_window", 0.0, "rolling window"), ("sc_map", "space", "map over"),
-])
+@pytest.mark.parametrize(
+    "name, bad, named",
+    [
+        ("sc_change", "jump", "σ change"),
+        ("sc_noise", "cauchy", "noise law"),
+        ("sc_dof", 2.0, "degrees of freedom"),
+        ("sc_outlier_rate", 0.9, "outlier fraction"),
+        ("sc_sensor", -1.0, "sensor interval"),
+        ("sc_runs", 1000, "runs averaged"),
+        ("sc_window", 0.0, "rolling window"),
+        ("sc_map", "space", "map over"),
+    ],
+)
 def test_a_bad_scenario_input_is_refused_by_name_and_keeps_its_value(state, name, bad, named):
     before = state.get(name)
     state.set(name, bad)
@@ -57,13 +66,28 @@ def test_the_picture_is_the_cores_average_for_the_same_request(state):
     assert pic is not None and "Simulated in" in state.scenarios.note and "4 runs" in state.scenarios.note
     req = pic.request
     assert req.scenario == Scenario(sigma_knots=((6.0, 2.0),))
-    direct = average_scenario(req.model, state.nu, req.scenario, seeds=range(state.seed, state.seed + 4),
-                              horizon=14.0, windows=140, extra=picture_filters(req, None)[0])
+    direct = average_scenario(
+        req.model,
+        state.nu,
+        req.scenario,
+        seeds=range(state.seed, state.seed + 4),
+        horizon=14.0,
+        windows=140,
+        extra=picture_filters(req, None)[0],
+    )
     np.testing.assert_array_equal(pic.average.mse, direct.mse)
     roll = direct.rolling(1.0)
     np.testing.assert_array_equal(pic.rolling.ratio, roll.ratio)
-    assert pic.average.run.names == ("clairvoyant", "kbf", "isl", "isl_model", "kbf_adaptive", "vb", "kbf_robust",
-                                     "imm")
+    assert pic.average.run.names == (
+        "clairvoyant",
+        "kbf",
+        "isl",
+        "isl_model",
+        "kbf_adaptive",
+        "vb",
+        "kbf_robust",
+        "imm",
+    )
     assert pic.tuned is None and set(pic.tuning.values()) >= {"untuned: the constructor's default"}
     # an input change recomputes it (the tab is open)
     state.scenarios.noise = "outliers"
@@ -125,10 +149,15 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     and each preset's own best (the oracle reference)."""
     from isl_core.scenario.tuning import TuningGrids, tune
 
-    grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,),
-                        imm_modes=(6,))
-    small = tune(1.0, seeds=2, horizon=12.0, grids=grids, presets={k: v for k, v in
-                 TABLE_PRESETS.items() if k in ("sigma_drop", "constant")}, cache=False)
+    grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,), imm_modes=(6,))
+    small = tune(
+        1.0,
+        seeds=2,
+        horizon=12.0,
+        grids=grids,
+        presets={k: v for k, v in TABLE_PRESETS.items() if k in ("sigma_drop", "constant")},
+        cache=False,
+    )
     monkeypatch.setattr(scenario_picture, "tuning_for", lambda req: small)
     state.set_inputs({"alpha": 1.0, "sc_runs": 2, "sc_horizon": 12.0})
     state.scenarios.want()
@@ -138,10 +167,17 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     vb = small.knobs[small.minimax("vb")]
     assert pic.tuning["vb"] == f"tuned: W = {vb['memory']:g} readings"
     req = pic.request  # on the tuning's grid: h set by every variant of the tuning, not by the picture's filters
-    on_grid = plan_scenario(req.model, req.nu, req.scenario, horizon=12.0, extra=picture_filters(req, small)[0],
-                            grid_filters=small.grid_filters(req.model))
+    on_grid = plan_scenario(
+        req.model,
+        req.nu,
+        req.scenario,
+        horizon=12.0,
+        extra=picture_filters(req, small)[0],
+        grid_filters=small.grid_filters(req.model),
+    )
     assert pic.average.run.h == on_grid.h
     from app.views.tuning import TuningView, curves
+
     view = TuningView(state=state)
     view._family.value = "vb"
     x, per_preset, largest, best = curves(small, "vb")

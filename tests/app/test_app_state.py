@@ -2,6 +2,7 @@
 
 Headless: no server, no browser. Jobs run inline unless a test gives the state thread pools.
 """
+
 import math
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -65,7 +66,14 @@ def test_unknown_preset_is_a_message(state):
 
 
 CHANGES = {
-    "alpha": 1.0, "beta_from_w": False, "w": 2.0, "beta": 5.0, "sigma": 50.0, "nu": 1.5, "m": 2, "seed": 7,
+    "alpha": 1.0,
+    "beta_from_w": False,
+    "w": 2.0,
+    "beta": 5.0,
+    "sigma": 50.0,
+    "nu": 1.5,
+    "m": 2,
+    "seed": 7,
     "horizon": 20.0,
 }
 
@@ -159,8 +167,10 @@ def test_the_dashboards_run_is_the_cores_run_on_the_cores_own_grid(state, change
     run = result.run
     assert (run.N, run.h, run.T, run.stretch) == (own.N, own.h, own.T, own.stretch)
     for mine, theirs in zip(run.tracks, own.tracks, strict=True):
-        assert all(np.array_equal(a.y, b.y) and np.array_equal(a.t, b.t)
-                   for a, b in zip(mine.estimate, theirs.estimate, strict=True))
+        assert all(
+            np.array_equal(a.y, b.y) and np.array_equal(a.t, b.t)
+            for a, b in zip(mine.estimate, theirs.estimate, strict=True)
+        )
     assert ("horizon lowered" in result.adjusted) == ("horizon" in change and change["horizon"] == 5000.0)
 
 
@@ -188,9 +198,18 @@ def test_csv_holds_the_run_its_parameters_and_its_numbers(state):
     lines = text.splitlines()
     head = "\n".join(line for line in lines if line.startswith("#"))
     assert lines[0].startswith("# isl run export; isl ") and "seed=1" in head
-    for needle in ("m=3 alpha=0.5 beta=3 sigma=20 (beta = w*sqrt(2*alpha), w=3)", "nu=3 (nu/beta=1)",
-                   "horizon: asked 10/r_min", "r_min=", "T=", "h=", "N=", "every 1 step(s)", "e0 ~ N(0, Delta)",
-                   "kbf_adaptive = Kalman–Bucy, adaptive"):
+    for needle in (
+        "m=3 alpha=0.5 beta=3 sigma=20 (beta = w*sqrt(2*alpha), w=3)",
+        "nu=3 (nu/beta=1)",
+        "horizon: asked 10/r_min",
+        "r_min=",
+        "T=",
+        "h=",
+        "N=",
+        "every 1 step(s)",
+        "e0 ~ N(0, Delta)",
+        "kbf_adaptive = Kalman–Bucy, adaptive",
+    ):
         assert needle in head, needle
     columns = next(line for line in lines if line.startswith("# t,"))[2:].split(",")
     assert columns[:4] == ["t", "X1_position", "X2_velocity", "X3_acceleration"]
@@ -353,15 +372,20 @@ def test_the_figure_download_draws_the_run_on_screen_with_the_clis_renderer(stat
 
     drawn = []
     original = static_figures.fig3_png
-    monkeypatch.setattr(static_figures, "fig3_png", lambda views, path, **kw: drawn.append((views, kw)) or
-                        original(views, path, **kw))
+    monkeypatch.setattr(
+        static_figures, "fig3_png", lambda views, path, **kw: drawn.append((views, kw)) or original(views, path, **kw)
+    )
     png = state.png().getvalue()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
-    (views, kw), = drawn
+    ((views, kw),) = drawn
     assert views == [state.run] and "measured RMSE/s_i" in kw["note"]
     lines = static_figures._fig3_lines(state.run, 0)
-    assert [label for label, *_ in lines][:4] == ["X (truth)", "X̂ (Kalman–Bucy, knows σ)", "X̌ (ISL, σ unknown)",
-                                                   "X̂ ± 3s (optimal RMSE)"]
+    assert [label for label, *_ in lines][:4] == [
+        "X (truth)",
+        "X̂ (Kalman–Bucy, knows σ)",
+        "X̌ (ISL, σ unknown)",
+        "X̂ ± 3s (optimal RMSE)",
+    ]
     assert f"m = {state.m}" in static_figures._fig3_title(state.run)
 
 

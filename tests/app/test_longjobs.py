@@ -1,4 +1,5 @@
 """The server's queue of long jobs (app.jobs.long): one per session, bounded, first come first served, positions."""
+
 from __future__ import annotations
 
 import multiprocessing
@@ -30,6 +31,7 @@ def _done():
     def done(outcome: Outcome) -> None:
         box["outcome"] = outcome
         box["event"].set()
+
     return box, done
 
 
@@ -112,6 +114,7 @@ def test_cancelling_stops_the_child_process():
     def progress(fraction: float) -> None:  # the job reports; cancel once it is surely running
         children.extend(multiprocessing.active_children())
         cancel.set()
+
     with pytest.raises(Cancelled):
         in_process(partial(_counting, -1), progress, cancel)
     assert children and not any(c.is_alive() for c in children)

@@ -2,6 +2,7 @@
 
 Headless: the bokeh models the view builds, without a server or a browser.
 """
+
 import numpy as np
 import pytest
 from bokeh.models import Band, ColumnDataSource, GlyphRenderer
@@ -27,7 +28,7 @@ def test_plots_show_the_run_and_the_tube_is_three_s_around_the_kalman_bucy_estim
         assert band.upper.transform.value == pytest.approx(3 * run.s[i])
         assert band.lower.transform.value == pytest.approx(-3 * run.s[i])
     assert [p.visible for p in view._column.objects] == [False, False, True]  # no indicator, no reason: the plots
-    assert [p.object for p in view._plots.objects[2:]] == view._figures[:run.model.m]  # (after the mode, the legend)
+    assert [p.object for p in view._plots.objects[2:]] == view._figures[: run.model.m]  # (after the mode, the legend)
     assert [f.xaxis[0].visible for f in view._figures[:3]] == [False, False, True]  # one time axis, at the bottom
 
 
@@ -68,8 +69,9 @@ def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero()
     for i in range(6):
         for name in ("kbf", "isl"):
             np.testing.assert_array_equal(view._sources[i][name].data["y"], traces.series[i][f"error:{name}"][1])
-        np.testing.assert_array_equal(view._overlay._sources[i]["kbf_adaptive"].data["y"],
-                                      traces.series[i]["error:kbf_adaptive"][1])
+        np.testing.assert_array_equal(
+            view._overlay._sources[i]["kbf_adaptive"].data["y"], traces.series[i]["error:kbf_adaptive"][1]
+        )
         assert list(view._sources[i]["truth"].data["y"]) == [0.0, 0.0]  # the signal is the zero line
         band = view._bands[i]
         assert band.source is view._sources[i]["truth"] and band.upper.transform.value == pytest.approx(3 * run.s[i])

@@ -3,6 +3,7 @@ for the run they started.
 
 Headless: a stand-in for ``pn.state.location`` (only its ``search`` matters) and the state's own job runner.
 """
+
 import urllib.parse
 from concurrent.futures import ThreadPoolExecutor
 
@@ -29,7 +30,7 @@ def linked(search: str = "", jobs: Jobs | None = None) -> tuple[AppState, Locati
 
 
 def test_a_link_sets_the_inputs_it_names_and_leaves_the_rest_at_their_defaults():
-    state, _ = linked("?sigma=200&m=2&nu=0.5&extra_filters=[\"kbf_adaptive\"]&sweep_sigmas=[5,50]")
+    state, _ = linked('?sigma=200&m=2&nu=0.5&extra_filters=["kbf_adaptive"]&sweep_sigmas=[5,50]')
     assert (state.sigma, state.m, state.nu) == (200.0, 2, 0.5)
     assert state.baselines.extra_filters == ["kbf_adaptive"] and state.sweep.sigmas == [5.0, 50.0]
     assert state.alpha == AppState.param.alpha.default and state.horizon == AppState.param.horizon.default
@@ -38,8 +39,17 @@ def test_a_link_sets_the_inputs_it_names_and_leaves_the_rest_at_their_defaults()
     assert state.message == ""
 
 
-@pytest.mark.parametrize("bad, label", [("sigma=-3", "σ"), ("m=abc", "m"), ("m=2.5", "m"), ("nu=nan", "ν"),
-                                        ("horizon=1e9", "horizon"), ("beta_from_w=7", "β from w")])
+@pytest.mark.parametrize(
+    "bad, label",
+    [
+        ("sigma=-3", "σ"),
+        ("m=abc", "m"),
+        ("m=2.5", "m"),
+        ("nu=nan", "ν"),
+        ("horizon=1e9", "horizon"),
+        ("beta_from_w=7", "β from w"),
+    ],
+)
 def test_a_bad_value_in_a_link_is_refused_by_name_and_the_rest_applies(bad, label):
     state, _ = linked(f"?{bad}&seed=7")
     assert state.seed == 7 and state.run.seed == 7
@@ -64,10 +74,30 @@ def test_a_refused_value_never_reaches_the_url():
 
 def test_every_input_round_trips_through_the_query():
     state, _ = linked()
-    state.set_inputs(dict(alpha=2.0, beta_from_w=False, beta=7.5, sigma=3.0, nu=0.2, m=4, seed=11, horizon=20.0,
-                          sweep_sigmas=[1.0, 10.0], sweep_horizon=50.0, extra_filters=["kbf_mismatched", "isl_model"],
-                          sigma_design=50.0, sigma_min=1.0, sigma_max=100.0, wc_alphas=[0.1, 1.0], wc_n_sigma=4,
-                          wc_horizon=500.0, sc_runs=7, sc_noise="student", sc_map="tails"))
+    state.set_inputs(
+        dict(
+            alpha=2.0,
+            beta_from_w=False,
+            beta=7.5,
+            sigma=3.0,
+            nu=0.2,
+            m=4,
+            seed=11,
+            horizon=20.0,
+            sweep_sigmas=[1.0, 10.0],
+            sweep_horizon=50.0,
+            extra_filters=["kbf_mismatched", "isl_model"],
+            sigma_design=50.0,
+            sigma_min=1.0,
+            sigma_max=100.0,
+            wc_alphas=[0.1, 1.0],
+            wc_n_sigma=4,
+            wc_horizon=500.0,
+            sc_runs=7,
+            sc_noise="student",
+            sc_map="tails",
+        )
+    )
     assert state.message == "" and state.baselines.extra_filters == ["kbf_mismatched", "isl_model"]
     other, _ = linked(query_string(state))
     assert other.message == ""
@@ -146,16 +176,40 @@ def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is
 
 # ------------------------------------------------------------------------------- hostile links (hypothesis)
 HOSTILE_TEXT = st.one_of(
-    st.text(max_size=40), st.sampled_from(["NaN", "nan", "-Infinity", "inf", "1e999", "٣", "１２", "𝟙", "0x10", "[]",
-                                           "[[1]]", "", " ", "true", "[5,50]", "kbf_adaptive", "\x00", "%00"]),
-    st.integers(1, 3000).map(lambda d: "[" * d), st.integers(1, 6000).map(lambda d: "9" * d),
-    st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**20, 10**20).map(str),
+    st.text(max_size=40),
+    st.sampled_from(
+        [
+            "NaN",
+            "nan",
+            "-Infinity",
+            "inf",
+            "1e999",
+            "٣",
+            "１２",
+            "𝟙",
+            "0x10",
+            "[]",
+            "[[1]]",
+            "",
+            " ",
+            "true",
+            "[5,50]",
+            "kbf_adaptive",
+            "\x00",
+            "%00",
+        ]
+    ),
+    st.integers(1, 3000).map(lambda d: "[" * d),
+    st.integers(1, 6000).map(lambda d: "9" * d),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-(10**20), 10**20).map(str),
     st.lists(st.floats(-1e4, 1e4).map(repr), max_size=8).map(lambda xs: "[" + ",".join(xs) + "]"),
 )
 QUERIES = st.one_of(
     st.text(max_size=300),
     st.lists(st.tuples(st.sampled_from([*URL_INPUTS, "utm", "Sigma", ""]), HOSTILE_TEXT), max_size=6).map(
-        lambda pairs: "?" + urllib.parse.urlencode(pairs)),
+        lambda pairs: "?" + urllib.parse.urlencode(pairs)
+    ),
 )
 
 

@@ -7,6 +7,7 @@ artifact for CI, never committed. Others click a legend entry, tick the other fi
 a projector, switch the error view, download, and list every request the page makes (none may leave the server). The
 long jobs and the framing check are in ``test_browser_jobs.py``; the shared set-up in ``_browser.py``.
 """
+
 from __future__ import annotations
 
 import io
@@ -32,8 +33,11 @@ def test_sigma_slider_updates_plot_table_and_url(app_server):
         handle = slider.locator(".noUi-handle")
         for _ in range(5):
             handle.press("ArrowRight")
-        page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
-                               arg=before_plot, timeout=20_000)
+        page.wait_for_function(
+            f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
+            arg=before_plot,
+            timeout=20_000,
+        )
         expect(table).not_to_have_text(before_table, timeout=20_000)  # Playwright waits for the new numbers
         after_table = table.inner_text()
         page.wait_for_url(lambda u: "sigma=" in u, timeout=20_000)
@@ -90,7 +94,7 @@ EXTRA_DATA = f"""(names) => names.every(n => [1, 2, 3].every(i => {{
 
 def _pixels_near(image, color: str, tol: float = 0.12) -> int:
     """How many pixels of an RGB(A) float image lie within ``tol`` (per channel) of the hex ``color``."""
-    rgb = np.array([int(color[k:k + 2], 16) / 255.0 for k in (1, 3, 5)])
+    rgb = np.array([int(color[k : k + 2], 16) / 255.0 for k in (1, 3, 5)])
     return int(np.sum(np.all(np.abs(image[..., :3] - rgb) <= tol, axis=-1)))
 
 
@@ -113,7 +117,7 @@ def test_every_ticked_filter_is_drawn_in_every_plot(app_server):
         shot = imread(io.BytesIO(page.screenshot()))
     assert [b[0] for b in boxes] == ["X₁ — position", "X₂ — velocity", "X₃ — acceleration"]
     for title, x, y, w, h in boxes:
-        plot = shot[int(y):int(y + h), int(x):int(x + w)]
+        plot = shot[int(y) : int(y + h), int(x) : int(x + w)]
         counts = {name: _pixels_near(plot, EXTRA_COLORS[name]) for name in EXTRA_NAMES}
         assert all(c >= 30 for c in counts.values()), (title, counts)
     assert "Traceback" not in log.read_text()
@@ -126,8 +130,9 @@ def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(app_ser
     with dashboard(url + "?horizon=1000&sigma=0.1&nu=10000") as page:
         page.get_by_text("Showing the nearest allowed setting").wait_for(timeout=60_000)
         status = page.get_by_text("Showing the nearest allowed setting").inner_text()
-        page.wait_for_function("() => /horizon=/.test(location.search) && !/horizon=1000/.test(location.search)",
-                               timeout=20_000)  # the link now says what is shown
+        page.wait_for_function(
+            "() => /horizon=/.test(location.search) && !/horizon=1000/.test(location.search)", timeout=20_000
+        )  # the link now says what is shown
         boxes = page.evaluate(PLOT_BOXES)
     assert "horizon lowered from 1000 to" in status and len(boxes) == 3
     assert "Traceback" not in log.read_text()
@@ -137,6 +142,7 @@ def test_a_link_no_setting_can_serve_says_why_instead_of_empty_plots(app_server)
     url, _ = app_server
     hopeless = "?m=1&alpha=0&beta_from_w=false&beta=0.01&sigma=0.1&nu=10000&horizon=1000"
     from playwright import sync_api
+
     with sync_api.sync_playwright() as p:
         browser = launch(p)
         try:
@@ -201,9 +207,13 @@ def test_presenter_mode_is_one_toggle_kept_in_the_link(app_server):
     every input of the link."""
     url, _ = app_server
     with dashboard(url + "?sigma=200") as page:
+
         def sidebar_width() -> float:
-            return page.evaluate("() => { const s = document.querySelector('#sidebar');"
-                                 " return s ? s.getBoundingClientRect().width : -1; }")
+            return page.evaluate(
+                "() => { const s = document.querySelector('#sidebar');"
+                " return s ? s.getBoundingClientRect().width : -1; }"
+            )
+
         assert sidebar_width() > 200
         page.get_by_role("button", name="Presenter mode").click()
         page.wait_for_function("() => new URL(location.href).searchParams.get('present') === '1'")
@@ -224,12 +234,15 @@ def test_the_error_view_switch_redraws_every_plot_without_a_server_error(app_ser
     url, log = app_server
     with dashboard(url) as page:
         page.get_by_text("Errors (estimate − signal)", exact=True).click()
-        page.wait_for_function(f"""() => [1, 2, 3].every(i => {{
+        page.wait_for_function(
+            f"""() => [1, 2, 3].every(i => {{
             const s = ({NAMED})(`traj-${{i}}-truth`); return s && s.data.y.length === 2; }})""",
-                               timeout=20_000)
+            timeout=20_000,
+        )
         page.get_by_text("Signal and estimates", exact=True).click()
-        page.wait_for_function(f"() => {{ const s = ({NAMED})('traj-1-truth'); return s && s.data.y.length > 2; }}",
-                               timeout=20_000)
+        page.wait_for_function(
+            f"() => {{ const s = ({NAMED})('traj-1-truth'); return s && s.data.y.length > 2; }}", timeout=20_000
+        )
     text = log.read_text("utf-8", errors="replace")
     assert "Callback failed" not in text and "_pending_writes" not in text
 
@@ -252,8 +265,6 @@ def test_the_downloads_carry_the_run_on_screen(app_server):
             page.get_by_role("button", name="Download figure (PNG)").click()
         png = Path(png_download.value.path()).read_bytes()
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
-
-
 
 
 #: in the page's BokehJS: is the skip installed, and does a stylesheet keep its text node on a rewrite with the same

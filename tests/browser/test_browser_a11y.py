@@ -7,6 +7,7 @@ beyond axe: the plots' text is checked by what BokehJS holds (``test_browser_tru
 their computed contrast (``test_app_scenario.py``). The walk uses the keyboard alone: the skip link, the tabs (arrow
 keys, Enter, Space), a visible focus ring at every stop, sliders that say what they show.
 """
+
 from __future__ import annotations
 
 import pytest

@@ -2,6 +2,7 @@
 the high-order sweep, the Scenario tab and its who-wins map, and another site framing the page (set-up in
 ``_browser.py``).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -89,6 +90,7 @@ def _framed(page_url: str, expect: str) -> str:
     Waits for the event that ``expect`` announces: chromium's console report of the refused frame ('blocked') or the
     dashboard's first drawing inside the frame ('shown'); a page that gives neither fails on the timeout."""
     from playwright import sync_api
+
     with sync_api.sync_playwright() as p:
         browser = launch(p)
         try:
@@ -115,8 +117,10 @@ def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
     with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _), lms_page(url + "/app", lms_port) as lms:
         assert _framed(lms, "blocked") == "blocked"
     lms_origin = f"http://127.0.0.1:{lms_port}"
-    with (serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _),
-          lms_page(url + "/app", lms_port) as lms):
+    with (
+        serve_app(tmp_path, "--stats-interval", "0", env={"ISL_FRAME_ANCESTORS": lms_origin}) as (url, _, _),
+        lms_page(url + "/app", lms_port) as lms,
+    ):
         assert _framed(lms, "shown") == "shown"
 
 

@@ -8,6 +8,7 @@ the link (the same request through the core), so the check holds for the run the
 comes from a seed that a failure prints (``ISL_PROPERTY_SEED`` replays it); ``ISL_PROPERTY_ACTIONS`` sets its length
 (default 200).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -34,8 +35,12 @@ pytestmark = [pytest.mark.browser]
 ACTIONS = int(os.environ.get("ISL_PROPERTY_ACTIONS", "200"))
 TRAJECTORIES = "Trajectories (paper A, Fig. 3)"
 SCENARIOS = "Scenarios: σ(t), tails, sensor"
-SLIDERS = {"alpha": "α, damping of the top derivative", "sigma": "σ, observation noise intensity",
-           "nu": "ν, the ISL filter's tuning knob", "m": "m, state dimension"}
+SLIDERS = {
+    "alpha": "α, damping of the top derivative",
+    "sigma": "σ, observation noise intensity",
+    "nu": "ν, the ISL filter's tuning knob",
+    "m": "m, state dimension",
+}
 PRESET_BUTTONS = ("Fig. 3, σ = 20", "Fig. 3, σ = 200")
 EXTRA_BOXES = ("KBF for mid σ", "KBF adaptive", "ISL model-aware")
 
@@ -88,8 +93,7 @@ def expected(url: str) -> dict:
         for name, (t, y) in shown_series(result.traces.series[i], errors, run.T).items():
             if name in ("truth", "kbf", "isl") or name in req.extras:
                 lines[f"traj-{i + 1}-{name}"] = (np.asarray(t, np.float32), np.asarray(y, np.float32))
-    labels = sorted({KEY_LABELS[k][errors] for k in ("truth", "kbf", "isl", "tube")}
-                    | {LABELS[n] for n in req.extras})
+    labels = sorted({KEY_LABELS[k][errors] for k in ("truth", "kbf", "isl", "tube")} | {LABELS[n] for n in req.extras})
     return {"bands": bands, "lines": lines, "labels": labels, "state": state}
 
 
@@ -135,9 +139,12 @@ def settle(page, what: str, cache: dict) -> dict:
         if not last:
             return want
         with contextlib.suppress(PlaywrightError):  # a page caught between two runs: wait for its next change
-            page.wait_for_function(f"([url, before]) => window.location.href !== url "
-                                   f"|| JSON.stringify(({DRAWN})()) !== before", arg=[url, before], timeout=3_000,
-                                   polling=100)
+            page.wait_for_function(
+                f"([url, before]) => window.location.href !== url || JSON.stringify(({DRAWN})()) !== before",
+                arg=[url, before],
+                timeout=3_000,
+                polling=100,
+            )
     raise AssertionError(f"{what}: the page does not show the run its link describes ({page.url}): {last}")
 
 
@@ -157,8 +164,11 @@ def act(page, rng: random.Random, state: AppState) -> str:
     if kind == "slider":
         key = rng.choice(["alpha", "sigma", "sigma", "nu", "nu", "m"])
         # m at most 4: a larger run is computed as a job, not followed live (the live property is the one here)
-        press = rng.choice(["ArrowLeft", "ArrowRight"]) if key != "m" else (
-            "ArrowRight" if state.m < 4 and (state.m <= 2 or rng.random() < 0.5) else "ArrowLeft")
+        press = (
+            rng.choice(["ArrowLeft", "ArrowRight"])
+            if key != "m"
+            else ("ArrowRight" if state.m < 4 and (state.m <= 2 or rng.random() < 0.5) else "ArrowLeft")
+        )
         if key == "alpha" and state.alpha <= 0.05:
             press = "ArrowRight"  # α = 0 is paper B's model, reached by its own checkbox
         handle = page.get_by_role("slider", name=SLIDERS[key])
@@ -194,11 +204,15 @@ def scenario_preset(page, rng: random.Random) -> str:
     sigma0, nu = inputs.get("sigma"), inputs.get("nu")
     want = [f"Kalman–Bucy for constant σ = σ(0) = {sigma0:g}", f"ISL (ν = {nu:.4g})"]
     try:
-        page.wait_for_function(f"(want) => {{ const got = ({SCENARIO_LABELS})(); "
-                               "return want.every(w => got.includes(w)); }", arg=want, timeout=120_000)
+        page.wait_for_function(
+            f"(want) => {{ const got = ({SCENARIO_LABELS})(); return want.every(w => got.includes(w)); }}",
+            arg=want,
+            timeout=120_000,
+        )
     except PlaywrightError:
-        raise AssertionError(f"scenario preset {label}: legend {page.evaluate(SCENARIO_LABELS)}, "
-                             f"the run's {want}") from None
+        raise AssertionError(
+            f"scenario preset {label}: legend {page.evaluate(SCENARIO_LABELS)}, the run's {want}"
+        ) from None
     page.get_by_role("tab", name=TRAJECTORIES).click()
     page.wait_for_function(TAB_OPEN, arg=TRAJECTORIES, timeout=30_000)
     return f"scenario preset {label}"

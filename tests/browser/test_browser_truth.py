@@ -6,6 +6,7 @@ mode at a projector's and a wall screen's size; the view and the open tab kept i
 a link no parser can read; a refusal shown beside its input; the comparison picture's text alternative. The
 accessibility checks of the same pages are in ``test_browser_a11y.py``.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -46,8 +47,10 @@ def wait_bands(page, want: dict[str, float], what: str) -> None:
     try:
         page.wait_for_function(BANDS_ARE, arg=want, timeout=30_000)
     except PlaywrightError:
-        raise AssertionError(f"{what}: the drawn tube is not X̂ ± 3 s of the run; drawn offsets "
-                             f"{page.evaluate(BAND_OFFSETS)}, 3 s = {want}") from None
+        raise AssertionError(
+            f"{what}: the drawn tube is not X̂ ± 3 s of the run; drawn offsets "
+            f"{page.evaluate(BAND_OFFSETS)}, 3 s = {want}"
+        ) from None
 
 
 def test_the_tube_follows_every_run_after_a_preset_and_a_slider_move(app_server):
@@ -62,8 +65,9 @@ def test_the_tube_follows_every_run_after_a_preset_and_a_slider_move(app_server)
         handle.focus()
         handle.press("Home")  # σ to its minimum, 0.1
         wait_bands(page, three_s(0.5, 3.0, 0.1), "after σ moved to its minimum")
-        assert page.evaluate("() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Band')"
-                             ".every(v => v.model.visible)")
+        assert page.evaluate(
+            "() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Band').every(v => v.model.visible)"
+        )
 
 
 def test_the_tube_follows_new_noise_after_the_error_view_moved_it_to_another_source(app_server):
@@ -82,8 +86,9 @@ def test_the_tube_follows_new_noise_after_the_error_view_moved_it_to_another_sou
         wait_bands(page, three_s(0.5, 3.0, 20.0, 4), "the signal view")
         before = page.evaluate(PLOT_DATA)
         page.get_by_role("button", name="new noise", exact=True).click()
-        page.wait_for_function(f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}",
-                               arg=before, timeout=30_000)
+        page.wait_for_function(
+            f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}", arg=before, timeout=30_000
+        )
         wait_bands(page, three_s(0.5, 3.0, 20.0, 4), "after new noise")
 
 
@@ -102,14 +107,19 @@ def test_the_scenario_legend_names_the_run_shown_after_a_preset(app_server):
     url, _ = app_server
     label = next(k for k in PRESETS if "200 → 2" in k)
     nu = PRESETS[label]["nu"]
-    with dashboard(url + "?tab=scenarios&sc_runs=2&sc_horizon=12", viewport={"width": 1280, "height": 900},
-                   ready=f"() => ({TAB_OPEN})('Scenarios: σ(t), tails, sensor')") as page:
-        page.wait_for_function(f"() => ({SCENARIO_TEXT})().some(f => f[1].some(t => t.includes('σ(0) = 20')))",
-                               timeout=60_000)
+    with dashboard(
+        url + "?tab=scenarios&sc_runs=2&sc_horizon=12",
+        viewport={"width": 1280, "height": 900},
+        ready=f"() => ({TAB_OPEN})('Scenarios: σ(t), tails, sensor')",
+    ) as page:
+        page.wait_for_function(
+            f"() => ({SCENARIO_TEXT})().some(f => f[1].some(t => t.includes('σ(0) = 20')))", timeout=60_000
+        )
         page.get_by_label("scenario preset (the table's columns)").select_option(label=label)
         want = ["Kalman–Bucy for constant σ = σ(0) = 200", f"ISL (ν = {nu:.4g})"]
-        page.wait_for_function(f"(want) => want.every(w => ({SCENARIO_TEXT})().some(f => f[1].includes(w)))",
-                               arg=want, timeout=60_000)
+        page.wait_for_function(
+            f"(want) => want.every(w => ({SCENARIO_TEXT})().some(f => f[1].includes(w)))", arg=want, timeout=60_000
+        )
         texts = page.evaluate(SCENARIO_TEXT)
     labels = [t for f in texts for t in f[1]]
     assert not any("σ(0) = 20 " in t or t.endswith("σ(0) = 20") for t in labels), labels
@@ -144,15 +154,19 @@ def test_the_view_and_the_tab_stay_in_the_link_and_across_presenter_mode(app_ser
     with dashboard(url, viewport={"width": 1600, "height": 1000}) as page:
         page.get_by_text("Errors (estimate − signal)", exact=True).click()
         page.get_by_role("tab", name="Worst case over σ").click()
-        page.wait_for_function("() => /view=errors/.test(location.search) && /tab=worstcase/.test(location.search)",
-                               timeout=20_000)
+        page.wait_for_function(
+            "() => /view=errors/.test(location.search) && /tab=worstcase/.test(location.search)", timeout=20_000
+        )
         page.get_by_role("button", name="Presenter mode").click()
         page.wait_for_function("() => /present=1/.test(location.search)", timeout=20_000)
         page.get_by_role("button", name="Leave presenter mode").wait_for(timeout=30_000)
         page.get_by_role("tab", name="Worst case over σ", selected=True).wait_for(timeout=30_000)
         page.get_by_role("tab", name="Trajectories (paper A, Fig. 3)").click()
-        page.wait_for_function(f"""() => [1, 2, 3].every(i => {{ const s = ({NAMED})(`traj-${{i}}-truth`);
-            return s && s.data.y.length === 2; }})""", timeout=30_000)  # the error view: the signal is the zero line
+        page.wait_for_function(
+            f"""() => [1, 2, 3].every(i => {{ const s = ({NAMED})(`traj-${{i}}-truth`);
+            return s && s.data.y.length === 2; }})""",
+            timeout=30_000,
+        )  # the error view: the signal is the zero line
     assert "view=errors" in page.url
 
 
@@ -203,8 +217,9 @@ def test_a_refusal_is_shown_beside_the_input_that_caused_it(app_server):
 
 def test_the_comparison_picture_has_a_text_alternative(app_server):
     url, _ = app_server
-    with dashboard(url + "?tab=compare", viewport={"width": 1280, "height": 900},
-                   ready=f"() => ({TAB_OPEN})('Compare σ')") as page:
+    with dashboard(
+        url + "?tab=compare", viewport={"width": 1280, "height": 900}, ready=f"() => ({TAB_OPEN})('Compare σ')"
+    ) as page:
         page.get_by_role("button", name="Compare", exact=True).click()
         image = page.get_by_role("img", name="Paper A's Fig. 3 for σ = 20 and σ = 200")
         image.wait_for(timeout=60_000)
@@ -213,13 +228,16 @@ def test_the_comparison_picture_has_a_text_alternative(app_server):
     assert "table below" in alt and natural > 900
 
 
-@pytest.mark.parametrize(("lo", "hi", "px", "expected"), [
-    (0.9, 12.0, 400, [1, 1.2, 1.5, 2, 3, 5, 10, 12]),          # a ν-sweep row: the minimum ≈ 1.1 can be read off
-    (1.0, 1.3, 400, [1, 1.05, 1.1, 1.2, 1.3]),                  # worst cases of 1.06 and 1.23 apart
-    (1.0, 1.3, 60, [1, 1.2]),                                   # the same range drawn small: no two labels touch
-    (1.0, 1e6, 400, [1, 10, 100, 1000, 1e4, 1e5, 1e6]),          # many decades: powers of ten
-    (0.5, 0.5, 400, []),                                        # an empty range: no ticks rather than an error
-])
+@pytest.mark.parametrize(
+    ("lo", "hi", "px", "expected"),
+    [
+        (0.9, 12.0, 400, [1, 1.2, 1.5, 2, 3, 5, 10, 12]),  # a ν-sweep row: the minimum ≈ 1.1 can be read off
+        (1.0, 1.3, 400, [1, 1.05, 1.1, 1.2, 1.3]),  # worst cases of 1.06 and 1.23 apart
+        (1.0, 1.3, 60, [1, 1.2]),  # the same range drawn small: no two labels touch
+        (1.0, 1e6, 400, [1, 10, 100, 1000, 1e4, 1e5, 1e6]),  # many decades: powers of ten
+        (0.5, 0.5, 400, []),  # an empty range: no ticks rather than an error
+    ],
+)
 def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected):
     """The log ratio axes (app.views.style.ratio_ticker) tick 1, 1.2, 1.5, 2, …, and no finer than the plot's
     height lets labels stand apart (1.1 and 1.2 overlapped on a short ν-sweep plot): the ticker's own JavaScript,
@@ -229,6 +247,7 @@ def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected
     ticker = ratio_ticker()
     args = {**ticker.args, "plot": {"inner_height": px}}
     from playwright import sync_api
+
     with sync_api.sync_playwright() as p:
         browser = launch(p)
         try:
@@ -236,7 +255,8 @@ def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected
             ticks = page.evaluate(
                 "([code, args, cb_data]) => new Function('cb_data', ...Object.keys(args), code)"
                 "(cb_data, ...Object.values(args))",
-                [ticker.major_code, args, {"start": lo, "end": hi}])
+                [ticker.major_code, args, {"start": lo, "end": hi}],
+            )
         finally:
             browser.close()
     assert ticks == pytest.approx(expected)

@@ -1,6 +1,7 @@
 """Smoke tests of the core's ``isl`` command line (``python -m isl_core``, small horizons): outputs exist and parse;
 bad input → exit 2, one line. The dashboard's commands (``figure3``, ``serve``, the sweep's figures) are the app's
 tests."""
+
 from __future__ import annotations
 
 import json
@@ -56,14 +57,35 @@ def test_the_core_command_alone_computes_and_writes_data_without_the_dashboard(t
     its sweep writes the CSV and JSON only, and the dashboard's commands are not there."""
     import subprocess
 
-    code = ("import sys; sys.modules['app'] = None; sys.modules['panel'] = None; sys.modules['bokeh'] = None\n"
-            "import runpy; runpy.run_module('isl_core', run_name='__main__')")
+    code = (
+        "import sys; sys.modules['app'] = None; sys.modules['panel'] = None; sys.modules['bokeh'] = None\n"
+        "import runpy; runpy.run_module('isl_core', run_name='__main__')"
+    )
+
     def isl_core(*args):
         return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
 
     out = tmp_path / "fig2"
-    done = isl_core("sweep", "--alphas", "1", "--sigmas", "20", "--ell-min", "0", "--ell-max", "0", "--horizon", "5",
-                    "--seeds", "0", "--batches", "2", "--quiet", "--out", str(out))
+    done = isl_core(
+        "sweep",
+        "--alphas",
+        "1",
+        "--sigmas",
+        "20",
+        "--ell-min",
+        "0",
+        "--ell-max",
+        "0",
+        "--horizon",
+        "5",
+        "--seeds",
+        "0",
+        "--batches",
+        "2",
+        "--quiet",
+        "--out",
+        str(out),
+    )
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in out.iterdir()) == ["fig2.csv", "fig2.json"]
     helped = isl_core("--help")
@@ -93,21 +115,55 @@ def test_recommend_other_model_has_no_paper_column(capsys):
 
 def test_worstcase_table_and_json(capsys):
     """The Fig. 2 worst-case table (all five α, σ ∈ [2, 200]) printed, then a JSON run checked for consistency."""
-    argv = ["worstcase", "--alphas", "0.04,0.2,1,5,25", "--n-sigma", "3", "--horizon", "30", "--seeds", "0",
-            "--batches", "4", "--quiet"]
+    argv = [
+        "worstcase",
+        "--alphas",
+        "0.04,0.2,1,5,25",
+        "--n-sigma",
+        "3",
+        "--horizon",
+        "30",
+        "--seeds",
+        "0",
+        "--batches",
+        "4",
+        "--quiet",
+    ]
     assert main(argv) == 0
     lines = capsys.readouterr().out.splitlines()
     heads = [k for k, line in enumerate(lines) if line.lstrip().startswith("alpha |")]
     assert len(heads) == 2 and "KBF oracle" in lines[heads[0]] and "ISL model-aware" in lines[heads[0]]
     assert "ISL, minimax ν" in lines[heads[0]] and "ISL, ν from table A.31" in lines[heads[0]]  # each tuning's origin
     for head in heads:  # one row per α, one column per filter (simulated table, then theory)
-        rows = lines[head + 1:head + 6]
+        rows = lines[head + 1 : head + 6]
         assert [float(r.split("|")[0]) for r in rows] == [0.04, 0.2, 1.0, 5.0, 25.0]
         assert all(len(r.split("|")) == 1 + 7 for r in rows)
-    assert any(line.startswith("averaging window of each simulated run: a burn-in of 10/r_min, then 30/r_min")
-               for line in lines)
-    assert main(["worstcase", "--alphas", "1", "5", "--filters", "kbf,kbf_adaptive,isl", "--n-sigma", "2",
-                 "--horizon", "20", "--seeds", "0,1", "--batches", "2", "--json"]) == 0
+    assert any(
+        line.startswith("averaging window of each simulated run: a burn-in of 10/r_min, then 30/r_min")
+        for line in lines
+    )
+    assert (
+        main(
+            [
+                "worstcase",
+                "--alphas",
+                "1",
+                "5",
+                "--filters",
+                "kbf,kbf_adaptive,isl",
+                "--n-sigma",
+                "2",
+                "--horizon",
+                "20",
+                "--seeds",
+                "0,1",
+                "--batches",
+                "2",
+                "--json",
+            ]
+        )
+        == 0
+    )
     res = _json(capsys)
     assert res["meta"]["filters"] == ["kbf", "kbf_adaptive", "isl"] and res["meta"]["seeds"] == [0, 1]
     assert res["meta"]["burn_in_over_r_min"] == 10.0 and len(res["meta"]["lengthened_by"]) == 2
@@ -120,15 +176,30 @@ def test_worstcase_table_and_json(capsys):
             assert row["theory_worst"] == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("argv", [
-    [], ["bogus"], ["run", "--sigma", "-1"], ["run", "--sigma", "nan"], ["run", "--m", "9"], ["run", "--alpha", "0"],
-    ["run", "--seed", "-1"], ["run", "--nu", "abc"], ["run", "--horizon", "1e12"],
-    ["sweep", "--ell-min", "3", "--ell-max", "1"], ["sweep", "--batches", "0", "--alphas", "1", "--horizon", "5"],
-    ["recommend", "--alphas", "x"], ["recommend", "--m", "0", "--no-verify"],
-    ["worstcase", "--sigma-min", "5", "--sigma-max", "2"], ["worstcase", "--filters", "kbf,nope"],
-    ["worstcase", "--alphas", "1,x"], ["worstcase", "--n-sigma", "1"], ["worstcase", "--alphas", "0"],
-    ["sweep", "--alphas", "0", "--horizon", "5"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [],
+        ["bogus"],
+        ["run", "--sigma", "-1"],
+        ["run", "--sigma", "nan"],
+        ["run", "--m", "9"],
+        ["run", "--alpha", "0"],
+        ["run", "--seed", "-1"],
+        ["run", "--nu", "abc"],
+        ["run", "--horizon", "1e12"],
+        ["sweep", "--ell-min", "3", "--ell-max", "1"],
+        ["sweep", "--batches", "0", "--alphas", "1", "--horizon", "5"],
+        ["recommend", "--alphas", "x"],
+        ["recommend", "--m", "0", "--no-verify"],
+        ["worstcase", "--sigma-min", "5", "--sigma-max", "2"],
+        ["worstcase", "--filters", "kbf,nope"],
+        ["worstcase", "--alphas", "1,x"],
+        ["worstcase", "--n-sigma", "1"],
+        ["worstcase", "--alphas", "0"],
+        ["sweep", "--alphas", "0", "--horizon", "5"],
+    ],
+)
 def test_bad_arguments_exit_2_with_one_line(argv, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a rejected command writes nothing
     assert main(argv) == 2
@@ -142,5 +213,3 @@ def test_bad_arguments_exit_2_with_one_line(argv, capsys, tmp_path, monkeypatch)
 def test_help_exits_0(capsys):
     assert main(["--help"]) == 0
     assert "recommend" in capsys.readouterr().out
-
-

@@ -1,5 +1,6 @@
 """Each filter's cost (isl_core.scenario.cost): measured per step on one grid — what is reported, never how fast it
 is."""
+
 from __future__ import annotations
 
 import dataclasses

@@ -1,4 +1,5 @@
 """Min/max display decimation (isl_core.decimate): size bound, endpoints, and the per-bucket envelope contract."""
+
 import numpy as np
 import pytest
 
@@ -14,8 +15,10 @@ def test_short_input_is_returned_whole(n):
     assert np.array_equal(minmax_indices(np.zeros(n)), np.arange(n))
 
 
-@pytest.mark.parametrize("n, max_points", [(DISPLAY_POINTS + 1, DISPLAY_POINTS), (10_007, 1000), (1_000_000, 2400),
-                                           (2_501, 2400), (5_000, 4)])
+@pytest.mark.parametrize(
+    "n, max_points",
+    [(DISPLAY_POINTS + 1, DISPLAY_POINTS), (10_007, 1000), (1_000_000, 2400), (2_501, 2400), (5_000, 4)],
+)
 def test_size_bound_endpoints_and_order(n, max_points):
     y = _walk(n)
     k = minmax_indices(y, max_points)
@@ -51,8 +54,21 @@ def test_too_few_points_is_refused():
         minmax_indices(np.zeros(100), 3)
 
 
-@pytest.mark.parametrize("n, max_points", [(2, 2400), (3, 2400), (10, 2400), (2_400, 2400), (2_401, 2400),
-                                           (10_007, 1000), (123_457, 2400), (5_000, 4), (5, 4), (99_999, 2400)])
+@pytest.mark.parametrize(
+    "n, max_points",
+    [
+        (2, 2400),
+        (3, 2400),
+        (10, 2400),
+        (2_400, 2400),
+        (2_401, 2400),
+        (10_007, 1000),
+        (123_457, 2400),
+        (5_000, 4),
+        (5, 4),
+        (99_999, 2400),
+    ],
+)
 @pytest.mark.parametrize("blocks", ["one", "random", "tiny"])
 def test_block_by_block_keeps_exactly_what_the_whole_trace_keeps(n, max_points, blocks):
     rng = np.random.default_rng(n)
@@ -63,7 +79,7 @@ def test_block_by_block_keeps_exactly_what_the_whole_trace_keeps(n, max_points, 
     for size in cuts:
         if k >= n:
             break
-        red.add(Y[k:k + size])
+        red.add(Y[k : k + size])
         k += size
     for j in range(Y.shape[1]):
         idx, val = red.result(j)

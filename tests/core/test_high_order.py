@@ -8,6 +8,7 @@ measured ratio lies within its 95 % batch-means interval of 1, or within ±3 % (
 to EULER_BIAS = 1 %, exactly known); and the ISL filter's ratio agrees with the statistical-linearization theory
 (:ref:`linearized-covariance`) within its interval + 10 %. The seed is fixed, so the test is deterministic.
 """
+
 from __future__ import annotations
 
 import math

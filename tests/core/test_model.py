@@ -1,4 +1,5 @@
 """The model (A.1–A.6, A.19–A.20, A.25): matrices, the w-parametrization, and validation at construction."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -81,8 +82,10 @@ def test_bad_m_raises_naming_it(m):
         Model(0.5, 3.0, 20.0, m)
 
 
-@pytest.mark.parametrize("name, value", [("alpha", math.nan), ("alpha", -1.0), ("w", 0.0), ("w", math.inf),
-                                         ("w", "3"), ("sigma", None), ("m", 7)])
+@pytest.mark.parametrize(
+    "name, value",
+    [("alpha", math.nan), ("alpha", -1.0), ("w", 0.0), ("w", math.inf), ("w", "3"), ("sigma", None), ("m", 7)],
+)
 def test_from_w_bad_inputs_name_the_parameter(name, value):
     kwargs = {"alpha": 0.5, "w": 3.0, "sigma": 20.0, "m": 3}
     kwargs[name] = value

@@ -1,4 +1,5 @@
 """The noise laws' tables (isl_core.noise): the Student-t ziggurat's layers."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,5 @@
 """The ISL nonlinearity φ (A.17), γ_p, and the closed-form statistical-linearization moments (B.40, B.43)."""
+
 from __future__ import annotations
 
 import math
@@ -18,8 +19,10 @@ QUAD_TOL = 1e-10  # relative accuracy asked of scipy's quad below
 def gauss_expectation(fn, sigma: float) -> float:
     """E fn(ξ), ξ ~ N(0, σ²), by adaptive quadrature on each half line (independent of the closed forms)."""
     pdf = stats.norm(scale=sigma).pdf
-    halves = [integrate.quad(lambda x: fn(x) * pdf(x), lo, hi, epsrel=QUAD_TOL, epsabs=0, limit=200)[0]
-              for lo, hi in ((-np.inf, 0.0), (0.0, np.inf))]
+    halves = [
+        integrate.quad(lambda x: fn(x) * pdf(x), lo, hi, epsrel=QUAD_TOL, epsabs=0, limit=200)[0]
+        for lo, hi in ((-np.inf, 0.0), (0.0, np.inf))
+    ]
     return halves[0] + halves[1]
 
 
@@ -44,8 +47,11 @@ def test_b27_coefficients_are_correlations_of_phi():
     # (B.27), m = 3: the correlation coefficients of φ(ξ) are γ_1/√(γ_{2/3}γ_{4/3}) ≈ 0.977,
     # γ_{2/3}/√γ_{4/3} ≈ 0.880, γ_{1/3}/√γ_{2/3} ≈ 0.957 — for every ν and σ
     g = gamma_abs
-    formulas = {(0, 1): g(1) / math.sqrt(g(2 / 3) * g(4 / 3)), (0, 2): g(2 / 3) / math.sqrt(g(4 / 3)),
-                (1, 2): g(1 / 3) / math.sqrt(g(2 / 3))}
+    formulas = {
+        (0, 1): g(1) / math.sqrt(g(2 / 3) * g(4 / 3)),
+        (0, 2): g(2 / 3) / math.sqrt(g(4 / 3)),
+        (1, 2): g(1 / 3) / math.sqrt(g(2 / 3)),
+    }
     printed = {(0, 1): "0.977", (0, 2): "0.880", (1, 2): "0.957"}
     for nu, sigma in [(3.0, 5.0), (0.1, 200.0)]:
         _, Phi = linearization(isl_gains(3, nu), isl_exponents(3), sigma)

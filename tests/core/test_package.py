@@ -1,6 +1,7 @@
 """The core as a package: importable on its own without any UI library (STYLE.md, principle 1), a layout without
 import circles, small modules and functions, kinds compared by name, no private name imported across modules, every
 equation it uses cited by its number, and the dashboard on its public modules only."""
+
 from __future__ import annotations
 
 import ast
@@ -69,7 +70,7 @@ def _imports(module: str) -> set[str]:
     found = set()
     for node in ast.walk(ast.parse(path.read_text("utf-8"))):
         if isinstance(node, ast.ImportFrom):
-            base = package[:len(package) - node.level + 1] if node.level else []
+            base = package[: len(package) - node.level + 1] if node.level else []
             target = ".".join(base + ([node.module] if node.module else []))
             if target.split(".")[0] in ("isl_core", "app"):
                 found |= {_target(f"{target}.{alias.name}") for alias in node.names}
@@ -104,8 +105,9 @@ def test_no_module_imports_a_private_name_of_another():
     for module, path in MODULES.items():
         for node in ast.walk(ast.parse(path.read_text("utf-8"))):
             if isinstance(node, ast.ImportFrom) and node.module != "__future__":
-                offences += [f"{module}: {a.name}" for a in node.names
-                             if a.name.startswith("_") and not a.name.endswith("__")]  # __version__ is public
+                offences += [
+                    f"{module}: {a.name}" for a in node.names if a.name.startswith("_") and not a.name.endswith("__")
+                ]  # __version__ is public
     assert offences == []
 
 
@@ -172,29 +174,53 @@ def test_the_dashboard_uses_only_the_cores_public_modules():
                 names = [node.module, *(a.name for a in node.names)]
                 private = [n for n in names if any(_private(part) for part in n.split("."))]
                 offences += [f"{path.relative_to(ROOT)}: {n}" for n in private]
-            elif isinstance(node, ast.Name | ast.Attribute) and "simulate_rmse" in (getattr(node, "id", None),
-                                                                                    getattr(node, "attr", None)):
+            elif isinstance(node, ast.Name | ast.Attribute) and "simulate_rmse" in (
+                getattr(node, "id", None),
+                getattr(node, "attr", None),
+            ):
                 offences.append(f"{path.relative_to(ROOT)}: simulate_rmse")
     assert offences == []
 
 
 def test_no_module_is_over_400_lines():
-    sizes = {str(p.relative_to(ROOT)): len(p.read_text("utf-8").splitlines())
-             for folder in ("app", "isl_core", "scripts", "benchmarks") for p in (ROOT / folder).rglob("*.py")}
+    sizes = {
+        str(p.relative_to(ROOT)): len(p.read_text("utf-8").splitlines())
+        for folder in ("app", "isl_core", "scripts", "benchmarks")
+        for p in (ROOT / folder).rglob("*.py")
+    }
     assert sizes, "no module found"
     assert {name: n for name, n in sizes.items() if n > MAX_MODULE_LINES} == {}
 
 
 def test_no_function_check_is_fooled_by_a_kernel_decorator():
-    code = ("import numba\nfrom numba import njit\n@njit(cache=True)\ndef f():\n    pass\ndef g():\n    pass\n"
-            "@numba.jit\ndef h():\n    pass\n@adjust\ndef k():\n    pass\n")
+    code = (
+        "import numba\nfrom numba import njit\n@njit(cache=True)\ndef f():\n    pass\ndef g():\n    pass\n"
+        "@numba.jit\ndef h():\n    pass\n@adjust\ndef k():\n    pass\n"
+    )
     flags = [_njit(n) for n in ast.parse(code).body if isinstance(n, ast.FunctionDef)]
     assert flags == [True, False, True, False]
 
 
 #: equations the core computes, by their number in paper A (A.n) or paper B (B.n)
-USED = ["A.17", "A.21", "A.23", "A.24", "A.29", "A.30", "A.31", "B.4", "B.5", "B.6", "B.7", "B.23", "B.24", "B.25",
-        "B.26", "B.46", "B.54"]
+USED = [
+    "A.17",
+    "A.21",
+    "A.23",
+    "A.24",
+    "A.29",
+    "A.30",
+    "A.31",
+    "B.4",
+    "B.5",
+    "B.6",
+    "B.7",
+    "B.23",
+    "B.24",
+    "B.25",
+    "B.26",
+    "B.46",
+    "B.54",
+]
 
 
 def _cited(number: str) -> list[str]:

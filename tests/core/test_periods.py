@@ -1,5 +1,6 @@
 """The period statistic (isl_core.scenario.periods): fixed periods, pooled over seeds; the clairvoyant filter reads 1 on
 it."""
+
 from __future__ import annotations
 
 import math
@@ -21,8 +22,9 @@ SEEDS = 24
 
 def _average(scenario, horizon=8.0, **kwargs):
     periods = scenario_periods(scenario, horizon)
-    avg = average_scenario(MODEL, 3.0, scenario, seeds=range(SEEDS), horizon=horizon,
-                           extra=[adaptive_kbf(MODEL, memory=30.0)], **kwargs)
+    avg = average_scenario(
+        MODEL, 3.0, scenario, seeds=range(SEEDS), horizon=horizon, extra=[adaptive_kbf(MODEL, memory=30.0)], **kwargs
+    )
     return periods, avg
 
 
@@ -34,10 +36,14 @@ def drop():
 
 def test_the_periods_of_a_change_and_of_a_constant_scenario():
     change = scenario_periods(Scenario(sigma_knots=((10.0, 2.0),)), 30.0)
-    assert [(p.name, p.start, p.end) for p in change] == [("after_1", 10.0, 11.0), ("after_2", 10.0, 12.0),
-                                                          ("settled", 12.0, 30.0)]
+    assert [(p.name, p.start, p.end) for p in change] == [
+        ("after_1", 10.0, 11.0),
+        ("after_2", 10.0, 12.0),
+        ("settled", 12.0, 30.0),
+    ]
     assert [(p.name, p.start, p.end) for p in scenario_periods(Scenario(noise="student"), 30.0)] == [
-        ("settled", 2.0, 30.0)]
+        ("settled", 2.0, 30.0)
+    ]
     assert edge_times(change, 30.0) == (0.0, 10.0, 11.0, 12.0, 30.0)
     assert [p.name for p in scenario_periods(Scenario(sigma_knots=((10.0, 2.0),)), 11.5)] == ["after_1"]
     with pytest.raises(ValueError, match="leaves no period"):
@@ -60,8 +66,15 @@ def test_the_statistic_is_the_pooled_mean_square_over_the_clairvoyant_variance_a
     np.testing.assert_allclose(fine.periods().ratio, stat.ratio, rtol=1e-12)
 
 
-@pytest.mark.parametrize("scenario", [DROP, Scenario(sigma_knots=((3.0, 200.0),)), Scenario(sensor_interval=0.1),
-                                      Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0)])
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        DROP,
+        Scenario(sigma_knots=((3.0, 200.0),)),
+        Scenario(sensor_interval=0.1),
+        Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0),
+    ],
+)
 def test_the_clairvoyant_filter_reads_one_within_its_sampling_error_in_every_period(scenario):
     """Its squared error averages to P exactly, so each period's ratio² is an unbiased estimate of 1: within 4.5
     standard errors of the seeds' mean (a chance of ~7e-6 per period to miss), and the 95 % interval is that wide."""
@@ -83,8 +96,14 @@ def test_after_the_drop_the_filter_for_sigma0_is_far_off_and_the_learner_recover
 
 
 @settings(max_examples=60, deadline=None)
-@given(arrays(np.float64, st.tuples(st.integers(1, 12), st.integers(1, 3), st.integers(1, 4)),
-              elements=st.floats(0.0, 1e6, allow_nan=False)), st.floats(0.5, 0.999))
+@given(
+    arrays(
+        np.float64,
+        st.tuples(st.integers(1, 12), st.integers(1, 3), st.integers(1, 4)),
+        elements=st.floats(0.0, 1e6, allow_nan=False),
+    ),
+    st.floats(0.5, 0.999),
+)
 def test_every_interval_contains_its_estimate(y, level):
     ratio, low, high = ratios_from(y, level)
     if y.shape[0] == 1:

@@ -1,5 +1,6 @@
 """Computed ν recommendation (A.31, :ref:`worst-case`): optimal in theory, no worse than the paper's table in
 simulation."""
+
 from __future__ import annotations
 
 import math
@@ -20,8 +21,9 @@ def test_recommendation_no_worse_than_paper_table(alpha):
 
     The recommended ν's worst-case ratio may exceed the table's only by the two 95 % half-widths.
     """
-    rec = recommend_nu(alpha, sigmas=FIG2_SIGMAS, m=3, w=3.0, compare=[PAPER_A31[alpha]], horizon=300.0,
-                       seeds=(21, 22), batches=8)
+    rec = recommend_nu(
+        alpha, sigmas=FIG2_SIGMAS, m=3, w=3.0, compare=[PAPER_A31[alpha]], horizon=300.0, seeds=(21, 22), batches=8
+    )
     (paper,) = rec.compared
     assert paper.nu_over_beta == PAPER_A31[alpha]
     tol = (rec.simulated_high - rec.simulated_low) / 2 + (paper.high - paper.low) / 2
@@ -53,10 +55,17 @@ def test_verified_recommendation_beats_the_best_fixed_kalman_bucy():
     assert rec.simulated_high < rec.kbf_worst
 
 
-@pytest.mark.parametrize("kw, name", [
-    (dict(alpha=0.0), "alpha"), (dict(alpha=math.nan), "alpha"), (dict(sigmas=[]), "sigmas"),
-    (dict(sigmas=[-2.0]), "sigmas"), (dict(m=0), "m"), (dict(w=-1.0), "w"),
-])
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        (dict(alpha=0.0), "alpha"),
+        (dict(alpha=math.nan), "alpha"),
+        (dict(sigmas=[]), "sigmas"),
+        (dict(sigmas=[-2.0]), "sigmas"),
+        (dict(m=0), "m"),
+        (dict(w=-1.0), "w"),
+    ],
+)
 def test_bad_arguments_name_the_parameter(kw, name):
     args = dict(alpha=1.0, verify=False) | kw
     with pytest.raises(ValueError, match=name):

@@ -1,5 +1,6 @@
 """Stationary Kalman–Bucy filter: CARE (A.23), closed form for α = 0 (B.16–B.18), paper values
 (:ref:`reference-values`)."""
+
 from __future__ import annotations
 
 import math

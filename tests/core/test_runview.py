@@ -1,4 +1,5 @@
 """Runs decimated while they are simulated (isl_core.runview): the same run as simulate, drawn from little memory."""
+
 from __future__ import annotations
 
 import tracemalloc
@@ -13,9 +14,15 @@ from isl_core.runview import TUBE_THEORY, simulate_view
 FIG3 = Model(0.5, 3.0, 20.0, 3)
 
 
-@pytest.mark.parametrize("model, horizon, points", [(FIG3, 10.0, 2400), (FIG3, 300.0, 400),
-                                                     (Model(0.0, 1.0, 5.0, 6), 40.0, 1000),
-                                                     (Model(1.0, 0.5, 3.0, 1), 50.0, 64)])
+@pytest.mark.parametrize(
+    "model, horizon, points",
+    [
+        (FIG3, 10.0, 2400),
+        (FIG3, 300.0, 400),
+        (Model(0.0, 1.0, 5.0, 6), 40.0, 1000),
+        (Model(1.0, 0.5, 3.0, 1), 50.0, 64),
+    ],
+)
 def test_the_view_is_the_simulated_run_decimated(model, horizon, points):
     extra = [adaptive_kbf(model, sigma_range=(1.0, 30.0), memory=100)]
     run = simulate(model, 0.7 * model.beta, horizon=horizon, seed=5, extra=extra)

@@ -1,4 +1,5 @@
 """Scenarios beyond constant σ and the clairvoyant reference (isl_core.scenario, :ref:`scenarios`)."""
+
 from __future__ import annotations
 
 import math
@@ -14,21 +15,24 @@ from isl_core.scenario import Scenario, clairvoyant, sigma_path
 MODEL = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)  # paper A's Fig. 3
 
 
-@pytest.mark.parametrize(("kwargs", "named"), [
-    ({"sigma_knots": ((10.0, 2.0), (5.0, 20.0))}, "sigma step time #2"),
-    ({"sigma_knots": ((0.0, 2.0),)}, "sigma step time #1"),
-    ({"sigma_knots": ((10.0, 0.0),)}, "sigma after step #1"),
-    ({"sigma_knots": ((10.0, math.nan),)}, "sigma after step #1"),
-    ({"sigma_knots": ((10.0,),)}, "sigma_knots[0]"),
-    ({"sigma_knots": 3.0}, "sigma_knots"),
-    ({"sigma_shape": "ramp"}, "sigma_shape"),
-    ({"noise": "cauchy"}, "noise"),
-    ({"noise": "student", "dof": 2.0}, "dof"),
-    ({"outlier_rate": 1.0}, "outlier_rate"),
-    ({"outlier_scale": 0.5}, "outlier_scale"),
-    ({"sensor_interval": -0.1}, "sensor_interval"),
-    ({"sensor_interval": "0.1"}, "sensor_interval"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [
+        ({"sigma_knots": ((10.0, 2.0), (5.0, 20.0))}, "sigma step time #2"),
+        ({"sigma_knots": ((0.0, 2.0),)}, "sigma step time #1"),
+        ({"sigma_knots": ((10.0, 0.0),)}, "sigma after step #1"),
+        ({"sigma_knots": ((10.0, math.nan),)}, "sigma after step #1"),
+        ({"sigma_knots": ((10.0,),)}, "sigma_knots[0]"),
+        ({"sigma_knots": 3.0}, "sigma_knots"),
+        ({"sigma_shape": "ramp"}, "sigma_shape"),
+        ({"noise": "cauchy"}, "noise"),
+        ({"noise": "student", "dof": 2.0}, "dof"),
+        ({"outlier_rate": 1.0}, "outlier_rate"),
+        ({"outlier_scale": 0.5}, "outlier_scale"),
+        ({"sensor_interval": -0.1}, "sensor_interval"),
+        ({"sensor_interval": "0.1"}, "sensor_interval"),
+    ],
+)
 def test_a_bad_scenario_is_refused_with_the_parameter_named(kwargs, named):
     with pytest.raises(ValueError, match=named.replace("[", r"\[").replace("]", r"\]")):
         Scenario(**kwargs)
@@ -50,7 +54,7 @@ def test_sigma_steps_and_log_linear_drift_between_knots():
     assert np.allclose(steps, [20.0, 20.0, 2.0, 2.0, 200.0, 200.0], rtol=1e-14)
     drift = Scenario(sigma_knots=knots, sigma_shape="drift").sigma_at(20.0, t)
     # log-linear: halfway from 20 to 2 in time is their geometric mean; halfway from 2 to 200 is 20
-    assert np.allclose(drift, [20.0, 20.0 * 0.1 ** 0.9999, 2.0, 20.0, 200.0, 200.0], rtol=1e-12)
+    assert np.allclose(drift, [20.0, 20.0 * 0.1**0.9999, 2.0, 20.0, 200.0, 200.0], rtol=1e-12)
 
 
 def test_sigma_path_is_sigma_at_the_grid_times_in_units_of_one_over_r_min():
@@ -82,7 +86,7 @@ def _reference(model: Model, scenario: Scenario, h: float, n: int):
         else:
             R += r
             Pss = Pss + 2.0 * (H @ Pxs).item() + (H @ P @ H.T).item()  # Var(S + h X_1)
-            Pxs = F @ (Pxs + P @ H.T)                              # Cov(F X + w, S + h X_1)
+            Pxs = F @ (Pxs + P @ H.T)  # Cov(F X + w, S + h X_1)
             P = F @ P @ F.T + Q
             if (k + 1) % q == 0:
                 K = Pxs / (Pss + R)
@@ -93,12 +97,15 @@ def _reference(model: Model, scenario: Scenario, h: float, n: int):
     return gains, np.array(var), q
 
 
-@pytest.mark.parametrize("scenario", [
-    Scenario(),
-    Scenario(sigma_knots=((0.5, 2.0), (1.0, 200.0)), noise="student"),
-    Scenario(sigma_knots=((0.5, 200.0),), sigma_shape="drift", noise="outliers", sensor_interval=0.05),
-    Scenario(sensor_interval=0.1),
-])
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        Scenario(),
+        Scenario(sigma_knots=((0.5, 2.0), (1.0, 200.0)), noise="student"),
+        Scenario(sigma_knots=((0.5, 200.0),), sigma_shape="drift", noise="outliers", sensor_interval=0.05),
+        Scenario(sensor_interval=0.1),
+    ],
+)
 def test_clairvoyant_recursion_equals_a_textbook_kalman_filter(scenario):
     kb = kalman_bucy(MODEL)
     h = 0.01 / kb.r_min
@@ -136,17 +143,21 @@ def test_constant_sigma_settles_at_the_grids_stationary_filter_near_the_kalman_b
     n = int(40 / (kb.r_min * h))
     c = clairvoyant(MODEL, Scenario(), h, n)
     F = np.eye(MODEL.m) + h * MODEL.A
-    dare = solve_discrete_are(F.T, h * MODEL.C.T, h * MODEL.beta**2 * (MODEL.E @ MODEL.E.T),
-                              np.array([[h * MODEL.sigma**2]]))
+    dare = solve_discrete_are(
+        F.T, h * MODEL.C.T, h * MODEL.beta**2 * (MODEL.E @ MODEL.E.T), np.array([[h * MODEL.sigma**2]])
+    )
     assert np.allclose(c.var[-1], np.diag(dare), rtol=1e-9)
     # the grid's stationary filter is the Kalman–Bucy filter within the grid's O(h) bias
     assert np.allclose(np.sqrt(c.var[-1] / np.diag(kb.delta)), 1.0, atol=0.02)
 
 
-@pytest.mark.parametrize("scenario", [
-    Scenario(sigma_knots=((0.3, 2.0),), noise="student", dof=5.0),
-    Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift", noise="outliers", sensor_interval=0.05),
-])
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        Scenario(sigma_knots=((0.3, 2.0),), noise="student", dof=5.0),
+        Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift", noise="outliers", sensor_interval=0.05),
+    ],
+)
 def test_simulated_clairvoyant_errors_have_the_recursions_variance(scenario):
     """Many independent paths of the Euler truth and the clairvoyant filter (written out here, as the kernel will
     run it): the empirical error variance at each time is P_k within its sampling error."""

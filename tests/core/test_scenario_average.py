@@ -1,4 +1,5 @@
 """Scenario runs over seeds in time (isl_core.scenario.average) and the who-wins map's ties."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,8 +20,15 @@ def average():
 
 
 def test_each_seed_is_its_own_run(average):
-    again = simulate_scenario(MODEL, 1.0, DROP, horizon=12.0, windows=120, seed=5,
-                              extra=[adaptive_kbf(MODEL, sigma_range=(2.0, 200.0), sigma_init=20.0)])
+    again = simulate_scenario(
+        MODEL,
+        1.0,
+        DROP,
+        horizon=12.0,
+        windows=120,
+        seed=5,
+        extra=[adaptive_kbf(MODEL, sigma_range=(2.0, 200.0), sigma_init=20.0)],
+    )
     assert average.seeds == (3, 4, 5, 6, 7, 8)
     np.testing.assert_array_equal(average.mse[2], again.mse)
     np.testing.assert_array_equal(average.sigma_hat[2], again.sigma_hat)

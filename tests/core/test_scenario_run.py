@@ -1,5 +1,6 @@
 """Scenario runs (isl_core.scenario.run, isl_core.kernels.scenario): an independent loop, today's runs, the
 reference."""
+
 from __future__ import annotations
 
 import math
@@ -30,12 +31,15 @@ def test_the_constant_gaussian_scenario_gives_todays_run_bit_for_bit():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario", [
-    Scenario(),
-    Scenario(sigma_knots=((10.0, 2.0),)),
-    Scenario(sigma_knots=((10.0, 200.0),), noise="student", dof=3.0),
-    Scenario(noise="outliers", sensor_interval=0.1),
-])
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        Scenario(),
+        Scenario(sigma_knots=((10.0, 2.0),)),
+        Scenario(sigma_knots=((10.0, 200.0),), noise="student", dof=3.0),
+        Scenario(noise="outliers", sensor_interval=0.1),
+    ],
+)
 def test_the_clairvoyant_filters_error_matches_its_own_covariance_on_long_runs(scenario):
     run = simulate_scenario(MODEL, 3.0, scenario, horizon=4000.0, windows=100, seed=1)
     # per window of 40/r_min at σ(0) (many settling times, so nearly independent batches): MSE / mean P ≈ 1. (Pooled
@@ -59,12 +63,15 @@ def test_a_filter_that_diverges_is_stopped_and_marked_while_the_others_go_on():
     assert np.all(np.isfinite(run.mse[:, 0])) and np.all(run.ratios()[:, 0] < 3.0)
 
 
-@pytest.mark.parametrize(("scenario", "horizon"), [
-    (Scenario(sigma_knots=((0.2, 2.0), (0.4, 50.0))), 0.8),
-    (Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift"), 0.8),
-    (Scenario(sensor_interval=0.03), 0.8),
-    (Scenario(sigma_knots=((25.0, 2.0),), sensor_interval=0.05), 30.0),  # the sensor cycle settles, then σ steps
-])
+@pytest.mark.parametrize(
+    ("scenario", "horizon"),
+    [
+        (Scenario(sigma_knots=((0.2, 2.0), (0.4, 50.0))), 0.8),
+        (Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift"), 0.8),
+        (Scenario(sensor_interval=0.03), 0.8),
+        (Scenario(sigma_knots=((25.0, 2.0),), sensor_interval=0.05), 30.0),  # the sensor cycle settles, then σ steps
+    ],
+)
 def test_the_runs_windows_hold_the_clairvoyant_variance_and_sigma_of_their_steps(scenario, horizon):
     """The run's loop carries the clairvoyant recursion in line and sums P_ii and σ_k per window, once per stretch
     where both repeat (or reads a settled sensor cycle back): the same, per window, as the whole recursion
@@ -78,8 +85,9 @@ def test_the_runs_windows_hold_the_clairvoyant_variance_and_sigma_of_their_steps
     np.testing.assert_allclose(run.sigma, sig, rtol=1e-12)
 
 
-@pytest.mark.parametrize("scenario", [Scenario(noise="student"),
-                                      Scenario(sigma_knots=((0.3, 2.0),), sensor_interval=0.03)])
+@pytest.mark.parametrize(
+    "scenario", [Scenario(noise="student"), Scenario(sigma_knots=((0.3, 2.0),), sensor_interval=0.03)]
+)
 def test_a_plan_runs_any_seed_as_simulate_scenario_does_and_is_not_changed_by_its_runs(scenario):
     """average_scenario sets a scenario up once (plan_scenario) and runs it per seed: every run must be the one
     simulate_scenario gives for that seed, whichever runs came before (a run that wrote into the plan's arrays, the
@@ -87,8 +95,10 @@ def test_a_plan_runs_any_seed_as_simulate_scenario_does_and_is_not_changed_by_it
     extra = [variational_kbf(MODEL, sigma_init=40.0), robust_kbf(MODEL, sigma_init=40.0)]
     plan = plan_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, extra=extra)
     for seed in (3, 1, 3):
-        run, alone = plan.run(seed), simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=seed,
-                                                      extra=extra)
+        run, alone = (
+            plan.run(seed),
+            simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=5, seed=seed, extra=extra),
+        )
         np.testing.assert_array_equal(run.mse, alone.mse)
         np.testing.assert_array_equal(run.sigma_hat, alone.sigma_hat)
         np.testing.assert_array_equal(run.ref_var, alone.ref_var)

@@ -1,4 +1,5 @@
 """The fair table (isl_core.scenario.table), the who-wins maps (isl_core.scenario.map) and ``isl scenario``."""
+
 from __future__ import annotations
 
 import csv
@@ -14,10 +15,17 @@ from isl_core.scenario.map import who_wins_map
 from isl_core.scenario.table import PRESETS, table_from
 from isl_core.scenario.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune
 
-SMALL = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
-         "constant": ("constant σ", 20.0, Scenario())}
-GRIDS = TuningGrids(isl_ell=(-4.0, -2.0, 0.0), memory=(10.0, 100.0, 1000.0), robust_c=(1.345, 3.0),
-                    imm_switch=(1e-3, 1e-1), imm_modes=(5,))
+SMALL = {
+    "drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
+    "constant": ("constant σ", 20.0, Scenario()),
+}
+GRIDS = TuningGrids(
+    isl_ell=(-4.0, -2.0, 0.0),
+    memory=(10.0, 100.0, 1000.0),
+    robust_c=(1.345, 3.0),
+    imm_switch=(1e-3, 1e-1),
+    imm_modes=(5,),
+)
 
 
 @pytest.fixture(scope="module")
@@ -111,8 +119,10 @@ def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
     assert set(doc["tuned"]) == set(FAMILIES)
     vb = [c for c in doc["curves"] if c["family"] == "vb"]
     assert next(c["memory"] for c in vb) == 10.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
-    assert all(c["memory_over_r_min"] == pytest.approx(c["memory"] * doc["meta"]["one_reading_over_r_min"]["constant"])
-               for c in vb)
+    assert all(
+        c["memory_over_r_min"] == pytest.approx(c["memory"] * doc["meta"]["one_reading_over_r_min"]["constant"])
+        for c in vb
+    )
     with open(out) as fh:
         assert len(list(csv.DictReader(fh))) == len(doc["curves"])
     assert main([*args, "--quiet"]) == 0
@@ -133,8 +143,24 @@ def test_the_sigma_step_map_has_a_row_per_period_after_the_step_with_the_tables_
 def test_the_one_dimensional_maps_and_the_command(capsys):
     res = who_wins_map("tails", values=(3.0, 100.0), seeds=2, after=6.0, untuned=True)
     assert res.ratio.shape == (1, 2, len(res.filters)) and np.isnan(res.rows[0]) and res.origin.startswith("untuned")
-    assert main(["scenario", "--map", "sensor", "--values", "0,0.1", "--seeds", "2", "--horizon", "6", "--json",
-                 "--untuned"]) == 0
+    assert (
+        main(
+            [
+                "scenario",
+                "--map",
+                "sensor",
+                "--values",
+                "0,0.1",
+                "--seeds",
+                "2",
+                "--horizon",
+                "6",
+                "--json",
+                "--untuned",
+            ]
+        )
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     assert doc["meta"]["map"] == "sensor" and [c["value"] for c in doc["cells"]] == [0.0, 0.1]
     assert all(c["winner"] in doc["meta"]["filters"] and c["winner"] != "clairvoyant" for c in doc["cells"])

@@ -4,6 +4,7 @@ Monte-Carlo tolerances come from batch means: a long run is cut into B batches m
 filter's settling time 1/r_min, so the batch means of the squared error are nearly independent and
 ``SE = std(batch means)/√B``; a ratio ``√(mean)/s`` then has ``SE_ratio = ratio·SE/(2·mean)`` (delta method).
 """
+
 from __future__ import annotations
 
 import importlib
@@ -49,6 +50,7 @@ def ratio_and_se(res, f: int = 0) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------------------------- the Run object
+
 
 def test_same_seed_gives_a_bit_identical_run():
     a, b = simulate(FIG3, 3.0, seed=7), simulate(FIG3, 3.0, seed=7)
@@ -126,6 +128,7 @@ def test_short_runs_of_the_optimal_filter_are_honest():
     papers = np.array([simulate(FIG3, 3.0, horizon=1.0, seed=k, start="truth").ratio_hat ** 2 for k in range(50)])
     assert np.all(papers.mean(axis=0) < 0.75)
 
+
 def test_extra_filters_ride_on_the_same_noise():
     kb = kalman_bucy(FIG3)
     copy = FilterSpec("kbf2", "copy of the optimal filter", FIG3.alpha, np.array(kb.K), False)
@@ -171,9 +174,16 @@ def test_euler_bias_is_the_simulated_excess_of_the_optimal_filter():
     h = 0.1 / np.abs(kb.eig).max()
     res = simulate_rmse(model, [optimal_kbf(model, kb)], T=4e3 / kb.r_min, h=h, batches=40, seed=3)
     ratio, se = ratio_and_se(res)
-    predicted = np.sqrt(np.diagonal(lyapunov(model.A - np.outer(kb.K, model.C[0]),
-                                                  model.beta**2 * (model.E @ model.E.T)
-                                                  + np.outer(kb.K, kb.K) * model.sigma**2, h)) / np.diag(kb.delta))
+    predicted = np.sqrt(
+        np.diagonal(
+            lyapunov(
+                model.A - np.outer(kb.K, model.C[0]),
+                model.beta**2 * (model.E @ model.E.T) + np.outer(kb.K, kb.K) * model.sigma**2,
+                h,
+            )
+        )
+        / np.diag(kb.delta)
+    )
     assert np.max(np.abs(predicted - 1.0)) == pytest.approx(grid.euler_bias(model, kb, h))
     assert np.all(np.abs(ratio - predicted) <= 4.0 * se), (ratio, predicted, se)
     assert np.max(predicted) > 1.0 + 4.0 * np.max(se)  # the bias is real, not sampling noise
@@ -220,8 +230,18 @@ def test_errors_keep_their_digits_whatever_the_signal_size():
         x[:-1] += shift
         e = np.tile(e0, (2, 1))
         X, E = np.empty((n + 1, 6)), np.empty((2, n + 1, 6))
-        advance(x, e, rng, n, 0, Grid(h, model.alpha, model.beta), model.sigma, engine.pack(model, specs),
-                Batches(0, n, np.zeros((1, 2, 6)), np.empty((1, 0))), Trajectory(True, 0, X, E, np.empty((0, n + 1))))
+        advance(
+            x,
+            e,
+            rng,
+            n,
+            0,
+            Grid(h, model.alpha, model.beta),
+            model.sigma,
+            engine.pack(model, specs),
+            Batches(0, n, np.zeros((1, 2, 6)), np.empty((1, 0))),
+            Trajectory(True, 0, X, E, np.empty((0, n + 1))),
+        )
         out.append((X, E))
     np.testing.assert_array_equal(out[0][1][:, 1:], out[1][1][:, 1:])
     assert np.min(np.abs(out[1][0][1:, 0])) > 1e14
@@ -229,18 +249,20 @@ def test_errors_keep_their_digits_whatever_the_signal_size():
 
 # --------------------------------------------------------------------------------------- simulate_rmse
 
+
 def test_simulate_rmse_matches_stored_run_across_chunks(monkeypatch):
     monkeypatch.setattr(engine, "CHUNK", 97)  # many kernel calls: batch and burn counters cross chunk edges
     kb = kalman_bucy(FIG3)
     run = simulate(FIG3, 3.0, seed=9, T=200.0)
     burn, batches = 7.3, 6
-    res = simulate_rmse(FIG3, [optimal_kbf(FIG3, kb), isl_filter(FIG3, 3.0)], T=200.0, seed=9,
-                        burn=burn, batches=batches)
+    res = simulate_rmse(
+        FIG3, [optimal_kbf(FIG3, kb), isl_filter(FIG3, 3.0)], T=200.0, seed=9, burn=burn, batches=batches
+    )
     assert res.h == run.h and res.names == ("kbf", "isl")
     k0 = int(burn / run.h)
     assert res.counts.sum() == run.N - k0 and np.all(res.counts[:-1] == (run.N - k0) // batches)
     for f, tr in enumerate(run.tracks):
-        err2 = (tr.estimate[k0 + 1:] - run.X[k0 + 1:]) ** 2
+        err2 = (tr.estimate[k0 + 1 :] - run.X[k0 + 1 :]) ** 2
         np.testing.assert_allclose(res.sq[:, f].sum(axis=0), err2.sum(axis=0), rtol=run.N * EPS)
         np.testing.assert_allclose(res.sq[0, f], err2[: int(res.counts[0])].sum(axis=0), rtol=run.N * EPS)
     np.testing.assert_allclose(res.batch_ratios().shape, (batches, 2, 3))
@@ -265,13 +287,16 @@ def test_progress_is_reported_and_can_cancel(monkeypatch):
 
 # ---------------------------------------------------------------------------------- long-run statistics
 
-@pytest.mark.parametrize("model", [FIG3, Model(0.5, 3.0, 200.0, 3), Model(25.0, 3.0 * math.sqrt(50.0), 2.0, 3)],
-                         ids=["fig3-sigma20", "fig3-sigma200", "alpha25-sigma2"])
+
+@pytest.mark.parametrize(
+    "model",
+    [FIG3, Model(0.5, 3.0, 200.0, 3), Model(25.0, 3.0 * math.sqrt(50.0), 2.0, 3)],
+    ids=["fig3-sigma20", "fig3-sigma200", "alpha25-sigma2"],
+)
 def test_kalman_bucy_empirical_rmse_equals_theory(model):
     """ŝ_i/s_i = 1 ± 5 % on a long run (T = 10⁴/r_min ≥ 1000/r_min), and ±5 % is a ≥ 4-SE band."""
     kb = kalman_bucy(model)
-    res = simulate_rmse(model, [optimal_kbf(model, kb)], T=1e4 / kb.r_min, burn=10.0 / kb.r_min,
-                        batches=50, seed=2024)
+    res = simulate_rmse(model, [optimal_kbf(model, kb)], T=1e4 / kb.r_min, burn=10.0 / kb.r_min, batches=50, seed=2024)
     ratio, se = ratio_and_se(res)
     assert np.all(Z_BAND * se <= 0.05), f"run too short for a ±5 % test: SE = {se}"
     assert np.all(np.abs(ratio - 1.0) <= 0.05), f"ratio {ratio} ± {se}"
@@ -303,6 +328,7 @@ def test_isl_m1_alpha0_ratio_is_b52():
 
 # ------------------------------------------------------------------------------------------ guard rails
 
+
 def test_divergence_is_reported_with_its_time():
     with pytest.raises(DivergenceError, match=r"diverged at t = [0-9.e+]+ \(step"):
         simulate(FIG3, 3.0, h=10.0, T=1e4)
@@ -327,8 +353,9 @@ def test_too_many_steps_is_a_clear_error(T, h):
 BAD = [math.nan, math.inf, -math.inf, None, "1", True, -1.0, 0.0, 1 + 1j]
 
 
-@pytest.mark.parametrize(("name", "value"), [("nu", v) for v in BAD] + [(n, v) for n in ("T", "h") for v in BAD
-                                                                          if v is not None])  # None: default
+@pytest.mark.parametrize(
+    ("name", "value"), [("nu", v) for v in BAD] + [(n, v) for n in ("T", "h") for v in BAD if v is not None]
+)  # None: default
 def test_bad_simulate_inputs_name_the_parameter(name, value):
     kwargs = {"nu": 3.0, "T": 50.0, "h": None}
     kwargs[name] = value
@@ -367,18 +394,21 @@ def test_bad_filters_and_extra():
             simulate(FIG3, 3.0, extra=bad)
 
 
-@pytest.mark.parametrize("kwargs, pattern", [
-    ({"batches": 0}, r"^batches must be an integer >= 1"),
-    ({"batches": 2.5}, r"^batches must be an integer >= 1"),
-    ({"batches": 10**9}, r"^batches must be an integer >= 1 and <= 10000"),
-    ({"batches": 9000, "T": 1.0}, r"^batches must be <= the number of steps"),
-    ({"burn": -1.0}, r"^burn must be a finite number >= 0 and <= 10"),
-    ({"burn": math.nan}, r"^burn must be a finite number >= 0"),
-    ({"burn": 1e308}, r"^burn must be a finite number >= 0 and <= 10"),
-    ({"progress": 3}, r"^progress must be a callable or None"),
-    ({"h": -1.0}, r"^h must be a finite number > 0"),
-    ({"T": None}, r"^T must be a finite number > 0; got nothing \(an empty box or a missing value\)"),
-])
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"batches": 0}, r"^batches must be an integer >= 1"),
+        ({"batches": 2.5}, r"^batches must be an integer >= 1"),
+        ({"batches": 10**9}, r"^batches must be an integer >= 1 and <= 10000"),
+        ({"batches": 9000, "T": 1.0}, r"^batches must be <= the number of steps"),
+        ({"burn": -1.0}, r"^burn must be a finite number >= 0 and <= 10"),
+        ({"burn": math.nan}, r"^burn must be a finite number >= 0"),
+        ({"burn": 1e308}, r"^burn must be a finite number >= 0 and <= 10"),
+        ({"progress": 3}, r"^progress must be a callable or None"),
+        ({"h": -1.0}, r"^h must be a finite number > 0"),
+        ({"T": None}, r"^T must be a finite number > 0; got nothing \(an empty box or a missing value\)"),
+    ],
+)
 def test_bad_simulate_rmse_inputs(kwargs, pattern):
     kwargs = {"T": 10.0, **kwargs}
     with pytest.raises(ValueError, match=pattern):

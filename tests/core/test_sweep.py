@@ -1,5 +1,6 @@
 """Sweeps (:ref:`empirical-rmse`): optimal filter at its own RMSE, theory alongside, and reproducibility across
 executors."""
+
 from __future__ import annotations
 
 import concurrent.futures as cf
@@ -95,6 +96,7 @@ def test_group_seed_does_not_depend_on_the_grid(local):
 
 def test_dask_local_cluster_gives_identical_results(local):
     import distributed  # the dask extra: installed with the tests (ISL_EXTRAS=test,dask)
+
     with (
         distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cl,
         distributed.Client(cl) as client,
@@ -137,13 +139,26 @@ def test_diverged_filter_is_nan_and_others_unchanged():
     assert np.array_equal(sq[:, 2], alone.sq[:, 0]) and np.array_equal(counts, alone.counts)
 
 
-@pytest.mark.parametrize("kw, name", [
-    (dict(alphas=[]), "alphas"), (dict(alphas=[0.0]), "alphas"), (dict(sigmas=[math.nan]), "sigmas"),
-    (dict(nu_over_beta=[-1.0]), "nu_over_beta"), (dict(m=7), "m"), (dict(w=0.0), "w"),
-    (dict(horizon=math.inf), "horizon"), (dict(seeds=[-1]), "seeds"), (dict(seeds=[]), "seeds"),
-    (dict(batches=0), "batches"), (dict(level=1.0), "level"), (dict(chunk=0), "chunk"),
-    (dict(horizon=1e9), "horizon"), (dict(workers=0), "workers"), (dict(progress=3), "progress"),
-])
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        (dict(alphas=[]), "alphas"),
+        (dict(alphas=[0.0]), "alphas"),
+        (dict(sigmas=[math.nan]), "sigmas"),
+        (dict(nu_over_beta=[-1.0]), "nu_over_beta"),
+        (dict(m=7), "m"),
+        (dict(w=0.0), "w"),
+        (dict(horizon=math.inf), "horizon"),
+        (dict(seeds=[-1]), "seeds"),
+        (dict(seeds=[]), "seeds"),
+        (dict(batches=0), "batches"),
+        (dict(level=1.0), "level"),
+        (dict(chunk=0), "chunk"),
+        (dict(horizon=1e9), "horizon"),
+        (dict(workers=0), "workers"),
+        (dict(progress=3), "progress"),
+    ],
+)
 def test_bad_arguments_name_the_parameter(kw, name):
     args = dict(alphas=[1.0], sigmas=[20.0], nu_over_beta=[1.0], horizon=10.0) | kw
     with pytest.raises(ValueError, match=name):

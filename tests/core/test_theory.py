@@ -1,5 +1,6 @@
 """Statistical-linearization theory (B.40–B.52, :ref:`theory`, :ref:`mismatched-kbf`): closed forms, residuals, and
 simulation."""
+
 from __future__ import annotations
 
 import math

@@ -1,5 +1,6 @@
 """One tuning rule for every family (isl_core.scenario.tuning): the minimax of the period statistic, on common noise,
 cached."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -10,10 +11,17 @@ from isl_core.riccati import kalman_bucy
 from isl_core.scenario.periods import edge_times, per_seed
 from isl_core.scenario.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune, variant_name
 
-PRESETS = {"drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
-           "constant": ("constant σ", 20.0, Scenario())}
-GRIDS = TuningGrids(isl_ell=(-4.0, -2.0, 0.0), memory=(10.0, 100.0, 1000.0), robust_c=(1.345, 3.0),
-                    imm_switch=(1e-3, 1e-1), imm_modes=(5,))
+PRESETS = {
+    "drop": ("σ 20 → 2 at 2/r_min", 20.0, Scenario(sigma_knots=((2.0, 2.0),))),
+    "constant": ("constant σ", 20.0, Scenario()),
+}
+GRIDS = TuningGrids(
+    isl_ell=(-4.0, -2.0, 0.0),
+    memory=(10.0, 100.0, 1000.0),
+    robust_c=(1.345, 3.0),
+    imm_switch=(1e-3, 1e-1),
+    imm_modes=(5,),
+)
 KW = {"presets": PRESETS, "seeds": 6, "horizon": 5.0, "grids": GRIDS}
 
 
@@ -23,14 +31,21 @@ def tuning():
 
 
 def test_every_variant_of_every_family_rides_in_the_runs_with_its_knob(tuning):
-    assert tuning.names[:3] == ("clairvoyant", "kbf", "isl") and tuning.family[:3] == ("clairvoyant", "kbf",
-                                                                                        "isl_paper")
+    assert tuning.names[:3] == ("clairvoyant", "kbf", "isl") and tuning.family[:3] == (
+        "clairvoyant",
+        "kbf",
+        "isl_paper",
+    )
     for family in FAMILIES:
         idx = tuning.variants(family)
         assert [tuning.knobs[j] for j in idx] == GRIDS.points(family)
         assert [tuning.names[j] for j in idx] == [variant_name(family, k) for k in GRIDS.points(family)]
     assert [(tuning.presets[p], per.name) for p, per in tuning.cells] == [
-        ("drop", "after_1"), ("drop", "after_2"), ("drop", "settled"), ("constant", "settled")]
+        ("drop", "after_1"),
+        ("drop", "after_2"),
+        ("drop", "settled"),
+        ("constant", "settled"),
+    ]
     assert tuning.y.shape == (6, 4, len(tuning.names))
     # one reading is one step in these presets: W readings are W·h·r_min
     r_min = kalman_bucy(Model.from_w(1.0, 3.0, 20.0, 3)).r_min
@@ -56,9 +71,16 @@ def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tunin
     every = tuning.grid_filters(model)
     chosen = [tuning.minimax("imm"), tuning.minimax("vb")]
     periods = tuple(per for _, per in tuning.cells[:3])
-    avg = average_scenario(model, model.beta * 0.2, scenario, seeds=range(6), horizon=5.0,
-                           edges=edge_times(periods, 5.0), extra=[tuning.filter(j, model) for j in chosen],
-                           grid_filters=every)
+    avg = average_scenario(
+        model,
+        model.beta * 0.2,
+        scenario,
+        seeds=range(6),
+        horizon=5.0,
+        edges=edge_times(periods, 5.0),
+        extra=[tuning.filter(j, model) for j in chosen],
+        grid_filters=every,
+    )
     assert tuning.steps[0] == avg.run.N
     y = per_seed(avg.mse, avg.run, periods)
     np.testing.assert_allclose(y[:, :, 3:], tuning.y[:, :3, chosen], rtol=1e-12)
@@ -88,8 +110,10 @@ def test_an_unwritable_cache_keeps_the_tuning_in_memory(tmp_path, monkeypatch):
     assert "kept in memory" in res.origin and tune(1.0, **small) is res
 
 
-@pytest.mark.parametrize(("kwargs", "named"), [({"seeds": 1}, "seeds"), ({"horizon": 0.0}, "horizon"),
-                                               ({"alpha": 0.0}, "alpha"), ({"presets": {}}, "presets")])
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [({"seeds": 1}, "seeds"), ({"horizon": 0.0}, "horizon"), ({"alpha": 0.0}, "alpha"), ({"presets": {}}, "presets")],
+)
 def test_bad_settings_are_named(kwargs, named):
     with pytest.raises(ValueError, match=named):
         tune(**{"alpha": 1.0, **kwargs})

@@ -8,6 +8,7 @@ RecursionError …) whose message names the argument and says what it must be. T
 :func:`read_real` / :func:`read_int` never raise anything but ``ValueError`` and accept exactly ASCII decimal
 notation. Together these try well over 1000 generated inputs (the count is printed).
 """
+
 from __future__ import annotations
 
 import math
@@ -39,12 +40,30 @@ HOSTILE = st.one_of(
     st.sampled_from([10**5000, -(10**400), 2**1024, -(2**63), 10**20]),
     st.text(max_size=30),
     st.sampled_from(["٣", "１２", "NaN", "Infinity", "-inf", "1e999", "", " ", "[[1]]", "0x10", "𝟙"]),
-    st.none(), st.booleans(), st.complex_numbers(max_magnitude=1e6), st.binary(max_size=8),
-    st.just([]), st.just(()), st.lists(st.floats(allow_nan=True) | st.none(), min_size=1, max_size=4),
-    st.integers(1, 3000).map(nested), st.lists(st.lists(st.floats(), max_size=2), max_size=3),
+    st.none(),
+    st.booleans(),
+    st.complex_numbers(max_magnitude=1e6),
+    st.binary(max_size=8),
+    st.just([]),
+    st.just(()),
+    st.lists(st.floats(allow_nan=True) | st.none(), min_size=1, max_size=4),
+    st.integers(1, 3000).map(nested),
+    st.lists(st.lists(st.floats(), max_size=2), max_size=3),
     st.dictionaries(st.text(max_size=3), st.integers(), max_size=2),
-    st.sampled_from([np.float64("nan"), np.int64(-7), np.array([1.0, 2.0]), np.array([]), object(), Ellipsis,
-                     np.datetime64("2020-01-01"), np.complex128(1j), {1.0}, range(0)]),
+    st.sampled_from(
+        [
+            np.float64("nan"),
+            np.int64(-7),
+            np.array([1.0, 2.0]),
+            np.array([]),
+            object(),
+            Ellipsis,
+            np.datetime64("2020-01-01"),
+            np.complex128(1j),
+            {1.0},
+            range(0),
+        ]
+    ),
 )
 
 
@@ -77,10 +96,12 @@ def _flat(v) -> bool:
 
 def _many(ok):
     """Accepts a single valid value or a non-empty flat sequence of them (as the core's list arguments do)."""
+
     def accepts(v) -> bool:
         if _flat(v):
             return len(v) > 0 and all(ok(x) for x in v)
         return ok(v)
+
     return accepts
 
 
@@ -109,45 +130,93 @@ CASES = {
     "simulate.horizon": (lambda v: core.simulate(M, 3.0, horizon=v), "horizon", lambda v: _real(v, 0.0, 1e3)),
     "simulate.T": (lambda v: core.simulate(M, 3.0, T=v), "T", lambda v: v is None or _real(v, 0.0, 30.0)),
     "simulate.h": (lambda v: core.simulate(M, 3.0, T=1.0, h=v), "h", lambda v: v is None or _real(v, 1e-3, 1.0)),
-    "simulate.seed": (lambda v: core.simulate(M, 3.0, horizon=1.0, seed=v), "seed",  # any entropy numpy takes
-                      _seed),
+    "simulate.seed": (
+        lambda v: core.simulate(M, 3.0, horizon=1.0, seed=v),
+        "seed",  # any entropy numpy takes
+        _seed,
+    ),
     "simulate.start": (lambda v: core.simulate(M, 3.0, horizon=1.0, start=v), "start", lambda v: False),
-    "simulate.extra": (lambda v: core.simulate(M, 3.0, horizon=1.0, extra=v), "extra",
-                       lambda v: isinstance(v, list | tuple | range) and len(v) == 0),
-    "simulate_rmse.T": (lambda v: core.simulate_rmse(M, [core.isl_filter(M, 3.0)], T=v), "T",
-                        lambda v: _real(v, 0.0, 30.0)),
-    "simulate_rmse.batches": (lambda v: core.simulate_rmse(M, [core.isl_filter(M, 3.0)], T=10.0, batches=v),
-                              "batches", lambda v: _whole(v, 1, 300)),
-    "simulate_rmse.burn": (lambda v: core.simulate_rmse(M, [core.isl_filter(M, 3.0)], T=10.0, burn=v), "burn",
-                           lambda v: _real(v, 0.0, 10.0)),
+    "simulate.extra": (
+        lambda v: core.simulate(M, 3.0, horizon=1.0, extra=v),
+        "extra",
+        lambda v: isinstance(v, list | tuple | range) and len(v) == 0,
+    ),
+    "simulate_rmse.T": (
+        lambda v: core.simulate_rmse(M, [core.isl_filter(M, 3.0)], T=v),
+        "T",
+        lambda v: _real(v, 0.0, 30.0),
+    ),
+    "simulate_rmse.batches": (
+        lambda v: core.simulate_rmse(M, [core.isl_filter(M, 3.0)], T=10.0, batches=v),
+        "batches",
+        lambda v: _whole(v, 1, 300),
+    ),
+    "simulate_rmse.burn": (
+        lambda v: core.simulate_rmse(M, [core.isl_filter(M, 3.0)], T=10.0, burn=v),
+        "burn",
+        lambda v: _real(v, 0.0, 10.0),
+    ),
     "predicted_ratios.nu": (lambda v: core.predicted_ratios(M, v), "nu", lambda v: _real(v, **pos)),
-    "predicted_ratios_grid.nus": (lambda v: core.predicted_ratios_grid(M, v), "nus",
-                                  _many(lambda v: _real(v, 0.0, lo_open=True))),
+    "predicted_ratios_grid.nus": (
+        lambda v: core.predicted_ratios_grid(M, v),
+        "nus",
+        _many(lambda v: _real(v, 0.0, lo_open=True)),
+    ),
     "mismatched_kbf.sigma_design": (lambda v: core.mismatched_kbf(M, v), "sigma_design", lambda v: _real(v, **pos)),
     "adaptive_kbf.memory": (lambda v: core.adaptive_kbf(M, memory=v), "memory", lambda v: _real(v, 1.0)),
     "adaptive_kbf.sigma_range": (lambda v: core.adaptive_kbf(M, sigma_range=v), "sigma_range", _range_pair),
     "baseline_filters.names": (lambda v: core.baseline_filters(M, nu=3.0, names=v), "names", lambda v: False),
-    "sweep.alphas": (lambda v: core.sweep(v, [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2), "alphas",
-                     _many(lambda v: _real(v, 0.0, 1e3, lo_open=True))),
-    "sweep.sigmas": (lambda v: core.sweep([1.0], v, [1.0], horizon=20.0, seeds=(0,), batches=2), "sigmas",
-                     _many(lambda v: _real(v, 0.0, 1e3, lo_open=True))),
-    "sweep.horizon": (lambda v: core.sweep([1.0], [20.0], [1.0], horizon=v, seeds=(0,), batches=2), "horizon",
-                      lambda v: _real(v, 0.0, 50.0)),
-    "sweep.seeds": (lambda v: core.sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=v, batches=2), "seeds",
-                    _many(_seed)),
-    "sweep.m": (lambda v: core.sweep([1.0], [20.0], [1.0], m=v, horizon=20.0, seeds=(0,), batches=2), "m",
-                lambda v: _whole(v, 1, 6)),
-    "sweep.level": (lambda v: core.sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2, level=v),
-                    "level", lambda v: _real(v, 0.0, 1.0, lo_open=True) and float(v) < 1.0),
-    "worst_case.sigma_range": (lambda v: core.worst_case([1.0], sigma_range=v, horizon=20.0, seeds=(0,)),
-                               "sigma_range", _range_pair),
-    "worst_case.n_sigma": (lambda v: core.worst_case([1.0], n_sigma=v, horizon=20.0, seeds=(0,)), "n_sigma",
-                           lambda v: _whole(v, 2, 3)),
-    "worst_case.filters": (lambda v: core.worst_case([1.0], filters=v, horizon=20.0, seeds=(0,)), "filters",
-                           lambda v: False),
+    "sweep.alphas": (
+        lambda v: core.sweep(v, [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2),
+        "alphas",
+        _many(lambda v: _real(v, 0.0, 1e3, lo_open=True)),
+    ),
+    "sweep.sigmas": (
+        lambda v: core.sweep([1.0], v, [1.0], horizon=20.0, seeds=(0,), batches=2),
+        "sigmas",
+        _many(lambda v: _real(v, 0.0, 1e3, lo_open=True)),
+    ),
+    "sweep.horizon": (
+        lambda v: core.sweep([1.0], [20.0], [1.0], horizon=v, seeds=(0,), batches=2),
+        "horizon",
+        lambda v: _real(v, 0.0, 50.0),
+    ),
+    "sweep.seeds": (
+        lambda v: core.sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=v, batches=2),
+        "seeds",
+        _many(_seed),
+    ),
+    "sweep.m": (
+        lambda v: core.sweep([1.0], [20.0], [1.0], m=v, horizon=20.0, seeds=(0,), batches=2),
+        "m",
+        lambda v: _whole(v, 1, 6),
+    ),
+    "sweep.level": (
+        lambda v: core.sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2, level=v),
+        "level",
+        lambda v: _real(v, 0.0, 1.0, lo_open=True) and float(v) < 1.0,
+    ),
+    "worst_case.sigma_range": (
+        lambda v: core.worst_case([1.0], sigma_range=v, horizon=20.0, seeds=(0,)),
+        "sigma_range",
+        _range_pair,
+    ),
+    "worst_case.n_sigma": (
+        lambda v: core.worst_case([1.0], n_sigma=v, horizon=20.0, seeds=(0,)),
+        "n_sigma",
+        lambda v: _whole(v, 2, 3),
+    ),
+    "worst_case.filters": (
+        lambda v: core.worst_case([1.0], filters=v, horizon=20.0, seeds=(0,)),
+        "filters",
+        lambda v: False,
+    ),
     "recommend_nu.alpha": (lambda v: core.recommend_nu(v, verify=False), "alpha", lambda v: _real(v, **pos)),
-    "recommend_nu.sigmas": (lambda v: core.recommend_nu(1.0, sigmas=v, verify=False), "sigmas",
-                            _many(lambda v: _real(v, 0.0, lo_open=True))),
+    "recommend_nu.sigmas": (
+        lambda v: core.recommend_nu(1.0, sigmas=v, verify=False),
+        "sigmas",
+        _many(lambda v: _real(v, 0.0, lo_open=True)),
+    ),
 }
 
 
@@ -162,8 +231,13 @@ def test_every_public_entry_point_refuses_hostile_values_by_name(case):
     call, name, accepts = CASES[case]
     tried = []
 
-    @settings(max_examples=30, deadline=None, derandomize=True, database=None,
-              suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+    @settings(
+        max_examples=30,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow],
+    )
     @given(value=HOSTILE)
     def refused_by_name(value):
         assume(not accepts(value))
@@ -183,8 +257,10 @@ def test_every_public_entry_point_refuses_hostile_values_by_name(case):
 
 
 @settings(max_examples=1500, deadline=None, derandomize=True)
-@given(text=st.text(max_size=60) | st.sampled_from(["٣", "１２", "NaN", "-Infinity", "1e999", "9" * 5000, "[" * 3000,
-                                                    "0x1f", "1_000", "½"]))
+@given(
+    text=st.text(max_size=60)
+    | st.sampled_from(["٣", "１２", "NaN", "-Infinity", "1e999", "9" * 5000, "[" * 3000, "0x1f", "1_000", "½"])
+)
 def test_text_is_read_as_ascii_decimal_notation_only(text):
     ascii_number = re.fullmatch(r"\s*[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d{1,4})?\s*", text, re.ASCII)
     try:

@@ -4,6 +4,7 @@ The Fig. 2 table (α ∈ {0.04, 0.2, 1, 5, 25}, σ ∈ [2, 200], m = 3, w = 3) i
 (module fixture). Its intervals are at a Bonferroni level, 1 − 0.05/(number of intervals checked), so that
 "every interval covers" is a 95 % statement about the whole table.
 """
+
 from __future__ import annotations
 
 import concurrent.futures as cf
@@ -25,8 +26,9 @@ LEVEL = 1.0 - 0.05 / (len(ALPHAS) * N_SIGMA * M)
 
 @pytest.fixture(scope="module")
 def table():
-    return worst_case(ALPHAS, sigma_range=(2.0, 200.0), n_sigma=N_SIGMA, m=M, w=3.0, horizon=60.0, seeds=(3,),
-                      batches=6, level=LEVEL)
+    return worst_case(
+        ALPHAS, sigma_range=(2.0, 200.0), n_sigma=N_SIGMA, m=M, w=3.0, horizon=60.0, seeds=(3,), batches=6, level=LEVEL
+    )
 
 
 def test_layout(table):
@@ -102,14 +104,27 @@ def test_paper_tuning_beside_the_minimax_tuning(table):
         assert table.nu[a, a31] == pytest.approx(A31_NU_OVER_BETA[alpha] * beta, rel=1e-12)
     assert np.all(np.isfinite(table.worst[:, a31]))
     # where the table has no α, the paper's column is not simulated (nan), the others are
-    other = worst_case([0.5], sigma_range=(2.0, 200.0), n_sigma=2, horizon=20.0, seeds=(1,), batches=2,
-                       filters=("kbf", "isl", "isl_a31"))
+    other = worst_case(
+        [0.5],
+        sigma_range=(2.0, 200.0),
+        n_sigma=2,
+        horizon=20.0,
+        seeds=(1,),
+        batches=2,
+        filters=("kbf", "isl", "isl_a31"),
+    )
     assert np.isnan(other.worst[0, 2]) and np.isnan(other.nu[0, 2]) and np.all(np.isfinite(other.worst[0, :2]))
 
 
 def test_same_result_on_another_executor_and_chunking():
-    kw = {"sigma_range": (5.0, 50.0), "n_sigma": 2, "horizon": 20.0, "seeds": (1, 2), "batches": 2,
-          "filters": ("kbf_adaptive", "isl")}
+    kw = {
+        "sigma_range": (5.0, 50.0),
+        "n_sigma": 2,
+        "horizon": 20.0,
+        "seeds": (1, 2),
+        "batches": 2,
+        "filters": ("kbf_adaptive", "isl"),
+    }
     local = worst_case([1.0], workers=1, **kw)
     with cf.ThreadPoolExecutor(2) as pool:
         other = worst_case([1.0], executor=pool, chunk=3, **kw)
@@ -120,8 +135,16 @@ def test_same_result_on_another_executor_and_chunking():
 
 def test_progress_reaches_one_and_can_cancel():
     seen = []
-    worst_case([1.0], sigma_range=(5.0, 50.0), n_sigma=2, horizon=10.0, seeds=(0,), batches=2,
-               filters=("kbf",), progress=seen.append)
+    worst_case(
+        [1.0],
+        sigma_range=(5.0, 50.0),
+        n_sigma=2,
+        horizon=10.0,
+        seeds=(0,),
+        batches=2,
+        filters=("kbf",),
+        progress=seen.append,
+    )
     assert seen and seen[-1] == pytest.approx(1.0)
 
     class Stop(Exception):
@@ -134,20 +157,23 @@ def test_progress_reaches_one_and_can_cancel():
         worst_case([1.0], sigma_range=(5.0, 50.0), n_sigma=2, horizon=10.0, seeds=(0,), batches=2, progress=stop)
 
 
-@pytest.mark.parametrize("kwargs, pattern", [
-    ({"alphas": []}, r"^alphas must be a non-empty sequence"),
-    ({"alphas": [0.0]}, r"^alphas must be a finite number > 0"),
-    ({"sigma_range": (2.0, 2.0)}, r"^sigma_range must have sigma_max > sigma_min"),
-    ({"sigma_range": (5.0, 2.0)}, r"^sigma_range\[1\] must be a finite number >= 5"),
-    ({"n_sigma": 1}, r"^n_sigma must be an integer >= 2"),
-    ({"filters": ("kbf", "x")}, r"^filters must be a non-empty sequence of distinct names"),
-    ({"sigma_design": -1.0}, r"^sigma_design must be a finite number > 0"),
-    ({"horizon": math.inf}, r"^horizon must be a finite number > 0"),
-    ({"seeds": ()}, r"^seeds must be a non-empty sequence"),
-    ({"memory": 0.0}, r"^memory \(W, in readings\) must be a finite number >= 1"),
-    ({"progress": 3}, r"^progress must be a callable or None"),
-    ({"m": 7}, r"^m must be an integer >= 1 and <= 6"),
-])
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"alphas": []}, r"^alphas must be a non-empty sequence"),
+        ({"alphas": [0.0]}, r"^alphas must be a finite number > 0"),
+        ({"sigma_range": (2.0, 2.0)}, r"^sigma_range must have sigma_max > sigma_min"),
+        ({"sigma_range": (5.0, 2.0)}, r"^sigma_range\[1\] must be a finite number >= 5"),
+        ({"n_sigma": 1}, r"^n_sigma must be an integer >= 2"),
+        ({"filters": ("kbf", "x")}, r"^filters must be a non-empty sequence of distinct names"),
+        ({"sigma_design": -1.0}, r"^sigma_design must be a finite number > 0"),
+        ({"horizon": math.inf}, r"^horizon must be a finite number > 0"),
+        ({"seeds": ()}, r"^seeds must be a non-empty sequence"),
+        ({"memory": 0.0}, r"^memory \(W, in readings\) must be a finite number >= 1"),
+        ({"progress": 3}, r"^progress must be a callable or None"),
+        ({"m": 7}, r"^m must be an integer >= 1 and <= 6"),
+    ],
+)
 def test_bad_arguments_name_the_parameter(kwargs, pattern):
     kwargs = {"alphas": [1.0], "horizon": 5.0, **kwargs}
     with pytest.raises(ValueError, match=pattern):
@@ -162,8 +188,9 @@ def test_model_aware_option_of_sweep_and_recommend():
     res = sweep([1.0], [20.0], [0.125, 0.5], horizon=20.0, seeds=(0,), batches=2, model_aware=True)
     model = Model.from_w(1.0, 3.0, 20.0, 3)
     assert res.model_aware
-    np.testing.assert_array_equal(res.theory[0, 0], predicted_ratios_grid(model, model.beta * np.array([0.125, 0.5]),
-                                                                          damp=1.0))
+    np.testing.assert_array_equal(
+        res.theory[0, 0], predicted_ratios_grid(model, model.beta * np.array([0.125, 0.5]), damp=1.0)
+    )
     plain = sweep([1.0], [20.0], [0.125, 0.5], horizon=20.0, seeds=(0,), batches=2)
     assert not plain.model_aware and not np.array_equal(plain.theory, res.theory)
     assert np.all(np.isfinite(res.ratio)) and np.all(np.isfinite(res.kbf_ratio))

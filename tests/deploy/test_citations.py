@@ -1,6 +1,7 @@
 """The repository cites only what it contains: the code, the tests and the pages cite the docs (``:ref:`` to a label,
 Sphinx cross-references to ``docs/``) and the papers by their equation numbers, never a document a newcomer cannot
 open."""
+
 from __future__ import annotations
 
 import re
@@ -14,14 +15,20 @@ SKIP = {".git", ".venv", "node_modules", "_build", "__pycache__", ".hypothesis",
 
 
 def _texts(root: Path) -> list[Path]:
-    return [p for p in sorted(root.rglob("*")) if p.is_file() and p.suffix in TEXT_SUFFIXES
-            and not SKIP.intersection(p.relative_to(root).parts)]
+    return [
+        p
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and p.suffix in TEXT_SUFFIXES and not SKIP.intersection(p.relative_to(root).parts)
+    ]
 
 
 def outside_citations(root: Path) -> list[str]:
-    return [f"{p.relative_to(root)}:{n}" for p in _texts(root)
-            for n, line in enumerate(p.read_text(encoding="utf-8", errors="replace").splitlines(), 1)
-            if OUTSIDE.search(line) and p.resolve() != Path(__file__).resolve()]
+    return [
+        f"{p.relative_to(root)}:{n}"
+        for p in _texts(root)
+        for n, line in enumerate(p.read_text(encoding="utf-8", errors="replace").splitlines(), 1)
+        if OUTSIDE.search(line) and p.resolve() != Path(__file__).resolve()
+    ]
 
 
 def test_the_check_finds_an_outside_citation(tmp_path):

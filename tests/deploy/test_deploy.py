@@ -5,6 +5,7 @@ No cluster here, so the manifest is checked as data: every reference resolves (s
 holds its session), the probes use /liveness, the pod runs as the container hardening expects (non-root in group 0,
 read-only root file system with a writable /tmp), and the allowed origin is the ingress's host name.
 """
+
 from __future__ import annotations
 
 import yaml
@@ -27,7 +28,7 @@ def test_references_resolve_and_sessions_are_sticky():
     assert deployment["spec"]["replicas"] >= 2
     assert deployment["spec"]["selector"]["matchLabels"].items() <= pod["metadata"]["labels"].items()
     assert service["spec"]["selector"].items() <= pod["metadata"]["labels"].items()
-    container, = pod["spec"]["containers"]
+    (container,) = pod["spec"]["containers"]
     ports = {p["name"]: p["containerPort"] for p in container["ports"]}
     assert ports[service["spec"]["ports"][0]["targetPort"]] == int(dict(final_stage())["EXPOSE"])  # 5006
     backend = ingress["spec"]["rules"][0]["http"]["paths"][0]["backend"]["service"]
@@ -41,7 +42,7 @@ def test_references_resolve_and_sessions_are_sticky():
 def test_pods_run_as_the_image_is_hardened_for_and_probe_liveness():
     docs = documents()
     spec = docs["Deployment"]["spec"]["template"]["spec"]
-    container, = spec["containers"]
+    (container,) = spec["containers"]
     assert spec["securityContext"]["runAsNonRoot"] and spec["securityContext"]["runAsGroup"] == 0
     assert container["securityContext"]["readOnlyRootFilesystem"] is True
     assert container["securityContext"]["allowPrivilegeEscalation"] is False

@@ -5,6 +5,7 @@ There is no Docker engine on CI machines, so the image is not built; instead the
 ``ENV`` — except ``ISL_ADDRESS=127.0.0.1`` (tests listen on loopback only), a free ``ISL_PORT`` and a temporary
 ``NUMBA_CACHE_DIR`` — and the stage's ``python`` is this interpreter.
 """
+
 from __future__ import annotations
 
 import fnmatch
@@ -73,8 +74,13 @@ def hadolint() -> str:
 
 # ------------------------------------------------------------------------------------------------------ lint
 def test_hadolint_reports_nothing():
-    done = subprocess.run([hadolint(), "--no-color", "--format", "json", str(DOCKERFILE)],
-                          capture_output=True, text=True, timeout=60, check=False)
+    done = subprocess.run(
+        [hadolint(), "--no-color", "--format", "json", str(DOCKERFILE)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert done.returncode == 0 and json.loads(done.stdout or "[]") == [], done.stdout + done.stderr
 
 
@@ -125,7 +131,7 @@ def test_cmd_and_healthcheck_are_exec_form_without_curl():
     assert cmd[:3] == ["python", "-m", "app.serving"]
     health = stage["HEALTHCHECK"]
     assert "curl" not in health and "wget" not in health
-    probe = exec_form(health[health.index("CMD") + 3:].strip())
+    probe = exec_form(health[health.index("CMD") + 3 :].strip())
     assert probe == ["python", "-m", "app.serving", "--health"]
 
 
@@ -143,10 +149,14 @@ def _dockerignored(path: str, patterns: list[str]) -> bool:
 
 
 def test_build_context_holds_everything_the_copies_need():
-    patterns = [line.strip() for line in (REPO / ".dockerignore").read_text().splitlines()
-                if line.strip() and not line.startswith("#")]
-    sources = [src for word, rest in instructions() if word == "COPY" and "--from" not in rest
-               for src in rest.split()[:-1]]
+    patterns = [
+        line.strip()
+        for line in (REPO / ".dockerignore").read_text().splitlines()
+        if line.strip() and not line.startswith("#")
+    ]
+    sources = [
+        src for word, rest in instructions() if word == "COPY" and "--from" not in rest for src in rest.split()[:-1]
+    ]
     assert {"pyproject.toml", "README.md", "isl_core", "app"} <= set(sources)
     for src in sources:
         path = REPO / src
@@ -165,13 +175,26 @@ def test_build_context_holds_everything_the_copies_need():
 def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property):
     stage = dict(final_stage())
     port = session_client.free_port()
-    env = {**os.environ, **{k: v for k, v in stage_env().items() if k != "PATH"},
-           "ISL_ADDRESS": "127.0.0.1", "ISL_PORT": str(port), "ISL_ALLOWED_ORIGINS": f"localhost:{port}",
-           "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONPATH": str(REPO)}
-    workdir = tmp_path / "home"                 # not the checkout: the image runs from its WORKDIR
+    env = {
+        **os.environ,
+        **{k: v for k, v in stage_env().items() if k != "PATH"},
+        "ISL_ADDRESS": "127.0.0.1",
+        "ISL_PORT": str(port),
+        "ISL_ALLOWED_ORIGINS": f"localhost:{port}",
+        "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
+        "PYTHONPATH": str(REPO),
+    }
+    workdir = tmp_path / "home"  # not the checkout: the image runs from its WORKDIR
     workdir.mkdir()
-    build_step = subprocess.run(local_argv(shlex.split("python -m app.serving --check")), env=env, cwd=workdir,
-                                capture_output=True, text=True, timeout=600, check=False)
+    build_step = subprocess.run(
+        local_argv(shlex.split("python -m app.serving --check")),
+        env=env,
+        cwd=workdir,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
     assert build_step.returncode == 0, build_step.stdout[-2000:] + build_step.stderr[-3000:]
     assert any((tmp_path / "numba").rglob("*.nbi")), "the build step must fill the numba cache"
     # every kernel a session calls, the scenario loop included (else the first Scenario tab compiled it: 14 s)
@@ -179,12 +202,13 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
     assert any((tmp_path / "numba").rglob("euler.minmax_block-*.nbi"))
 
     health = stage["HEALTHCHECK"]
-    probe = local_argv(exec_form(health[health.index("CMD") + 3:].strip()))
+    probe = local_argv(exec_form(health[health.index("CMD") + 3 :].strip()))
     log = tmp_path / "cmd.log"
     with open(log, "w") as out:
         started = time.perf_counter()
-        proc = subprocess.Popen(local_argv(exec_form(stage["CMD"])), env=env, cwd=workdir,
-                                stdout=out, stderr=subprocess.STDOUT)
+        proc = subprocess.Popen(
+            local_argv(exec_form(stage["CMD"])), env=env, cwd=workdir, stdout=out, stderr=subprocess.STDOUT
+        )
     try:
         healthy_after = None
         while time.perf_counter() - started < 120 and proc.poll() is None:
@@ -200,12 +224,12 @@ def test_cmd_serves_the_dashboard_and_becomes_healthy(tmp_path, record_property)
             body = page.read().decode()
             assert page.status == 200 and page.url.endswith("/app")
         assert "<html" in body.lower() and "Bokeh" in body and "Traceback" not in body
-        assert f"http://localhost:{port}/" in log.read_text()        # the URL is printed on start
+        assert f"http://localhost:{port}/" in log.read_text()  # the URL is printed on start
         # the image's ENV gives the allocator that hands a class's memory back (app.serving.memory.check_allocator)
         assert "memory: glibc's allocator" in log.read_text()
     finally:
         code = session_client.stop_server(proc)
-    assert code == 0, log.read_text()[-3000:]                      # SIGTERM (docker stop) is a clean exit
+    assert code == 0, log.read_text()[-3000:]  # SIGTERM (docker stop) is a clean exit
 
 
 # ------------------------------------------------------------------------------------- any container platform
@@ -250,12 +274,28 @@ def _check_as_another_uid(python, base, tree, cache, tmp, tmp_writable):
     subprocess.run(["chmod", "a+rwx,+t" if tmp_writable else "a-w", str(tmp)], check=True)
     subprocess.run(["chmod", "-R", "g+rX", str(tree), str(cache)], check=True)
     site = next(p for p in sys.path if p.endswith("site-packages") and Path(p).is_dir())
-    code = "import sys, tempfile\n" + ("" if tmp_writable else f"tempfile.tempdir = {str(cache)!r}\n") + \
-        "import app.serving.serve as s\nsys.exit(s.main(['--check']))"
-    env = {"PATH": "/usr/bin:/bin", "HOME": "/nonexistent", "NUMBA_CACHE_DIR": str(cache), "TMPDIR": str(tmp),
-           "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": f"{tree}{os.pathsep}{site}"}
-    done = subprocess.run(["setpriv", "--reuid=54321", "--regid=0", "--clear-groups", python, "-c", code],
-                          env=env, cwd=str(base), capture_output=True, text=True, timeout=600, check=False)
+    code = (
+        "import sys, tempfile\n"
+        + ("" if tmp_writable else f"tempfile.tempdir = {str(cache)!r}\n")
+        + "import app.serving.serve as s\nsys.exit(s.main(['--check']))"
+    )
+    env = {
+        "PATH": "/usr/bin:/bin",
+        "HOME": "/nonexistent",
+        "NUMBA_CACHE_DIR": str(cache),
+        "TMPDIR": str(tmp),
+        "PYTHONDONTWRITEBYTECODE": "1",
+        "PYTHONPATH": f"{tree}{os.pathsep}{site}",
+    }
+    done = subprocess.run(
+        ["setpriv", "--reuid=54321", "--regid=0", "--clear-groups", python, "-c", code],
+        env=env,
+        cwd=str(base),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
     out = done.stdout + done.stderr
     assert done.returncode == 0 and "warm-up passed" in out, out[-3000:]
     said = [line for line in out.splitlines() if "isl_core WARNING numba:" in line]

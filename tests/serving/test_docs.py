@@ -3,6 +3,7 @@
 Nothing here builds the pages: ``./scripts/test`` builds them (warnings as errors) before pytest starts, and
 ``./scripts/docs`` does on its own; a test that needs them says how to build them when they are missing.
 """
+
 from __future__ import annotations
 
 import re
@@ -36,8 +37,11 @@ def page_labels(text: str) -> list[str]:
 
 def defined_labels() -> dict[str, Path]:
     """Every label the pages define, with its page."""
-    return {label: page for page in sorted((REPO / "docs").glob("*.md"))
-            for label in page_labels(page.read_text(encoding="utf-8"))}
+    return {
+        label: page
+        for page in sorted((REPO / "docs").glob("*.md"))
+        for label in page_labels(page.read_text(encoding="utf-8"))
+    }
 
 
 def citations() -> dict[str, list[str]]:
@@ -54,6 +58,7 @@ def citations() -> dict[str, list[str]]:
 
 def get(url: str, host: str | None = None) -> tuple[int, dict[str, str], str]:
     """Status, headers and text of a GET that follows no redirect."""
+
     class NoRedirect(urllib.request.HTTPRedirectHandler):
         def redirect_request(self, *args, **kwargs):
             return None
@@ -81,8 +86,10 @@ def test_every_label_the_code_cites_is_defined_on_a_page():
     cited = citations()
     assert "serving-docs" in cited, "the citations were not found (the serving module cites :ref:`serving-docs`)"
     missing = {label: files for label, files in cited.items() if label not in defined}
-    assert not missing, ("labels cited in the code but defined on no page of docs/ (add `(label)=` before a heading, "
-                         f"or fix the citation): {missing}")
+    assert not missing, (
+        "labels cited in the code but defined on no page of docs/ (add `(label)=` before a heading, "
+        f"or fix the citation): {missing}"
+    )
 
 
 def test_labels_are_defined_once():
@@ -113,19 +120,27 @@ def test_the_api_reference_documents_every_public_name_through_the_package():
 
 def test_the_built_pages_load_nothing_from_another_site():
     """A classroom without internet reads them whole: no script, style, font or image comes from elsewhere."""
-    fetched = re.compile(r"""<(?:script|img|iframe|source)\b[^>]*\bsrc=["']((?:https?:)?//[^"']+)|"""
-                         r"""<link\b[^>]*\bhref=["']((?:https?:)?//[^"']+)|url\(["']?((?:https?:)?//[^)"']+)""")
+    fetched = re.compile(
+        r"""<(?:script|img|iframe|source)\b[^>]*\bsrc=["']((?:https?:)?//[^"']+)|"""
+        r"""<link\b[^>]*\bhref=["']((?:https?:)?//[^"']+)|url\(["']?((?:https?:)?//[^)"']+)"""
+    )
     pages = [*_built().rglob("*.html"), *_built().rglob("*.css")]
-    remote = {(page.name, next(u for u in match if u)) for page in pages
-              for match in fetched.findall(page.read_text(encoding="utf-8"))}
+    remote = {
+        (page.name, next(u for u in match if u))
+        for page in pages
+        for match in fetched.findall(page.read_text(encoding="utf-8"))
+    }
     assert remote == set()
     assert fetched.findall('<script src="https://cdn.example/x.js"></script>')  # the pattern sees a remote script
 
 
 def test_the_server_serves_the_built_docs(tmp_path):
     built = _built()
-    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path),
-                env={"ISL_DOCS_DIR": str(built)}) as (url, _, _):
+    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path), env={"ISL_DOCS_DIR": str(built)}) as (
+        url,
+        _,
+        _,
+    ):
         status, headers, text = get(f"{url}/docs/")
         assert status == 200 and headers["Content-Type"].startswith("text/html")
         assert text == (built / "index.html").read_text(encoding="utf-8")
@@ -142,8 +157,11 @@ def test_the_server_serves_the_built_docs(tmp_path):
 def test_without_a_build_docs_says_how_to_build_it(tmp_path):
     empty = tmp_path / "not-built"
     empty.mkdir()
-    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path),
-                env={"ISL_DOCS_DIR": str(empty)}) as (url, _, log):
+    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path), env={"ISL_DOCS_DIR": str(empty)}) as (
+        url,
+        _,
+        log,
+    ):
         for path in ("/docs/", "/docs/model.html"):
             status, headers, text = get(url + path)
             assert status == 404 and headers["Content-Type"].startswith("text/html")

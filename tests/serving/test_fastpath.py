@@ -1,4 +1,5 @@
 """Less library work per change in the server (app.serving.fastpath): the same properties are sent, less is computed."""
+
 from __future__ import annotations
 
 import panel as pn
@@ -66,8 +67,16 @@ def _every_part_of_the_page(doc: Document) -> None:
     with set_curdoc(doc):
         state = AppState()
         state.start()
-        views = [TrajectoriesView, NumbersView, ControlsView, FiltersPanel, SweepView, WorstCaseView, CompareView,
-                 ScenarioView]
+        views = [
+            TrajectoriesView,
+            NumbersView,
+            ControlsView,
+            FiltersPanel,
+            SweepView,
+            WorstCaseView,
+            CompareView,
+            ScenarioView,
+        ]
         page = pn.Column(*(view(state=state) for view in views), about_card(), design=pn.theme.Fast)
         doc.add_root(page.get_root(doc))
 
@@ -113,7 +122,7 @@ def test_patch_messages_are_bokehs_own_with_refs_made_on_demand(monkeypatch):
     lazy, original = Serializer.__init__, Serializer.__init__._isl_original
     doc = Document()
     _every_part_of_the_page(doc)
-    doc.to_json()                       # the browser has every model now
+    doc.to_json()  # the browser has every model now
     events = []
     doc.on_change(lambda event: events.append(event))
     old = [m for m in doc.models if isinstance(m, Slider)][:3]

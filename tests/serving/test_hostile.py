@@ -11,6 +11,7 @@ the checkboxes, the σ-list text box) to bad values through ``PATCH-DOC`` messag
 the browser. An answer is a bokeh ``ERROR`` reply (the value does not fit the widget's type), a refusal in the
 dashboard's status line, or a notification (a failed callback, via the global exception handler).
 """
+
 from __future__ import annotations
 
 import asyncio
@@ -32,11 +33,40 @@ from app.state.sweep import SWEEP_SIGMA_BOUNDS
 SEED = 20251122
 MIN_VALUES = 1000
 MIN_WIDGETS = 8  #: input widgets of the default page (sliders, spinners, check boxes, text inputs) at least
-STRINGS = ["", " ", "abc", "1", "20", "nan", "inf", "1e3", "0x10", "σ", "\x00", "<script>alert(1)</script>",
-           "DROP TABLE runs;", "1,2,3", "None", "True", "-1", "𝟙𝟚", "x" * 5000]
+STRINGS = [
+    "",
+    " ",
+    "abc",
+    "1",
+    "20",
+    "nan",
+    "inf",
+    "1e3",
+    "0x10",
+    "σ",
+    "\x00",
+    "<script>alert(1)</script>",
+    "DROP TABLE runs;",
+    "1,2,3",
+    "None",
+    "True",
+    "-1",
+    "𝟙𝟚",
+    "x" * 5000,
+]
 CONTAINERS = [[], [1.0], (2.0,), {"a": 1}, {1.0}, [[1.0]], range(3)]
-ODDBALLS = [1 + 2j, b"1", bytearray(b"2"), object(), np.bool_(True), np.array([1.0, 2.0]), np.datetime64("2020-01-01"),
-            Ellipsis, type, print]
+ODDBALLS = [
+    1 + 2j,
+    b"1",
+    bytearray(b"2"),
+    object(),
+    np.bool_(True),
+    np.array([1.0, 2.0]),
+    np.datetime64("2020-01-01"),
+    Ellipsis,
+    type,
+    print,
+]
 
 
 def _beyond(lo: float, hi: float, rng: np.random.Generator, *, margin: float = 1e-6) -> float:
@@ -46,8 +76,11 @@ def _beyond(lo: float, hi: float, rng: np.random.Generator, *, margin: float = 1
     values in [0, lo).
     """
     if math.isfinite(lo) and rng.random() < 0.5:
-        return lo - max(abs(lo), 1.0) * 10.0 ** rng.uniform(math.log10(margin), 300) if lo <= 0 \
+        return (
+            lo - max(abs(lo), 1.0) * 10.0 ** rng.uniform(math.log10(margin), 300)
+            if lo <= 0
             else lo * rng.uniform(0.0, 1.0 - margin)
+        )
     return hi + max(abs(hi), 1.0) * 10.0 ** rng.uniform(math.log10(margin), 300)
 
 
@@ -58,8 +91,6 @@ def _integral(value: float, lo: float) -> int:
         return int(math.copysign(2**53 - 2, value))
     n = math.floor(value) if value < lo else math.ceil(value)
     return int(min(max(n, -(2**53 - 2)), 2**53 - 2))
-
-
 
 
 def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
@@ -73,8 +104,21 @@ def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
             return pool[rng.integers(len(pool))]
     elif isinstance(p, param.ListSelector):
         names = list(p.objects)
-        pool = [None, "nope", names[0], [names[0], "nope"], [1], [None], {names[0]: True}, math.nan,
-                ["<script>"], [names[0].upper()], 3, [[names[0]]], [{}]]
+        pool = [
+            None,
+            "nope",
+            names[0],
+            [names[0], "nope"],
+            [1],
+            [None],
+            {names[0]: True},
+            math.nan,
+            ["<script>"],
+            [names[0].upper()],
+            3,
+            [[names[0]]],
+            [{}],
+        ]
 
         def picks():
             return pool[rng.integers(len(pool))]
@@ -114,8 +158,9 @@ def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
             if k == 3:
                 return CONTAINERS[rng.integers(len(CONTAINERS))]
             if k == 4 and integer:
-                return float(rng.integers(lo, hi)) + 0.5                # fractional
+                return float(rng.integers(lo, hi)) + 0.5  # fractional
             return ODDBALLS[rng.integers(len(ODDBALLS))]
+
     for _ in range(n):
         yield picks()
 
@@ -153,7 +198,7 @@ def test_state_refuses_every_bad_value_with_a_message_and_keeps_the_run(state):
     assert tried >= MIN_VALUES
     assert escaped == []
     assert answered == tried
-    state.sigma = 200.0                                           # still alive: a good value gives a new run
+    state.sigma = 200.0  # still alive: a good value gives a new run
     assert state.run is not run0 and state.run.model.sigma == 200.0
 
 
@@ -189,13 +234,20 @@ def widget_bad_values(model, rng: np.random.Generator, n: int) -> list[dict]:
         return [{"active": pool[i % len(pool)]} for i in range(n)]
     if isinstance(model, TextInput):
         lo, hi = SWEEP_SIGMA_BOUNDS
-        texts = itertools.cycle([
-            lambda: "", lambda: STRINGS[rng.integers(len(STRINGS))] + "x",
-            lambda: f"{lo * rng.uniform(0.0, 0.9):.6g}", lambda: f"{hi * 10.0 ** rng.uniform(0.05, 300):.6g}",
-            lambda: ", ".join(f"{rng.uniform(lo, hi):.4g}" for _ in range(6 + rng.integers(4))),
-            lambda: f"{rng.uniform(lo, hi):.4g}, nan", lambda: f"inf, {rng.uniform(lo, hi):.4g}",
-            lambda: None, lambda: 5.0, lambda: ["2", "20"],
-        ])
+        texts = itertools.cycle(
+            [
+                lambda: "",
+                lambda: STRINGS[rng.integers(len(STRINGS))] + "x",
+                lambda: f"{lo * rng.uniform(0.0, 0.9):.6g}",
+                lambda: f"{hi * 10.0 ** rng.uniform(0.05, 300):.6g}",
+                lambda: ", ".join(f"{rng.uniform(lo, hi):.4g}" for _ in range(6 + rng.integers(4))),
+                lambda: f"{rng.uniform(lo, hi):.4g}, nan",
+                lambda: f"inf, {rng.uniform(lo, hi):.4g}",
+                lambda: None,
+                lambda: 5.0,
+                lambda: ["2", "20"],
+            ]
+        )
         return [{"value": next(texts)()} for _ in range(n)]
     lo, hi = widget_range(model)
     log = isinstance(getattr(model, "format", None), CustomJSTickFormatter)
@@ -223,8 +275,19 @@ def widget_bad_values(model, rng: np.random.Generator, n: int) -> list[dict]:
 
     # -inf and -1e308 map to 0 on a log slider: hostile only if 0 is outside the state's range
     low_extremes = [lambda: -math.inf, lambda: -1e308] if math.isfinite(lo) else [beyond, beyond]
-    numeric = itertools.cycle([lambda: math.nan, lambda: math.inf, beyond, low_extremes[0], beyond,
-                               lambda: 1e308, beyond, low_extremes[1], beyond])
+    numeric = itertools.cycle(
+        [
+            lambda: math.nan,
+            lambda: math.inf,
+            beyond,
+            low_extremes[0],
+            beyond,
+            lambda: 1e308,
+            beyond,
+            low_extremes[1],
+            beyond,
+        ]
+    )
     typed = itertools.cycle([None, "abc", True, [1.0], {"v": 1}, "", False, "1e3"])
     out = []
     for i in range(n):
@@ -242,8 +305,11 @@ notifications = session_client.notifications
 
 def plot_data(doc) -> dict:
     """Every ColumnDataSource's columns, as lists (what the plots show)."""
-    return {m.id: {k: np.asarray(v).tolist() for k, v in m.data.items()}
-            for m in doc.models if isinstance(m, ColumnDataSource)}
+    return {
+        m.id: {k: np.asarray(v).tolist() for k, v in m.data.items()}
+        for m in doc.models
+        if isinstance(m, ColumnDataSource)
+    }
 
 
 def loaded(doc) -> bool:
@@ -296,8 +362,12 @@ async def pipelined_errors(client, pushes: list) -> tuple[Counter, list]:
     kinds: Counter = Counter()
     bad = []
     for (model, attrs), reply in zip(pushes, replies, strict=True):
-        if reply is None or reply.msgtype != "ERROR" or reply.traceback is not None \
-                or any(m in reply.text for m in session_client.TRACEBACK_MARKERS):
+        if (
+            reply is None
+            or reply.msgtype != "ERROR"
+            or reply.traceback is not None
+            or any(m in reply.text for m in session_client.TRACEBACK_MARKERS)
+        ):
             bad.append((type(model).__name__, repr(attrs)[:80], reply))
         else:
             kinds["error reply"] += 1
@@ -330,6 +400,7 @@ def input_widgets(doc) -> list:
 def test_raw_document_changes_are_refused_with_a_message(tmp_path):
     rng = np.random.default_rng(SEED + 1)
     with served(tmp_path, "--stats-interval", "0") as (url, proc, _):
+
         async def barrage():
             async with await session_client.BokehClient.connect(url, timeout=120) as client:
                 assert await client.wait_until(lambda: loaded(client.doc), 120), "the page did not finish loading"
@@ -356,4 +427,3 @@ def test_raw_document_changes_are_refused_with_a_message(tmp_path):
     assert not closed and alive
     assert not any(m in texts for m in session_client.TRACEBACK_MARKERS)
     assert unanswered == [], unanswered[:10]
-

@@ -8,6 +8,7 @@ by later rounds, so RSS need not fall when sessions close — it must not climb)
 seconds of server CPU to open, so the test runs 3 × 6 sessions to stay within the CI budget;
 ``PYTHONPATH=. python scripts/load_test.py --memory 3 --sessions 50`` runs the full 3 × 50.
 """
+
 from __future__ import annotations
 
 import gc
@@ -30,7 +31,7 @@ def test_sessions_return_to_zero_and_memory_does_not_grow(tmp_path):
         rounds = [run(load_test.memory_round(url, proc.pid, log, SESSIONS), 600) for _ in range(ROUNDS)]
     print(load_test.memory_report(rounds, SESSIONS))
     for r in rounds:
-        assert r.live_open == SESSIONS, r                       # the server really held them all
+        assert r.live_open == SESSIONS, r  # the server really held them all
         assert (r.live_after, r.pending_after) == (0, 0), r
     assert rounds[0].rss_open_mb > rounds[0].rss_before_mb
     first = rounds[0].rss_after_mb

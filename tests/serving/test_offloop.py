@@ -1,5 +1,6 @@
 """The event loop's share of a page: pages built on a thread, bokeh's curdoc per thread, and when the server
 collects garbage (app.serving.offloop, app.serving.memory.MemoryTrimmer)."""
+
 from __future__ import annotations
 
 import asyncio
@@ -112,8 +113,9 @@ def test_a_callback_scheduled_from_a_thread_is_registered_by_the_loop_and_never_
 
     async def main() -> None:
         doc = Document()
-        doc.on_change(lambda e: registered.append((e, threading.get_ident()))
-                      if isinstance(e, SessionCallbackAdded) else None)
+        doc.on_change(
+            lambda e: registered.append((e, threading.get_ident())) if isinstance(e, SessionCallbackAdded) else None
+        )
         _served(doc, IOLoop.current())
 
         def schedule(execute, pausing=None) -> threading.Thread:
@@ -124,6 +126,7 @@ def test_a_callback_scheduled_from_a_thread_is_registered_by_the_loop_and_never_
             def work() -> None:
                 with set_curdoc(doc):
                     execute(state, lambda: None, schedule=True)
+
             worker = threading.Thread(target=work)
             worker.start()
             return worker
@@ -200,16 +203,18 @@ def test_the_dashboards_shown_parts_are_built_with_the_page_not_swapped_in_on_th
 
     walks: list[str] = []  # the thread of every walk of a document's models
     recompute = DocumentModelManager.recompute
-    monkeypatch.setattr(DocumentModelManager, "recompute",
-                        lambda self: walks.append(threading.current_thread().name) or recompute(self))
+    monkeypatch.setattr(
+        DocumentModelManager, "recompute", lambda self: walks.append(threading.current_thread().name) or recompute(self)
+    )
     application = build_single_handler_application(app_script())
     offloop.build_pages_off_loop(application)
 
     async def create():
         from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
 
-        request = HTTPServerRequest(start_line=RequestStartLine("GET", "/app", "HTTP/1.1"),
-                                    headers=HTTPHeaders({"Host": "127.0.0.1"}))  # a browser's request, with no query
+        request = HTTPServerRequest(
+            start_line=RequestStartLine("GET", "/app", "HTTP/1.1"), headers=HTTPHeaders({"Host": "127.0.0.1"})
+        )  # a browser's request, with no query
         session = await ApplicationContext(application, url="/app").create_session_if_needed("a-page", request)
         return session.document, threading.current_thread().name
 
@@ -343,8 +348,10 @@ def test_memory_is_trimmed_again_once_the_ended_sessions_release_hooks_have_run(
         trimmer()
     assert len(trims) == 2
     lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("isl trim:")]
-    assert [line.split(" collected")[0] for line in lines] == ["isl trim: sessions=0 pending_releases=1",
-                                                               "isl trim: sessions=0 pending_releases=0"]
+    assert [line.split(" collected")[0] for line in lines] == [
+        "isl trim: sessions=0 pending_releases=1",
+        "isl trim: sessions=0 pending_releases=0",
+    ]
 
 
 def test_panels_collection_after_each_session_is_left_to_the_trimmer(monkeypatch):

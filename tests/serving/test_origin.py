@@ -4,6 +4,7 @@ A browser on another site must not be able to open a dashboard session (websocke
 for another host name is refused (DNS rebinding); every answer carries the framing and sniffing headers; no HTTP
 answer, however malformed the request, may carry a Python traceback.
 """
+
 from __future__ import annotations
 
 import http.client
@@ -20,8 +21,12 @@ MARKERS = session_client.TRACEBACK_MARKERS
 @pytest.fixture(scope="module")
 def default_server(tmp_path_factory):
     """The dashboard with the default origins; BOKEH_ALLOW_WS_ORIGIN=* in its environment must be ignored."""
-    with served(tmp_path_factory.mktemp("origin"), "--stats-interval", "0",
-                env={"ISL_ALLOWED_ORIGINS": "", "BOKEH_ALLOW_WS_ORIGIN": "*"}) as (url, _, log):
+    with served(
+        tmp_path_factory.mktemp("origin"),
+        "--stats-interval",
+        "0",
+        env={"ISL_ALLOWED_ORIGINS": "", "BOKEH_ALLOW_WS_ORIGIN": "*"},
+    ) as (url, _, log):
         yield url, log
 
 
@@ -29,6 +34,7 @@ def connect(url: str, origin: str, host: str | None = None):
     async def go():
         async with await session_client.BokehClient.connect(url, origin=origin, timeout=60, host=host) as client:
             return len(client.doc.roots)
+
     return run(go(), 120)
 
 
@@ -56,8 +62,13 @@ def test_default_origins_admit_this_machine_only(default_server):
     port = urlparse(url).port
     assert connect(url, f"http://localhost:{port}") > 0
     assert connect(url, f"http://127.0.0.1:{port}") > 0
-    for origin in ("http://evil.example.com", f"http://evil.example.com:{port}", f"http://localhost:{port + 1}",
-                   "null", f"http://127.0.0.1.evil.example.com:{port}"):
+    for origin in (
+        "http://evil.example.com",
+        f"http://evil.example.com:{port}",
+        f"http://localhost:{port + 1}",
+        "null",
+        f"http://127.0.0.1.evil.example.com:{port}",
+    ):
         assert refused(url, origin), origin
     text = log.read_text()
     assert "ignoring BOKEH_ALLOW_WS_ORIGIN" in text and "Refusing websocket connection" in text
@@ -108,12 +119,27 @@ def test_liveness_never_builds_a_session(default_server):
 
 
 PROBES = [
-    ("GET", "/"), ("GET", "/app"), ("GET", "/liveness"), ("GET", "/liveness?endpoint=/app"),
-    ("GET", "/liveness?endpoint=/nope"), ("GET", "/nope"), ("GET", "/app/ws"), ("GET", "/app/autoload.js"),
+    ("GET", "/"),
+    ("GET", "/app"),
+    ("GET", "/liveness"),
+    ("GET", "/liveness?endpoint=/app"),
+    ("GET", "/liveness?endpoint=/nope"),
+    ("GET", "/nope"),
+    ("GET", "/app/ws"),
+    ("GET", "/app/autoload.js"),
     ("GET", "/app/autoload.js?bokeh-autoload-element=x&bokeh-app-path=/app&bokeh-absolute-url=http://e"),
-    ("GET", "/static/../../../../etc/passwd"), ("GET", "/static/js/nope.js"), ("GET", "/app?alpha=nan&sigma=%00"),
-    ("GET", "/app?" + "x" * 6000), ("GET", "/%"), ("GET", "/app/%ZZ"), ("POST", "/app"), ("PUT", "/liveness"),
-    ("DELETE", "/app"), ("GET", "/favicon.ico"), ("GET", "/admin"), ("GET", "/rest/session_info"),
+    ("GET", "/static/../../../../etc/passwd"),
+    ("GET", "/static/js/nope.js"),
+    ("GET", "/app?alpha=nan&sigma=%00"),
+    ("GET", "/app?" + "x" * 6000),
+    ("GET", "/%"),
+    ("GET", "/app/%ZZ"),
+    ("POST", "/app"),
+    ("PUT", "/liveness"),
+    ("DELETE", "/app"),
+    ("GET", "/favicon.ico"),
+    ("GET", "/admin"),
+    ("GET", "/rest/session_info"),
 ]
 
 
@@ -123,8 +149,12 @@ def test_no_http_answer_contains_a_traceback(default_server, method, path):
     parsed = urlparse(url)
     conn = http.client.HTTPConnection(parsed.hostname, parsed.port, timeout=60)
     try:
-        conn.request(method, path, body=b"{not json" if method in ("POST", "PUT") else None,
-                     headers={"Content-Type": "application/json"})
+        conn.request(
+            method,
+            path,
+            body=b"{not json" if method in ("POST", "PUT") else None,
+            headers={"Content-Type": "application/json"},
+        )
         response = conn.getresponse()
         body = response.read().decode("utf-8", "replace")
         headers = str(response.headers)
@@ -133,7 +163,7 @@ def test_no_http_answer_contains_a_traceback(default_server, method, path):
     for marker in MARKERS:
         assert marker not in body and marker not in headers, (method, path, response.status, body[:500])
     if path in ("/admin", "/rest/session_info"):
-        assert response.status == 404                       # no admin panel, no session REST endpoint
+        assert response.status == 404  # no admin panel, no session REST endpoint
 
 
 def test_websocket_frames_leave_without_waiting_for_an_acknowledgement():

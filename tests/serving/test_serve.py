@@ -1,4 +1,5 @@
 """The serve entry point (app.serving.serve) and the server-side hardening (app.serving.hardening)."""
+
 from __future__ import annotations
 
 import argparse
@@ -87,11 +88,20 @@ def test_environment_configures_a_container(clean_env):
     args = panel_args(serve.panel_argv(opts, "app.py", ["lab.example.edu:7000"]))
     assert (args.address, args.port, args.num_procs, args.num_threads) == ("0.0.0.0", 7000, 2, 8)
     assert args.allow_websocket_origin == ["lab.example.edu:7000"]
-    assert options("--port", "7100").port == 7100      # a flag beats the environment
+    assert options("--port", "7100").port == 7100  # a flag beats the environment
 
 
-@pytest.mark.parametrize("argv", [["--port", "0"], ["--port", "70000"], ["--num-threads", "0"], ["--num-procs", "-1"],
-                                  ["--unused-session-lifetime", "0"], ["--stats-interval", "-5"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--port", "0"],
+        ["--port", "70000"],
+        ["--num-threads", "0"],
+        ["--num-procs", "-1"],
+        ["--unused-session-lifetime", "0"],
+        ["--stats-interval", "-5"],
+    ],
+)
 def test_out_of_range_counts_are_usage_errors(clean_env, argv, caplog):
     with caplog.at_level(logging.ERROR, logger="isl.serve"):
         assert serve.main([*argv, "--health"]) == 2
@@ -104,8 +114,14 @@ def test_non_integer_environment_is_a_clear_error(clean_env):
         options()
 
 
-@pytest.mark.parametrize("address, url", [("0.0.0.0", "http://localhost:5006/"), ("127.0.0.1", "http://localhost:5006/"),
-                                          ("192.168.1.20", "http://192.168.1.20:5006/")])
+@pytest.mark.parametrize(
+    "address, url",
+    [
+        ("0.0.0.0", "http://localhost:5006/"),
+        ("127.0.0.1", "http://localhost:5006/"),
+        ("192.168.1.20", "http://192.168.1.20:5006/"),
+    ],
+)
 def test_printed_url(address, url):
     assert serve.browser_url(address, 5006) == url
 
@@ -129,7 +145,7 @@ def test_exception_handler_logs_traceback_and_never_raises(caplog):
         hardening.handle_exception(error)
     record = caplog.records[-1]
     assert re.search(r"incident [0-9a-f]{8}", record.getMessage())
-    assert record.exc_info[1] is error           # the traceback goes to the server log
+    assert record.exc_info[1] is error  # the traceback goes to the server log
 
 
 def test_install_is_idempotent():
@@ -152,8 +168,12 @@ def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog)
     except RuntimeError as exc:
         with caplog.at_level(logging.ERROR, logger="isl.app"):
             internal = protocol.create("ERROR", "m2", repr(exc))
-    assert validation.content == {"text": repr(ValueError("failed to validate Slider(id='p1', ...).value: expected "
-                                                          "a value of type Real, got abc")), "traceback": None}
+    assert validation.content == {
+        "text": repr(
+            ValueError("failed to validate Slider(id='p1', ...).value: expected a value of type Real, got abc")
+        ),
+        "traceback": None,
+    }
     assert internal.content["traceback"] is None and "SECRET" not in internal.content["text"]
     incident = re.search(r"incident ([0-9a-f]{8})", internal.content["text"]).group(1)
     assert f"incident {incident}" in caplog.text and "SECRET-DETAIL" in caplog.text
@@ -175,18 +195,24 @@ def test_a_model_not_yet_sent_is_sent_in_full_after_a_browser_change():
     content was held; bokeh then counted the new models as sent, so the change named them by id only and the
     browser rejected it ("reference p… isn't known"). Models the browser's own change creates still count as sent."""
     from bokeh.models import Column, Div
+
     hardening.install()
     doc = Document()
     column = Column()
     doc.add_root(column)
-    doc.to_json()                       # the browser pulls the page
+    doc.to_json()  # the browser pulls the page
     built = Div(text="built on the server")
 
     def server_change_then_browser_change():
-        column.children = [built]       # held: not serialized yet
-        doc.apply_json_patch({"events": [
-            {"kind": "ModelChanged", "model": {"id": column.id}, "attr": "width", "new": 10},
-            {"kind": "ModelChanged", "model": {"id": column.id}, "attr": "css_classes", "new": ["x"]}]})
+        column.children = [built]  # held: not serialized yet
+        doc.apply_json_patch(
+            {
+                "events": [
+                    {"kind": "ModelChanged", "model": {"id": column.id}, "attr": "width", "new": 10},
+                    {"kind": "ModelChanged", "model": {"id": column.id}, "attr": "css_classes", "new": ["x"]},
+                ]
+            }
+        )
 
     events = _held_changes(doc, server_change_then_browser_change)
     patch = Protocol().create("PATCH-DOC", [e for e in events if getattr(e, "attr", None) == "children"])
@@ -194,8 +220,9 @@ def test_a_model_not_yet_sent_is_sent_in_full_after_a_browser_change():
     assert change["new"][0]["id"] == built.id and "attributes" in change["new"][0]  # in full, not {"id": …}
 
     from_browser = {"type": "object", "name": "Div", "id": "c1", "attributes": {"text": "made in the browser"}}
-    doc.apply_json_patch({"events": [{"kind": "ModelChanged", "model": {"id": column.id}, "attr": "children",
-                                      "new": [from_browser]}]})
+    doc.apply_json_patch(
+        {"events": [{"kind": "ModelChanged", "model": {"id": column.id}, "attr": "children", "new": [from_browser]}]}
+    )
     assert doc.get_model_by_id("c1") in doc.models.synced_references
 
 
@@ -217,18 +244,18 @@ def test_release_hooks_run_once_when_the_session_is_destroyed(monkeypatch):
     class Ctx:
         id = "session-1"
 
-    doc = Document()                      # bokeh checks the callback's signature on registration
+    doc = Document()  # bokeh checks the callback's signature on registration
     doc._session_context = lambda: Ctx()
     monkeypatch.setattr(type(pn.state), "curdoc", property(lambda self: doc))
     calls = []
     hardening.release_on_destroy(lambda: calls.append("callable"))
     hardening.release_on_destroy(type("R", (), {"release": lambda self: calls.append("release")})())
-    hardening.release_on_destroy(lambda: 1 / 0)                         # a failing hook does not stop the others
+    hardening.release_on_destroy(lambda: 1 / 0)  # a failing hook does not stop the others
     obj = _Payload(run=[1, 2, 3])
     hardening.release_on_destroy(obj)
     callbacks = list(doc.session_destroyed_callbacks)
     assert len(callbacks) == 1 and "session-1" in hardening._releases
-    callbacks[0](None)                  # Panel discards a warm-up document with None for the session context
+    callbacks[0](None)  # Panel discards a warm-up document with None for the session context
     callbacks[0](Ctx())
     assert calls == ["callable", "release"] and obj.run is None
     assert "session-1" not in hardening._releases
@@ -248,7 +275,7 @@ def test_memory_is_trimmed_only_after_sessions_end():
     for count in (0, 3, 5, 5, 2, 2, 0, 4):
         server.sessions = [object()] * count
         trimmer()
-    assert calls == [0, 0]                      # after 5 → 2 and 2 → 0, never while sessions are added
+    assert calls == [0, 0]  # after 5 → 2 and 2 → 0, never while sessions are added
 
 
 # ------------------------------------------------------------------------------------------- real servers
@@ -269,11 +296,20 @@ def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path):
 
 
 def test_check_mode_passes_for_a_working_app(tmp_path):
-    code = ("import sys, app.serving.serve as s\n"
-            f"s.app_script = lambda: {fixture_app(tmp_path)!r}\n"
-            "sys.exit(s.main(['--check']))")
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=300,
-                          env={**os.environ, "PYTHONPATH": str(REPO)}, check=False)
+    code = (
+        "import sys, app.serving.serve as s\n"
+        f"s.app_script = lambda: {fixture_app(tmp_path)!r}\n"
+        "sys.exit(s.main(['--check']))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        check=False,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     assert "warm-up passed" in done.stdout
 
@@ -291,6 +327,7 @@ def test_port_in_use_is_exit_code_1(tmp_path):
 
 def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(tmp_path):
     with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (url, proc, log):
+
         async def click() -> list[str]:
             async with await session_client.BokehClient.connect(url) as client:
                 button = next(m for m in client.doc.models if isinstance(m, Button))
@@ -301,7 +338,7 @@ def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(
         messages = run(click(), 120)
         text = wait_for_log(log, "SECRET-DETAIL")
         server_exit_code_while_running = proc.poll()
-    assert server_exit_code_while_running is None           # the server survived the error
+    assert server_exit_code_while_running is None  # the server survived the error
     assert len(messages) == 1
     incident = re.search(r"incident ([0-9a-f]{8})", messages[0]).group(1)
     assert "SECRET-DETAIL" not in messages[0] and "Traceback" not in messages[0] and ".py" not in messages[0]

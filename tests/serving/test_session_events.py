@@ -3,6 +3,7 @@
 With ``--num-threads`` Panel processes each browser message on its thread pool; a released slider's two messages
 (``value``, ``value_throttled``) then ran on two threads at once, and the slider could stop moving the run for good.
 """
+
 from __future__ import annotations
 
 import threading
@@ -16,8 +17,10 @@ from bokeh.models import Button
 from app.serving import hardening
 
 
-@pytest.mark.parametrize("entry, inner, args", [("_change_event", "_process_events", ()),
-                                                ("_process_bokeh_event", "_process_event", (ButtonClick(Button()),))])
+@pytest.mark.parametrize(
+    "entry, inner, args",
+    [("_change_event", "_process_events", ()), ("_process_bokeh_event", "_process_event", (ButtonClick(Button()),))],
+)
 def test_one_pages_browser_events_are_processed_one_at_a_time(entry, inner, args):
     """A released slider sends ``value`` and ``value_throttled`` as two messages, which Panel processed on two threads
     at once: param's batch flag of the widget then stayed set and the slider stopped moving the run (seen after 3 to
@@ -34,6 +37,7 @@ def test_one_pages_browser_events_are_processed_one_at_a_time(entry, inner, args
             entered[name].set()
             if block:
                 assert release.wait(30)
+
         setattr(w, inner, process)
         return w
 
@@ -45,8 +49,8 @@ def test_one_pages_browser_events_are_processed_one_at_a_time(entry, inner, args
     threads = [event("first", page, block=True)]
     assert entered["first"].wait(30)
     threads += [event("second", page), event("other page", other)]
-    assert entered["other page"].wait(30)           # other sessions never wait for this one
-    assert not entered["second"].wait(0.3)          # unserialized, it ran at once beside the first
+    assert entered["other page"].wait(30)  # other sessions never wait for this one
+    assert not entered["second"].wait(0.3)  # unserialized, it ran at once beside the first
     release.set()
     assert entered["second"].wait(30)
     for thread in threads:
@@ -59,29 +63,29 @@ def test_a_change_queued_while_the_queue_is_taken_is_still_processed():
     nothing to process it, and the widget never moved again. The check is paused here at that point."""
     hardening.install()
     doc, widget = Document(), pn.widgets.FloatSlider()
-    widget.get_root(doc)                 # links the model's changes to the guarded method (bokeh checks its signature)
+    widget.get_root(doc)  # links the model's changes to the guarded method (bokeh checks its signature)
     checked, go = threading.Event(), threading.Event()
     processed: list[dict] = []
     widget._process_events = lambda events: processed.append(dict(events))
 
     class Queue(dict):
-        def __bool__(self) -> bool:      # the loop's check: was a processing already scheduled?
+        def __bool__(self) -> bool:  # the loop's check: was a processing already scheduled?
             checked.set()
             assert go.wait(30)
             return super().__len__() > 0
 
-    widget._events = Queue(value=1.0)    # a change whose processing is scheduled but has not taken the queue yet
+    widget._events = Queue(value=1.0)  # a change whose processing is scheduled but has not taken the queue yet
     loop = threading.Thread(target=widget._server_change, args=(doc, "ref", None, "value_throttled", 0.0, 1.0))
     loop.start()
     assert checked.wait(30)
     taker = threading.Thread(target=widget._change_event, args=(doc,))
     taker.start()
-    taker.join(0.3)                      # unguarded, it took the queue at once, between the check and the addition
+    taker.join(0.3)  # unguarded, it took the queue at once, between the check and the addition
     go.set()
     loop.join(30)
     taker.join(30)
     assert processed == [{"value": 1.0, "value_throttled": 1.0}]  # the thread took both changes
-    assert not widget._events                                        # and stranded none
+    assert not widget._events  # and stranded none
 
 
 def test_two_sessions_sliders_released_at_once_both_apply():
@@ -99,7 +103,7 @@ def test_two_sessions_sliders_released_at_once_both_apply():
             first_edit.__exit__(None, None, None)
             second.param.update(value=2.0, value_throttled=2.0)
         assert second.value_throttled == 2.0
-        for slider in (first, second):   # and the flags are back where they were
+        for slider in (first, second):  # and the flags are back where they were
             with pytest.raises(TypeError, match="Constant parameter"):
                 slider.value_throttled = 3.0
 

@@ -1,6 +1,7 @@
 """The adaptive Kalman–Bucy filter (σ estimated online): its gain table, its σ̂, and its ratio near the optimum.
 
 Statistics: ratios come with batch-means Student intervals (:func:`isl_core.sweep.ratio_interval`) at LEVEL."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -54,7 +55,7 @@ def test_adaptive_run_exposes_sigma_hat():
     sig = run.track("kbf_adaptive").sigma_hat
     assert sig.shape == run.t.shape and sig[0] == spec.adaptive.sigma_init and not sig.flags.writeable
     assert run.track("kbf").sigma_hat is None and run.track("isl").sigma_hat is None
-    tail = sig[run.N // 10:] / FIG3.sigma  # steady state: scatter as documented, 1/√(2(2W − 1))
+    tail = sig[run.N // 10 :] / FIG3.sigma  # steady state: scatter as documented, 1/√(2(2W − 1))
     n_windows = len(tail) / (2 * window)  # ≈ independent stretches: rel. SE of an SD from n values ≈ 1/√(2n)
     assert n_windows >= 300
     assert abs(tail.std() / sigma_hat_sd(window) - 1.0) <= 3.0 / math.sqrt(2.0 * n_windows)

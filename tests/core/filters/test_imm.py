@@ -1,5 +1,6 @@
 """The interacting-multiple-model filter (isl_core.filters.imm) against a plain implementation of Blom & Bar-Shalom's
 cycle."""
+
 from __future__ import annotations
 
 import math
@@ -79,11 +80,22 @@ def _imm_reference(model, spec, scenario, h, n, seed, q):
     return sq, s_hat
 
 
-@pytest.mark.parametrize(("scenario", "horizon"), [
-    (Scenario(sigma_knots=((0.5, 2.0),)), 1.5),
-    (Scenario(sigma_knots=((0.4, 200.0),), sigma_shape="drift", noise="outliers", outlier_rate=0.05,
-              sensor_interval=0.05), 1.2),
-])
+@pytest.mark.parametrize(
+    ("scenario", "horizon"),
+    [
+        (Scenario(sigma_knots=((0.5, 2.0),)), 1.5),
+        (
+            Scenario(
+                sigma_knots=((0.4, 200.0),),
+                sigma_shape="drift",
+                noise="outliers",
+                outlier_rate=0.05,
+                sensor_interval=0.05,
+            ),
+            1.2,
+        ),
+    ],
+)
 def test_the_compiled_bank_equals_blom_and_bar_shaloms_cycle_written_out(scenario, horizon):
     spec = imm_kbf(MODEL, modes=5, switch=0.03)
     run = simulate_scenario(MODEL, 3.0, scenario, horizon=horizon, windows=4, seed=7, extra=[spec])
@@ -109,18 +121,32 @@ def test_the_bank_learns_a_drop_of_sigma_and_its_weights_never_all_underflow():
     """After a 10-fold drop the weights move to the modes near the new σ. A bank whose every mode is far from the
     truth (σ = 20 against modes of 0.01–0.02: each reading is 10⁴ standard deviations out) still has finite weights
     (the exponents are shifted by the best mode's) and follows its top mode."""
-    run = simulate_scenario(MODEL, 3.0, Scenario(sigma_knots=((1.0, 2.0),)), horizon=3.0, windows=3, seed=2,
-                            extra=[imm_kbf(MODEL)])
+    run = simulate_scenario(
+        MODEL, 3.0, Scenario(sigma_knots=((1.0, 2.0),)), horizon=3.0, windows=3, seed=2, extra=[imm_kbf(MODEL)]
+    )
     assert run.sigma_hat[0, 0] > 10.0 and 1.5 < run.sigma_hat[2, 0] < 4.0
-    far = simulate_scenario(MODEL, 3.0, Scenario(), horizon=1.0, windows=2, seed=2,
-                            extra=[imm_kbf(MODEL, sigma_range=(0.01, 0.02), modes=3)])
+    far = simulate_scenario(
+        MODEL,
+        3.0,
+        Scenario(),
+        horizon=1.0,
+        windows=2,
+        seed=2,
+        extra=[imm_kbf(MODEL, sigma_range=(0.01, 0.02), modes=3)],
+    )
     assert far.diverged[3] is None and np.all(np.isfinite(far.mse[:, 3]))
     assert far.sigma_hat[1, 0] == pytest.approx(0.02, rel=1e-6)
 
 
-@pytest.mark.parametrize(("kwargs", "named"), [({"modes": 0}, "modes"), ({"switch": 1.0}, "switch"),
-                                               ({"switch": 0.0}, "switch"), ({"sigma_range": (5.0, 5.0)},
-                                                                            "sigma_max > sigma_min")])
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [
+        ({"modes": 0}, "modes"),
+        ({"switch": 1.0}, "switch"),
+        ({"switch": 0.0}, "switch"),
+        ({"sigma_range": (5.0, 5.0)}, "sigma_max > sigma_min"),
+    ],
+)
 def test_bad_settings_are_named(kwargs, named):
     with pytest.raises(ValueError, match=named):
         imm_kbf(MODEL, **kwargs)

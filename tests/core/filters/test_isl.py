@@ -1,6 +1,7 @@
 """The ISL filters: the model-aware one is paper A's at α = 0, and its theory matches simulation near its best ν.
 
 Statistics: ratios come with batch-means Student intervals (:func:`isl_core.sweep.ratio_interval`) at LEVEL."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -1,5 +1,6 @@
 """The Kalman–Bucy filters designed for a guessed σ̄ (mismatched, minimax): the optimal one at σ̄ = σ, and their
 stationary error, the exact Lyapunov solution on the simulated grid (:ref:`mismatched-kbf`)."""
+
 from __future__ import annotations
 
 import numpy as np

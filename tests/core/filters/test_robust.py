@@ -1,4 +1,5 @@
 """The robust adaptive filter (Huber's ψ on the innovations): κ(c) and its σ̂ on Gaussian noise."""
+
 from __future__ import annotations
 
 import math
@@ -24,7 +25,8 @@ def test_hubers_kappa_and_the_robust_filters_sigma_on_gaussian_noise():
     assert huber_kappa(1.345) == pytest.approx(_kappa(1.345), rel=1e-9)
     assert huber_kappa(10.0) == pytest.approx(1.0, abs=1e-12)
     # on Gaussian noise the clipped, κ-corrected variance estimate is consistent: σ̂ ≈ σ like the adaptive filter's
-    run = simulate_scenario(MODEL, 3.0, Scenario(), horizon=200.0, windows=10, seed=4,
-                            extra=[adaptive_kbf(MODEL), robust_kbf(MODEL)])
+    run = simulate_scenario(
+        MODEL, 3.0, Scenario(), horizon=200.0, windows=10, seed=4, extra=[adaptive_kbf(MODEL), robust_kbf(MODEL)]
+    )
     late = run.sigma_hat[2:].mean(axis=0)
     assert late == pytest.approx([MODEL.sigma, MODEL.sigma], rel=0.02)

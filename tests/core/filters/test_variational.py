@@ -1,5 +1,6 @@
 """The variational-Bayes adaptive Kalman filter: the compiled loop equals Särkkä & Nummenmaa's Algorithm 1 written
 out."""
+
 from __future__ import annotations
 
 import math

@@ -1,4 +1,5 @@
 """The kernels' on-disk cache: its directory follows every source file of the package, subpackages included."""
+
 from __future__ import annotations
 
 import os
@@ -22,8 +23,9 @@ def test_the_kernel_cache_follows_every_source_file_of_the_package(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
 
     def cache_dir() -> str:
-        done = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
-                              check=True)
+        done = subprocess.run(
+            [sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True, check=True
+        )
         flag, where = done.stdout.split()
         assert flag == "True" and Path(where).parent == tmp_path / "cache"
         return where

@@ -1,4 +1,5 @@
 """What both compiled loops share: the division-free cube root and the m-th root of the power law, within a few ulp."""
+
 from __future__ import annotations
 
 import math
@@ -28,8 +29,13 @@ ROOT_ULPS = 8
 
 def test_fast_cbrt_within_a_few_ulp():
     rng = np.random.default_rng(0)
-    a = np.concatenate([np.exp(rng.uniform(-690.0, 690.0, 20_000)), rng.uniform(0.0, 10.0, 20_000),
-                        [1.0, 8.0, 27.0, 1e-299, 9.9e299, 2.0**-1022, 0.125]])
+    a = np.concatenate(
+        [
+            np.exp(rng.uniform(-690.0, 690.0, 20_000)),
+            rng.uniform(0.0, 10.0, 20_000),
+            [1.0, 8.0, 27.0, 1e-299, 9.9e299, 2.0**-1022, 0.125],
+        ]
+    )
     a = a[a > 0]
     got = np.array([fast_cbrt(x) for x in a])
     assert ulps(got, exact_root(a, 3)).max() <= ROOT_ULPS

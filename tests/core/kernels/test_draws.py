@@ -1,5 +1,6 @@
 """The noise laws as the compiled loops draw them (isl_core.kernels.draws): variances, the t law's tails, the outliers'
 steps."""
+
 from __future__ import annotations
 
 import math
@@ -12,11 +13,14 @@ from isl_core.noise import student_table
 from isl_core.scenario import Scenario
 
 
-@pytest.mark.parametrize(("scenario", "variance"), [
-    (Scenario(noise="student", dof=3.0), 1.0),
-    (Scenario(noise="student", dof=10.0), 1.0),
-    (Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0), 0.99 + 0.01 * 900.0),
-])
+@pytest.mark.parametrize(
+    ("scenario", "variance"),
+    [
+        (Scenario(noise="student", dof=3.0), 1.0),
+        (Scenario(noise="student", dof=10.0), 1.0),
+        (Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0), 0.99 + 0.01 * 900.0),
+    ],
+)
 def test_noise_laws_have_the_documented_variance(scenario, variance):
     eps = scenario.draw_noise(np.random.default_rng(7), 400_000)
     assert scenario.noise_variance == pytest.approx(variance)

@@ -1,5 +1,6 @@
 """The compiled Euler loop (isl_core.kernels.euler) against the plain-numpy reference (same noise), batching,
 chunking."""
+
 from __future__ import annotations
 
 import itertools
@@ -26,16 +27,29 @@ def model_aware_isl(model: Model, nu: float) -> FilterSpec:
 
 @pytest.mark.parametrize(
     "alpha, beta, sigma, m",
-    [(0.0, 3.0, 5.0, 3), (0.5, 3.0, 20.0, 3), (0.0, 1.0, 1.0, 1), (2.0, 1.0, 0.3, 1), (0.0, 2.0, 0.5, 2),
-     (1.0, 0.5, 3.0, 2), (0.3, 2.0, 7.0, 4), (0.0, 0.1, 20.0, 5), (25.0, 21.2, 2.0, 5), (0.0, 2.0, 0.5, 6),
-     (4.0, 30.0, 300.0, 6)],
+    [
+        (0.0, 3.0, 5.0, 3),
+        (0.5, 3.0, 20.0, 3),
+        (0.0, 1.0, 1.0, 1),
+        (2.0, 1.0, 0.3, 1),
+        (0.0, 2.0, 0.5, 2),
+        (1.0, 0.5, 3.0, 2),
+        (0.3, 2.0, 7.0, 4),
+        (0.0, 0.1, 20.0, 5),
+        (25.0, 21.2, 2.0, 5),
+        (0.0, 2.0, 0.5, 6),
+        (4.0, 30.0, 300.0, 6),
+    ],
 )
 def test_kernel_matches_numpy_reference(alpha, beta, sigma, m):
     model = Model(alpha, beta, sigma, m)
     kb = kalman_bucy(model)
     nu = 0.7 * beta
-    extra = (model_aware_isl(model, nu), FilterSpec("kbf0", "KBF with A0", 0.0, np.array(kb.K), False),
-             adaptive_kbf(model, sigma_range=(sigma / 5, sigma / 2), memory=200))  # W < n: both phases of λ_k
+    extra = (
+        model_aware_isl(model, nu),
+        FilterSpec("kbf0", "KBF with A0", 0.0, np.array(kb.K), False),
+        adaptive_kbf(model, sigma_range=(sigma / 5, sigma / 2), memory=200),
+    )  # W < n: both phases of λ_k
     run = simulate(model, nu, T=15.0 / kb.r_min, seed=11, extra=extra)
     n = min(run.N, 1500)
     specs = [optimal_kbf(model, kb), isl_filter(model, nu), *extra]
@@ -76,8 +90,21 @@ def test_chunked_calls_batches_and_burn_match_stored_errors():
     sq = np.zeros((nb, 2, 3))
     k = 0
     for todo in (1, 136, 1, 250, 123, 489, 4000):
-        assert advance(x, e, rng, todo, k, grid, model.sigma, bank, Batches(burn, batch_len, sq, no_sigma[0]),
-                       Trajectory.none(2, 0, 3)) == todo
+        assert (
+            advance(
+                x,
+                e,
+                rng,
+                todo,
+                k,
+                grid,
+                model.sigma,
+                bank,
+                Batches(burn, batch_len, sq, no_sigma[0]),
+                Trajectory.none(2, 0, 3),
+            )
+            == todo
+        )
         k += todo
     assert k == n
     assert x[-1] == X[n, -1]
@@ -104,10 +131,11 @@ def test_stored_chunks_can_start_at_an_offset():
     rng, x, e = _fresh(model, specs, 3)
     buf_x, buf_e = np.empty((101, 4)), np.empty((1, 101, 4))
     for k0 in (0, 100, 200):
-        advance(x, e, rng, 100, k0, grid, model.sigma, bank, Batches(0, 300, sq, sig),
-                Trajectory(True, k0, buf_x, buf_e, S))
-        np.testing.assert_array_equal(buf_x[1:], X[k0 + 1:k0 + 101])
-        np.testing.assert_array_equal(buf_e[:, 1:], E[:, k0 + 1:k0 + 101])
+        advance(
+            x, e, rng, 100, k0, grid, model.sigma, bank, Batches(0, 300, sq, sig), Trajectory(True, k0, buf_x, buf_e, S)
+        )
+        np.testing.assert_array_equal(buf_x[1:], X[k0 + 1 : k0 + 101])
+        np.testing.assert_array_equal(buf_e[:, 1:], E[:, k0 + 1 : k0 + 101])
 
 
 def test_kernel_stops_at_the_first_non_finite_step():
@@ -116,7 +144,17 @@ def test_kernel_stops_at_the_first_non_finite_step():
     specs = [optimal_kbf(model, kb), isl_filter(model, 3.0)]
     rng, x, e = _fresh(model, specs, 1)
     sq = np.zeros((1, 2, 3))
-    done = advance(x, e, rng, 100_000, 0, Grid(50.0, model.alpha, model.beta), model.sigma, pack(model, specs),
-                   Batches(0, 100_000, sq, np.empty((1, 0))), Trajectory.none(2, 0, 3))
+    done = advance(
+        x,
+        e,
+        rng,
+        100_000,
+        0,
+        Grid(50.0, model.alpha, model.beta),
+        model.sigma,
+        pack(model, specs),
+        Batches(0, 100_000, sq, np.empty((1, 0))),
+        Trajectory.none(2, 0, 3),
+    )
     assert 0 < done < 100_000
     assert not (np.all(np.isfinite(e)) and np.all(np.isfinite(x[-1])))

@@ -1,5 +1,6 @@
 """The compiled scenario loop (isl_core.kernels.scenario) against the same step written out in numpy, one filter at a
 time."""
+
 from __future__ import annotations
 
 import math
@@ -78,18 +79,26 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
     return sq
 
 
-@pytest.mark.parametrize("scenario", [
-    Scenario(sigma_knots=((0.3, 2.0),), noise="student", dof=4.0),
-    Scenario(sigma_knots=((0.3, 200.0),), sigma_shape="drift", noise="outliers", outlier_rate=0.05,
-             sensor_interval=0.02),
-    Scenario(sensor_interval=0.03),
-])
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        Scenario(sigma_knots=((0.3, 2.0),), noise="student", dof=4.0),
+        Scenario(
+            sigma_knots=((0.3, 200.0),), sigma_shape="drift", noise="outliers", outlier_rate=0.05, sensor_interval=0.02
+        ),
+        Scenario(sensor_interval=0.03),
+    ],
+)
 def test_the_compiled_scenario_loop_equals_a_plain_loop(scenario):
     extra = [adaptive_kbf(MODEL), robust_kbf(MODEL, c=1.0)]
     run = simulate_scenario(MODEL, 3.0, scenario, horizon=0.6, windows=7, seed=5, extra=extra)
     kb = kalman_bucy(MODEL)
-    filters = [FilterSpec("clairvoyant", "clairvoyant", MODEL.alpha, np.zeros(MODEL.m), False),
-               optimal_kbf(MODEL, kb), isl_filter(MODEL, 3.0), *extra]
+    filters = [
+        FilterSpec("clairvoyant", "clairvoyant", MODEL.alpha, np.zeros(MODEL.m), False),
+        optimal_kbf(MODEL, kb),
+        isl_filter(MODEL, 3.0),
+        *extra,
+    ]
     ref = clairvoyant(MODEL, scenario, run.h, run.N)
     sq = _loop(MODEL, filters, scenario, run.h, run.N, 5, ref.gain, run.q)
     got = np.tensordot(run.steps.astype(float), run.mse, axes=1)
