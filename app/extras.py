@@ -22,6 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from isl_core import BASELINES, Model, WorstCaseTable, baseline_filters, theory_ratios, worst_case
+from isl_core.filters.base import SIGMA_RANGE  # the plausible σ range a page opens with
 
 __all__ = [
     "ALPHA_BOUNDS",
@@ -37,8 +38,6 @@ __all__ = [
 
 EXTRA_NAMES = tuple(n for n in BASELINES if n not in ("kbf", "isl"))  #: filters a user can overlay
 SIGMA_BOUNDS = (0.1, 1000.0)
-#: the plausible σ range a page opens with (the ends of paper A's Fig. 2 σ values) and the mismatched filter's σ̄
-SIGMA_RANGE = (2.0, 200.0)
 SIGMA_DESIGN = 20.0
 ALPHA_BOUNDS = (0.001, 100.0)
 log = logging.getLogger(__name__)

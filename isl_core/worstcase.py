@@ -34,6 +34,7 @@ import numpy as np
 
 from ._engine import freeze
 from .filters.adaptive import MEMORY
+from .filters.base import SIGMA_RANGE
 from .filters.baselines import BASELINES, baseline_filters, check_names
 from .filters.baselines import LABELS as BASE_LABELS
 from .filters.isl import isl_filter
@@ -256,7 +257,7 @@ def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, se
 def worst_case(
     alphas: Sequence[float] = FIG2_ALPHAS,
     *,
-    sigma_range: tuple[float, float] = (2.0, 200.0),
+    sigma_range: tuple[float, float] = SIGMA_RANGE,
     n_sigma: int = 5,
     m: int = 3,
     w: float = 3.0,

@@ -49,7 +49,7 @@ import numpy as np
 from ..model import Model
 from ..riccati import A_MAX, normalized_care
 from ..validate import check_real, check_sigma_range, short
-from .base import AdaptiveGain, FilterSpec
+from .base import SIGMA_RANGE, AdaptiveGain, FilterSpec
 
 __all__ = [
     "MEMORY",
@@ -96,7 +96,7 @@ def gain_table(model: Model, sigmas) -> np.ndarray:
 def adaptive_kbf(
     model: Model,
     *,
-    sigma_range: tuple[float, float] = (2.0, 200.0),
+    sigma_range: tuple[float, float] = SIGMA_RANGE,
     memory: float = MEMORY,
     sigma_init: float | None = None,
 ) -> FilterSpec:

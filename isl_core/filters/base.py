@@ -41,6 +41,7 @@ __all__ = [
     "KIND_POWER",
     "KIND_ROBUST",
     "KIND_VB",
+    "SIGMA_RANGE",
     "AdaptiveGain",
     "FilterSpec",
     "IMMBank",
@@ -48,6 +49,9 @@ __all__ = [
     "linearized_matrix",
 ]
 
+#: the σ range a σ-learner assumes by default (its gain table, its start at the geometric middle): the ends of paper
+#: A's Fig. 2 σ values
+SIGMA_RANGE = (2.0, 200.0)
 KIND_LINEAR = 0  #: φ linear, K u (B.30)
 KIND_POWER = 1  #: φ the power law of (A.17)
 KIND_ADAPTIVE = 2  #: φ linear with the gain K(σ̂) of an online σ estimate (:mod:`isl_core.filters.adaptive`)

@@ -33,7 +33,7 @@ from ..model import Model
 from ..riccati import kalman_bucy
 from ..validate import check_sigma_range, short
 from .adaptive import MEMORY, adaptive_kbf
-from .base import FilterSpec
+from .base import SIGMA_RANGE, FilterSpec
 from .isl import isl_filter, model_aware_isl
 from .kalman import design_sigma, minimax_kbf, mismatched_kbf, optimal_kbf
 
@@ -59,7 +59,7 @@ def baseline_filters(
     nu: float,
     nu_model: float | None = None,
     sigma_design: float | None = None,
-    sigma_range: tuple[float, float] = (2.0, 200.0),
+    sigma_range: tuple[float, float] = SIGMA_RANGE,
     memory: float = MEMORY,
     names: Sequence[str] = BASELINES,
 ) -> list[FilterSpec]:

@@ -23,7 +23,7 @@ import math
 from ..model import Model
 from ..validate import check_real
 from .adaptive import MEMORY, adaptive_kbf
-from .base import FilterSpec
+from .base import SIGMA_RANGE, FilterSpec
 
 __all__ = ["HUBER_C", "huber_kappa", "robust_kbf"]
 
@@ -41,7 +41,7 @@ def robust_kbf(
     model: Model,
     *,
     c: float = HUBER_C,
-    sigma_range: tuple[float, float] = (2.0, 200.0),
+    sigma_range: tuple[float, float] = SIGMA_RANGE,
     memory: float = MEMORY,
     sigma_init: float | None = None,
 ) -> FilterSpec:

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..filters.adaptive import adaptive_kbf
-from ..filters.base import FilterSpec
+from ..filters.base import SIGMA_RANGE, FilterSpec
 from ..filters.imm import imm_kbf
 from ..filters.isl import isl_filter, model_aware_isl
 from ..filters.robust import robust_kbf
@@ -59,7 +59,6 @@ __all__ = [
     "variant_name",
 ]
 
-SIGMA_RANGE = (2.0, 200.0)  #: the σ range of the σ-learners' gain tables; they start at its geometric middle
 #: family: (its label, its knobs in order)
 FAMILIES = {
     "isl": ("ISL (paper A)", ("ell",)),
