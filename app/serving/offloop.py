@@ -153,10 +153,17 @@ def _execute_via_loop(execute):
 
 def _register(doc, callback) -> None:
     """On the session's loop: run ``callback`` on its next tick, with the document locked (bokeh's session callback)."""
+    from bokeh.io import doc as bokeh_doc
+
+    patched = bokeh_doc._PATCHED_CURDOCS
+    depth = len(patched)
     try:
         doc.add_next_tick_callback(callback)
     except (RuntimeError, AttributeError):
-        # the session was destroyed meanwhile (bokeh's document without its callback manager): nobody sees the outcome
+        # the session was destroyed meanwhile (bokeh's document without its callback manager): nobody sees the outcome;
+        # bokeh had made the destroyed document this thread's curdoc() before it failed: what runs next must not see it
+        while len(patched) > depth:
+            patched.pop()
         log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 

@@ -164,9 +164,11 @@ def test_a_callback_for_a_session_destroyed_meanwhile_is_dropped_quietly(caplog)
     doc, session = Document(), _Receiver()
     doc.on_change_dispatch_to(session)
     doc.destroy(session)
+    before = curdoc()
     with caplog.at_level(logging.DEBUG, logger=offloop.log.name):
         offloop._register(doc, lambda: None)
     assert [r.getMessage() for r in caplog.records] == ["dropped a callback of a destroyed session"]
+    assert curdoc() is before  # the destroyed document is not left as this thread's curdoc (a later export failed)
 
 
 def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():
