@@ -226,11 +226,14 @@ def test_after_every_random_action_the_page_draws_the_run_its_link_describes(app
     # the scenario pictures small (2 runs, 12/rₘᵢₙ): their legends are checked, their statistics elsewhere
     with dashboard(url + "?sc_runs=2&sc_horizon=12", viewport={"width": 1280, "height": 900}) as page:
         cache: dict = {}
+        errors: list[str] = []  # a script error of the page (a change it could not apply), named with its action
+        page.on("pageerror", lambda error: errors.append(str(error)))
         try:
             want = settle(page, "the first run", cache)
             while len(done) < ACTIONS:
                 done.append(act(page, rng, want["state"]))
                 want = settle(page, f"after {done[-1]}", cache)
+                assert not errors, f"the page raised {errors}"
         except AssertionError as exc:
             raise AssertionError(f"ISL_PROPERTY_SEED={seed}, after {len(done)} actions {done[-8:]}: {exc}") from None
     assert len(done) == ACTIONS
