@@ -13,6 +13,7 @@ from numba import njit
 
 from .bundles import ClairvoyantState
 from .cache import CACHE
+from .common import predict_cov
 
 __all__ = ["CYCLE_MAX", "SETTLED", "clairvoyant_state", "clairvoyant_step", "riccati_path"]
 
@@ -61,17 +62,7 @@ def clairvoyant_step(state, h, decay, beta2, noise, k, q, phase):
             P[:, :] = cyc[back]
             st[0] = cyc_r[back]
     st[0] += noise
-    for j in range(a):  # rows: F_a P
-        P[m, j] += h * P[0, j]
-        for i in range(m - 1):
-            P[i, j] += h * P[i + 1, j]
-        P[m - 1, j] *= decay
-    for i in range(a):  # columns: (F_a P) F_aᵀ
-        P[i, m] += h * P[i, 0]
-        for j in range(m - 1):
-            P[i, j] += h * P[i, j + 1]
-        P[i, m - 1] *= decay
-    P[m - 1, m - 1] += h * beta2
+    predict_cov(P, h, decay, h * beta2)
     change = 0.0
     if reading:  # the increment of Y over the last q steps: S + noise of variance R
         s = P[m, m] + st[0]

@@ -24,6 +24,7 @@ __all__ = [
     "AD_WIDTH",
     "FLUSH",
     "fast_cbrt",
+    "predict_cov",
     "root",
     "table_gain",
 ]
@@ -91,3 +92,23 @@ def table_gain(table, ad, f, gain, sqh):
     for i in range(table.shape[2]):
         lo = table[f, j, i]
         gain[f, i] = sqh * math.exp(lo + w * (table[f, j + 1, i] - lo))
+
+
+@njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
+def predict_cov(P, h, decay, q_var):
+    """P ← F_a P F_aᵀ + q_var·E Eᵀ on (X, S) in place (one mode's P): X_i += h X_{i+1}, X_m ·= decay, S += h X_1
+    (the clairvoyant recursion's prediction, :func:`isl_core.kernels.clairvoyant.clairvoyant_step`, and each IMM
+    mode's)."""
+    a = P.shape[0]
+    m = a - 1
+    for c in range(a):  # rows: F_a P
+        P[m, c] += h * P[0, c]
+        for i in range(m - 1):
+            P[i, c] += h * P[i + 1, c]
+        P[m - 1, c] *= decay
+    for i in range(a):  # columns: (F_a P) F_aᵀ
+        P[i, m] += h * P[i, 0]
+        for c in range(m - 1):
+            P[i, c] += h * P[i, c + 1]
+        P[i, m - 1] *= decay
+    P[m - 1, m - 1] += q_var

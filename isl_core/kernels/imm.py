@@ -16,6 +16,7 @@ from numba import njit
 from ..filters.base import FilterSpec
 from .bundles import IMMState
 from .cache import CACHE, FASTMATH
+from .common import predict_cov
 
 __all__ = ["imm_state", "imm_step"]
 
@@ -58,25 +59,6 @@ def imm_state(filters: Sequence[FilterSpec], m: int, q: int, h: float) -> IMMSta
         np.zeros(jm),
         np.zeros(m),
     )
-
-
-@njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def _predict(P, h, decay, q_var):
-    """P ← F_a P F_aᵀ + q_var·E Eᵀ on (X, S) in place (one mode's P): X_i += h X_{i+1}, X_m ·= decay, S += h X_1
-    (the clairvoyant recursion's prediction, :func:`isl_core.scenario.clairvoyant_step`)."""
-    a = P.shape[0]
-    m = a - 1
-    for c in range(a):  # rows: F_a P
-        P[m, c] += h * P[0, c]
-        for i in range(m - 1):
-            P[i, c] += h * P[i + 1, c]
-        P[m - 1, c] *= decay
-    for i in range(a):  # columns: (F_a P) F_aᵀ
-        P[i, m] += h * P[i, 0]
-        for c in range(m - 1):
-            P[i, c] += h * P[i, c + 1]
-        P[i, m - 1] *= decay
-    P[m - 1, m - 1] += q_var
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
@@ -165,7 +147,7 @@ def imm_step(bank, b, el, f, noise, sqh, h, decay, q_var, shock, reading, corr):
         for i in range(m - 1):
             e[b, j, i] += h * e[b, j, i + 1]
         e[b, j, m - 1] = decay * e[b, j, m - 1] - shock
-        _predict(P[b, j], h, decay, q_var)  # a view: inlined, it costs no call
+        predict_cov(P[b, j], h, decay, q_var)  # a view: inlined, it costs no call
     if not reading:
         return -1.0
     least = math.inf
