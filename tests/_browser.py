@@ -113,3 +113,18 @@ PLOT_DATA = f"""() => {{
     if (!src || src.data.y.length === 0) return null;
     return Array.from(src.data.y.slice(0, 50)).join(',');
 }}"""
+
+#: per plot, the band's drawn offsets from X̂ᵢ as BokehJS computed them: [min, max] of upper − y and of y − lower
+BAND_OFFSETS = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Band' && v._upper)
+    .map(v => { const y = v.model.source.data.y, up = v._upper, lo = v._lower;
+        let a = Infinity, b = -Infinity, c = Infinity, d = -Infinity;
+        for (let k = 0; k < y.length; k++) { const u = up[k] - y[k], l = y[k] - lo[k];
+            a = Math.min(a, u); b = Math.max(b, u); c = Math.min(c, l); d = Math.max(d, l); }
+        return [v.model.source.name, y.length, a, b, c, d]; })"""
+
+
+#: the scenario plots' legend labels as BokehJS holds them (what its legends draw), and their time axes' labels
+SCENARIO_TEXT = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Figure' && v.model.title
+        && /clairvoyant|σ\\(t\\)/.test(v.model.title.text))
+    .map(v => [v.model.title.text, [...v.model.right, ...v.model.below].filter(m => m.type === 'Legend')
+        .flatMap(l => l.items.map(i => i.label.value)), v.model.below.map(a => a.axis_label)])"""

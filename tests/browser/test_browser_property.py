@@ -20,7 +20,7 @@ import urllib.parse
 
 import numpy as np
 import pytest
-from _browser import TAB_OPEN, dashboard
+from _browser import BAND_OFFSETS, SCENARIO_TEXT, TAB_OPEN, dashboard
 
 from app.pipeline import compute
 from app.state import AppState
@@ -46,14 +46,12 @@ EXTRA_BOXES = ("KBF for mid σ", "KBF adaptive", "ISL model-aware")
 
 #: what BokehJS holds for the trajectory plots: each band's [source, points, min/max of its drawn upper and lower
 #: offsets], each line source's arrays (t, y) and the labels of the legend items it shows
-DRAWN = """() => { const KEYS = ["Xᵢ signal", "0 (no error)"];
+DRAWN = (
+    """() => { const KEYS = ["Xᵢ signal", "0 (no error)"];
     const views = Array.from(Bokeh.index.all_views());
-    const bands = views.filter(v => v.model.type === 'Band' && v._upper).map(v => {
-        const y = v.model.source.data.y, up = v._upper, lo = v._lower;
-        let a = Infinity, b = -Infinity, c = Infinity, d = -Infinity;
-        for (let k = 0; k < y.length; k++) { const u = up[k] - y[k], l = y[k] - lo[k];
-            a = Math.min(a, u); b = Math.max(b, u); c = Math.min(c, l); d = Math.max(d, l); }
-        return [v.model.source.name, y.length, a, b, c, d]; });
+    const bands = ("""
+    + BAND_OFFSETS
+    + """)();
     const lines = {};
     for (const v of views) {
         const src = v.model.data_source;
@@ -68,13 +66,11 @@ DRAWN = """() => { const KEYS = ["Xᵢ signal", "0 (no error)"];
                 for (const i of l.items) if (i.visible !== false) labels.push(i.label.value);
     return {bands, lines, labels: Array.from(new Set(labels)).sort()};
 }"""
+)
 assert all(label in DRAWN for label in KEY_LABELS["truth"])  # the key is found by the signal's label, in either view
 
 #: the scenario plots' legend labels as BokehJS holds them
-SCENARIO_LABELS = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Figure' && v.model.title
-        && /clairvoyant|σ\\(t\\)/.test(v.model.title.text))
-    .flatMap(v => [...v.model.right, ...v.model.below].filter(m => m.type === 'Legend')
-        .flatMap(l => l.items.map(i => i.label.value)))"""
+SCENARIO_LABELS = f"() => ({SCENARIO_TEXT})().flatMap(f => f[1])"
 
 
 def expected(url: str) -> dict:

@@ -14,19 +14,11 @@ import math
 
 import numpy as np
 import pytest
-from _browser import DEEP, NAMED, PLOT_DATA, TAB_OPEN, dashboard, launch
+from _browser import BAND_OFFSETS, DEEP, NAMED, PLOT_DATA, SCENARIO_TEXT, TAB_OPEN, dashboard, launch
 
 from isl_core import Model, kalman_bucy
 
 pytestmark = [pytest.mark.browser]
-
-#: per plot, the band's drawn offsets from X̂ᵢ as BokehJS computed them: [min, max] of upper − y and of y − lower
-BAND_OFFSETS = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Band' && v._upper)
-    .map(v => { const y = v.model.source.data.y, up = v._upper, lo = v._lower;
-        let a = Infinity, b = -Infinity, c = Infinity, d = -Infinity;
-        for (let k = 0; k < y.length; k++) { const u = up[k] - y[k], l = y[k] - lo[k];
-            a = Math.min(a, u); b = Math.max(b, u); c = Math.min(c, l); d = Math.max(d, l); }
-        return [v.model.source.name, y.length, a, b, c, d]; })"""
 
 #: true once every band's drawn offsets are the expected 3 sᵢ (``arg``: name → 3 sᵢ) within float32 rounding
 BANDS_ARE = f"""(want) => {{ const got = ({BAND_OFFSETS})();
@@ -90,13 +82,6 @@ def test_the_tube_follows_new_noise_after_the_error_view_moved_it_to_another_sou
             f"(before) => {{ const now = ({PLOT_DATA})(); return now && now !== before; }}", arg=before, timeout=30_000
         )
         wait_bands(page, three_s(0.5, 3.0, 20.0, 4), "after new noise")
-
-
-#: the scenario plots' legend labels as BokehJS holds them (what its legends draw), and their time axes' labels
-SCENARIO_TEXT = """() => Array.from(Bokeh.index.all_views()).filter(v => v.model.type === 'Figure' && v.model.title
-        && /clairvoyant|σ\\(t\\)/.test(v.model.title.text))
-    .map(v => [v.model.title.text, [...v.model.right, ...v.model.below].filter(m => m.type === 'Legend')
-        .flatMap(l => l.items.map(i => i.label.value)), v.model.below.map(a => a.axis_label)])"""
 
 
 def test_the_scenario_legend_names_the_run_shown_after_a_preset(app_server):
