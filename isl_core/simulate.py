@@ -13,7 +13,7 @@ Step size (B.47) and length (B.46): :mod:`isl_core.grid`.
 Start (:ref:`start`): the truth at X(0) = 0 except X_m(0) ~ N(0, β²/(2α)) when α > 0; every filter at
 ``Z(0) = X(0) − e₀`` with ONE common draw ``e₀ ~ N(0, Δ)`` (``start="stationary"``): the optimal filter's error is
 then stationary from t = 0, so its measured ratio is ≈ 1 at any horizon. ``start="truth"`` starts every filter at
-the truth, as the papers do (its measured ratio is then below 1 on short runs).
+the truth, with no start error (its measured ratio is then below 1 on short runs).
 
 Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
 """
