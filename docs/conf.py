@@ -70,6 +70,9 @@ html_theme_options = {
     "show_prev_next": True,
     "icon_links": [],
     "secondary_sidebar_items": ["page-toc"],
+    # the search as an icon button named "Search": the theme's default search field shows "Search Ctrl+K" under the
+    # name "Search", which WCAG 2.1's "label in name" (2.5.3) refuses
+    "navbar_persistent": ["search-button"],
     "footer_start": ["copyright"],
     "footer_end": [],
 }

@@ -1,5 +1,5 @@
 """The documentation's mathematics as a reader sees it: every equation typeset by MathJax from the pages' own files,
-none wider than the text column at 1280 px.
+none wider than the text column at 1280 px, and the typeset pages within WCAG 2.1 AA (axe-core).
 
 The pages are those ``./scripts/docs`` built (``./scripts/test`` builds them first), served by a plain HTTP server on
 localhost: what is checked is what chromium computed — MathJax's output elements and their boxes — not the HTML
@@ -16,6 +16,7 @@ from urllib.parse import urlsplit
 
 import pytest
 from _browser import ROOT, launch
+from test_browser_a11y import violations
 
 BUILT = ROOT / "docs" / "_build" / "html"
 PAGES = sorted(page.stem for page in BUILT.glob("*.html") if 'class="math notranslate' in page.read_text("utf-8"))
@@ -101,6 +102,7 @@ def test_every_equation_is_typeset_from_the_pages_own_files_and_fits_the_column(
     here = urlsplit(page.url).netloc
     try:
         found = page.evaluate(TYPESET)
+        wcag = violations(page)  # axe-core, WCAG 2.1 AA, on the typeset page
     finally:
         page.close()
     assert found["display"], f"{name}: no displayed equation"
@@ -111,6 +113,7 @@ def test_every_equation_is_typeset_from_the_pages_own_files_and_fits_the_column(
     assert found["preformatted"] == 0, f"{name}: an equation left as preformatted text"
     assert hosts == {here}, f"{name}: requests to other hosts: {hosts}"
     assert errors == []
+    assert wcag == [], f"{name}: WCAG 2.1 AA violations"
     left, right = found["column"]
     wide = [
         (d["label"], d["box"], d["overflow"])
