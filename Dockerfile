@@ -22,7 +22,9 @@ RUN python -m venv /opt/venv \
 # its own with the docs extra and MathJax (npm ci of docs/js, copied into the pages by docs/conf.py), warnings as
 # errors, so the image carries the pages and not sphinx or npm
 FROM build AS docs
-RUN apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends npm >/dev/null
+RUN apt-get update -qq \
+    && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends npm=9.2.0~ds1-1 >/dev/null \
+    && rm -rf /var/lib/apt/lists/*
 COPY docs ./docs
 RUN npm ci --prefix docs/js --no-audit --no-fund \
     && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock ".[docs]" \
