@@ -93,6 +93,7 @@ def docs_page():
 
 def test_the_mathematics_pages_have_equations():
     """The pages the checks below walk: at least the model and theory pages (none on a build without mathematics)."""
+    assert (BUILT / "index.html").is_file(), f"the documentation is not built in {BUILT}: run ./scripts/docs"
     assert {"model", "theory", "filters", "simulation"} <= set(PAGES), f"pages with typeset mathematics: {PAGES}"
 
 
