@@ -19,10 +19,15 @@ RUN python -m venv /opt/venv \
     && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock .
 
 # The documentation, which the dashboard serves at /docs/ (a classroom without internet has it): built in a stage of
-# its own with the docs extra, warnings as errors, so the image carries the pages and not sphinx
+# its own with the docs extra and MathJax (npm ci of docs/js, copied into the pages by docs/conf.py), warnings as
+# errors, so the image carries the pages and not sphinx or npm
 FROM build AS docs
+RUN apt-get update -qq \
+    && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends npm=9.2.0~ds1-1 >/dev/null \
+    && rm -rf /var/lib/apt/lists/*
 COPY docs ./docs
-RUN /opt/venv/bin/pip install --no-cache-dir -c requirements.lock ".[docs]" \
+RUN npm ci --prefix docs/js --no-audit --no-fund \
+    && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock ".[docs]" \
     && /opt/venv/bin/python -m sphinx -W --keep-going -q -b html docs /opt/isl-docs
 
 FROM ${PYTHON_IMAGE}

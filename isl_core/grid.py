@@ -70,7 +70,7 @@ def euler_bias(model: Model, kb: KalmanBucy, h: float) -> float:
 
 def step_size(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -> float:
     """``h = H_RATE / max(|λ(A − KC)|, α, |λ(Λ_f)|, r_min)`` (B.47 with a margin, :ref:`step-size`), shrunk until the
-    grid biases the optimal filter's RMSE by at most :data:`EULER_BIAS` (:func:`euler_bias`).
+    grid biases the optimal filter's RMSE by at most :data:`!EULER_BIAS` (:func:`!euler_bias`).
 
     Parameters
     ----------
@@ -114,7 +114,7 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
 
     Λ_f is the statistically linearized matrix of filter f (:func:`isl_core.linearized_matrix`). An adaptive filter
     settles like the optimal one (its gain follows K(σ̂) → K(σ)); a filter whose Λ_f is not stable has no stationary
-    regime to wait for and is left out (its ratio is what the run shows). A filter at most :data:`SETTLE_TOL` times
+    regime to wait for and is left out (its ratio is what the run shows). A filter at most :data:`!SETTLE_TOL` times
     slower than the optimal one counts as settling with it (the result is then exactly r_min).
 
     Parameters

@@ -54,7 +54,7 @@ class Recommendation:
     ``compared``: the worst cases of the ``compare`` values of ν/β, simulated on the same noise;
     ``model_aware``: the recommendation is for the ISL filter that propagates with A. The simulation's averaging
     window per σ (``sigmas`` order): a burn-in of ``BURN·stretch[j]/r_min``, then ``horizon·stretch[j]/r_min``
-    (:func:`isl_core.sweep.group_length`); ``stretch`` is empty when not verified.
+    (:func:`!isl_core.sweep.group_length`); ``stretch`` is empty when not verified.
     """
 
     alpha: float
@@ -143,7 +143,7 @@ def recommend_nu(
     of ν/β (e.g. a published table) whose worst cases are computed alongside, on the same noise.
     ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to
     :func:`isl_core.sweep`. ``model_aware``: recommend ν for the ISL filter that propagates with A
-    (:func:`isl_core.baselines.model_aware_isl`) instead of paper A's (A0).
+    (:func:`!isl_core.filters.isl.model_aware_isl`) instead of paper A's (A0).
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ drawn in bulk right after the initial state and the filters' common start error
     X_{k+1} = (I + h·A)·X_k + β·E·√h·v_k                                    (B.33)
 
 with ``A_f = A0 − a_f·EEᵀ`` (a_f = ``spec.damp``) and φ of :func:`isl_core.nonlinearity.phi` (A.17).
-Adaptive Kalman–Bucy (:mod:`isl_core.adaptive`): the KBF step with the gain K(σ̂_{k−1}) read off the table by
+Adaptive Kalman–Bucy (:mod:`isl_core.filters.adaptive`): the KBF step with the gain K(σ̂_{k−1}) read off the table by
 ``numpy.interp`` in log σ, then, with u_k = ΔY_k/√h − √h·Ẑ_1(t_k),
 
     v_k = v_{k−1} + max(1/k, 1/W)·(u_k² − v_{k−1}),    σ̂_k = √(v_k / (1 + h·K_1(σ̂_{k−1})))

@@ -13,7 +13,7 @@ Step size (B.47) and length (B.46): :mod:`isl_core.grid`.
 Start (:ref:`start`): the truth at X(0) = 0 except X_m(0) ~ N(0, β²/(2α)) when α > 0; every filter at
 ``Z(0) = X(0) − e₀`` with ONE common draw ``e₀ ~ N(0, Δ)`` (``start="stationary"``): the optimal filter's error is
 then stationary from t = 0, so its measured ratio is ≈ 1 at any horizon. ``start="truth"`` starts every filter at
-the truth, as the papers do (its measured ratio is then below 1 on short runs).
+the truth, with no start error (its measured ratio is then below 1 on short runs).
 
 Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
 """
@@ -67,7 +67,7 @@ class Run(Tracked):
     ``tracks`` in order: Kalman–Bucy, ISL, extras; their RMSE and ratios are over every step k = 1..N.
     ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = N·h``. ``stretch = r_min / r``
     with r the settling rate of the optimal and the ISL filter (≥ 1; T = horizon/r when the horizon was given in
-    units of 1/r_min), ``start`` how the filters started (:data:`STARTS`).
+    units of 1/r_min), ``start`` how the filters started (:data:`!STARTS`).
     """
 
     model: Model
@@ -116,7 +116,7 @@ def simulate(
     docstring). ``h`` by :func:`step_size` over every filter simulated and ``step_filters`` — filters that are not
     simulated but must not change the grid when they are (e.g. those a view can show on demand). ``seed`` (int ≥ 0)
     fixes the noise: the same seed gives the same run, bit for bit. ``extra`` filters ride on the same noise.
-    ``start``: :data:`STARTS`. ``every``: keep the trajectories at every ``every``-th step only (memory ÷ every;
+    ``start``: :data:`!STARTS`. ``every``: keep the trajectories at every ``every``-th step only (memory ÷ every;
     the RMSE still counts every step). ``progress(fraction)`` is called between kernel chunks; raising from it
     cancels. Raises ``ValueError`` for bad input or too many steps, :class:`DivergenceError` for a blown-up filter.
 
@@ -135,7 +135,7 @@ def simulate(
     extra, step_filters : sequence of FilterSpec
         More filters on the same noise; filters that only count for the step size.
     start : str, default "stationary"
-        How the filters start (:data:`STARTS`).
+        How the filters start (:data:`!STARTS`).
     every : int, default 1
         Keep every ``every``-th step of the trajectories.
     progress : callable, optional

@@ -255,7 +255,7 @@ def sweep(
     ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; work goes out in chunks of ``chunk``
     groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
-    propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :mod:`isl_core.baselines`)
+    propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :ref:`model-aware-isl`)
     instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β
     at every α (α = 0 allowed: paper B's model) instead of paper A's β = w·√(2α); ``w`` is then ignored.
 

@@ -5,8 +5,8 @@ For a user who knows only that σ lies in ``[σ_min, σ_max]``, the number that 
     W_f(α) = max_{σ ∈ grid, i = 1..m}  š_{f,i}(σ) / s_i(σ)
 
 on a log-spaced grid of ``n_sigma`` values of σ in the range (both ends included), β = w√(2α) (A.25).
-The filters are those of :mod:`isl_core.baselines`, all on ONE trajectory per (α, σ, seed) (common random
-numbers). Choices, all documented:
+The filters are those of :mod:`isl_core.filters.baselines`, all on ONE trajectory per (α, σ, seed) (common
+random numbers). Choices, all documented:
 
 * ISL filters: ν from :func:`isl_core.recommend_nu` over the same σ grid (the prediction's minimax ν, not
   verified there: this table is the verification), separately for paper A's filter ("ISL, minimax ν") and the
@@ -70,7 +70,7 @@ class WorstCaseTable:
     ``[worst_low, worst_high]``, at ``worst_sigma`` and coordinate ``worst_i`` (1-based), ``theory_worst``.
     Parameters per α and filter (nα, nf): ``nu`` of the ISL filters and ``sigma_design`` of the fixed-gain
     Kalman–Bucy filters (nan elsewhere). ``best_fixed_worst``/``best_fixed_sigma`` (nα,): the best fixed-gain
-    Kalman–Bucy design over the range and its predicted worst case (:func:`isl_core.recommend.best_fixed_kbf`).
+    Kalman–Bucy design over the range and its predicted worst case (:func:`!isl_core.recommend.best_fixed_kbf`).
     ``r_min``, ``h``, ``steps``, ``stretch`` (nα, nσ) per group and seed: burn-in ``BURN·stretch/r_min``, then an
     average over ``horizon·stretch/r_min``.
     """
@@ -99,7 +99,7 @@ class WorstCaseTable:
 
     @property
     def labels(self) -> tuple[str, ...]:
-        """Short human labels of ``names``, with the origin of each filter's tuning (:data:`LABELS`)."""
+        """Short human labels of ``names``, with the origin of each filter's tuning (:data:`!LABELS`)."""
         return tuple(LABELS[n] for n in self.names)
 
     @property
@@ -230,7 +230,7 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, bat
 
 
 def _filter(model: Model, name: str, nu_a31: float, kw: dict):
-    """Filter ``name`` of :data:`FILTERS` for ``model``: a baseline, or paper A's ISL filter at table A.31's ν."""
+    """Filter ``name`` of :data:`!FILTERS` for ``model``: a baseline, or paper A's ISL filter at table A.31's ν."""
     if name == "isl_a31":
         spec = isl_filter(model, nu_a31)
         return dataclasses.replace(spec, name="isl_a31", label=f"ISL, ν from table A.31 (ν = {nu_a31:.4g})")
@@ -275,7 +275,7 @@ def worst_case(
 ) -> WorstCaseTable:
     """Each filter's worst-case RMSE ratio over ``sigma_range`` (``n_sigma`` log-spaced σ) per α > 0.
 
-    ``filters``: names from :data:`FILTERS` (default all): the baselines of :mod:`isl_core.baselines` and
+    ``filters``: names from :data:`!FILTERS` (default all): the baselines of :ref:`baselines` and
     ``isl_a31``, paper A's filter at table A.31's ν (for the α of that table; nan elsewhere). ``sigma_design``: σ̄ of the
     mismatched Kalman–Bucy filter (default √(σ_min σ_max)); ``memory``: the adaptive filter's W in readings (a
     reading is a step in these runs).
@@ -291,7 +291,7 @@ def worst_case(
     m, w : int, float
         State dimension; stationary std of X_m (β = w√(2α)).
     filters : sequence of str
-        The filters compared (default :data:`FILTERS`).
+        The filters compared (default :data:`!FILTERS`).
     sigma_design, memory : float
         σ̄ of the mismatched filter; the adaptive filter's W in readings.
     horizon, seeds, batches, level, executor, chunk, workers, progress

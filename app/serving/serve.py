@@ -17,18 +17,18 @@ option                          environment              default
 ``--trim-interval``             —                        5000 ms between looks for ended sessions' memory
 ==============================  =======================  ====================================================
 
-Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`app.serving.webguard`, with the
-security headers, the host check and compression), the built documentation at ``/docs/`` (:mod:`app.serving.docs`),
+Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`!app.serving.webguard`, with the
+security headers, the host check and compression), the built documentation at ``/docs/`` (:mod:`!app.serving.docs`),
 ``--warm`` (the app runs once before the port opens), a global exception handler and per-session release hooks
-(:mod:`app.serving.hardening`), pages built off the event loop (:mod:`app.serving.offloop`) and memory handed back
-after a class (:mod:`app.serving.memory`).
+(:mod:`!app.serving.hardening`), pages built off the event loop (:mod:`!app.serving.offloop`) and memory handed back
+after a class (:mod:`!app.serving.memory`).
 Never on: ``--admin``, ``--dev``/``--autoreload``, a ``*`` websocket origin.
 
 Why in-process: this module builds the argument list of ``panel serve`` and runs Panel's own ``serve``
 sub-command in this process (the code path of the ``panel`` executable, so every flag means what Panel
 documents), rather than spawning ``panel serve`` as a child. That lets it
 
-* install :mod:`app.serving.hardening` in the serving process before any session exists, so the exception handler
+* install :mod:`!app.serving.hardening` in the serving process before any session exists, so the exception handler
   and the traceback-free websocket error replies cover every session whatever the app imports;
 * make ``--warm`` strict: Panel logs a failing app script and serves an empty page anyway; here the failure of
   the warm-up run ends the process with exit code 1, so a broken image never reports healthy;

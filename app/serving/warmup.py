@@ -38,7 +38,7 @@ def warm_core() -> None:
 
 
 def warm_long_jobs() -> None:
-    """Start the fork server the long jobs' processes come from (:mod:`app.jobs.long`) with one tiny job, so that its
+    """Start the fork server the long jobs' processes come from (:mod:`!app.jobs.long`) with one tiny job, so that its
     memory counts in an idle server's. Where no process can be started (no writable temporary directory for the fork
     server's socket, a sandbox without ``fork``), long jobs run on the queue's thread instead, with one log line."""
     import threading

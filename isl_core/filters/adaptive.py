@@ -16,8 +16,8 @@ argument: with fine sampling ΔY/√h ≈ σ·ε, so σ is identifiable from the
     σ̂_k² = v_k / (1 + h·K_1(σ̂_{k−1}))                           — Mehra's correction R̂ = Ĉ_0 − H M Hᵀ
 
 **Memory W counts sensor readings** (k above is the reading's number, u_k its normalized innovation): one meaning
-for every σ-learning filter (this one, :mod:`isl_core.robust`, :mod:`isl_core.variational`), whatever the grid's
-step h or the sensor interval of a scenario (:mod:`isl_core.kernels.scenario`). In paper A's runs
+for every σ-learning filter (this one, :mod:`isl_core.filters.robust`, :mod:`isl_core.filters.variational`),
+whatever the grid's step h or the sensor interval of a scenario (:mod:`isl_core.kernels.scenario`). In paper A's runs
 (:func:`isl_core.simulate`) the filters read Y at every step, so there a reading is a step. As a time, W readings
 of a sensor read every q steps of h are ``W·q·h`` (``W·q·h·r_min`` in units of 1/r_min:
 :meth:`isl_core.ScenarioPlan.memory_time`) — the same W is a different time in every scenario, and the tuning of

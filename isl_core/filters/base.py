@@ -8,19 +8,19 @@ Every filter here has the form (on the grid t_k = k·h, innovation u_k = ΔY_k/�
 with a propagation damping ``a`` (0 → A0 as in paper A's ISL filter; α → the true A) and φ either
 linear, ``φ(u) = K u`` (then the step is the Kalman–Bucy scheme B.30), or the power law of (A.17),
 ``φ_i(u) = c_i sign(u)|u|^{1−i/m}`` (the ISL scheme A.18), or linear with a gain ``K(σ̂_k)`` that follows an
-online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`isl_core.filters.adaptive`, described by an
+online estimate of σ (the adaptive Kalman–Bucy filter of :mod:`!isl_core.filters.adaptive`, described by an
 :class:`AdaptiveGain`), or — in scenario runs only — the variational-Bayes adaptive Kalman filter of
 :mod:`isl_core.filters.variational` (a :class:`VariationalGain`), which carries its own covariance, or the bank of
 Kalman filters of the interacting-multiple-model filter of :mod:`isl_core.filters.imm` (an :class:`IMMBank`).
 
 The constructors are the family modules of :mod:`isl_core.filters`: :mod:`~isl_core.filters.kalman` (the
 Kalman–Bucy filters: optimal, mismatched, minimax), :mod:`~isl_core.filters.isl` (paper A's and the model-aware ISL
-filters), :mod:`~isl_core.filters.adaptive`, :mod:`~isl_core.filters.robust`, :mod:`~isl_core.filters.variational`,
+filters), :mod:`!isl_core.filters.adaptive`, :mod:`~isl_core.filters.robust`, :mod:`~isl_core.filters.variational`,
 :mod:`~isl_core.filters.imm`; :mod:`~isl_core.filters.baselines` names the set a user without σ compares.
 
 Symbols: ``damp`` = a, ``coef`` = K or c, ``power`` selects the power law, ``adaptive`` the σ̂-driven gain;
-``kind`` is the kernels' code of φ, one named constant each — :data:`KIND_LINEAR`, :data:`KIND_POWER`,
-:data:`KIND_ADAPTIVE`, :data:`KIND_CLAIRVOYANT`, :data:`KIND_VB`, :data:`KIND_ROBUST`, :data:`KIND_IMM` — module
+``kind`` is the kernels' code of φ, one named constant each — :data:`!KIND_LINEAR`, :data:`!KIND_POWER`,
+:data:`!KIND_ADAPTIVE`, :data:`KIND_CLAIRVOYANT`, :data:`KIND_VB`, :data:`KIND_ROBUST`, :data:`KIND_IMM` — module
 ints that the compiled kernels read as compile-time constants (never a bare number).
 """
 
@@ -54,7 +54,7 @@ __all__ = [
 SIGMA_RANGE = (2.0, 200.0)
 KIND_LINEAR = 0  #: φ linear, K u (B.30)
 KIND_POWER = 1  #: φ the power law of (A.17)
-KIND_ADAPTIVE = 2  #: φ linear with the gain K(σ̂) of an online σ estimate (:mod:`isl_core.filters.adaptive`)
+KIND_ADAPTIVE = 2  #: φ linear with the gain K(σ̂) of an online σ estimate (:mod:`!isl_core.filters.adaptive`)
 KIND_CLAIRVOYANT = 3  #: the scenario loop's Kalman filter that knows σ(t) (:mod:`isl_core.scenario`)
 KIND_VB = 4  #: the variational-Bayes filter (:mod:`isl_core.filters.variational`)
 KIND_ROBUST = 5  #: the adaptive filter with Huber-clipped innovations (:mod:`isl_core.filters.robust`)
@@ -90,7 +90,7 @@ class VariationalGain:
 
 @dataclass(frozen=True)
 class AdaptiveGain:
-    """The σ̂ → K(σ̂) map and the variance estimator of an adaptive Kalman–Bucy filter (:mod:`isl_core.filters.adaptive`).
+    """The σ̂ → K(σ̂) map and the variance estimator of an adaptive Kalman–Bucy filter (:ref:`adaptive-kbf`).
 
     ``log_gain`` (n, m) holds ``log K_i`` of the stationary gain (A.21–A.23) on the equally spaced grid
     ``log σ_j = log_sigma0 + j·step``, j = 0..n−1; between grid points log K is linear in log σ, outside the
@@ -136,7 +136,7 @@ class FilterSpec:
 
     @property
     def kind(self) -> int:
-        """The kernel's code: :data:`KIND_ADAPTIVE`, :data:`KIND_POWER`, :data:`KIND_LINEAR`, … (module docstring)."""
+        """The kernel's code: :data:`!KIND_ADAPTIVE`, :data:`!KIND_POWER`, :data:`!KIND_LINEAR`, … (see the module)."""
         if self.imm is not None:
             return KIND_IMM
         if self.variational is not None:

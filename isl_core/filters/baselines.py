@@ -10,7 +10,7 @@ kbf            Kalman–Bucy with the true σ (A.21–A.24): the oracle         
 isl            paper A's ISL filter, tuning ν, propagation with A0 (A.16–A.18)    :ref:`linearized-covariance`
 kbf_mismatched Kalman–Bucy with the gain K̄ of the CARE for a guessed σ̄           Lyapunov (:ref:`mismatched-kbf`)
 kbf_minimax    Kalman–Bucy designed for the top of the σ range, σ̄ = σ_max         Lyapunov (:ref:`minimax-kbf`)
-kbf_adaptive   Kalman–Bucy with σ̂ estimated online (:mod:`isl_core.adaptive`)     none (nan)
+kbf_adaptive   Kalman–Bucy, σ̂ learned online (:mod:`isl_core.filters.adaptive`)  none (nan)
 isl_model      model-aware ISL: the same φ, propagation with A = A0 − αEEᵀ         :ref:`linearized-covariance` with A
 ============== ================================================================== ==================================
 
@@ -66,7 +66,7 @@ def baseline_filters(
     """The filters ``names`` (default all of :data:`BASELINES`, in that order) for ``model``.
 
     ``nu``: the ISL filter's tuning; ``nu_model``: the model-aware ISL filter's (default ``nu``);
-    ``sigma_design``: σ̄ of the mismatched filter (default :func:`design_sigma` of ``sigma_range``);
+    ``sigma_design``: σ̄ of the mismatched filter (default :func:`!design_sigma` of ``sigma_range``);
     ``sigma_range``: also the top for ``kbf_minimax`` and the adaptive filter's table and start;
     ``memory``: the adaptive filter's memory W in readings (here every step is a reading).
 

@@ -32,7 +32,7 @@ smallest (the log-sum-exp guard), so the best-fitting mode's factor is 1 and a r
 
 **Knobs**: the grid of σ (``modes`` log-spaced values over ``sigma_range``; default 11 over [1.5, 500], spaced
 ×1.79, none equal to a preset's σ) and the switch probability per reading ``switch`` (memory in readings, as the
-σ-learners': :mod:`isl_core.adaptive`). It starts as after a mixing: every mode at the common start e₀ with the
+σ-learners': :mod:`isl_core.filters.adaptive`). It starts as after a mixing: every mode at the common start e₀ with the
 stationary covariance Δ of its σ_j (A.23), weights 1/J. Its σ̂ (for the pictures) is Σ_j μ_j σ_j.
 Symbols: J = ``modes``, p = ``switch``, σ_j = ``IMMBank.sigmas``.
 """

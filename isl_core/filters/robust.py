@@ -1,6 +1,6 @@
 """A robust adaptive Kalman–Bucy filter for heavy-tailed observation noise: Huber's M-estimate of the innovation.
 
-The adaptive filter of :mod:`isl_core.adaptive` (gain K(σ̂) of the CARE at an online estimate σ̂) with every
+The adaptive filter of :mod:`isl_core.filters.adaptive` (gain K(σ̂) of the CARE at an online estimate σ̂) with every
 normalized innovation u passed through Huber's ψ before it enters the state and the variance estimate
 (P. J. Huber, "Robust estimation of a location parameter", Ann. Math. Statist. 35(1):73–101, 1964; for the Kalman
 filter, C. J. Masreliez and R. D. Martin, "Robust Bayesian estimation for the linear model and robustifying the

@@ -16,12 +16,11 @@ and per reading
                 X̂ = X̂⁻ + K u,  P = P⁻ − K S Kᵀ,
                 b = b⁻ + ½ (y − H X̂)² + ½ H P Hᵀ
 
-(the paper's Algorithm 1 for one scalar measurement). The filter knows α, β and m — the model — but not σ. Its
-memory W counts sensor readings, as the adaptive filter's of :mod:`isl_core.adaptive` (the two then forget at the
-same rate): a⁻ = ρ a with ρ = 1 − 1/W keeps the estimate's weight a at about W/2 (its shape gains ½ a reading), and
-as a time W readings are W·q·h (:meth:`isl_core.ScenarioPlan.memory_time`). It starts at the stationary covariance
-of its initial guess σ̂ (the Kalman–Bucy Δ at σ_init), with shape a₀ (weight of the guess, in readings) and
-b₀ = a₀·σ_init².
+(the paper's Algorithm 1 for one scalar measurement). The filter knows α, β and m — the model — but not σ. Its memory
+W counts sensor readings, as the adaptive filter's of :mod:`isl_core.filters.adaptive` (the two then forget at the
+same rate): a⁻ = ρ a with ρ = 1 − 1/W keeps the estimate's weight a at about W/2 (its shape gains ½ a reading), and as
+a time W readings are W·q·h (:meth:`isl_core.ScenarioPlan.memory_time`). It starts at the stationary covariance of its
+initial guess σ̂ (the Kalman–Bucy Δ at σ_init), with shape a₀ (weight of the guess, in readings) and b₀ = a₀·σ_init².
 
 In error coordinates (e = X̂ − X, as every filter of the kernel) the residual after the update is
 y − H X̂ = u·(1 − √(qh)·K_1) and the prediction adds F·K·u to the propagated error.
@@ -64,7 +63,7 @@ def variational_kbf(
     memory : float
         W in sensor readings.
     shape0 : float
-        a₀, the prior's shape: how much the initial guess weighs (:data:`SHAPE0`).
+        a₀, the prior's shape: how much the initial guess weighs (:data:`!SHAPE0`).
     iterations : int
         Fixed-point iterations per reading.
 

@@ -1,6 +1,6 @@
 """A scenario run repeated over seeds, in time: rolling RMSE ratios to the clairvoyant reference, with intervals.
 
-:func:`average_scenario` runs :func:`isl_core.scenario.run.simulate_scenario` once per seed (the same grid and the
+:func:`average_scenario` runs :func:`isl_core.simulate_scenario` once per seed (the same grid and the
 same clairvoyant variance in every run: only the noise differs) and keeps each run's windowed squared errors and
 σ̂. :meth:`ScenarioAverage.rolling` gives the time-resolved picture, for a window of ``width``/r_min sliding over the
 runs' short windows (:ref:`rolling-ratio`):
@@ -14,7 +14,7 @@ upwards**: a maximum over noisy coordinates lies above their mean, so even the c
 1 (by its coordinates' sampling spread, a few per cent with 32 seeds and windows of 1/r_min); it is a picture of
 where in time a filter loses, and :meth:`ScenarioAverage.periods` is the statistic that reads 1 for the reference.
 
-:func:`worst_ratio` is the earlier table's summary, kept for the dashboard's picture: the largest ratio over windows
+:func:`!worst_ratio` is the earlier table's summary, kept for the dashboard's picture: the largest ratio over windows
 and coordinates, with the basic bootstrap interval over seeds — biased above 1 for the reference (1.10–1.35 at 32–64
 seeds) and its interval can exclude its own estimate; the table and the maps now use the period statistic
 (:mod:`isl_core.scenario.periods`). :func:`margin_low` says whether the lowest of them is told apart from the next one.
@@ -37,7 +37,7 @@ from .run import ScenarioRun, plan_scenario
 
 __all__ = ["Rolling", "ScenarioAverage", "average_scenario", "margin_low", "resampled", "worst_ratio"]
 
-BOOTSTRAP = 400  #: resamples of the basic bootstrap interval of :func:`worst_ratio`
+BOOTSTRAP = 400  #: resamples of the basic bootstrap interval of :func:`!worst_ratio`
 BOOT_SEED = 20261202  #: the bootstrap's resampling seed (tables, maps and worst cases are reproducible)
 
 
@@ -160,10 +160,10 @@ class ScenarioAverage:
         )
 
     def periods(self, periods=None, *, burn: float = 2.0, level: float = 0.95):
-        """The period statistic (:func:`isl_core.scenario.periods.period_ratios`): every filter's normalized RMSE ratio
-        over ``periods`` (default :func:`isl_core.scenario.periods.scenario_periods` of the run's scenario after
+        """The period statistic (:func:`isl_core.period_ratios`): every filter's normalized RMSE ratio
+        over ``periods`` (default :func:`isl_core.scenario_periods` of the run's scenario after
         ``burn``), pooled over the seeds, with Student's interval over them. Periods should start and end at window
-        edges (plan the runs with :func:`isl_core.scenario.periods.edge_times`, or with windows short enough): a period
+        edges (plan the runs with :func:`!isl_core.scenario.periods.edge_times`, or with windows short enough): a period
         takes the windows that lie within it."""
         from .periods import period_ratios, scenario_periods
 
@@ -173,7 +173,7 @@ class ScenarioAverage:
         return period_ratios(self.mse, run, tuple(periods), level=level)
 
     def worst(self, *, width: float = 1.0, burn: float = 2.0, level: float = 0.95, rng_seed: int = BOOT_SEED):
-        """Per filter, :func:`worst_ratio` over the sliding windows of ``width`` that start at or after ``burn``
+        """Per filter, :func:`!worst_ratio` over the sliding windows of ``width`` that start at or after ``burn``
         (1/r_min): (point, low, high). Needs 2 seeds or more. Biased upwards: a maximum over noisy windows (the
         clairvoyant filter reads 1.1–1.35 on it); the table's statistic is :meth:`periods`."""
         run = self.run
@@ -202,9 +202,9 @@ def average_scenario(
     edges: Sequence[float] | None = None,
     grid_filters: Sequence[FilterSpec] | None = None,
 ) -> ScenarioAverage:
-    """One :func:`isl_core.scenario.run.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
-    once: :func:`isl_core.scenario.run.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
-    :meth:`isl_core.scenario.tuning.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total.
+    """One :func:`isl_core.simulate_scenario` per seed of ``seeds`` (same arguments otherwise; set up
+    once: :func:`isl_core.plan_scenario`, ``edges`` and ``grid_filters`` too, e.g. a tuning's
+    :meth:`isl_core.Tuning.grid_filters`); ``progress`` gets (done + runs so far)/total.
 
     Parameters
     ----------

@@ -77,7 +77,7 @@ class Scenario:
     sigma_shape : {"steps", "drift"}
         How σ goes from knot to knot.
     noise : {"gaussian", "student", "outliers"}
-        The observation noise's law (:data:`NOISE_LAWS`), with ``dof`` or ``outlier_rate`` and ``outlier_scale``.
+        The observation noise's law (:data:`!NOISE_LAWS`), with ``dof`` or ``outlier_rate`` and ``outlier_scale``.
     sensor_interval : float
         Time between sensor readings, 1/r_min units (0: every step).
 
@@ -166,13 +166,13 @@ class Scenario:
         return max(1, round(self.sensor_interval / (r_min * h))) if self.sensor_interval > 0.0 else 1
 
     def draw_noise(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """ε_0 … ε_{n−1} of the noise law, from ``rng``, as the scenario loop draws them (:mod:`isl_core.noise`)."""
+        """ε_0 … ε_{n−1} of the noise law, from ``rng``, as the scenario loop draws them (:mod:`!isl_core.noise`)."""
         eps = np.empty(n)
         fill(rng, self.noise_law(), eps)
         return eps
 
     def noise_law(self) -> NoiseLaw:
-        """The noise law as the compiled loops take it (:class:`isl_core.kernels.bundles.NoiseLaw`)."""
+        """The noise law as the compiled loops take it (:class:`!isl_core.kernels.bundles.NoiseLaw`)."""
         return NoiseLaw(
             LAWS[self.noise],
             self.dof,

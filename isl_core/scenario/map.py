@@ -62,7 +62,7 @@ class WhoWinsMap:
     step (period starts, 1/r_min) for ``"sigma_step"``, else one row (nan); ``winner[row, col]`` the index in
     ``filters`` of the lowest ratio but the clairvoyant filter's, ``margin`` the runner-up's ratio over it, and
     ``margin_low`` the margin's lower 95 % bound (paired over the seeds,
-    :func:`isl_core.scenario.periods.paired_margin`); a cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot
+    :func:`isl_core.paired_margin`); a cell whose ``margin_low`` is ≤ 1 is a ``tie`` — the seeds cannot
     tell the winner from the runner-up.
     ``origin``: where the filters' knobs came from."""
 
@@ -160,7 +160,7 @@ def who_wins_map(
     Parameters
     ----------
     kind : {"sigma_step", "tails", "sensor"}
-        What the map sweeps (:data:`MAPS`).
+        What the map sweeps (:data:`!MAPS`).
     alpha, m, w : float, int, float
         Paper A's model at σ(0) = 20: α (default 1), the state dimension, the stationary std of X_m (β = w√(2α)).
     values : sequence of float, optional

@@ -137,7 +137,7 @@ def _windows(run: ScenarioRun, period: Period) -> np.ndarray:
 def per_seed(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]) -> np.ndarray:
     """y_f,p(s) of the module docstring, (seeds, periods, filters): each seed's mean square over the period per
     coordinate, over the clairvoyant variance's, averaged over the coordinates. ``mse`` (seeds, windows, filters,
-    m) as :attr:`isl_core.ScenarioAverage.mse`; inf for a filter that diverged in the period."""
+    m) as :attr:`!ScenarioAverage.mse`; inf for a filter that diverged in the period."""
     steps = run.steps.astype(float)
     out = np.empty((mse.shape[0], len(periods), mse.shape[2]))
     for p, period in enumerate(periods):
@@ -198,7 +198,7 @@ def period_ratios(
     Parameters
     ----------
     mse : numpy.ndarray
-        Every seed's windowed mean squares (seeds, windows, filters, m), e.g. :attr:`ScenarioAverage.mse`.
+        Every seed's windowed mean squares (seeds, windows, filters, m), e.g. :attr:`!ScenarioAverage.mse`.
     run : ScenarioRun
         A run of the same plan (its windows and filters).
     periods : tuple of Period

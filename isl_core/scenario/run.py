@@ -89,7 +89,7 @@ class ScenarioRun:
 
     def memory_time(self, memory: float) -> float:
         """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
-        (:mod:`isl_core.adaptive`)."""
+        (:mod:`!isl_core.filters.adaptive`)."""
         return memory_time(memory, self.q, self.h, self.r_min)
 
     def starts_after(self, burn: float) -> np.ndarray:
@@ -166,7 +166,7 @@ class ScenarioPlan:
 
     def memory_time(self, memory: float) -> float:
         """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
-        (:mod:`isl_core.adaptive`)."""
+        (:mod:`!isl_core.filters.adaptive`)."""
         return memory_time(memory, self.q, self.h, self.r_min)
 
     def run(self, seed: int = 0, progress: Callable[[float], None] | None = None) -> ScenarioRun:
@@ -260,7 +260,7 @@ def plan_scenario(
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
     over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
-    edges[-1] = horizon, e.g. the periods of :mod:`isl_core.scenario.periods`), checked and set up once for any number
+    edges[-1] = horizon, e.g. the periods of :mod:`!isl_core.scenario.periods`), checked and set up once for any number
     of seeds. A window starting at time τ starts at the first step k with t_k ≥ τ: the step at which σ(t) takes a
     value that starts at τ (:meth:`Scenario.sigma_at`), so a window that starts at a change of σ holds exactly the
     errors after it. ``grid_filters``: more filters whose rates set the step h (not run), e.g. the others of a set

@@ -1,6 +1,6 @@
 """Who wins where, in a fair contest: every family at its minimax tuning, on the period statistic, per scenario.
 
-:func:`scenario_table` takes the tuning of :func:`isl_core.scenario.tuning.tune` (one run per preset and seed with every
+:func:`scenario_table` takes the tuning of :func:`isl_core.tune` (one run per preset and seed with every
 variant of every family on the same noise; cached) and reports, per row and cell (preset × period of
 :func:`isl_core.scenario.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates,
 pooled over the seeds, over the clairvoyant filter's exact variance — with Student's interval over the seeds:
@@ -222,7 +222,7 @@ def scenario_table(
     cache: bool = True,
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
-    tuning of :func:`isl_core.scenario.tuning.tune` with these arguments (cached), then :func:`table_from` at
+    tuning of :func:`isl_core.tune` with these arguments (cached), then :func:`table_from` at
     ``level``.
 
     Parameters

@@ -2,7 +2,7 @@
 
 Every filter family that does not know σ(t) has a knob (:data:`FAMILIES`): paper A's ISL filter and the
 model-aware one ν (ν/β = 2^ℓ), the adaptive and the variational-Bayes filters their memory W in sensor readings
-(:mod:`isl_core.adaptive`), the robust filter Huber's c and its memory (jointly: the clipping changes what the
+(:mod:`isl_core.filters.adaptive`), the robust filter Huber's c and its memory (jointly: the clipping changes what the
 estimate averages, so the best W depends on c), the IMM filter its switch probability per reading and its number of
 modes (jointly: a denser grid needs less switching to follow a change). On a grid of each knob
 (:class:`TuningGrids`), every variant rides in **one** scenario run per preset and seed — common random numbers:
@@ -129,7 +129,7 @@ class Tuning:
     Filters (``names``, ``family``, ``knobs``): the clairvoyant reference, the Kalman–Bucy filter for σ(0), paper A's
     ISL filter at its table's ν (``family`` "isl_paper"; ν = β where table (A.31) has no value for this α), then every
     variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters) the seeds'
-    contributions (:func:`isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of
+    contributions (:func:`!isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of
     1/r_min at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
     """
 
@@ -190,7 +190,7 @@ class Tuning:
         return [self.filter(self.minimax(f), model) for f in FAMILIES]
 
     def grid_filters(self, model: Model) -> list[FilterSpec]:
-        """Every variant for ``model``: given as ``grid_filters`` to :func:`isl_core.scenario.run.plan_scenario`, a run
+        """Every variant for ``model``: given as ``grid_filters`` to :func:`isl_core.plan_scenario`, a run
         of a few filters gets the tuning's grid h — so W readings of a sensor read at every step span the time they
         spanned in the tuning (``reading_time``) — and, with the same seeds, its noise."""
         return [self.filter(j, model) for j in range(3, len(self.names))]
@@ -293,9 +293,9 @@ def tune(
     cache: bool = True,
     compute: bool = True,
 ) -> Tuning | None:
-    """The tuning of every family over ``presets`` (default the table's, :data:`isl_core.scenario.presets.PRESETS`) for
+    """The tuning of every family over ``presets`` (default the table's, :data:`!isl_core.scenario.presets.PRESETS`) for
     paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
-    periods of :func:`isl_core.scenario.periods.scenario_periods` after ``burn``; on ``workers`` threads (default: the
+    periods of :func:`isl_core.scenario_periods` after ``burn``; on ``workers`` threads (default: the
     CPUs). Read from the cache when it holds these inputs (``cache``), else computed (and cached; module docstring) —
     or, with ``compute`` False, None.
 
@@ -304,7 +304,7 @@ def tune(
     alpha : float, default 1.0
         The model's α (paper A's model, β = w√(2α)).
     presets : mapping, optional
-        name → (label, σ(0), :class:`Scenario`) (default :data:`PRESETS`).
+        name → (label, σ(0), :class:`Scenario`) (default :data:`!PRESETS`).
     seeds : int
         Independent noises per preset, seeds 0 … ``seeds`` − 1.
     grids : TuningGrids

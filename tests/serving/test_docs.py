@@ -147,6 +147,8 @@ def test_the_server_serves_the_built_docs(tmp_path):
         assert headers["X-Content-Type-Options"] == "nosniff"  # the dashboard's headers cover the pages too
         status, _, text = get(f"{url}/docs/model.html")
         assert status == 200 and text == (built / "model.html").read_text(encoding="utf-8")
+        status, headers, _ = get(f"{url}/docs/_static/mathjax/tex-chtml.js")  # the pages' math renderer, as a script
+        assert status == 200 and "javascript" in headers["Content-Type"]
         status, headers, _ = get(f"{url}/docs")
         assert status in (301, 302) and headers["Location"] == "docs/"  # relative: a proxy's prefix stays
         assert get(f"{url}/docs/no-such-page.html")[0] == 404
