@@ -42,7 +42,7 @@ from ..filters.variational import variational_kbf
 from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
-from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
+from .periods import Period, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
 from .presets import PRESETS
 from .run import plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
@@ -55,6 +55,7 @@ __all__ = [
     "cache_dir",
     "family_filter",
     "paper_nu",
+    "run_cells",
     "tune",
     "variant_name",
 ]
@@ -68,7 +69,9 @@ FAMILIES = {
     "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
     "imm": ("IMM", ("switch", "modes")),
 }
-_MEMORY = tuple(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15))  # 10, 15, 23, …, 2000, 3000
+#: W in readings: 10 … 3000 in 15 geometric steps, and 2 … 6.7 below them: the minimax of the adaptive, VB and robust
+#: filters sat at 10, the lower end of the earlier grid
+_MEMORY = (2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
 
 
 @dataclass(frozen=True)
@@ -88,7 +91,7 @@ class TuningGrids:
     memory: tuple[float, ...] = _MEMORY
     robust_c: tuple[float, ...] = (1.0, 1.345, 2.0, 3.0)
     imm_switch: tuple[float, ...] = (1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
-    imm_modes: tuple[int, ...] = (6, 11, 16)
+    imm_modes: tuple[int, ...] = (6, 11, 16, 21)
     imm_sigma_range: tuple[float, float] = (1.5, 500.0)
 
     def points(self, family: str) -> list[dict]:
@@ -128,9 +131,11 @@ class Tuning:
 
     Filters (``names``, ``family``, ``knobs``): the clairvoyant reference, the Kalman–Bucy filter for σ(0), paper A's
     ISL filter at its table's ν (``family`` "isl_paper"; ν = β where table (A.31) has no value for this α), then every
-    variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters) the seeds'
-    contributions (:func:`isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of
-    1/r_min at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
+    variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters, m) the seeds'
+    contributions per coordinate (:func:`isl_core.scenario.periods.per_seed`); a cell's figure is its worst
+    coordinate's. Per preset: ``reading_time`` one reading in units of 1/r_min at σ(0) (W readings are
+    W·reading_time), ``steps`` N, ``h``, and in ``scenarios`` its (σ(0), :class:`Scenario`). ``origin`` says where it
+    came from.
     """
 
     alpha: float
@@ -151,14 +156,31 @@ class Tuning:
     steps: tuple[int, ...]
     h: tuple[float, ...]
     seconds: float
+    scenarios: tuple[tuple[float, Scenario], ...] = ()
     origin: str = ""
     _stats: dict = field(default_factory=dict, repr=False, compare=False)
 
     def stats(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(ratio, low, high), each (filters, cells): the period statistic and its interval at ``level``."""
+        """(ratio, low, high), each (filters, cells): the period statistic at the worst coordinate and its interval
+        at ``level`` (:func:`isl_core.scenario.periods.worst_from`)."""
         if level not in self._stats:
-            self._stats[level] = ratios_from(self.y, level)
-        return self._stats[level]
+            self._stats[level] = worst_from(self.y, level)
+        return self._stats[level][:3]
+
+    def coordinate(self) -> np.ndarray:
+        """The worst coordinate (0-based) per filter and cell (filters, cells)."""
+        self.stats()
+        return self._stats[0.95][3]
+
+    def seed_ratios(self) -> np.ndarray:
+        """Each seed's own worst-coordinate ratio (seeds, cells, filters)."""
+        return seed_ratios(self.y)
+
+    def preset_map(self) -> dict[str, tuple[str, float, Scenario]]:
+        """The presets this tuning was computed over, as :func:`tune` takes them."""
+        return {
+            n: (lab, s0, sc) for n, lab, (s0, sc) in zip(self.presets, self.preset_labels, self.scenarios, strict=True)
+        }
 
     def variants(self, family: str) -> np.ndarray:
         """Indices of the family's variants, in grid order."""
@@ -219,22 +241,27 @@ def paper_nu(model: Model, alpha: float, m: int, w: float) -> tuple[float, str]:
     return model.beta * nob, f"ISL at table (A.31)'s ν/β = {nob:g} (ν = {model.beta * nob:.3g}; the paper's value)"
 
 
-def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids):
+def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None):
+    """The plan of one preset with every variant (or, ``only``, those of these (family, knob) pairs, on the grid of
+    every variant: the same h and so, seed by seed, the same runs) and its periods."""
     model = Model.from_w(alpha, w, sigma0, m)
     periods = scenario_periods(scenario, horizon, burn=burn)
-    extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in _variants(grids)]
+    every = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in _variants(grids)]
     nu, _ = paper_nu(model, alpha, m, w)
-    return plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edge_times(periods, horizon)), periods
+    edges = edge_times(periods, horizon)
+    if only is None:
+        return plan_scenario(model, nu, scenario, horizon=horizon, extra=every, edges=edges), periods
+    extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in only]
+    plan = plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edges, grid_filters=every)
+    return plan, periods
 
 
-def _compute(
-    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
-) -> tuple[list[np.ndarray], list, list]:
-    """Every (preset, seed) run on ``workers`` threads (the kernels release the GIL): y per preset, plans, periods."""
-    plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+def run_cells(plans: list, seeds: tuple[int, ...], workers: int | None, progress) -> list[np.ndarray]:
+    """Every (plan, seed) run on ``workers`` threads (the kernels release the GIL): per plan (with its periods, a pair
+    of ``plans``) the seeds' contributions y (seeds, periods, filters, m) of :func:`per_seed`."""
     tasks = [(p, s) for p in range(len(plans)) for s in range(len(seeds))]
     cost = np.array([plans[p][0].N for p, _ in tasks], dtype=float)
-    out = [np.empty((len(seeds), len(periods), len(plan.filters))) for plan, periods in plans]
+    out = [np.empty((len(seeds), len(periods), len(plan.filters), plan.model.m)) for plan, periods in plans]
 
     def one(task):
         p, s = task
@@ -248,6 +275,15 @@ def _compute(
             done += cost[t]
             if progress is not None:
                 progress(done / cost.sum())
+    return out
+
+
+def _compute(
+    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
+) -> tuple[list[np.ndarray], list, list]:
+    """Every (preset, seed) run: y per preset, plans, periods."""
+    plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+    out = run_cells(plans, seeds, workers, progress)
     return out, [p for p, _ in plans], [per for _, per in plans]
 
 
@@ -275,6 +311,7 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
         tuple(pl.N for pl in plans),
         tuple(pl.h for pl in plans),
         float(seconds),
+        tuple((s0, sc) for _, s0, sc in presets.values()),
     )
 
 
