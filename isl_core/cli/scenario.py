@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
 
 import numpy as np
 
@@ -102,6 +101,7 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
 def _table_out(args, res) -> int:
     from ..scenario.heldout import held_out
     from ..scenario.table import table_from
+    from .scenario_rows import beyond_data, table_rows
 
     report = held_out(
         res,
@@ -113,7 +113,7 @@ def _table_out(args, res) -> int:
     tab = table_from(res, args.level, report)
     ns, cost_meta = _costs(res, tab, args)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
-    rows = _table_rows(res, tab, keys, ns)
+    rows = table_rows(res, tab, keys, ns)
     winners = [
         {
             "cell": k,
@@ -168,7 +168,7 @@ def _table_out(args, res) -> int:
         }
         print(
             json.dumps(
-                nan_to_none({"meta": meta, "rows": rows, "winners": winners}),
+                nan_to_none({"meta": meta, "rows": rows, "winners": winners, "beyond": beyond_data(tab)}),
                 indent=1,
                 allow_nan=False,
                 ensure_ascii=False,
@@ -177,58 +177,6 @@ def _table_out(args, res) -> int:
         return 0
     _print_table(res, tab, keys, ns, cost_meta, check)
     return 0
-
-
-def _table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
-    """The fair table's rows as data: each filter's tuning, origin, assumed σ range and cost, its cells (the worst
-    coordinate's ratio, every coordinate's, the worst seed, the seeds above 2×), its worst per preset, and its
-    tuning-seed and held-out figures."""
-    rows: list[dict[str, Any]] = []
-    for r, row in enumerate(tab.rows):
-        cells = {
-            k: {
-                "ratio": tab.ratio[r, c],
-                "low": tab.low[r, c],
-                "high": tab.high[r, c],
-                "coordinate": int(tab.coordinate[r, c]) + 1,
-                "coordinates": [float(v) for v in tab.coordinates[r, c]],
-                "worst_seed": tab.worst_seed[r, c],
-                "worst_seed_id": int(tab.worst_seed_id[r, c]),
-                "seeds_above_2x": int(tab.above2[r, c]),
-                "seeds_diverged": int(tab.diverged[r, c]),
-            }
-            for c, k in enumerate(keys)
-        }
-        presets = {}
-        for p, name in enumerate(res.presets):
-            worst, lo, hi = (a[r] for a in tab.preset(p))
-            presets[name] = {"worst": worst, "low": lo, "high": hi}
-        rows.append(
-            {
-                "name": row.name,
-                "label": row.label,
-                "role": row.role,
-                "knows": row.knows,
-                "assumes": row.assumes,
-                "tuning": row.tuning,
-                "origin": row.origin,
-                "seeds": [tab.seeds[r][0], tab.seeds[r][-1]],
-                "ns_per_step": ns.get(row.name),
-                "cells": cells,
-                "presets": presets,
-                "tuning_seed_figure": {
-                    "ratio": tab.tuned_figure[r],
-                    "low": tab.tuned_low[r],
-                    "high": tab.tuned_high[r],
-                },
-                "held_out_figure": tab.held_figure[r],
-                "held_out_over_tuning": tab.held_figure[r] / tab.tuned_figure[r],
-                "worst_seed": float(np.max(tab.worst_seed[r])),
-                "seeds_above_2x_in_some_cell": int(tab.above2[r].max()),
-                "flagged": bool(tab.flagged[r]),
-            }
-        )
-    return rows
 
 
 def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
@@ -285,6 +233,9 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
                 else f"{w}, {m:.2f}x ahead of {r} (lower bound {lo:.2f}x)"
             )
         )
+    from .scenario_rows import print_beyond
+
+    print_beyond(tab, _ratio)
     print(
         "the clairvoyant filter reads 1 within its interval in "
         + ("every cell" if all(check.values()) else "every cell but " + ", ".join(k for k, v in check.items() if not v))

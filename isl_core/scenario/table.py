@@ -30,20 +30,30 @@ Times are in units of 1/r_min of the model at σ(0).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 
 import numpy as np
 
-from ..filters.base import SIGMA_RANGE
 from ..paper import M, W
 from ..validate import check_real
 from .base import Scenario
+from .cells import CellStats, assumes, beyond_rows, beyond_stats, cell_stats
 from .heldout import HeldOut, held_out
-from .periods import seed_ratios, worst_from, worst_margin
+from .periods import worst_margin
 from .presets import PRESETS
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 
-__all__ = ["PRESETS", "ScenarioTable", "TableRow", "knob_text", "scenario_table", "table_from"]
+__all__ = [
+    "PRESETS",
+    "CellStats",
+    "ScenarioTable",
+    "TableRow",
+    "beyond_rows",
+    "beyond_stats",
+    "knob_text",
+    "scenario_table",
+    "table_from",
+]
 
 
 @dataclass(frozen=True)
@@ -123,21 +133,6 @@ KNOB_TEXT = {
 def knob_text(knob: Mapping) -> str:
     """A knob in words: ``ν/β = 2^-2 = 0.25``, ``W = 30 readings``, ``c = 2, W = 10 readings``."""
     return ", ".join(KNOB_TEXT[k](v) if k in KNOB_TEXT else f"{k} = {v}" for k, v in knob.items())
-
-
-def assumes(family: str, knob: Mapping, grids: TuningGrids) -> str:
-    """The σ range a family's filter assumes, in words (:data:`isl_core.filters.base.SIGMA_RANGE` for the learners
-    with a gain table, the IMM's grid; none for the ISL filters and variational Bayes)."""
-    lo, hi = SIGMA_RANGE
-    if family in ("isl", "isl_model", "isl_paper"):
-        return "none: no σ, no range of σ"
-    if family in ("kbf_adaptive", "kbf_robust"):
-        return f"σ in [{lo:g}, {hi:g}]: its gain table's range, σ̂ held inside it"
-    if family == "vb":
-        return f"no range: a prior on σ² at σ̂ = {(lo * hi) ** 0.5:g}, forgotten over W readings; σ̂ unbounded"
-    if family == "imm":
-        return f"σ on {knob['modes']:g} modes over [{grids.imm_sigma_range[0]:g}, {grids.imm_sigma_range[1]:g}]"
-    return ""
 
 
 def _rows(tuning: Tuning) -> list[TableRow]:
@@ -255,20 +250,9 @@ def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None)
         else:
             ys.append(_row_y(tuning.y, col[r], lambda j: j))
             seeds.append(tuning.seeds)
-    stats = [worst_from(y[:, :, None, :], level) for y in ys]  # each (1, cells)
-    ratio, low, high, coordinate = (np.array([st[k][0] for st in stats]) for k in range(4))
-    coordinates = np.array([np.sqrt(y.mean(axis=0)) for y in ys])
-    ratios_s = [seed_ratios(y) for y in ys]  # each seed's own ratio (seeds, cells), per row
-    with np.errstate(invalid="ignore"):
-        worst_seed = np.array([np.max(sr, axis=0) for sr in ratios_s])
-    worst_id = np.array(
-        [
-            [seeds[r][int(np.argmax(np.nan_to_num(sr[:, c], nan=np.inf)))] for c in cells]
-            for r, sr in enumerate(ratios_s)
-        ]
+    ratio, low, high, coordinate, coordinates, worst_seed, worst_id, above2, diverged = astuple(
+        cell_stats(ys, seeds, level)
     )
-    above2 = np.array([(sr > 2.0).sum(axis=0) for sr in ratios_s])
-    diverged = np.array([(~np.isfinite(sr)).sum(axis=0) for sr in ratios_s])
     t_ratio, t_low, t_high = tuning.stats(level)
     worst_cell = np.array([int(np.argmax(np.nan_to_num(t_ratio[col[r], cells], nan=np.inf))) for r in range(len(rows))])
     pick = lambda a: np.array([a[col[r, c], c] for r, c in enumerate(worst_cell)])  # noqa: E731
