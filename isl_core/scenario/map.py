@@ -10,7 +10,8 @@ with a tuning, on the seeds after the tuning's: held out), the filter with the l
 aside) and its margin over the runner-up, paired over the seeds, with a tie where the margin's lower 95 % bound is
 ≤ 1:
 
-* ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.1 … 10): a
+* ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.025 … 100:
+  σ from 0.5 to 2000, beyond the ranges the learners assume): a
   two-dimensional map, ratio r × time since the step (periods of ``window``/r_min, the rows);
 * ``"tails"`` — Student-t observation noise with d degrees of freedom, for each d of ``values`` (default 2.5 … 100),
   σ = 20: the settled period after ``burn`` (one row);
@@ -46,7 +47,7 @@ __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
 SIGMA0 = 20.0
 STEP_AT = 10.0  #: the σ step's time, 1/r_min
 MAPS = {
-    "sigma_step": (0.1, 0.2, 0.5, 2.0, 5.0, 10.0),
+    "sigma_step": (0.025, 0.1, 0.2, 0.5, 2.0, 5.0, 10.0, 100.0),  # to 0.5 and 2000: beyond every assumed range
     "tails": (2.5, 3.0, 4.0, 6.0, 10.0, 30.0, 100.0),
     "sensor": (0.0, 0.02, 0.05, 0.1, 0.2, 0.5),
 }

@@ -102,6 +102,9 @@ def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenar
     assert [r["name"] for r in rows][:3] == ["clairvoyant", "kbf", "isl"]
     assert all(r["origin"] and "tuning" in r for r in rows)
     assert {w["cell"] for w in doc["winners"]} == {"sensor:settled", "constant:settled"}
+    beyond = doc["beyond"]  # the presets beyond every assumed σ range, on the report seeds, each row's range said
+    assert set(beyond["scenarios"]) == {"sigma_2000", "sigma_drop_far"} and beyond["seeds"] == [2, 9]
+    assert "[2, 200]" in beyond["rows"]["kbf_adaptive"]["assumes"] and "oracle:vb" not in beyond["rows"]
     assert set(meta["clairvoyant_reads_1_within_its_interval"]) == {"sensor:settled", "constant:settled"}
     assert meta["one_reading_over_r_min"]["sensor"] == pytest.approx(0.1, rel=0.1)
     with open(out) as fh:
@@ -123,7 +126,7 @@ def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert set(doc["tuned"]) == set(FAMILIES)
     vb = [c for c in doc["curves"] if c["family"] == "vb"]
-    assert next(c["memory"] for c in vb) == 10.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
+    assert next(c["memory"] for c in vb) == 2.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
     assert all(
         c["memory_over_r_min"] == pytest.approx(c["memory"] * doc["meta"]["one_reading_over_r_min"]["constant"])
         for c in vb
