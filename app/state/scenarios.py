@@ -272,7 +272,7 @@ class ScenarioRoom(Room):
             busy=False,
             note=(
                 f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs "
-                f"(seeds {req.seed}–{req.seed + req.runs - 1}) of {per_r_min(req.horizon)}, "
+                f"(seeds {pic.average.seeds[0]}–{pic.average.seeds[-1]}) of {per_r_min(req.horizon)}, "
                 f"{pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: {pic.origin}."
             ),
         )

@@ -136,6 +136,9 @@ def test_the_view_draws_the_picture_and_the_period_table(state):
     table = periods_html(pic, pic.costs)
     assert table.count("<tr>") == 1 + len(pic.average.run.names) and "class='best'" in table
     assert "first 1/rₘᵢₙ after the change" in table and "untuned" in table
+    pr = pic.periods  # each cell at its worst coordinate, with the worst run's own ratio
+    assert f"X{pr.coordinate[2, 0] + 1} · worst run {pr.worst_seed[2, 0]:.3g}" in table
+    np.testing.assert_array_equal(pr.ratio, pr.coordinates.max(axis=2))
     assert set(pic.costs) == {"loop"} | set(pic.average.run.names) - set(LOOP)
     assert all(v >= 0 for v in pic.costs.values())
     assert table.count("the 3 together") == 1 and table.count("rowspan='3'") == 1  # the loop's three share one cost
@@ -163,6 +166,8 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     state.scenarios.want()
     pic = state.scenarios.picture
     assert pic.tuned is small and state.scenarios.tuning is small
+    assert pic.average.seeds == (2, 3) and "seeds 2–3, held out" in pic.origin  # after the tuning's seeds 0–1
+    assert "(seeds 2–3)" in state.scenarios.note
     assert pic.average.run.names[3:] == ("isl_tuned", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
     vb = small.knobs[small.minimax("vb")]
     assert pic.tuning["vb"] == f"tuned: W = {vb['memory']:g} readings"
