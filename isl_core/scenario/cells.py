@@ -6,16 +6,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..filters.base import SIGMA_RANGE
 from .periods import seed_ratios, worst_from
 from .variants import TuningGrids
-
-if TYPE_CHECKING:
-    from .table import ScenarioTable
 
 __all__ = ["CellStats", "assumes", "beyond_rows", "beyond_stats", "cell_stats"]
 
@@ -71,7 +67,7 @@ def cell_stats(ys: list[np.ndarray], seeds: list[tuple[int, ...]], level: float)
     return CellStats(ratio, low, high, coordinate, coordinates, worst_seed, worst_id, above2, diverged)
 
 
-def beyond_stats(table: ScenarioTable) -> CellStats | None:
+def beyond_stats(table) -> CellStats | None:
     """The table's reference, tuned and paper rows (in that order: :func:`beyond_rows`) over the held-out run's
     presets beyond every assumed range, or None without them."""
     held = table.held
@@ -82,6 +78,6 @@ def beyond_stats(table: ScenarioTable) -> CellStats | None:
     return cell_stats(ys, [held.seeds] * len(rows), table.level)
 
 
-def beyond_rows(table: ScenarioTable) -> list[int]:
+def beyond_rows(table) -> list[int]:
     """The rows run through the presets beyond every assumed range: all but the oracle rows."""
     return [r for r, row in enumerate(table.rows) if row.role != "oracle"]

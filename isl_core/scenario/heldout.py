@@ -26,7 +26,7 @@ from ..validate import check_int
 from .base import Scenario
 from .periods import Period
 from .presets import BEYOND
-from .tuning import FAMILIES, Tuning, _plan, run_cells
+from .tuning import FAMILIES, Tuning, plan_preset, run_cells
 from .tuning_cache import cache_dir, cache_key, load, save
 
 __all__ = ["HeldOut", "held_out", "report_columns"]
@@ -118,7 +118,7 @@ def held_out(
     span = f"report seeds {seed_ids[0]}–{seed_ids[-1]} (the tuning's: {tuning.seeds[0]}–{tuning.seeds[-1]})"
     only = [(tuning.family[j], tuning.knobs[j]) for j in columns[3:]]
     plans = [
-        _plan(tuning.alpha, tuning.m, tuning.w, s0, sc, tuning.horizon, tuning.burn, tuning.grids, only)
+        plan_preset(tuning.alpha, tuning.m, tuning.w, s0, sc, tuning.horizon, tuning.burn, tuning.grids, only)
         for s0, sc in (*tuning.scenarios, *((s0, sc) for _, s0, sc in beyond.values()))
     ]
     extra_cells = tuple((b, per) for b, (_, periods) in enumerate(plans[len(tuning.scenarios) :]) for per in periods)

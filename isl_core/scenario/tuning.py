@@ -40,7 +40,7 @@ from .periods import Period, edge_times, per_seed, scenario_periods, seed_ratios
 from .presets import PRESETS
 from .run import plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
-from .variants import FAMILIES, TuningGrids, _variants, family_filter, paper_nu, variant_name
+from .variants import FAMILIES, TuningGrids, family_filter, grid_variants, paper_nu, variant_name
 
 __all__ = [
     "FAMILIES",
@@ -50,6 +50,7 @@ __all__ = [
     "cache_dir",
     "family_filter",
     "paper_nu",
+    "plan_preset",
     "run_cells",
     "tune",
     "variant_name",
@@ -152,12 +153,14 @@ class Tuning:
 _MEMORY_CACHE: dict[str, Tuning] = {}
 
 
-def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None):
+def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None):
     """The plan of one preset with every variant (or, ``only``, those of these (family, knob) pairs, on the grid of
     every variant: the same h and so, seed by seed, the same runs) and its periods."""
     model = Model.from_w(alpha, w, sigma0, m)
     periods = scenario_periods(scenario, horizon, burn=burn)
-    every = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in _variants(grids)]
+    every = [
+        replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in grid_variants(grids)
+    ]
     nu, _ = paper_nu(model, alpha, m, w)
     edges = edge_times(periods, horizon)
     if only is None:
@@ -193,7 +196,7 @@ def _compute(
     alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
 ) -> tuple[list[np.ndarray], list, list]:
     """Every (preset, seed) run: y per preset, plans, periods."""
-    plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+    plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
     out = run_cells(plans, seeds, workers, progress)
     return out, [p for p, _ in plans], [per for _, per in plans]
 
@@ -202,7 +205,7 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
     cells = tuple((p, per) for p, pers in enumerate(periods) for per in pers)
     plan = plans[0]
     _, paper = paper_nu(plan.model, alpha, m, w)
-    variants = _variants(grids)
+    variants = grid_variants(grids)
     return Tuning(
         float(alpha),
         m,
@@ -295,7 +298,7 @@ def tune(
     found = load(path, key) if cache else None
     if found is not None:
         y, seconds = found
-        plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+        plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
         cells = [len(per) for _, per in plans]
         ys = np.split(y, np.cumsum(cells)[:-1], axis=1)
         res = _assemble(

@@ -17,7 +17,7 @@ from ..filters.robust import robust_kbf
 from ..filters.variational import variational_kbf
 from ..model import Model
 
-__all__ = ["FAMILIES", "TuningGrids", "family_filter", "paper_nu", "variant_name"]
+__all__ = ["FAMILIES", "TuningGrids", "family_filter", "grid_variants", "paper_nu", "variant_name"]
 
 #: family: (its label, its knobs in order)
 FAMILIES = {
@@ -84,7 +84,8 @@ def family_filter(family: str, model: Model, knob: Mapping, grids: TuningGrids =
     raise ValueError(f"family must be one of {', '.join(FAMILIES)}; got {family!r}")
 
 
-def _variants(grids: TuningGrids) -> list[tuple[str, dict]]:
+def grid_variants(grids: TuningGrids) -> list[tuple[str, dict]]:
+    """Every (family, knob) of the grids, in :data:`FAMILIES` order: the variants a tuning runs."""
     return [(f, knob) for f in FAMILIES for knob in grids.points(f)]
 
 
