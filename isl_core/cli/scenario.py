@@ -206,7 +206,7 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
             )
     print(
         "\nout of sample (worst cell): on the tuning's seeds [interval] -> on the report seeds; the worst seed's own "
-        "ratio and the seeds above 2x in some cell; FLAGGED where the held-out figure leaves the tuning interval:"
+        "ratio and the most seeds above 2x in one cell; FLAGGED where the held-out figure leaves the tuning interval:"
     )
     for r, row in enumerate(tab.rows):
         if row.role in ("tuned", "paper"):
@@ -215,7 +215,7 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
                 f"  {row.name:14} {_ratio(tab.tuned_figure[r])} [{_ratio(tab.tuned_low[r])}, "
                 f"{_ratio(tab.tuned_high[r])}] -> {_ratio(tab.held_figure[r])} "
                 f"({tab.held_figure[r] / tab.tuned_figure[r]:.2f}x); worst seed {tab.worst_seed_id[r, c]} reads "
-                f"{_ratio(tab.worst_seed[r, c])} in {keys[c]}; {int(tab.above2[r].max())} seeds above 2x"
+                f"{_ratio(tab.worst_seed[r, c])} in {keys[c]}; {int(tab.above2[r].max())} seeds above 2x in one cell"
                 f"{'; FLAGGED' if tab.flagged[r] else ''}; sigma range: {row.assumes}"
             )
     print(

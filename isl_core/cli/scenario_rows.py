@@ -55,7 +55,7 @@ def table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
                 "held_out_figure": tab.held_figure[r],
                 "held_out_over_tuning": tab.held_figure[r] / tab.tuned_figure[r],
                 "worst_seed": float(np.max(tab.worst_seed[r])),
-                "seeds_above_2x_in_some_cell": int(tab.above2[r].max()),
+                "most_seeds_above_2x_in_a_cell": int(tab.above2[r].max()),
                 "flagged": bool(tab.flagged[r]),
             }
         )
