@@ -125,7 +125,7 @@ class TuningView(Viewer):
         t, family = self.state.scenarios.tuning, self._family.value
         if t is None:
             self._note.object = (
-                "No tuning for this α, m and w yet: **Tune** computes it (≈ 2 min on two cores, then "
+                "No tuning for this α, m and w yet: **Tune** computes it (a few minutes on two cores, then "
                 "kept) — until then the Scenario picture runs the filters at their constructors' "
                 "defaults, labelled *untuned*."
             )
