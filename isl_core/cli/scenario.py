@@ -110,6 +110,7 @@ def _table_out(args, res) -> int:
         cache=not args.no_cache,
         progress=progress_bar("held-out runs", not (args.quiet or args.json)),
     )
+    assert report is not None  # computed when not cached
     tab = table_from(res, args.level, report)
     ns, cost_meta = _costs(res, tab, args)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]

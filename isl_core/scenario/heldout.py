@@ -24,7 +24,7 @@ import numpy as np
 
 from ..validate import check_int
 from .base import Scenario
-from .periods import Period
+from .periods import Period, scenario_periods
 from .presets import BEYOND
 from .tuning import FAMILIES, Tuning, plan_preset, run_cells
 from .tuning_cache import cache_dir, cache_key, load, save
@@ -70,7 +70,8 @@ def held_out(
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     beyond: Mapping[str, tuple[str, float, Scenario]] = BEYOND,
-) -> HeldOut:
+    compute: bool = True,
+) -> HeldOut | None:
     """The table's filters (:func:`report_columns`) of ``tuning`` on ``seeds`` report seeds (default
     4 × the tuning's), numbered from the one after the tuning's last: disjoint from them (module docstring).
 
@@ -84,11 +85,14 @@ def held_out(
         As in :func:`isl_core.tune`.
     beyond : mapping
         More presets the table's filters run through (not tuned over; default :data:`BEYOND`).
+    compute : bool, default True
+        Compute what is not cached; False: return None instead (a page that must not wait).
 
     Returns
     -------
-    HeldOut
-        The seeds' contributions per coordinate of every reported filter and cell.
+    HeldOut or None
+        The seeds' contributions per coordinate of every reported filter and cell; None when not cached and
+        ``compute`` is False.
 
     Examples
     --------
@@ -116,17 +120,23 @@ def held_out(
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"heldout-{digest}.npz"
     span = f"report seeds {seed_ids[0]}–{seed_ids[-1]} (the tuning's: {tuning.seeds[0]}–{tuning.seeds[-1]})"
-    only = [(tuning.family[j], tuning.knobs[j]) for j in columns[3:]]
-    plans = [
-        plan_preset(tuning.alpha, tuning.m, tuning.w, s0, sc, tuning.horizon, tuning.burn, tuning.grids, only)
-        for s0, sc in (*tuning.scenarios, *((s0, sc) for _, s0, sc in beyond.values()))
-    ]
-    extra_cells = tuple((b, per) for b, (_, periods) in enumerate(plans[len(tuning.scenarios) :]) for per in periods)
+    extra_cells = tuple(
+        (b, per)
+        for b, (_, _, sc) in enumerate(beyond.values())
+        for per in scenario_periods(sc, tuning.horizon, burn=tuning.burn)
+    )
     labels = {k: lab for k, (lab, _, _) in beyond.items()}
     found = load(path, key) if cache else None
     if found is not None:
         y, seconds, origin = found[0], found[1], f"{span}; read from the cache {path}"
+    elif not compute:
+        return None
     else:
+        only = [(tuning.family[j], tuning.knobs[j]) for j in columns[3:]]
+        plans = [
+            plan_preset(tuning.alpha, tuning.m, tuning.w, s0, sc, tuning.horizon, tuning.burn, tuning.grids, only)
+            for s0, sc in (*tuning.scenarios, *((s0, sc) for _, s0, sc in beyond.values()))
+        ]
         start = time.perf_counter()
         y = np.concatenate(run_cells(plans, seed_ids, workers, progress), axis=1)
         seconds = time.perf_counter() - start
