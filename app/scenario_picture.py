@@ -155,11 +155,12 @@ def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
             "scenario horizon (sc_horizon)"
         )
     windows = max(1, min(n, round(SHORT_PER_WINDOW * req.horizon / req.window)))
+    first = req.seed + (max(tuning.seeds) + 1 if tuning is not None else 0)  # held out: after the tuning's seeds
     avg = average_scenario(
         req.model,
         req.nu,
         req.scenario,
-        seeds=range(req.seed, req.seed + req.runs),
+        seeds=range(first, first + req.runs),
         horizon=req.horizon,
         windows=windows,
         extra=extra,
@@ -169,7 +170,8 @@ def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
     periods = avg.periods() if req.runs > 1 else None
     words = {"clairvoyant": "knows σ(t)", "kbf": "knows σ(0)", "isl": "the ν input", **words}
     origin = (
-        tuning.origin.replace("r_min", R_MIN)
+        f"{tuning.origin.replace('r_min', R_MIN)}; this picture's runs are seeds {first}–{first + req.runs - 1}, "
+        "held out from the tuning's"
         if tuning is not None
         else ("not tuned yet for this α, m and w: the filters that learn σ run at their constructors' defaults")
     )

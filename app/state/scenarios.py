@@ -272,7 +272,7 @@ class ScenarioRoom(Room):
             busy=False,
             note=(
                 f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs "
-                f"(seeds {req.seed}–{req.seed + req.runs - 1}) of {per_r_min(req.horizon)}, "
+                f"(seeds {pic.average.seeds[0]}–{pic.average.seeds[-1]}) of {per_r_min(req.horizon)}, "
                 f"{pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: {pic.origin}."
             ),
         )
@@ -323,13 +323,13 @@ class ScenarioRoom(Room):
             self.tuning = None
 
     def compute_tuning(self) -> None:
-        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: ≈ 2 min on two cores,
+        """Tune every family for the page's α, m and w (:func:`isl_core.scenario.tuning.tune`: minutes on two cores,
         then cached) as the session's long job; the picture and the curves follow it."""
         if self._host.alpha <= 0.0:
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return
         fn = partial(tune, self._host.alpha, m=self._host.m, w=self._model_w())
-        self._tune_task.start(fn, self._apply_tuning, "Tuning every filter: 6 presets × 32 seeds, 155 variants …")
+        self._tune_task.start(fn, self._apply_tuning, "Tuning every filter: 6 presets × 32 seeds, 184 variants …")
 
     def cancel_tuning(self) -> None:
         """Stop the tuning: dropped if it waits in the queue, else ended."""

@@ -278,8 +278,9 @@ class ScenarioView(Viewer):
             styles={"font-size": TEXT_FONT},
         )
         map_intro = pn.pane.Markdown(
-            "**Who wins where** — per cell, the filter with the lowest ratio to the clairvoyant one (all coordinates, "
-            "pooled over the runs, over the periods after the step) and its margin over the runner-up, paired over the "
+            "**Who wins where** — per cell, the filter with the lowest ratio to the clairvoyant one (its worst "
+            "coordinate, pooled over the runs, over the periods after the step) and its margin over the runner-up, "
+            "paired over the "
             "runs; a light cell with a dashed border, marked ≈, is a tie (the margin's 95 % lower bound is ≤ 1). "
             "Paper A's model at this α, m and w, σ(0) = 20, with the scenario table's tuning (the command line's "
             "`isl scenario --map` computes the same map).",

@@ -1,8 +1,9 @@
 """The Scenario tab's two tables: every filter's period statistic, and the who-wins map (HTML).
 
 :func:`periods_html` is the picture's summary: per filter its tuning, its RMSE ratio to the clairvoyant filter over
-each fixed period of the scenario (the first 1/r_min and 2/r_min after a change of σ, the settled rest) with the 95 %
-interval over the runs — on which the clairvoyant row reads 1 — and its cost in nanoseconds a step. :func:`map_html`
+each fixed period of the scenario (the first 1/r_min and 2/r_min after a change of σ, the settled rest) at its worst
+coordinate with the 95 % interval over the runs — on which the clairvoyant row reads 1 — the worst run and the runs
+above 2×, and its cost in nanoseconds a step. :func:`map_html`
 colours each cell of the who-wins map by its winner, in black or white text, whichever reads at 4.5 : 1 or more on
 it; a tie (the winner's margin over the runner-up not told apart by the runs) is a light shade of the winner's
 colour with a dashed border. A key under the map names its short labels.
@@ -65,11 +66,17 @@ def _swatch(name: str) -> str:
     return f"<span style='color:{SCENARIO_COLORS.get(name, '#000')}' aria-hidden='true'>&#9632;</span> "
 
 
-def _cell(ratio: float, low: float, high: float, best: bool) -> str:
+def _cell(ratio: float, low: float, high: float, best: bool, coordinate: int, worst: float, above: int) -> str:
+    """A period's cell: the worst coordinate's ratio, its interval, that coordinate, the worst run's own ratio and
+    how many runs read above 2×."""
     if not math.isfinite(ratio):
-        return "<td>diverged</td>"
+        return f"<td>diverged<span class='ci'>on X{coordinate + 1}</span></td>"
     value = f"<span class='best'>{ratio:.3g}</span>" if best else f"{ratio:.3g}"
-    return f"<td>{value}<span class='ci'>[{low:.3g}, {high:.3g}]</span></td>"
+    runs = f" · {above} run{'s' if above != 1 else ''} > 2×" if above else ""
+    return (
+        f"<td>{value}<span class='ci'>[{low:.3g}, {high:.3g}]</span>"
+        f"<span class='ci'>X{coordinate + 1} · worst run {worst:.3g}{runs}</span></td>"
+    )
 
 
 def _cost_cell(name: str, names, costs) -> str:
@@ -98,9 +105,18 @@ def periods_html(pic, costs: dict[str, float] | None = None) -> str:
         for p in pr.periods
     )
     rows = []
+    worst, above = pr.worst_seed, pr.above(2.0)
     for f, (name, label) in enumerate(zip(run.names, run.labels, strict=True)):
         cells = "".join(
-            _cell(pr.ratio[f, c], pr.low[f, c], pr.high[f, c], competing[f] and best[c] == f)
+            _cell(
+                pr.ratio[f, c],
+                pr.low[f, c],
+                pr.high[f, c],
+                competing[f] and best[c] == f,
+                int(pr.coordinate[f, c]),
+                worst[f, c],
+                int(above[f, c]),
+            )
             for c in range(len(pr.periods))
         )
         cost = _cost_cell(name, run.names, costs)
@@ -112,9 +128,11 @@ def periods_html(pic, costs: dict[str, float] | None = None) -> str:
     return (
         f"<table class='isl-scn'><tr><th>filter</th><th>tuning</th>{head}{cost_head}</tr>{''.join(rows)}</table>"
         f"<p class='isl-key'>Each ratio is the filter's RMSE over the clairvoyant filter's exact standard "
-        f"deviation, all coordinates, pooled over the {len(pic.average.seeds)} runs, with Student's 95 % interval "
-        "over them: the clairvoyant row reads 1 up to that interval. Bold: the lowest ratio in a period among the "
-        "filters that do not know σ.</p>"
+        f"deviation at its worst coordinate (Xi), pooled over the {len(pic.average.seeds)} runs (seeds "
+        f"{pic.average.seeds[0]}–{pic.average.seeds[-1]}), with Student's 95 % interval over them: the clairvoyant "
+        "row reads 1 up to that interval and the maximum over the coordinates' noise. Under it, the worst run's own "
+        "ratio and how many runs read above 2×. Bold: the lowest ratio in a period among the filters that do not "
+        "know σ.</p>"
     )
 
 

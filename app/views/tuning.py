@@ -22,7 +22,8 @@ from bokeh.models import ColumnDataSource, Legend, LegendItem, Span
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
-from isl_core.scenario.table import knob_text
+from isl_core.scenario.heldout import held_out
+from isl_core.scenario.table import knob_text, table_from
 from isl_core.scenario.tuning import FAMILIES
 
 from ..state import AppState
@@ -74,6 +75,7 @@ class TuningView(Viewer):
         self._oracle = ColumnDataSource({"x": [], "y": [], "color": []}, name="tuning-oracle")
         self._mark = Span(location=1.0, dimension="height", line_color="#c00", line_width=2, visible=False)
         self._items: list[LegendItem] = []
+        self._held: tuple | None = None  # (tuning, its cached held-out runs or None): read once per tuning
         self._figure = self._chart()
         self._note = pn.pane.Markdown("", margin=(0, 10), styles={"font-size": TEXT_FONT})
         self._family.param.watch(lambda event: self._update(), "value")
@@ -125,7 +127,7 @@ class TuningView(Viewer):
         t, family = self.state.scenarios.tuning, self._family.value
         if t is None:
             self._note.object = (
-                "No tuning for this α, m and w yet: **Tune** computes it (≈ 2 min on two cores, then "
+                "No tuning for this α, m and w yet: **Tune** computes it (a few minutes on two cores, then "
                 "kept) — until then the Scenario picture runs the filters at their constructors' "
                 "defaults, labelled *untuned*."
             )
@@ -159,7 +161,26 @@ class TuningView(Viewer):
             f"**{html.escape(FAMILIES[family][0])}**: tuned at {knob} (red line), where its largest "
             f"ratio over every preset and period is least: {largest[best]:.3g}. Oracle-tuned, each "
             f"preset at its own best knob (dots; a reference, since a filter that does not know σ "
-            f"cannot know the preset either): {html.escape(oracle)}. Tuning: {origin}."
+            f"cannot know the preset either): {html.escape(oracle)}. Tuning: {origin}. {self._held_note(t, family)}"
+        )
+
+    def _held_note(self, t, family: str) -> str:
+        """The family's tuned knob out of sample, when the held-out runs of this tuning are cached (``isl scenario``
+        computes them): its worst cell on the report seeds against its tuning-seed figure, flagged if it left it."""
+        if self._held is None or self._held[0] is not t:
+            self._held = (t, held_out(t, compute=False))
+        held = self._held[1]
+        if held is None:
+            return "Out of sample: not computed for this tuning yet (`isl scenario` computes it)."
+        tab = table_from(t, held=held)
+        r = next(i for i, row in enumerate(tab.rows) if row.name == family)
+        verdict = (
+            "**flagged**: it left the tuning seeds' interval" if tab.flagged[r] else "within the tuning seeds' interval"
+        )
+        return (
+            f"Out of sample (seeds {held.seeds[0]}–{held.seeds[-1]}, never used to tune): its worst cell reads "
+            f"{tab.held_figure[r]:.3g}, against {tab.tuned_figure[r]:.3g} [{tab.tuned_low[r]:.3g}, "
+            f"{tab.tuned_high[r]:.3g}] on the tuning's seeds {t.seeds[0]}–{t.seeds[-1]} — {verdict}."
         )
 
     def __panel__(self):

@@ -249,7 +249,15 @@ def _add_scenario(sub) -> argparse.ArgumentParser:
         help="the map's values (default: sigma ratios 0.1..10, d = 2.5..100, intervals 0..0.5/r_min)",
     )
     p.add_argument("--untuned", action="store_true", help="the map's filters at the constructors' defaults")
-    p.add_argument("--seeds", type=_whole, default=None, help="independent noises pooled (default 32: seeds 0..31)")
+    p.add_argument(
+        "--seeds", type=_whole, default=None, help="tuning seeds (default 32: seeds 0..31); a map's seeds per cell"
+    )
+    p.add_argument(
+        "--report-seeds",
+        type=_whole,
+        default=None,
+        help="held-out seeds the table is read on, after the tuning's (default 4 x --seeds)",
+    )
     p.add_argument(
         "--window", type=positive, default=1.0, help="the sigma_step map's rows, units of 1/r_min (default 1)"
     )

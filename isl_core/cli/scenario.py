@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+
+import numpy as np
 
 from .commands import UsageError, flat, nan_to_none, progress_bar, write_csv
 
@@ -45,7 +46,9 @@ def _tuning(args, *, quiet: bool):
 def cmd_scenario(args) -> int:
     """The table, the tuning curves or a map (module docstring)."""
     if args.map is not None:
-        return _scenario_map(args)
+        from .scenario_map import scenario_map
+
+        return scenario_map(args)
     res = _tuning(args, quiet=args.quiet or args.json)
     return _tune_out(args, res) if args.tune else _table_out(args, res)
 
@@ -55,13 +58,13 @@ def _meta(res) -> dict:
         "alpha": res.alpha,
         "m": res.m,
         "w": res.w,
-        "seeds": [res.seeds[0], res.seeds[-1]],
+        "tuning_seeds": [res.seeds[0], res.seeds[-1]],
         "horizon_over_r_min": res.horizon,
         "burn_over_r_min": res.burn,
         "origin": res.origin,
-        "statistic": "per period: sqrt of the coordinates' mean of (sum over seeds and steps of e_i^2) / "
-        "(seeds x sum over steps of the clairvoyant P_ii); interval: Student's over the seeds' "
-        "contributions, under the square root",
+        "statistic": "per period and coordinate i: sqrt of (sum over seeds and steps of e_i^2) / "
+        "(seeds x sum over steps of the clairvoyant P_ii); a cell's figure is its worst coordinate's; interval: "
+        "Student's over the seeds' contributions, under the square root",
         "scenarios": dict(zip(res.presets, res.preset_labels, strict=True)),
         "one_reading_over_r_min": dict(zip(res.presets, res.reading_time, strict=True)),
         "steps": dict(zip(res.presets, res.steps, strict=True)),
@@ -96,12 +99,22 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
 
 
 def _table_out(args, res) -> int:
+    from ..scenario.heldout import held_out
     from ..scenario.table import table_from
+    from .scenario_rows import beyond_data, table_rows
 
-    tab = table_from(res, args.level)
+    report = held_out(
+        res,
+        args.report_seeds,
+        workers=args.workers,
+        cache=not args.no_cache,
+        progress=progress_bar("held-out runs", not (args.quiet or args.json)),
+    )
+    assert report is not None  # computed when not cached
+    tab = table_from(res, args.level, report)
     ns, cost_meta = _costs(res, tab, args)
     keys = [_cell_key(res, c) for c in range(len(res.cells))]
-    rows = _table_rows(res, tab, keys, ns)
+    rows = table_rows(res, tab, keys, ns)
     winners = [
         {
             "cell": k,
@@ -125,7 +138,8 @@ def _table_out(args, res) -> int:
                         "role": row["role"],
                         "tuning": json.dumps(row["tuning"], ensure_ascii=False),
                         "cell": k,
-                        **row["cells"][k],
+                        **{a: b for a, b in row["cells"][k].items() if a != "coordinates"},
+                        **{f"X{i + 1}": v for i, v in enumerate(row["cells"][k]["coordinates"])},
                     }
                     for row in rows
                     for k in keys
@@ -135,6 +149,9 @@ def _table_out(args, res) -> int:
     if args.json:
         meta = {
             **_meta(res),
+            "report_seeds": [report.seeds[0], report.seeds[-1]],
+            "seeds_disjoint": not set(report.seeds) & set(res.seeds),
+            "held_out_origin": report.origin,
             "level": tab.level,
             "cells": [
                 {
@@ -152,7 +169,7 @@ def _table_out(args, res) -> int:
         }
         print(
             json.dumps(
-                nan_to_none({"meta": meta, "rows": rows, "winners": winners}),
+                nan_to_none({"meta": meta, "rows": rows, "winners": winners, "beyond": beyond_data(tab)}),
                 indent=1,
                 allow_nan=False,
                 ensure_ascii=False,
@@ -163,39 +180,14 @@ def _table_out(args, res) -> int:
     return 0
 
 
-def _table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
-    """The fair table's rows as data: each filter's tuning, origin and cost, its cells and its worst per preset."""
-    rows: list[dict[str, Any]] = []
-    for r, row in enumerate(tab.rows):
-        cells = {
-            k: {"ratio": tab.ratio[r, c], "low": tab.low[r, c], "high": tab.high[r, c]} for c, k in enumerate(keys)
-        }
-        presets = {}
-        for p, name in enumerate(res.presets):
-            worst, lo, hi = (a[r] for a in tab.preset(p))
-            presets[name] = {"worst": worst, "low": lo, "high": hi}
-        rows.append(
-            {
-                "name": row.name,
-                "label": row.label,
-                "role": row.role,
-                "knows": row.knows,
-                "tuning": row.tuning,
-                "origin": row.origin,
-                "ns_per_step": ns.get(row.name),
-                "cells": cells,
-                "presets": presets,
-            }
-        )
-    return rows
-
-
 def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
     from ..scenario.table import knob_text
 
+    seeds = tab.seeds[0]
     print(
-        f"fair table: the normalized RMSE ratio to the clairvoyant Kalman filter per period (coordinates averaged, "
-        f"pooled over seeds {res.seeds[0]}-{res.seeds[-1]}), {100 * tab.level:g} % Student interval over the "
+        f"fair table: the RMSE ratio to the clairvoyant Kalman filter per period at the worst coordinate (Xi), pooled "
+        f"over the report seeds {seeds[0]}-{seeds[-1]} (held out: the tuning used seeds {res.seeds[0]}-"
+        f"{res.seeds[-1]}; the oracle rows are read on those), {100 * tab.level:g} % Student interval over the "
         f"seeds; alpha = {res.alpha:g}, m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min"
     )
     print(f"tuned rows: every family at its minimax knob; {res.origin}")
@@ -209,8 +201,23 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
                 f"  {label[:64]:64}"
                 + "".join(
                     f" | {f'{_ratio(tab.ratio[r, c])} [{_ratio(tab.low[r, c])}, {_ratio(tab.high[r, c])}]':>26}"
+                    f" X{tab.coordinate[r, c] + 1}"
                     for c in cells
                 )
+            )
+    print(
+        "\nout of sample (worst cell): on the tuning's seeds [interval] -> on the report seeds; the worst seed's own "
+        "ratio and the most seeds above 2x in one cell; FLAGGED where the held-out figure leaves the tuning interval:"
+    )
+    for r, row in enumerate(tab.rows):
+        if row.role in ("tuned", "paper"):
+            c = int(np.argmax(np.where(np.isnan(tab.worst_seed[r]), np.inf, tab.worst_seed[r])))
+            print(
+                f"  {row.name:14} {_ratio(tab.tuned_figure[r])} [{_ratio(tab.tuned_low[r])}, "
+                f"{_ratio(tab.tuned_high[r])}] -> {_ratio(tab.held_figure[r])} "
+                f"({tab.held_figure[r] / tab.tuned_figure[r]:.2f}x); worst seed {tab.worst_seed_id[r, c]} reads "
+                f"{_ratio(tab.worst_seed[r, c])} in {keys[c]}; {int(tab.above2[r].max())} seeds above 2x in one cell"
+                f"{'; FLAGGED' if tab.flagged[r] else ''}; sigma range: {row.assumes}"
             )
     print(
         "\nwho wins each cell (the lowest of the tuned and paper rows; a tie where the paired margin's lower bound "
@@ -227,6 +234,9 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
                 else f"{w}, {m:.2f}x ahead of {r} (lower bound {lo:.2f}x)"
             )
         )
+    from .scenario_rows import print_beyond
+
+    print_beyond(tab, _ratio)
     print(
         "the clairvoyant filter reads 1 within its interval in "
         + ("every cell" if all(check.values()) else "every cell but " + ", ".join(k for k, v in check.items() if not v))
@@ -311,88 +321,4 @@ def _tune_out(args, res) -> int:
                 + "".join(f" | {_ratio(v):>9}{mk}" for v, mk in zip(vals, marks, strict=True))
                 + f" | {_ratio(r[j].max()):>6}"
             )
-    return 0
-
-
-def _scenario_map(args) -> int:
-    """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin —
-    with the table's tuning (computed if not cached; ``--untuned``: the constructors' defaults)."""
-    from ..scenario.map import AXIS_LABELS, STEP_AT, who_wins_map
-
-    after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
-    if after < args.window:
-        raise UsageError(
-            f"isl scenario: --horizon must be at least {STEP_AT:g} (the sigma step's time) + --window "
-            f"for the sigma_step map, got {args.horizon:g}"
-        )
-    tuning = None
-    if not args.untuned:
-        from ..scenario.tuning import tune
-
-        tuning = tune(
-            args.alpha,
-            m=args.m,
-            w=args.w,
-            workers=args.workers,
-            cache=not args.no_cache,
-            progress=progress_bar("tuning", not (args.quiet or args.json)),
-        )
-    res = who_wins_map(
-        args.map,
-        args.alpha,
-        values=None if args.values is None else flat(args.values),
-        m=args.m,
-        w=args.w,
-        seeds=32 if args.seeds is None else args.seeds,
-        window=args.window,
-        after=after,
-        burn=args.burn,
-        tuning=tuning,
-        untuned=args.untuned,
-        progress=progress_bar("scenario map", not (args.quiet or args.json)),
-    )
-    winner, margin, tie = res.winner, res.margin, res.tie
-    rows = [
-        {
-            "since_step_over_r_min": None if math.isnan(t) else float(t),
-            "value": float(x),
-            "winner": res.filters[winner[r, c]],
-            "margin": float(margin[r, c]),
-            "margin_low95": float(res.margin_low[r, c]),
-            "tie": bool(tie[r, c]),
-            **{f: float(res.ratio[r, c, k]) for k, f in enumerate(res.filters)},
-        }
-        for r, t in enumerate(res.rows)
-        for c, x in enumerate(res.x)
-    ]
-    if args.csv is not None:
-        write_csv(args.csv, rows)
-    if args.json:
-        meta = {
-            "map": res.kind,
-            "axis": AXIS_LABELS[res.kind],
-            "alpha": res.alpha,
-            "beta": res.model.beta,
-            "m": res.model.m,
-            "sigma0": res.model.sigma,
-            "seeds": res.seeds,
-            "origin": res.origin,
-            "window_over_r_min": res.window,
-            "filters": dict(zip(res.filters, res.labels, strict=True)),
-        }
-        print(json.dumps(nan_to_none({"meta": meta, "cells": rows}), indent=1, allow_nan=False, ensure_ascii=False))
-        return 0
-    print(
-        f"who wins ({res.kind}): the filter with the lowest period ratio to the clairvoyant Kalman filter "
-        f"(coordinates averaged, pooled over {res.seeds} seeds; rows of {res.window:g}/r_min), x its margin over the "
-        f"runner-up, '~' a tie (the paired margin's 95 % lower bound is <= 1); alpha = {res.alpha:g}; {res.origin}"
-    )
-    head = "since step" if res.kind == "sigma_step" else ""
-    print(f"{head:>10} | {AXIS_LABELS[res.kind]}: " + " | ".join(f"{x:>18g}" for x in res.x))
-    for r, t in enumerate(res.rows):
-        cells = [
-            f"{'~' if tie[r, c] else ''}{res.filters[winner[r, c]]} x{margin[r, c]:.2f}" for c in range(len(res.x))
-        ]
-        label = "" if math.isnan(t) else f"{t:g}"
-        print(f"{label:>10} | " + " " * (len(AXIS_LABELS[res.kind]) + 2) + " | ".join(f"{c:>18}" for c in cells))
     return 0

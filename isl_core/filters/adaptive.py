@@ -149,7 +149,7 @@ def adaptive_kbf(
     n = max(2, math.ceil(TABLE_PER_DECADE * (log_hi - log_lo) / math.log(10.0)) + 1)
     step = (log_hi - log_lo) / (n - 1)
     table = _table(model.alpha, model.beta, model.m, log_lo, step, n)
-    gain = AdaptiveGain(log_lo, step, table, memory, sigma_init)
+    gain = AdaptiveGain(log_lo, step, table, memory, sigma_init, (lo, hi))
     return FilterSpec(
         "kbf_adaptive",
         f"Kalman–Bucy, adaptive σ̂ (W = {memory:g} readings)",

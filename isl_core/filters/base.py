@@ -26,6 +26,7 @@ ints that the compiled kernels read as compile-time constants (never a bare numb
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,7 +97,9 @@ class AdaptiveGain:
     ``log σ_j = log_sigma0 + j·step``, j = 0..n−1; between grid points log K is linear in log σ, outside the
     grid it is held at the end values. ``memory`` W (sensor readings) bounds the forgetting factor
     ``λ_r = max(1/r, 1/W)`` of the innovation variance at the r-th reading; ``sigma_init`` is σ̂ before the first
-    innovation.
+    innovation. ``sigma_range`` (σ_min, σ_max) is the range the filter states for σ: in a scenario run
+    (:mod:`!isl_core.kernels.scenario`) σ̂ is held inside it, so that the estimate cannot run away beyond what the
+    filter assumes; the gain table reaches beyond it only so that K(σ̂) is smooth at its ends.
     """
 
     log_sigma0: float
@@ -104,6 +107,7 @@ class AdaptiveGain:
     log_gain: np.ndarray
     memory: float
     sigma_init: float
+    sigma_range: tuple[float, float] = (0.0, math.inf)
 
     @property
     def sigmas(self) -> np.ndarray:

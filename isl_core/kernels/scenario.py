@@ -21,7 +21,9 @@ innovation of one step of length qh divided by √(qh), then restarts a_f at 0:
 
 The variational-Bayes filter carries its covariance ``vb_P[f]`` (predicted every step, updated at readings) and
 its inverse-gamma parameters ``vb_ab[f]`` (a, b; forgotten by ρ = 1 − 1/W at each reading), ``vb_par[f]`` = (ρ per
-reading, iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)).
+reading, iterations); for a robust filter ``vb_par[f]`` = (c, κ(c)). The adaptive and robust filters keep in
+``vb_ab[f]`` the σ range they state (σ_min, σ_max): their σ̂ is held inside it, and their running variance with it,
+so that a run of large innovations cannot carry the estimate (and the gain) beyond what the filter assumes.
 
 Between readings the filters only propagate, e_f ← (I + h·A_f)·e_f + h(α − a_f)·X_m·E − β√h·v_k·E. With q = 1 the
 power-law and linear updates are those of :func:`isl_core.kernels.euler.advance`. The σ-learning filters' memory W
@@ -339,8 +341,16 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
                 r_k = (k + 1) // q
                 var = ad[f, AD_VAR]
                 var += max(1.0 / r_k, ad[f, AD_INV_MEMORY]) * (uu - var)
+                bias = 1.0 + sqqh * gain[f, 0]
+                s_hat = math.sqrt(var / bias)
+                if s_hat > vb_ab[f, 1]:  # held inside the σ range the filter states, the estimator's state too
+                    s_hat = vb_ab[f, 1]
+                    var = s_hat * s_hat * bias
+                elif s_hat < vb_ab[f, 0]:
+                    s_hat = vb_ab[f, 0]
+                    var = s_hat * s_hat * bias
                 ad[f, AD_VAR] = var
-                ad[f, AD_SIGMA] = math.sqrt(var / (1.0 + sqqh * gain[f, 0]))
+                ad[f, AD_SIGMA] = s_hat
                 table_gain(table, ad, f, gain, sqqh)
                 G[:, f] = gain[f]
             wsig[w, a] += ad[f, AD_SIGMA]

@@ -21,7 +21,8 @@ def learns_sigma(kind: np.ndarray) -> np.ndarray:
 
 def learning_state(model: Model, filters, ad: np.ndarray):
     """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations); the
-    robust filters' (c, κ(c))."""
+    robust filters' (c, κ(c)); the adaptive and robust filters' stated σ range (σ_min, σ_max), inside which the loop
+    holds their σ̂ (:mod:`isl_core.kernels.scenario`), in the inverse-gamma pair's place."""
     nf, m = len(filters), model.m
     vb_P, vb_ab, vb_par = np.zeros((nf, m, m)), np.zeros((nf, 2)), np.zeros((nf, 2))
     for f, spec in enumerate(filters):
@@ -31,6 +32,8 @@ def learning_state(model: Model, filters, ad: np.ndarray):
             vb_ab[f] = v.shape0, v.shape0 * v.sigma_init**2
             vb_par[f] = v.rho, v.iterations
             ad[f, AD_SIGMA] = v.sigma_init
+        if spec.adaptive is not None:
+            vb_ab[f] = spec.adaptive.sigma_range
         if spec.huber is not None:
             vb_par[f] = spec.huber, huber_kappa(spec.huber)
         if spec.imm is not None:  # σ̂ of the bank before its first reading: Σ μ_j σ_j at μ_j = 1/J

@@ -5,11 +5,13 @@ independent noises per cell) with the table's filters (:mod:`isl_core.scenario.t
 the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.scenario.tuning.FAMILIES` at its tuned knob — the
 ``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else (said in each label and in
 ``origin``) the constructors' defaults. Per cell it reports every filter's period statistic
-(:mod:`isl_core.scenario.periods`: the normalized RMSE over the coordinates, pooled over the seeds, over the clairvoyant
-variance), the filter with the lowest one (the clairvoyant filter aside) and its margin over the runner-up, paired
-over the seeds, with a tie where the margin's lower 95 % bound is ≤ 1:
+(:mod:`isl_core.scenario.periods`: the worst coordinate's RMSE, pooled over the seeds, over the clairvoyant variance;
+with a tuning, on the seeds after the tuning's: held out), the filter with the lowest one (the clairvoyant filter
+aside) and its margin over the runner-up, paired over the seeds, with a tie where the margin's lower 95 % bound is
+≤ 1:
 
-* ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.1 … 10): a
+* ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.025 … 100:
+  σ from 0.5 to 2000, beyond the ranges the learners assume): a
   two-dimensional map, ratio r × time since the step (periods of ``window``/r_min, the rows);
 * ``"tails"`` — Student-t observation noise with d degrees of freedom, for each d of ``values`` (default 2.5 … 100),
   σ = 20: the settled period after ``burn`` (one row);
@@ -37,7 +39,7 @@ from ..paper import M, W
 from ..validate import check_int, check_real, check_reals
 from .average import average_scenario
 from .base import Scenario
-from .periods import Period, edge_times, paired_margin, per_seed
+from .periods import Period, edge_times, per_seed, worst_from, worst_margin
 from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
@@ -45,7 +47,7 @@ __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
 SIGMA0 = 20.0
 STEP_AT = 10.0  #: the σ step's time, 1/r_min
 MAPS = {
-    "sigma_step": (0.1, 0.2, 0.5, 2.0, 5.0, 10.0),
+    "sigma_step": (0.025, 0.1, 0.2, 0.5, 2.0, 5.0, 10.0, 100.0),  # to 0.5 and 2000: beyond every assumed range
     "tails": (2.5, 3.0, 4.0, 6.0, 10.0, 30.0, 100.0),
     "sensor": (0.0, 0.02, 0.05, 0.1, 0.2, 0.5),
 }
@@ -102,15 +104,16 @@ def _scenario(kind: str, value: float) -> Scenario:
 
 
 def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | None, untuned: bool = False):
-    """(ν, the ISL filter's label, the other families' filters, origin) for a map: every family at the knob of
-    ``tuning`` (else the cached one for α, m, w at the table's defaults; else, or with ``untuned``, the constructors'
-    defaults, said)."""
+    """(ν, the ISL filter's label, the other families' filters, origin, first seed) for a map: every family at the
+    knob of ``tuning`` (else the cached one for α, m, w at the table's defaults; else, or with ``untuned``, the
+    constructors' defaults, said). With a tuning the map's seeds start after the tuning's: held out."""
     if tuning is None and not untuned:
         tuning = tune(alpha, m=m, w=w, compute=False)
     if tuning is not None:
         specs = tuning.tuned_filters(model)
         nu = model.beta * 2.0 ** tuning.knobs[tuning.minimax("isl")]["ell"]
-        return nu, specs[0].label, specs[1:], f"tuned: {tuning.origin}"
+        first = max(tuning.seeds) + 1
+        return nu, specs[0].label, specs[1:], f"tuned: {tuning.origin}; the map's seeds from {first} on", first
     nu, label = paper_nu(model, alpha, m, w)
     guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
     extra = [
@@ -124,7 +127,7 @@ def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | N
         f"untuned: the constructors' defaults (ISL ν of table (A.31) or β) — no tuning is cached for α = "
         f"{alpha:g}, m = {m}, w = {w:g} (isl scenario --tune computes it)"
     )
-    return nu, label, [replace(e, label=f"{e.label} (untuned)") for e in extra], origin
+    return nu, label, [replace(e, label=f"{e.label} (untuned)") for e in extra], origin, 0
 
 
 def _periods(kind: str, window: float, after: float, burn: float) -> tuple[tuple[Period, ...], float]:
@@ -205,7 +208,7 @@ def who_wins_map(
     after = check_real("after", after, lo=window, hi=1e4)
     burn = check_real("burn", burn, lo=0.0, hi=after, hi_open=True)
     model = Model.from_w(alpha, w, SIGMA0, m)
-    nu, nu_label, extra, origin = map_filters(model, alpha, m, w, tuning, untuned)
+    nu, nu_label, extra, origin, first = map_filters(model, alpha, m, w, tuning, untuned)
     periods, horizon = _periods(kind, window, after, burn)
     cells, lows = [], []
     names: tuple[str, ...] = ()
@@ -215,7 +218,7 @@ def who_wins_map(
             model,
             nu,
             _scenario(kind, value),
-            seeds=range(seeds),
+            seeds=range(first, first + seeds),
             horizon=horizon,
             extra=extra,
             edges=edge_times(periods, horizon),
@@ -225,10 +228,10 @@ def who_wins_map(
         )
         names = avg.run.names
         labels = (avg.run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *avg.run.labels[3:])
-        y = per_seed(avg.mse, avg.run, periods)  # (seeds, rows, filters)
-        ratio = np.sqrt(y.mean(axis=0))
+        y = per_seed(avg.mse, avg.run, periods)  # (seeds, rows, filters, m)
+        ratio = worst_from(y, 0.95)[0].T  # (rows, filters): each at its worst coordinate
         ranked = 1 + np.argsort(np.where(np.isnan(ratio[:, 1:]), np.inf, ratio[:, 1:]), axis=1, kind="stable")
-        low = [paired_margin(y[:, r, ranked[r, 0]], y[:, r, ranked[r, 1]])[1] for r in range(len(periods))]
+        low = [worst_margin(y[:, r, ranked[r, 0]], y[:, r, ranked[r, 1]])[1] for r in range(len(periods))]
         cells.append(ratio)
         lows.append(np.array(low))
     rows = np.array([p.start - STEP_AT for p in periods]) if kind == "sigma_step" else np.array([math.nan])

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 
 from .base import Scenario
 
-__all__ = ["PRESETS"]
+__all__ = ["BEYOND", "PRESETS"]
 
 #: name: (label, σ(0), scenario)
 PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
@@ -18,4 +18,12 @@ PRESETS: Mapping[str, tuple[str, float, Scenario]] = {
     "outliers": ("1 % outliers × 30", 20.0, Scenario(noise="outliers", outlier_rate=0.01, outlier_scale=30.0)),
     "sensor": ("sensor read every 0.1/r_min", 20.0, Scenario(sensor_interval=0.1)),
     "constant": ("constant σ, Gaussian", 20.0, Scenario()),
+}
+
+#: σ beyond every range a filter assumes (the adaptive and robust filters' [2, 200], the IMM's grid over [1.5, 500]):
+#: never tuned over — the table runs the tuned filters through them on the report seeds, as a test of the
+#: assumptions themselves
+BEYOND: Mapping[str, tuple[str, float, Scenario]] = {
+    "sigma_2000": ("constant σ = 2000", 2000.0, Scenario()),
+    "sigma_drop_far": ("σ 200 → 0.5 at 10/r_min", 200.0, Scenario(sigma_knots=((10.0, 0.5),))),
 }

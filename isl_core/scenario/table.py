@@ -1,47 +1,67 @@
-"""Who wins where, in a fair contest: every family at its minimax tuning, on the period statistic, per scenario.
+"""Who wins where, in a fair contest: every family at its minimax tuning, on the period statistic, per scenario,
+reported on seeds the tuning never saw.
 
 :func:`scenario_table` takes the tuning of :func:`isl_core.tune` (one run per preset and seed with every
-variant of every family on the same noise; cached) and reports, per row and cell (preset × period of
-:func:`isl_core.scenario.periods.scenario_periods`), the period statistic — the normalized RMSE over the coordinates,
-pooled over the seeds, over the clairvoyant filter's exact variance — with Student's interval over the seeds:
+variant of every family on the same noise; cached) and the held-out runs of :func:`!isl_core.scenario.heldout.held_out`
+(the table's filters again, on report seeds disjoint from the tuning's and four times as many) and reports, per row
+and cell (preset × period of :func:`isl_core.scenario_periods`), the period statistic at the worst
+coordinate — each coordinate's RMSE pooled over the seeds over the clairvoyant filter's exact variance, the largest
+of them — with Student's interval over the seeds, the coordinate, the worst seed's own ratio and how many seeds read
+above 2×:
 
 * **references** — the clairvoyant filter (knows σ(t); reads 1 up to sampling error: the check of the denominator)
   and the Kalman–Bucy filter optimal for σ(0) (knows σ at the start, learns nothing);
 * **tuned** — each family of :data:`isl_core.scenario.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one
-  tuning rule: the least, over the knob's grid, of the largest ratio over every cell of the table;
+  tuning rule: the least, over the knob's grid, of the largest ratio over every cell of the table, on the tuning's
+  seeds;
 * **paper** — paper A's ISL filter at table (A.31)'s ν, the paper's own value (where the table has this α);
 * **oracle-tuned** — each family at the best knob *per preset* (a reference: the tuning one would pick knowing the
-  scenario; its knob is given per preset).
+  scenario; its knob is given per preset), read on the tuning's seeds, as they were chosen.
 
-Every row says its tuning and its origin. Each tuned row *is* its variant's column of the tuning run, so it sits
-at its tuning curve's minimax point. A preset's number is a row's largest ratio over the preset's periods; the
-winner of a cell is the lowest of the tuned and paper rows, with the paired margin over the runner-up
-(:func:`isl_core.scenario.periods.paired_margin`) — a tie where its lower bound is ≤ 1.
+Every row says its tuning, its origin, the σ range it assumes, and which seeds its figures come from. A tuned row's
+**tuning-seed figure** is its largest cell on the tuning's seeds (the minimax value) with that cell's interval; its
+**held-out figure** is its largest cell on the report seeds. A row whose held-out figure leaves the tuning-seed
+interval is **flagged**: its verdict did not hold out of sample. A preset's number is a row's largest ratio over the
+preset's periods; the winner of a cell is the lowest of the tuned and paper rows, with the margin over the runner-up
+and its conservative lower bound (:func:`!isl_core.scenario.periods.worst_margin`) — a tie where that bound is ≤ 1.
 Times are in units of 1/r_min of the model at σ(0).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 
 import numpy as np
 
 from ..paper import M, W
 from ..validate import check_real
 from .base import Scenario
-from .periods import paired_margin
+from .cells import CellStats, assumes, beyond_rows, beyond_stats, cell_stats
+from .heldout import HeldOut, held_out
+from .periods import worst_margin
 from .presets import PRESETS
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 
-__all__ = ["PRESETS", "ScenarioTable", "TableRow", "knob_text", "scenario_table", "table_from"]
+__all__ = [
+    "PRESETS",
+    "CellStats",
+    "ScenarioTable",
+    "TableRow",
+    "beyond_rows",
+    "beyond_stats",
+    "knob_text",
+    "scenario_table",
+    "table_from",
+]
 
 
 @dataclass(frozen=True)
 class TableRow:
     """One row: ``name`` (stable: the family, or ``oracle:<family>``), ``label``, ``role`` ("reference", "tuned",
-    "paper", "oracle"), what it ``knows`` of σ, its ``tuning`` (knob → value; per preset for an oracle row), its
-    ``origin`` and ``columns``, per preset the index of its filter in the tuning's run."""
+    "paper", "oracle"), what it ``knows`` of σ and what σ range it ``assumes``, its ``tuning`` (knob → value; per
+    preset for an oracle row), its ``origin`` and ``columns``, per preset the index of its filter in the tuning's
+    run."""
 
     name: str
     label: str
@@ -50,14 +70,22 @@ class TableRow:
     tuning: dict | tuple[dict, ...]
     origin: str
     columns: tuple[int, ...]
+    assumes: str = ""
 
 
 @dataclass(frozen=True)
 class ScenarioTable:
     """``ratio[r, c]`` with ``low``/``high`` at ``level`` per row (``rows``) and cell (``tuning.cells``: preset
-    index, period); :meth:`preset` the largest over a preset's cells; per cell ``winner``/``runner_up`` (row
-    indices among the tuned and paper rows), ``margin`` (the runner-up's ratio over the winner's, paired over the
-    seeds) and ``margin_low`` its lower bound; ``tie`` where that bound is ≤ 1."""
+    index, period), each at the worst ``coordinate[r, c]`` (0-based; ``coordinates[r, c]`` every coordinate's
+    ratio); ``worst_seed[r, c]`` the largest of the seeds' own ratios, on seed ``worst_seed_id[r, c]``, ``above2[r, c]``
+    how many seeds read above 2× and ``diverged[r, c]`` how many diverged; ``seeds[r]`` the seeds a row's figures
+    come from (the report seeds, or the tuning's for an oracle row, or for every row without a held-out run).
+    Per row the tuning-seed figure ``tuned_figure`` (its largest cell on the tuning's seeds) with that cell's
+    interval ``tuned_low``/``tuned_high``, and ``held_figure`` (its largest cell on the report seeds); ``flagged``
+    where a tuned or paper row's held-out figure leaves that interval. :meth:`preset` the largest over a preset's
+    cells; per cell ``winner``/``runner_up`` (row indices among the tuned and paper rows), ``margin`` (the
+    runner-up's ratio over the winner's) and ``margin_low`` its conservative lower bound; ``tie`` where that bound
+    is ≤ 1."""
 
     tuning: Tuning
     rows: tuple[TableRow, ...]
@@ -69,6 +97,19 @@ class ScenarioTable:
     runner_up: np.ndarray
     margin: np.ndarray
     margin_low: np.ndarray
+    coordinate: np.ndarray
+    coordinates: np.ndarray
+    worst_seed: np.ndarray
+    worst_seed_id: np.ndarray
+    above2: np.ndarray
+    diverged: np.ndarray
+    seeds: tuple[tuple[int, ...], ...]
+    tuned_figure: np.ndarray
+    tuned_low: np.ndarray
+    tuned_high: np.ndarray
+    held_figure: np.ndarray
+    flagged: np.ndarray
+    held: HeldOut | None = None
 
     @property
     def tie(self) -> np.ndarray:
@@ -95,7 +136,7 @@ def knob_text(knob: Mapping) -> str:
 
 
 def _rows(tuning: Tuning) -> list[TableRow]:
-    npre = len(tuning.presets)
+    npre, grids = len(tuning.presets), tuning.grids
     rows = [
         TableRow(
             "clairvoyant",
@@ -105,6 +146,7 @@ def _rows(tuning: Tuning) -> list[TableRow]:
             {},
             "the reference: its exact covariance P is every ratio's denominator",
             (0,) * npre,
+            "σ(t) itself",
         ),
         TableRow(
             "kbf",
@@ -114,19 +156,22 @@ def _rows(tuning: Tuning) -> list[TableRow]:
             {},
             "the stationary filter of σ(0) (A.21–A.23)",
             (1,) * npre,
+            "σ = σ(0)",
         ),
     ]
     for fam, (label, _) in FAMILIES.items():
         j = tuning.minimax(fam)
+        knob = dict(tuning.knobs[j])
         rows.append(
             TableRow(
                 fam,
-                f"{label}, {knob_text(tuning.knobs[j])}",
+                f"{label}, {knob_text(knob)}",
                 "tuned",
                 "nothing of σ",
-                dict(tuning.knobs[j]),
+                knob,
                 tuning.origin,
                 (j,) * npre,
+                assumes(fam, knob, grids),
             )
         )
     if "(A.31)" in tuning.knobs[2]["paper"]:
@@ -139,6 +184,7 @@ def _rows(tuning: Tuning) -> list[TableRow]:
                 {},
                 "paper A, table (A.31): the ν/β the authors read off their Fig. 2",
                 (2,) * npre,
+                assumes("isl_paper", {}, grids),
             )
         )
     for fam, (label, _) in FAMILIES.items():
@@ -150,15 +196,23 @@ def _rows(tuning: Tuning) -> list[TableRow]:
                 "oracle",
                 "nothing of σ",
                 tuple(dict(tuning.knobs[j]) for j in cols),
-                "the least largest ratio over each preset's periods, on the same runs",
+                "the least largest ratio over each preset's periods, on the tuning's seeds",
                 cols,
+                "; ".join(dict.fromkeys(assumes(fam, tuning.knobs[j], grids) for j in cols)),
             )
         )
     return rows
 
 
-def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
-    """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`.
+def _row_y(y: np.ndarray, cols: np.ndarray, index) -> np.ndarray:
+    """One row's contributions (seeds, cells, m) from ``y`` (seeds, cells, filters, m), its filter per cell ``cols``
+    mapped to ``y``'s filter axis by ``index``."""
+    return np.stack([y[:, c, index(int(j))] for c, j in enumerate(cols)], axis=1)
+
+
+def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None) -> ScenarioTable:
+    """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`, its cells read on the report
+    seeds of ``held`` (:func:`!isl_core.scenario.heldout.held_out`) — or, without it, on the tuning's own seeds.
 
     Parameters
     ----------
@@ -166,6 +220,8 @@ def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
         The result of :func:`isl_core.tune`.
     level : float, default 0.95
         Confidence level of the intervals.
+    held : HeldOut, optional
+        The table's filters on the report seeds.
 
     Returns
     -------
@@ -184,26 +240,59 @@ def table_from(tuning: Tuning, level: float = 0.95) -> ScenarioTable:
     """
     level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
     rows = _rows(tuning)
-    r, lo, hi = tuning.stats(level)
     cells = range(len(tuning.cells))
     col = np.array([[row.columns[tuning.cells[c][0]] for c in cells] for row in rows])  # (rows, cells)
-    pick = np.take_along_axis
-    ratio, low, high = (pick(a, col, axis=0) for a in (r, lo, hi))
-    contenders = np.array([i for i, row in enumerate(rows) if row.role in ("tuned", "paper")])
-    winner, runner, margin, mlow = (
-        np.empty(len(cells), dtype=int),
-        np.empty(len(cells), dtype=int),
-        np.empty(len(cells)),
-        np.empty(len(cells)),
+    ys, seeds = [], []
+    for r, row in enumerate(rows):
+        if held is not None and row.role != "oracle":
+            ys.append(_row_y(held.y, col[r], held.columns.index))
+            seeds.append(held.seeds)
+        else:
+            ys.append(_row_y(tuning.y, col[r], lambda j: j))
+            seeds.append(tuning.seeds)
+    ratio, low, high, coordinate, coordinates, worst_seed, worst_id, above2, diverged = astuple(
+        cell_stats(ys, seeds, level)
     )
+    t_ratio, t_low, t_high = tuning.stats(level)
+    worst_cell = np.array([int(np.argmax(np.nan_to_num(t_ratio[col[r], cells], nan=np.inf))) for r in range(len(rows))])
+    pick = lambda a: np.array([a[col[r, c], c] for r, c in enumerate(worst_cell)])  # noqa: E731
+    tuned_figure, tuned_low, tuned_high = pick(t_ratio), pick(t_low), pick(t_high)
+    held_figure = np.where(np.isnan(ratio), np.inf, ratio).max(axis=1)
+    competes = np.array([row.role in ("tuned", "paper") for row in rows])
+    flagged = competes & (held is not None) & ((held_figure > tuned_high) | (held_figure < tuned_low))
+    contenders = np.flatnonzero(competes)
+    winner, runner = np.empty(len(cells), dtype=int), np.empty(len(cells), dtype=int)
+    margin, mlow = np.empty(len(cells)), np.empty(len(cells))
     for c in cells:
-        order = contenders[
-            np.argsort(np.where(np.isnan(ratio[contenders, c]), np.inf, ratio[contenders, c]), kind="stable")
-        ]
+        key = np.where(np.isnan(ratio[contenders, c]), np.inf, ratio[contenders, c])
+        order = contenders[np.argsort(key, kind="stable")]
         winner[c], runner[c] = order[0], order[1]
-        ya, yb = tuning.y[:, c, col[order[0], c]], tuning.y[:, c, col[order[1], c]]
-        margin[c], mlow[c] = paired_margin(ya, yb, level)
-    return ScenarioTable(tuning, tuple(rows), ratio, low, high, level, winner, runner, margin, mlow)
+        margin[c], mlow[c] = worst_margin(ys[order[0]][:, c], ys[order[1]][:, c], level)
+    return ScenarioTable(
+        tuning,
+        tuple(rows),
+        ratio,
+        low,
+        high,
+        level,
+        winner,
+        runner,
+        margin,
+        mlow,
+        coordinate,
+        coordinates,
+        worst_seed,
+        worst_id,
+        above2,
+        diverged,
+        tuple(tuple(s) for s in seeds),
+        tuned_figure,
+        tuned_low,
+        tuned_high,
+        held_figure,
+        flagged,
+        held,
+    )
 
 
 def scenario_table(
@@ -220,9 +309,11 @@ def scenario_table(
     workers: int | None = None,
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
+    report_seeds: int | None = None,
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
-    tuning of :func:`isl_core.tune` with these arguments (cached), then :func:`table_from` at
+    tuning of :func:`isl_core.tune` with these arguments (cached), the held-out runs on
+    ``report_seeds`` seeds after the tuning's (default four times as many; cached), then :func:`table_from` at
     ``level``.
 
     Parameters
@@ -237,6 +328,8 @@ def scenario_table(
         Confidence level of the intervals.
     grids, workers, progress, cache : TuningGrids, int, callable, bool
         As in :func:`isl_core.tune`.
+    report_seeds : int, optional
+        Held-out seeds the table is read on (:func:`!isl_core.scenario.heldout.held_out`).
 
     Returns
     -------
@@ -270,4 +363,5 @@ def scenario_table(
         cache=cache,
     )
     assert res is not None  # tune computes what is not cached (compute=True)
-    return table_from(res, level)
+    report = held_out(res, report_seeds, workers=workers, cache=cache)
+    return table_from(res, level, report)

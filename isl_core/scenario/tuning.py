@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import time
 from collections.abc import Callable, Mapping
@@ -33,19 +32,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..filters.adaptive import adaptive_kbf
 from ..filters.base import SIGMA_RANGE, FilterSpec
-from ..filters.imm import imm_kbf
-from ..filters.isl import isl_filter, model_aware_isl
-from ..filters.robust import robust_kbf
-from ..filters.variational import variational_kbf
 from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
-from .periods import Period, edge_times, per_seed, ratios_from, scenario_periods
+from .periods import Period, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
 from .presets import PRESETS
 from .run import plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
+from .variants import FAMILIES, TuningGrids, family_filter, grid_variants, paper_nu, variant_name
 
 __all__ = [
     "FAMILIES",
@@ -55,71 +50,11 @@ __all__ = [
     "cache_dir",
     "family_filter",
     "paper_nu",
+    "plan_preset",
+    "run_cells",
     "tune",
     "variant_name",
 ]
-
-#: family: (its label, its knobs in order)
-FAMILIES = {
-    "isl": ("ISL (paper A)", ("ell",)),
-    "isl_model": ("ISL model-aware", ("ell",)),
-    "kbf_adaptive": ("Kalman–Bucy, adaptive σ̂", ("memory",)),
-    "vb": ("variational Bayes", ("memory",)),
-    "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
-    "imm": ("IMM", ("switch", "modes")),
-}
-_MEMORY = tuple(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15))  # 10, 15, 23, …, 2000, 3000
-
-
-@dataclass(frozen=True)
-class TuningGrids:
-    """The knobs' grids: ν/β = 2^ℓ for ℓ in ``isl_ell`` (ISL filters); ``memory`` W in readings (adaptive, VB and
-    robust filters); Huber's ``robust_c``; the IMM's ``imm_switch`` per reading and ``imm_modes`` over
-    ``imm_sigma_range``.
-
-    Examples
-    --------
-    >>> from isl_core import TuningGrids
-    >>> TuningGrids(isl_ell=(-2.0, 0.0)).points("isl")
-    [{'ell': -2.0}, {'ell': 0.0}]
-    """
-
-    isl_ell: tuple[float, ...] = tuple(np.arange(-8.0, 4.01, 0.5).tolist())
-    memory: tuple[float, ...] = _MEMORY
-    robust_c: tuple[float, ...] = (1.0, 1.345, 2.0, 3.0)
-    imm_switch: tuple[float, ...] = (1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
-    imm_modes: tuple[int, ...] = (6, 11, 16)
-    imm_sigma_range: tuple[float, float] = (1.5, 500.0)
-
-    def points(self, family: str) -> list[dict]:
-        """The family's grid points, each a dict knob → value."""
-        if family in ("isl", "isl_model"):
-            return [{"ell": float(x)} for x in self.isl_ell]
-        if family in ("kbf_adaptive", "vb"):
-            return [{"memory": float(w)} for w in self.memory]
-        if family == "kbf_robust":
-            return [{"c": float(c), "memory": float(w)} for c in self.robust_c for w in self.memory]
-        return [{"switch": float(p), "modes": int(j)} for p in self.imm_switch for j in self.imm_modes]
-
-
-def family_filter(family: str, model: Model, knob: Mapping, grids: TuningGrids = TuningGrids()) -> FilterSpec:
-    """The filter of ``family`` at ``knob`` for ``model``'s α, β, m (σ is not used; the σ-learners over
-    :data:`SIGMA_RANGE` from its geometric middle), named ``family`` and labelled with its knob."""
-    guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
-    if family in ("isl", "isl_model"):
-        nu = model.beta * 2.0 ** knob["ell"]
-        spec = isl_filter(model, nu) if family == "isl" else model_aware_isl(model, nu)
-        lab = f"{FAMILIES[family][0]} (ν/β = 2^{knob['ell']:g} = {2.0 ** knob['ell']:.3g}, ν = {nu:.3g})"
-        return FilterSpec(family, lab, spec.damp, spec.coef, spec.power)
-    if family == "kbf_adaptive":
-        return adaptive_kbf(model, sigma_range=SIGMA_RANGE, memory=knob["memory"], sigma_init=guess)
-    if family == "vb":
-        return variational_kbf(model, sigma_init=guess, memory=knob["memory"])
-    if family == "kbf_robust":
-        return robust_kbf(model, c=knob["c"], sigma_range=SIGMA_RANGE, memory=knob["memory"], sigma_init=guess)
-    if family == "imm":
-        return imm_kbf(model, sigma_range=grids.imm_sigma_range, modes=knob["modes"], switch=knob["switch"])
-    raise ValueError(f"family must be one of {', '.join(FAMILIES)}; got {family!r}")
 
 
 @dataclass(frozen=True)
@@ -128,9 +63,11 @@ class Tuning:
 
     Filters (``names``, ``family``, ``knobs``): the clairvoyant reference, the Kalman–Bucy filter for σ(0), paper A's
     ISL filter at its table's ν (``family`` "isl_paper"; ν = β where table (A.31) has no value for this α), then every
-    variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters) the seeds'
-    contributions (:func:`!isl_core.scenario.periods.per_seed`). Per preset: ``reading_time`` one reading in units of
-    1/r_min at σ(0) (W readings are W·reading_time), ``steps`` N, ``h``. ``origin`` says where it came from.
+    variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters, m) the seeds'
+    contributions per coordinate (:func:`!isl_core.scenario.periods.per_seed`); a cell's figure is its worst
+    coordinate's. Per preset: ``reading_time`` one reading in units of 1/r_min at σ(0) (W readings are
+    W·reading_time), ``steps`` N, ``h``, and in ``scenarios`` its (σ(0), :class:`Scenario`). ``origin`` says where it
+    came from.
     """
 
     alpha: float
@@ -151,14 +88,31 @@ class Tuning:
     steps: tuple[int, ...]
     h: tuple[float, ...]
     seconds: float
+    scenarios: tuple[tuple[float, Scenario], ...] = ()
     origin: str = ""
     _stats: dict = field(default_factory=dict, repr=False, compare=False)
 
     def stats(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(ratio, low, high), each (filters, cells): the period statistic and its interval at ``level``."""
+        """(ratio, low, high), each (filters, cells): the period statistic at the worst coordinate and its interval
+        at ``level`` (:func:`!isl_core.scenario.periods.worst_from`)."""
         if level not in self._stats:
-            self._stats[level] = ratios_from(self.y, level)
-        return self._stats[level]
+            self._stats[level] = worst_from(self.y, level)
+        return self._stats[level][:3]
+
+    def coordinate(self) -> np.ndarray:
+        """The worst coordinate (0-based) per filter and cell (filters, cells)."""
+        self.stats()
+        return self._stats[0.95][3]
+
+    def seed_ratios(self) -> np.ndarray:
+        """Each seed's own worst-coordinate ratio (seeds, cells, filters)."""
+        return seed_ratios(self.y)
+
+    def preset_map(self) -> dict[str, tuple[str, float, Scenario]]:
+        """The presets this tuning was computed over, as :func:`tune` takes them."""
+        return {
+            n: (lab, s0, sc) for n, lab, (s0, sc) in zip(self.presets, self.preset_labels, self.scenarios, strict=True)
+        }
 
     def variants(self, family: str) -> np.ndarray:
         """Indices of the family's variants, in grid order."""
@@ -199,42 +153,29 @@ class Tuning:
 _MEMORY_CACHE: dict[str, Tuning] = {}
 
 
-def _variants(grids: TuningGrids) -> list[tuple[str, dict]]:
-    return [(f, knob) for f in FAMILIES for knob in grids.points(f)]
-
-
-def variant_name(family: str, knob: Mapping) -> str:
-    """A variant's stable name: ``vb@memory=30``, ``imm@switch=0.01,modes=11``."""
-    return f"{family}@" + ",".join(f"{k}={v:g}" for k, v in knob.items())
-
-
-def paper_nu(model: Model, alpha: float, m: int, w: float) -> tuple[float, str]:
-    """Paper A's ν for ``model``: β times table (A.31)'s ν/β at (``alpha``, ``m``, ``w``), or β where the table has
-    none; and a line that says which."""
-    from ..paper import a31_nu_over_beta
-
-    nob = a31_nu_over_beta(alpha, m, w)
-    if nob is None:
-        return model.beta, f"ISL at ν = β = {model.beta:.3g} (table (A.31) has no ν for α = {alpha:g})"
-    return model.beta * nob, f"ISL at table (A.31)'s ν/β = {nob:g} (ν = {model.beta * nob:.3g}; the paper's value)"
-
-
-def _plan(alpha, m, w, sigma0, scenario, horizon, burn, grids):
+def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None):
+    """The plan of one preset with every variant (or, ``only``, those of these (family, knob) pairs, on the grid of
+    every variant: the same h and so, seed by seed, the same runs) and its periods."""
     model = Model.from_w(alpha, w, sigma0, m)
     periods = scenario_periods(scenario, horizon, burn=burn)
-    extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in _variants(grids)]
+    every = [
+        replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in grid_variants(grids)
+    ]
     nu, _ = paper_nu(model, alpha, m, w)
-    return plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edge_times(periods, horizon)), periods
+    edges = edge_times(periods, horizon)
+    if only is None:
+        return plan_scenario(model, nu, scenario, horizon=horizon, extra=every, edges=edges), periods
+    extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in only]
+    plan = plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edges, grid_filters=every)
+    return plan, periods
 
 
-def _compute(
-    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
-) -> tuple[list[np.ndarray], list, list]:
-    """Every (preset, seed) run on ``workers`` threads (the kernels release the GIL): y per preset, plans, periods."""
-    plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+def run_cells(plans: list, seeds: tuple[int, ...], workers: int | None, progress) -> list[np.ndarray]:
+    """Every (plan, seed) run on ``workers`` threads (the kernels release the GIL): per plan (with its periods, a pair
+    of ``plans``) the seeds' contributions y (seeds, periods, filters, m) of :func:`per_seed`."""
     tasks = [(p, s) for p in range(len(plans)) for s in range(len(seeds))]
     cost = np.array([plans[p][0].N for p, _ in tasks], dtype=float)
-    out = [np.empty((len(seeds), len(periods), len(plan.filters))) for plan, periods in plans]
+    out = [np.empty((len(seeds), len(periods), len(plan.filters), plan.model.m)) for plan, periods in plans]
 
     def one(task):
         p, s = task
@@ -248,6 +189,15 @@ def _compute(
             done += cost[t]
             if progress is not None:
                 progress(done / cost.sum())
+    return out
+
+
+def _compute(
+    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
+) -> tuple[list[np.ndarray], list, list]:
+    """Every (preset, seed) run: y per preset, plans, periods."""
+    plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+    out = run_cells(plans, seeds, workers, progress)
     return out, [p for p, _ in plans], [per for _, per in plans]
 
 
@@ -255,7 +205,7 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
     cells = tuple((p, per) for p, pers in enumerate(periods) for per in pers)
     plan = plans[0]
     _, paper = paper_nu(plan.model, alpha, m, w)
-    variants = _variants(grids)
+    variants = grid_variants(grids)
     return Tuning(
         float(alpha),
         m,
@@ -275,6 +225,7 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
         tuple(pl.N for pl in plans),
         tuple(pl.h for pl in plans),
         float(seconds),
+        tuple((s0, sc) for _, s0, sc in presets.values()),
     )
 
 
@@ -347,7 +298,7 @@ def tune(
     found = load(path, key) if cache else None
     if found is not None:
         y, seconds = found
-        plans = [_plan(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+        plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
         cells = [len(per) for _, per in plans]
         ys = np.split(y, np.cumsum(cells)[:-1], axis=1)
         res = _assemble(

@@ -136,6 +136,9 @@ def test_the_view_draws_the_picture_and_the_period_table(state):
     table = periods_html(pic, pic.costs)
     assert table.count("<tr>") == 1 + len(pic.average.run.names) and "class='best'" in table
     assert "first 1/rₘᵢₙ after the change" in table and "untuned" in table
+    pr = pic.periods  # each cell at its worst coordinate, with the worst run's own ratio
+    assert f"X{pr.coordinate[2, 0] + 1} · worst run {pr.worst_seed[2, 0]:.3g}" in table
+    np.testing.assert_array_equal(pr.ratio, pr.coordinates.max(axis=2))
     assert set(pic.costs) == {"loop"} | set(pic.average.run.names) - set(LOOP)
     assert all(v >= 0 for v in pic.costs.values())
     assert table.count("the 3 together") == 1 and table.count("rowspan='3'") == 1  # the loop's three share one cost
@@ -143,7 +146,7 @@ def test_the_view_draws_the_picture_and_the_period_table(state):
     assert "No period statistic from one run" in periods_html(state.scenarios.picture)
 
 
-def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(state, monkeypatch):
+def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(state, monkeypatch, tmp_path):
     """With a tuning for the page's α, m and w, the filters that do not know σ(t) take its minimax knobs, run on its
     grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point
     and each preset's own best (the oracle reference)."""
@@ -163,6 +166,9 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     state.scenarios.want()
     pic = state.scenarios.picture
     assert pic.tuned is small and state.scenarios.tuning is small
+    first = state.seed + 2  # the seed input counts from the first seed after the tuning's 0–1: held out
+    assert pic.average.seeds == (first, first + 1) and f"seeds {first}–{first + 1}, held out" in pic.origin
+    assert f"(seeds {first}–{first + 1})" in state.scenarios.note
     assert pic.average.run.names[3:] == ("isl_tuned", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
     vb = small.knobs[small.minimax("vb")]
     assert pic.tuning["vb"] == f"tuned: W = {vb['memory']:g} readings"
@@ -186,6 +192,20 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     assert list(dots["y"]) == list(per_preset.min(axis=1))
     assert [small.knobs[small.oracle("vb", p)]["memory"] for p in range(2)] == list(dots["x"])
     assert "Oracle-tuned" in view._note.object
+    # out of sample: said not computed until the held-out runs are cached, then this family's verdict on them
+    assert "Out of sample: not computed" in view._note.object
+    from isl_core.scenario.heldout import held_out
+    from isl_core.scenario.table import table_from
+
+    monkeypatch.setenv("ISL_CACHE_DIR", str(tmp_path))
+    table = table_from(small, held=held_out(small, beyond={}))  # cached in tmp_path; the view reads it
+    monkeypatch.setattr("app.views.tuning.held_out", lambda t, compute: held_out(t, compute=compute, beyond={}))
+    view = TuningView(state=state)
+    view._family.value = "vb"
+    r = next(i for i, row in enumerate(table.rows) if row.name == "vb")
+    assert f"Out of sample (seeds 2–9, never used to tune): its worst cell reads {table.held_figure[r]:.3g}" in (
+        view._note.object
+    )
 
 
 def test_the_map_runs_as_a_long_job_and_marks_ties(state):

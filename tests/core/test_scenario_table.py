@@ -46,7 +46,7 @@ def _own_cache(tmp_path, monkeypatch):
 def test_each_tuned_row_sits_at_its_tuning_curves_minimax_point(tuning, table):
     """A tuned row is its variant's column of the tuning run: its largest ratio over the cells is the least over the
     knob's grid, and its stated tuning is that variant's knob."""
-    ratio = np.sqrt(tuning.y.mean(axis=0))  # (cells, filters): the curves, written out
+    ratio = np.sqrt(tuning.y.mean(axis=0)).max(axis=2)  # (cells, filters), worst coordinate: the curves, written out
     for family in FAMILIES:
         row = next(i for i, r in enumerate(table.rows) if r.name == family)
         idx = tuning.variants(family)
@@ -92,11 +92,19 @@ def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenar
     assert main([*args, "--json", "--csv", str(out)]) == 0
     doc = json.loads(capsys.readouterr().out)
     meta, rows = doc["meta"], doc["rows"]
-    assert list(meta["scenarios"]) == ["sensor", "constant"] and meta["seeds"] == [0, 1]
+    assert list(meta["scenarios"]) == ["sensor", "constant"] and meta["tuning_seeds"] == [0, 1]
+    assert meta["report_seeds"] == [2, 9] and meta["seeds_disjoint"]  # held out: four times as many, after them
+    assert all(r["seeds"] == ([0, 1] if r["role"] == "oracle" else [2, 9]) for r in rows)
+    cell = rows[0]["cells"]["sensor:settled"]
+    assert len(cell["coordinates"]) == 3 and cell["ratio"] == max(cell["coordinates"])
+    assert cell["coordinates"][cell["coordinate"] - 1] == cell["ratio"] and cell["seeds_diverged"] == 0
     assert [c["cell"] for c in meta["cells"]] == ["sensor:settled", "constant:settled"]
     assert [r["name"] for r in rows][:3] == ["clairvoyant", "kbf", "isl"]
     assert all(r["origin"] and "tuning" in r for r in rows)
     assert {w["cell"] for w in doc["winners"]} == {"sensor:settled", "constant:settled"}
+    beyond = doc["beyond"]  # the presets beyond every assumed σ range, on the report seeds, each row's range said
+    assert set(beyond["scenarios"]) == {"sigma_2000", "sigma_drop_far"} and beyond["seeds"] == [2, 9]
+    assert "[2, 200]" in beyond["rows"]["kbf_adaptive"]["assumes"] and "oracle:vb" not in beyond["rows"]
     assert set(meta["clairvoyant_reads_1_within_its_interval"]) == {"sensor:settled", "constant:settled"}
     assert meta["one_reading_over_r_min"]["sensor"] == pytest.approx(0.1, rel=0.1)
     with open(out) as fh:
@@ -106,7 +114,7 @@ def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenar
     _MEMORY_CACHE.clear()
     assert main([*args, "--quiet"]) == 0  # the same tuning, now from the disk cache: the text table
     text = capsys.readouterr().out
-    assert "read from the cache" in text and "who wins each cell" in text
+    assert "read from the cache" in text and "who wins each cell" in text and "out of sample" in text
     assert main(["scenario", "--scenarios", "sigma_dorp", "--quiet"]) == 2
     assert "unknown scenario 'sigma_dorp'" in capsys.readouterr().err
 
@@ -118,7 +126,7 @@ def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert set(doc["tuned"]) == set(FAMILIES)
     vb = [c for c in doc["curves"] if c["family"] == "vb"]
-    assert next(c["memory"] for c in vb) == 10.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
+    assert next(c["memory"] for c in vb) == 2.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
     assert all(
         c["memory_over_r_min"] == pytest.approx(c["memory"] * doc["meta"]["one_reading_over_r_min"]["constant"])
         for c in vb
