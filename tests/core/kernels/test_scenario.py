@@ -70,7 +70,12 @@ def _loop(model, filters, scenario, h, n, seed, gains, q):
                     if spec.adaptive is not None:
                         lam = max(1.0 / readings, 1.0 / spec.adaptive.memory)
                         ad[f, 3] += lam * (uu - ad[f, 3])
-                        s_hat = math.sqrt(ad[f, 3] / (1.0 + q * h * gain[f][0] / math.sqrt(q * h)))
+                        bias = 1.0 + q * h * gain[f][0] / math.sqrt(q * h)
+                        s_hat = math.sqrt(ad[f, 3] / bias)
+                        lo, hi = spec.adaptive.sigma_range  # σ̂ held in the range the filter states, its state too
+                        if not lo <= s_hat <= hi:
+                            s_hat = min(max(s_hat, lo), hi)
+                            ad[f, 3] = s_hat * s_hat * bias
                         gain[f] = math.sqrt(q * h) * spec.adaptive.gain(s_hat)
                         s_hats[f] = s_hat
                 acc[f] = 0.0
