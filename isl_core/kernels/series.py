@@ -34,7 +34,7 @@ __all__ = ["imm_series", "kalman_series", "kalman_update", "predict", "spec_seri
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
+@njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
 def predict(x, P, F, Q, tmp):
     """x ← F x, P ← F P Fᵀ + Q in place (``tmp`` (m, m) scratch; P's leading m×m block)."""
     m = x.shape[0]
@@ -60,17 +60,15 @@ def predict(x, P, F, Q, tmp):
             P[j, i] = s
 
 
-@njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
+@njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
 def kalman_update(x, P, v, s):
     """A reading of innovation v and variance s = P₁₁ + R: x += P Cᵀ v/s, P ← P − P Cᵀ C P/s, in place."""
     m = x.shape[0]
-    col = np.empty(m)
     for i in range(m):
-        col[i] = P[i, 0]
-        x[i] += col[i] * v / s
-    for i in range(m):
-        for j in range(i, m):
-            p = P[i, j] - col[i] * col[j] / s
+        x[i] += P[i, 0] * v / s
+    for i in range(m - 1, -1, -1):  # column 0 last: every other entry reads it before it changes
+        for j in range(m - 1, i - 1, -1):
+            p = P[i, j] - P[i, 0] * P[j, 0] / s
             P[i, j] = p
             P[j, i] = p
 
@@ -110,12 +108,20 @@ def spec_series(z, index, sqd, F, kind, coef, table, ad, par, k0, est, pred, sva
     ``par`` = (c, κ(c)) for the robust one."""
     m = est.shape[1]
     x = est[k0].copy()
+    tmp = np.empty(m)
     gain = np.zeros((1, m))
     gain[0] = coef
     learn = (kind == KIND_ADAPTIVE) | (kind == KIND_ROBUST)
     readings = 0
     for k in range(k0 + 1, z.shape[0]):
-        x = F[index[k]] @ x
+        Fk = F[index[k]]
+        for i in range(m):
+            tmp[i] = x[i]
+        for i in range(m):
+            s = 0.0
+            for j in range(m):
+                s += Fk[i, j] * tmp[j]
+            x[i] = s
         pred[k] = x[0]
         dt = sqd[k] * sqd[k]
         if learn:

@@ -14,16 +14,32 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.linalg import expm
+from threadpoolctl import threadpool_limits
 
 from ..model import shift_matrix
 
-__all__ = ["Steps", "steps", "van_loan"]
+__all__ = ["ONE_THREAD", "Steps", "steps", "van_loan"]
+
+#: a decorator: the function runs with BLAS on one thread (:func:`_expm_each`)
+ONE_THREAD = threadpool_limits.wrap(limits=1, user_api="blas")
 
 
 def _drift(m: int, a: float) -> np.ndarray:
     A = shift_matrix(m)
     A[-1, -1] = -a
     return A
+
+
+def _expm_each(M: np.ndarray, dt) -> np.ndarray:
+    """expm(M·Δ) (n, k, k) for each Δ of ``dt``, one matrix at a time (scipy's stacked expm costs more). The callers
+    that repeat it (:func:`isl_core.series.fit`, :func:`isl_core.series.run_filters`) hold BLAS to one thread
+    (:data:`ONE_THREAD`): a small matrix gains nothing from more, and on a busy machine their waits cost ms a call
+    (:ref:`performance-data`)."""
+    dt = np.asarray(dt, dtype=float)
+    out = np.empty((len(dt), *M.shape))
+    for j, d in enumerate(dt):
+        out[j] = expm(M * d)
+    return out
 
 
 def van_loan(m: int, alpha: float, beta: float, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -33,7 +49,7 @@ def van_loan(m: int, alpha: float, beta: float, dt: np.ndarray) -> tuple[np.ndar
     blk[:m, :m] = -A
     blk[m - 1, 2 * m - 1] = beta * beta  # β² E Eᵀ in the upper-right block
     blk[m:, m:] = A.T
-    ex = expm(blk[None, :, :] * np.asarray(dt, dtype=float)[:, None, None])
+    ex = _expm_each(blk, dt)
     F = np.transpose(ex[:, m:, m:], (0, 2, 1))
     Q = F @ ex[:, :m, m:]
     return np.ascontiguousarray(F), np.ascontiguousarray(0.5 * (Q + np.transpose(Q, (0, 2, 1))))
@@ -55,8 +71,7 @@ class Steps:
 
     def transition(self, m: int, a: float) -> np.ndarray:
         """expm(A_f Δ) (n, m, m) for A_f = A0 − a·EEᵀ (the filters' propagation)."""
-        A = _drift(m, a)
-        return np.ascontiguousarray(expm(A[None, :, :] * self.dt[:, None, None]))
+        return _expm_each(_drift(m, a), self.dt)
 
 
 def steps(t: np.ndarray) -> Steps:

@@ -25,10 +25,10 @@ import numpy as np
 from ..kernels.series import kalman_series
 from ..model import M_MAX, Model
 from ..validate import check_int, check_real
-from .discretize import steps, van_loan
+from .discretize import ONE_THREAD, Steps, steps, van_loan
 from .record import Series
 
-__all__ = ["KAPPA", "ReadingModel", "diffuse_start", "kalman_track", "loglik"]
+__all__ = ["KAPPA", "ReadingModel", "diffuse_start", "kalman_track", "loglik", "loglik_at"]
 
 KAPPA = 1e7  #: the diffuse start's variance, relative to the readings' variance (module docstring)
 
@@ -63,8 +63,8 @@ def diffuse_start(series: Series, m: int) -> tuple[np.ndarray, np.ndarray]:
     return x0, P0
 
 
-def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool):
-    st = steps(series.t)
+def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool, st: Steps | None = None):
+    st = steps(series.t) if st is None else st
     F, Q = van_loan(rm.m, rm.alpha, rm.beta, st.dt)
     if start is None:
         x0, P0 = diffuse_start(series, rm.m)
@@ -79,6 +79,7 @@ def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool)
     return kalman_series(*args), est, var, pred, svar
 
 
+@ONE_THREAD
 def loglik(series: Series, rm: ReadingModel, *, start=None, burn: int | None = None) -> float:
     """The log-likelihood of ``series`` under ``rm`` (module docstring).
 
@@ -109,6 +110,13 @@ def loglik(series: Series, rm: ReadingModel, *, start=None, burn: int | None = N
     return float(_run(series, rm, start, burn, store=False)[0])
 
 
+def loglik_at(series: Series, rm: ReadingModel, st: Steps, *, burn: int | None = None) -> float:
+    """:func:`loglik` with the diffuse start on the intervals ``st`` of ``series`` computed once (the fit's inner loop,
+    which holds BLAS to one thread itself)."""
+    return float(_run(series, rm, None, burn, store=False, st=st)[0])
+
+
+@ONE_THREAD
 def kalman_track(series: Series, rm: ReadingModel, *, start=None, burn: int | None = None):
     """The Kalman filter at ``rm``'s σ_r over ``series``: (log L, estimates (N, m), diag P (N, m), predictions (N,),
     innovation variances (N,)) — the filter of :func:`loglik`, every output kept."""

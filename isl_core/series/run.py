@@ -24,7 +24,7 @@ from ..kernels.imm import imm_state
 from ..kernels.series import imm_series, spec_series, vb_series
 from ..scenario.bank import learning_state
 from ..validate import check_real, short
-from .discretize import Steps, steps, van_loan
+from .discretize import ONE_THREAD, Steps, steps, van_loan
 from .likelihood import ReadingModel, kalman_track
 from .record import Series
 
@@ -132,6 +132,7 @@ def _specs(model, nu: float, sr: tuple[float, float], memory: float, names) -> d
     return {name: makers[name]() for name in names if name in makers}
 
 
+@ONE_THREAD
 def run_filters(
     series: Series,
     params: ReadingModel,
