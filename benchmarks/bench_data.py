@@ -58,17 +58,17 @@ def bench(n: int, m: int, repeats: int) -> dict:
     s = draw(n)
     calls = {"n": 0}
     mle = sys.modules["isl_core.series.mle"]  # the module (``isl_core.series.fit`` is the function)
-    original = mle.loglik
+    original = mle.loglik_at
 
     def counted(*a, **k):
         calls["n"] += 1
         return original(*a, **k)
 
-    mle.loglik = counted
+    mle.loglik_at = counted
     try:
         f, t_fit, peak_fit = _peak(lambda: fit(s, m))
     finally:
-        mle.loglik = original
+        mle.loglik_at = original
     per = {}
     for name in SERIES_FILTERS:
         best = min(_peak(lambda name=name: run_filters(s, TRUE, names=[name]))[1] for _ in range(repeats))

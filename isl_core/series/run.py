@@ -28,7 +28,7 @@ from .discretize import ONE_THREAD, Steps, steps, van_loan
 from .likelihood import ReadingModel, kalman_track
 from .record import Series
 
-__all__ = ["SERIES_FILTERS", "SeriesRun", "SeriesTrack", "run_filters", "sigma_range"]
+__all__ = ["SERIES_FILTERS", "SeriesRun", "SeriesTrack", "run_filters", "series_specs", "sigma_range"]
 
 #: the filters of a series run, by stable name, in their order
 SERIES_FILTERS = ("kalman", "isl", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
@@ -116,7 +116,10 @@ def _spec_track(series: Series, st: Steps, model, spec: FilterSpec) -> SeriesTra
     return _track(spec.name, spec.label, series.z, est, var, pred, svar)
 
 
-def _specs(model, nu: float, sr: tuple[float, float], memory: float, names) -> dict[str, FilterSpec]:
+def series_specs(model, nu: float, sr: tuple[float, float], memory: float, names) -> dict[str, FilterSpec]:
+    """The σ-free filters of ``names`` for ``model`` (its m, α, β): the ISL filters at ``nu``, the σ-learners over the
+    σ range ``sr`` (its top held below the Riccati equation's domain) with memory ``memory``, starting at σ̂ = sr[1]/10.
+    """
     lo, hi = sr
     hi = min(hi, 0.5 * sigma_limit(model))
     lo = min(lo, hi / 10.0)
@@ -180,7 +183,7 @@ def run_filters(
     nu = params.beta if nu is None else check_real("nu", nu, lo=0.0, lo_open=True)
     model = params.model(series.spacing)
     st = steps(series.t)
-    specs = _specs(model, nu, sigma_range(series) if sigma_range_ is None else sigma_range_, memory, names)
+    specs = series_specs(model, nu, sigma_range(series) if sigma_range_ is None else sigma_range_, memory, names)
     tracks = []
     for name in names:
         if name == "kalman":
