@@ -59,24 +59,38 @@ def diffuse_start(series: Series, m: int) -> tuple[np.ndarray, np.ndarray]:
     s2 = float(np.var(present)) or 1.0
     x0 = np.zeros(m)
     x0[0] = present[0]
-    P0 = np.diag(KAPPA * s2 / series.spacing ** (2.0 * np.arange(m)))
+    P0 = np.diag(KAPPA * s2 / series.spacing ** (2.0 * np.arange(m)))  # what the filter uses, in units of s and Δ̄
     return x0, P0
 
 
 def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool, st: Steps | None = None):
+    """The filter; with the diffuse start on the readings in units of their spread s and the times in units of the
+    typical interval d (X_i in units of s/d^(i−1): α·d, β·d^(m−½)/s, σ_r/s), mapped back after — the filter is
+    linear, so this changes rounding only, and keeps the diffuse start's κ·s² within the float range whatever the
+    units."""
     st = steps(series.t) if st is None else st
-    F, Q = van_loan(rm.m, rm.alpha, rm.beta, st.dt)
+    m = rm.m
     if start is None:
-        x0, P0 = diffuse_start(series, rm.m)
-        burn = rm.m if burn is None else burn
+        z = series.z[series.present]
+        s, d = float(np.std(z)) or 1.0, series.spacing
+        z_n = series.z / s
+        a, b, r = rm.alpha * d, rm.beta * d ** (m - 0.5) / s, rm.sigma_r / s
+        x0, P0 = np.zeros(m), KAPPA * np.eye(m)  # diffuse_start in these units: spread 1, interval 1
+        x0[0] = z_n[series.present][0]
+        burn = m if burn is None else burn
     else:
-        x0, P0 = (np.array(a, dtype=float, copy=True) for a in start)
+        s, d, z_n = 1.0, 1.0, series.z
+        a, b, r = rm.alpha, rm.beta, rm.sigma_r
+        x0, P0 = (np.array(v, dtype=float, copy=True) for v in start)
         burn = 0 if burn is None else burn
+    F, Q = van_loan(m, a, b, st.dt / d)
     n = series.n if store else 0
-    est, var = np.full((n, rm.m), np.nan), np.full((n, rm.m), np.nan)
+    est, var = np.full((n, m), np.nan), np.full((n, m), np.nan)
     pred, svar = np.full(n, np.nan), np.full(n, np.nan)
-    args = (series.z, st.index, F, Q, rm.sigma_r**2, x0, P0, burn, est, var, pred, svar, store)
-    return kalman_series(*args), est, var, pred, svar
+    ll = kalman_series(z_n, st.index, F, Q, r * r, x0, P0, burn, est, var, pred, svar, store)
+    ll -= max(int(series.present.sum()) - burn, 0) * math.log(s)  # each term's −½ log S_k: S_k = s²·S'_k
+    unit = s / d ** np.arange(m)
+    return ll, est * unit, var * unit**2, pred * s, svar * s * s
 
 
 @ONE_THREAD

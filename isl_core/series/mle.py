@@ -127,6 +127,8 @@ def fit(series: Series, m: int, *, alpha: float | None = None, burn: int | None 
         The parameters, their standard errors, log L, AIC and BIC.
     """
     m = check_int("m", m, lo=1, hi=M_MAX)
+    if np.ptp(series.z[series.present]) == 0.0:
+        raise ValueError("the readings are all equal: there is no motion or noise to fit")
     fixed = alpha is not None
     a_fix = check_real("alpha", alpha, lo=0.0) if alpha is not None else 0.0
     burn = m if burn is None else check_int("burn", burn, lo=m, hi=M_MAX)

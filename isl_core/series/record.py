@@ -115,10 +115,15 @@ def series(t, z, *, name: str = "series", unit: str = "") -> Series:
     if np.isinf(z_arr).any():
         row = _first_bad(np.isinf(z_arr))
         raise ValueError(f"readings must be finite or missing: row {row + 1} has {z_arr[row]} (leave the cell empty)")
-    big = np.abs(z_arr) > math.sqrt(np.finfo(float).max) / 1e3
+    big = np.abs(z_arr) > 1e150
     if big.any():
         row = _first_bad(big)
         raise ValueError(f"readings must be below 1e150 in size: row {row + 1} has {z_arr[row]:g} (rescale the unit)")
+    gap = float(np.median(np.diff(t_arr))) if n > 1 else 1.0
+    if not 1e-25 <= gap <= 1e25:
+        raise ValueError(
+            f"the typical interval between times must lie in [1e-25, 1e25], got {gap:g} (change the time unit)"
+        )
     present = int(np.isfinite(z_arr).sum())
     if present < MIN_READINGS:
         raise ValueError(f"a series needs at least {MIN_READINGS} readings present, got {present}")

@@ -181,9 +181,35 @@ def run_filters(
     if bad or not names:
         raise ValueError(f"names must be some of {list(SERIES_FILTERS)}, got {short(list(names))}")
     nu = params.beta if nu is None else check_real("nu", nu, lo=0.0, lo_open=True)
+    # in units of the readings' spread s and the typical interval d (X_i in s/d^(i−1)), mapped back after: every
+    # filter is equivariant under this change of units (ν and σ scale as β and σ do), and the numbers stay in range
+    s, d, m = float(np.std(series.z[series.present])) or 1.0, series.spacing, params.m
+    k_beta = d ** (m - 0.5) / s
+    unit = Series((series.t - series.t[0]) / d, series.z / s, series.name, series.unit)
+    p_n = ReadingModel(m, params.alpha * d, params.beta * k_beta, params.sigma_r / s)
+    sr = sigma_range(unit) if sigma_range_ is None else (sigma_range_[0] / (s * d**0.5), sigma_range_[1] / (s * d**0.5))
+    run = _run_units(unit, p_n, nu * k_beta, names, sr, memory)
+    scale = s / d ** np.arange(m)
+    tracks = tuple(
+        SeriesTrack(
+            tr.name,
+            tr.label,
+            tr.estimate * scale,
+            None if tr.variance is None else tr.variance * scale**2,
+            tr.prediction * s,
+            series.z - tr.prediction * s,
+            tr.innovation_var * s * s,
+            tr.log_density - math.log(s),
+        )
+        for tr in run
+    )
+    return SeriesRun(series, params, float(nu), tracks)
+
+
+def _run_units(series: Series, params: ReadingModel, nu: float, names, sr, memory) -> list[SeriesTrack]:
     model = params.model(series.spacing)
     st = steps(series.t)
-    specs = series_specs(model, nu, sigma_range(series) if sigma_range_ is None else sigma_range_, memory, names)
+    specs = series_specs(model, nu, sr, memory, names)
     tracks = []
     for name in names:
         if name == "kalman":
@@ -192,4 +218,4 @@ def run_filters(
             tracks.append(_track("kalman", label, series.z, est, var, pred, svar))
         else:
             tracks.append(_spec_track(series, st, model, specs[name]))
-    return SeriesRun(series, params, float(nu), tuple(tracks))
+    return tracks

@@ -76,3 +76,32 @@ def test_judge_refuses_a_holdout_that_leaves_too_few(drawn):
     s, _ = drawn
     with pytest.raises(ValueError, match="holdout must"):
         judge(s.head(30), m=1, holdout=0.9)
+
+
+_RNG = np.random.default_rng(0)
+_N = 60
+
+
+@pytest.mark.parametrize(
+    ("t", "z", "refusal"),
+    [
+        (np.arange(60.0), np.ones(_N), "the readings are all equal"),
+        (1e-200 * np.arange(60.0), _RNG.standard_normal(_N), "typical interval between times must lie in"),
+        (np.arange(60.0), 1e140 * _RNG.standard_normal(_N), None),
+        (1e12 + np.arange(60.0), _RNG.standard_normal(_N), None),
+        (np.cumsum(10 ** _RNG.uniform(-6, 6, _N)), _RNG.standard_normal(_N), None),
+        (np.arange(60.0), np.r_[np.zeros(30), 1e6 * np.ones(30)], None),
+    ],
+    ids=["constant", "tiny-interval", "huge-values", "late-times", "wild-intervals", "a-step"],
+)
+def test_extreme_series_get_a_judgement_or_a_reason(t, z, refusal):
+    """Units far from 1 are taken out before the filters run (their spread and the typical interval): a result, or a
+    ValueError that says why — never an overflow (warnings are errors in the tests)."""
+    if refusal is not None:
+        with pytest.raises(ValueError, match=refusal):
+            judge(series(t, z), m=2)
+        return
+    j = judge(series(t, z), m=2)
+    assert np.isfinite(j.fit.loglik) and all(d.rmse >= 0 for d in j.diagnostics)  # a constant tail: 0 is fair
+    kalman = j.diagnostics[0]
+    assert np.isfinite(kalman.nis) and kalman.nis >= 0
