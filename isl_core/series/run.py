@@ -190,20 +190,15 @@ def run_filters(
     sr = sigma_range(unit) if sigma_range_ is None else (sigma_range_[0] / (s * d**0.5), sigma_range_[1] / (s * d**0.5))
     run = _run_units(unit, p_n, nu * k_beta, names, sr, memory)
     scale = s / d ** np.arange(m)
-    tracks = tuple(
-        SeriesTrack(
-            tr.name,
-            tr.label,
-            tr.estimate * scale,
-            None if tr.variance is None else tr.variance * scale**2,
-            tr.prediction * s,
-            series.z - tr.prediction * s,
-            tr.innovation_var * s * s,
-            tr.log_density - math.log(s),
-        )
-        for tr in run
-    )
-    return SeriesRun(series, params, float(nu), tracks)
+    for tr in run:  # back to the series' units, in place (no second copy of N × filters arrays)
+        tr.estimate[...] *= scale
+        if tr.variance is not None:
+            tr.variance[...] *= scale**2
+        tr.prediction[...] *= s
+        np.subtract(series.z, tr.prediction, out=tr.innovation)
+        tr.innovation_var[...] *= s * s
+        tr.log_density[...] -= math.log(s)
+    return SeriesRun(series, params, float(nu), tuple(run))
 
 
 def _run_units(series: Series, params: ReadingModel, nu: float, names, sr, memory) -> list[SeriesTrack]:
