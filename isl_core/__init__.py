@@ -1,7 +1,8 @@
 """isl_core — Kalman–Bucy vs the inverse-statistical-linearization (ISL) filter.
 
 Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kalman–Bucy filter (A.21–A.24),
-the ISL filter (A.16–A.18) and a compiled simulator of both on one Euler grid (B.30–B.34).
+the ISL filter (A.16–A.18), a compiled simulator of both on one Euler grid (B.30–B.34), and every filter over a
+recorded series with the model fitted to it (:mod:`isl_core.series`).
 Imports numpy, scipy and numba only — never a UI library.
 """
 
@@ -57,6 +58,18 @@ from .scenario import (
     tune,
     who_wins_map,
 )
+from .series import (
+    Diagnostics,
+    Fit,
+    Judgement,
+    ReadingModel,
+    Series,
+    SeriesRun,
+    SeriesTrack,
+    judge,
+    run_filters,
+    select_order,
+)
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .theory import (
@@ -75,13 +88,17 @@ __all__ = [
     "AdaptiveGain",
     "Clairvoyant",
     "Costs",
+    "Diagnostics",
     "DivergenceError",
     "FilterSpec",
+    "Fit",
     "G_matrix",
+    "Judgement",
     "KalmanBucy",
     "Model",
     "Period",
     "PeriodRatios",
+    "ReadingModel",
     "Recommendation",
     "RmseResult",
     "Rolling",
@@ -92,6 +109,9 @@ __all__ = [
     "ScenarioPlan",
     "ScenarioRun",
     "ScenarioTable",
+    "Series",
+    "SeriesRun",
+    "SeriesTrack",
     "SweepResult",
     "TableRow",
     "Track",
@@ -112,6 +132,7 @@ __all__ = [
     "isl_exponents",
     "isl_filter",
     "isl_gains",
+    "judge",
     "kalman_bucy",
     "kalman_bucy_alpha0",
     "linearization",
@@ -128,10 +149,12 @@ __all__ = [
     "predicted_ratios_grid",
     "recommend_nu",
     "robust_kbf",
+    "run_filters",
     "run_plan",
     "scenario_grid",
     "scenario_periods",
     "scenario_table",
+    "select_order",
     "settling_rate",
     "simulate",
     "simulate_rmse",

@@ -5,6 +5,7 @@
     isl recommend [--alphas ...] [--sigmas ...] [--horizon H] [--seeds ...] [--no-verify] [--json]
     isl worstcase [--alphas 0.04,0.2,1,5,25] [--sigma-min 2 --sigma-max 200] [--horizon H] [--seeds ...] [--json]
     isl scenario [--alpha A] [--scenarios sigma_drop,...] [--seeds N] [--tune | --map KIND] [--json] [--csv FILE]
+    isl data SOURCE [--m M] [--alpha A] [--time COL --value COL] [--holdout F] [--json]
 
 These are the core's (``python -m isl_core``); the dashboard's ``isl`` console script (:mod:`app.cli`) is the same
 command with an :class:`Extension`: ``isl figure3``, ``isl serve`` and the sweep's HTML and PNG figures.
@@ -22,6 +23,7 @@ from types import MappingProxyType
 
 from isl_core import __version__
 from isl_core.cli.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
+from isl_core.cli.data import add_data
 from isl_core.cli.scenario import cmd_scenario
 
 __all__ = ["Extension", "UsageError", "build_parser", "main", "positive", "seed_number"]
@@ -297,6 +299,7 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
             ("recommend", _add_recommend),
             ("worstcase", _add_worstcase),
             ("scenario", _add_scenario),
+            ("data", lambda sub: add_data(sub, positive, _nonneg, _whole)),
         )
     }
     if extension is not None and extension.add is not None:

@@ -18,7 +18,7 @@ from .bundles import IMMState
 from .cache import CACHE, FASTMATH
 from .common import predict_cov
 
-__all__ = ["imm_state", "imm_step"]
+__all__ = ["imm_mix", "imm_state", "imm_step"]
 
 
 def imm_state(filters: Sequence[FilterSpec], m: int, q: int, h: float) -> IMMState:
@@ -43,7 +43,7 @@ def imm_state(filters: Sequence[FilterSpec], m: int, q: int, h: float) -> IMMSta
         sig[b, :J] = spec.imm.sigmas
         par[b] = spec.imm.switch, J
         b += 1
-    nv = 4 * -(-(m + m * (m + 1) // 2) // 4)  # d_i and the upper triangle, padded to a multiple of 4 (_mix)
+    nv = 4 * -(-(m + m * (m + 1) // 2) // 4)  # d_i and the upper triangle, padded to a multiple of 4 (imm_mix)
     return IMMState(
         slot,
         P,
@@ -77,7 +77,7 @@ def _update(P, e, r, s):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def _mix(bank, b, p, J):
+def imm_mix(bank, b, p, J):
     """Mixing (module docstring) of bank ``b`` of ``bank`` (:class:`~isl_core.kernels.bundles.IMMState`) in place:
     μ ← c̄, e_j ← e0_j, P_j ← P0_j on the X block (S is 0 after a reading), with its scratch ``mean``, ``W``, ``V``
     and ``out``.
@@ -133,7 +133,7 @@ def imm_step(bank, b, el, f, noise, sqh, h, decay, q_var, shock, reading, corr):
     Per bank (first index b of :class:`~isl_core.kernels.bundles.IMMState`, :func:`imm_state`): ``P`` (J, m+1,
     m+1), ``e`` (J, m), ``a`` (J,) the modes' covariances on (X, S), errors and innovations summed since the last
     reading, ``mu`` (J,) the weights (c̄ between readings), ``R`` (J,) q·h·σ_j², ``par`` = (p, J); ``W``, ``V``,
-    ``out``, ``lw``, ``mean`` scratch (:func:`_mix`); ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a
+    ``out``, ``lw``, ``mean`` scratch (:func:`imm_mix`); ``noise`` = σ_k ε_k and ``shock`` = β√h v_k of this step. At a
     reading ``corr`` (m,) gets what the scenario loop adds to the filter's propagated error ``el[:, f]`` (at t_k on
     entry) to make it Σ_j μ_j e_j: the lane of the filter propagates it as the modes (A_f = A), and takes in ``corr`` as
     its update.
@@ -175,5 +175,5 @@ def imm_step(bank, b, el, f, noise, sqh, h, decay, q_var, shock, reading, corr):
         corr[i] = mean[i] - (el[i, f] + h * el[i + 1, f])
     corr[m - 1] = mean[m - 1] - (decay * el[m - 1, f] - shock)
     if J > 1:
-        _mix(bank, b, par[b, 0], J)
+        imm_mix(bank, b, par[b, 0], J)
     return sigma_hat

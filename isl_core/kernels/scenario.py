@@ -30,11 +30,11 @@ power-law and linear updates are those of :func:`isl_core.kernels.euler.advance`
 counts readings: the adaptive and robust estimators forget with λ = max(1/r, 1/W) at the r-th reading, the variational
 one with ρ = 1 − 1/W (:mod:`isl_core.filters.adaptive`).
 
-Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of
-the reading (:func:`_pr`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for the
-clairvoyant filter, ψ(u) for the robust one) for the others. So the filters run in lanes of :data:`LANES` side by
-side, the same arithmetic in the same order for each filter (runs equal those of the loop over the filters bit for
-bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters cost 34.5 ns a step against 42.4
+Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a gain column G_f and a pair (p_f, r_f) of the
+reading (:func:`reading_pair`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for
+the clairvoyant filter, ψ(u) for the robust one) for the others. So the filters run in lanes of :data:`LANES` side
+by side, the same arithmetic in the same order for each filter (runs equal those of the loop over the filters bit
+for bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters cost 34.5 ns a step against 42.4
 (``benchmarks/bench_scenario.py``).
 
 Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
@@ -65,7 +65,7 @@ from .draws import DRAWS, draw_ahead
 from .imm import imm_step
 from .variational import predict_cov, vb_update
 
-__all__ = ["advance_scenario"]
+__all__ = ["advance_scenario", "reading_pair"]
 
 LANES = 4  #: filters advanced side by side (:func:`advance_scenario`)
 IDLE = -1  #: the kind of a lane without a filter, or whose filter died
@@ -106,7 +106,7 @@ def _bury(e, died, lane, k):
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
-def _pr(kind, u, raw, sqh, own, lim, m):
+def reading_pair(kind, u, raw, sqh, own, lim, m):
     """(p, r) of a lane's update at a reading, e_i += G_i·p·r^(m−i) for i = m … 1 (module docstring); ``raw`` the
     innovation before its normalization by √q, ``own`` the learning filters' u (taken before the lanes' pass)."""
     if kind == KIND_POWER:
@@ -298,10 +298,10 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
             el[m - 1, l2] = zd[l2] * el[m - 1, l2] + cp[l2] * xm - shock
             el[m - 1, l3] = zd[l3] * el[m - 1, l3] + cp[l3] * xm - shock
             if reading:
-                p0, r0 = _pr(lane[l0], u0, w0, sqh, own[l0], lim[l0], m)
-                p1, r1 = _pr(lane[l1], u1, w1, sqh, own[l1], lim[l1], m)
-                p2, r2 = _pr(lane[l2], u2, w2, sqh, own[l2], lim[l2], m)
-                p3, r3 = _pr(lane[l3], u3, w3, sqh, own[l3], lim[l3], m)
+                p0, r0 = reading_pair(lane[l0], u0, w0, sqh, own[l0], lim[l0], m)
+                p1, r1 = reading_pair(lane[l1], u1, w1, sqh, own[l1], lim[l1], m)
+                p2, r2 = reading_pair(lane[l2], u2, w2, sqh, own[l2], lim[l2], m)
+                p3, r3 = reading_pair(lane[l3], u3, w3, sqh, own[l3], lim[l3], m)
                 if q > 1:
                     accl[l0], accl[l1], accl[l2], accl[l3] = 0.0, 0.0, 0.0, 0.0
                 for i in range(m - 1, -1, -1):
