@@ -2,9 +2,10 @@
 
 Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i
 (blue) and the tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are
-built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32) and the
-tube offsets. The tube is a ``Band`` whose edges are ``Dodge`` transforms of X̂_i by ±3 s_i: it costs no extra
-data, and as an annotation the browser redraws it without the per-glyph work (spatial index, selection view)
+built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32; X̂_i in float64
+where float32 would put the tube's edges off 3 s_i: :func:`precise_band_base`) and the tube offsets. The tube is a
+``Band`` whose edges are ``Dodge`` transforms of X̂_i by ±3 s_i: it costs no extra data, and as an annotation the
+browser redraws it without the per-glyph work (spatial index, selection view)
 that two extra line glyphs cost on every update. BokehJS recomputes a band's edges when its own properties or its
 source change, not when a transform it reads changes: a run whose data arrived before its new offsets kept the
 previous run's tube (after a preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band
@@ -39,7 +40,7 @@ from ..text import num, per_r_min
 from .overlay import KEY_DATA, Overlay, follow
 from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled, text_scale
 
-__all__ = ["RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
+__all__ = ["RECOMPUTE_BAND", "TUBE_ROUNDING", "TrajectoriesView", "plot_height", "precise_band_base"]
 
 #: the traces' line styles (bokeh Line properties)
 _TRUTH: dict[str, Any] = {"line_color": TRUTH, "line_width": 1.4}
@@ -100,6 +101,25 @@ def shown_series(series: dict, errors: bool, T: float) -> dict:
         return {n: v for n, v in series.items() if not n.startswith("error:")}
     zero = (np.array([0.0, T], np.float32), np.zeros(2, np.float32))
     return {"truth": zero, **{n[len("error:") :]: v for n, v in series.items() if n.startswith("error:")}}
+
+
+#: the largest rounding of the tube's edges, as a share of its half-width, that float32 line data may cause
+TUBE_ROUNDING = 1e-5
+
+
+def precise_band_base(shown: dict, run, i: int, half: float) -> dict:
+    """``shown`` with X̂_i in float64 where float32 would round the tube's edges by more than :data:`TUBE_ROUNDING`
+    of its half-width ``half``.
+
+    BokehJS computes the edges X̂_i ± 3 s_i in the type of the line's array: in float32 an edge near |X̂_i| is off by
+    up to half a float32 spacing there (2⁻²⁴ |X̂_i|). At m = 6 with β = 1000, |X̂₁| reaches 7.6·10¹⁰ and that is
+    4096 beside a 3 s₁ of 5527; the float64 line puts the edges at 3 s_i to 10⁻¹⁰ of it. Only such runs pay the
+    doubled bytes of that one line."""
+    y = shown["kbf"][1]
+    if not len(y) or float(np.spacing(np.float32(np.abs(y).max() + half))) <= TUBE_ROUNDING * half:
+        return shown
+    exact = next(tr for tr in run.tracks if tr.name == "kbf").estimate[i]
+    return {**shown, "kbf": (exact.t.astype(np.float64), exact.y.astype(np.float64))}
 
 
 def _y_limits(series: dict, tube: float, around_zero: bool = False) -> tuple[float, float]:
@@ -254,6 +274,8 @@ class TrajectoriesView(Viewer):
             for i, fig in enumerate(self._figures):
                 if i < m:
                     shown = shown_series(traces.series[i], errors, run.T)
+                    if not errors:  # the tube stands on X̂_i: its edges as exact as 3 s_i needs
+                        shown = precise_band_base(shown, run, i, 3.0 * float(run.s[i]))
                     for name, src in self._sources[i].items():
                         t, y = shown[name]
                         src.data = {"t": t, "y": y}

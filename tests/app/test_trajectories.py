@@ -82,7 +82,8 @@ def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero()
     assert view._legend.items[1].label.value == "X̂ᵢ − Xᵢ Kalman–Bucy"
     view._mode.value = "signal"  # and back, by the switch: the estimates in the tube around X̂
     assert state.view == "signal"
-    np.testing.assert_array_equal(view._sources[0]["kbf"].data["y"], traces.series[0]["kbf"][1])
+    # (X̂₁ in float64 here, |X̂₁| too large for float32 to hold the tube's edges: precise_band_base)
+    np.testing.assert_array_equal(view._sources[0]["kbf"].data["y"].astype(np.float32), traces.series[0]["kbf"][1])
     assert view._bands[0].source is view._sources[0]["kbf"]
 
 
@@ -129,3 +130,31 @@ def test_a_run_that_adds_no_line_does_not_rewalk_the_page(monkeypatch):
     walks = _live_page_walks(view, monkeypatch)
     view.state.sigma = 30.0  # a new run: data only
     assert view.state.run.model.sigma == 30.0 and walks == []
+
+
+def band_offsets(view, i: int) -> np.ndarray:
+    """The tube's upper edge minus X̂_i as BokehJS computes it: in the type of the line's array (Dodge maps the
+    array into one of its own type)."""
+    y = np.asarray(view._sources[i]["kbf"].data["y"])
+    return (y + y.dtype.type(view._dodges[i][0].value)).astype(np.float64) - y
+
+
+def test_the_tube_is_three_s_to_1e_4_where_x1_is_too_large_for_float32():
+    """At m = 6, β = 1000 (|X₁| up to 7.6·10¹⁰) the tube was computed from float32 data: half-widths of 4096–8192
+    around a 3 s₁ of 5526.6. At the defaults the data stay float32 (half the bytes)."""
+    state = AppState()
+    state.set_inputs({"alpha": 0.01, "beta_from_w": False, "beta": 1000.0, "sigma": 933.0, "m": 6, "seed": 2})
+    state.start()
+    view = TrajectoriesView(state=state)
+    run = state.run
+    assert float(np.abs(view._sources[0]["kbf"].data["y"]).max()) > 1e10
+    for i in range(6):
+        offsets = band_offsets(view, i)
+        np.testing.assert_allclose(offsets, 3.0 * run.s[i], rtol=1e-4, err_msg=f"X{i + 1}")
+    assert view._sources[0]["kbf"].data["y"].dtype == np.float64
+    defaults = AppState()
+    defaults.start()
+    plain = TrajectoriesView(state=defaults)
+    for i in range(3):
+        assert plain._sources[i]["kbf"].data["y"].dtype == np.float32
+        np.testing.assert_allclose(band_offsets(plain, i), 3.0 * defaults.run.s[i], rtol=1e-4)
