@@ -80,6 +80,7 @@ def test_the_theory_is_refused_where_the_filter_has_lost_lock(state):
     assert off, (run.ratio_check, pred)  # the run itself shows the loss of lock
     text = numbers_html(run, pred, 0.0)
     assert text.count("not valid") == len(off) and f"{pred[off[0]]:.4g}" not in text.split("not valid")[0][-200:]
+    assert text.count("has lost lock") == 1  # why, said once below the table: the cells stay narrow
     assert theory_cell(1.2, 1.1).endswith(">1.1</td>") and "unstable" in theory_cell(1.2, math.inf)
 
 
