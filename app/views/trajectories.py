@@ -1,19 +1,18 @@
 """Trajectories view (paper A, Fig. 3; paper B, Fig. 2): one plot per coordinate X_i, shared time axis.
 
-Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i
-(blue) and the tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are
-built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32; X̂_i in float64
-where float32 would put the tube's edges off 3 s_i: :func:`precise_band_base`) and the tube offsets. The tube is a
-``Band`` whose edges are ``Dodge`` transforms of X̂_i by ±3 s_i: it costs no extra data, and as an annotation the
-browser redraws it without the per-glyph work (spatial index, selection view)
-that two extra line glyphs cost on every update. BokehJS recomputes a band's edges when its own properties or its
-source change, not when a transform it reads changes: a run whose data arrived before its new offsets kept the
-previous run's tube (after a preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band
-to recompute in the browser (:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in — and so does each
-source a band may stand on (X̂_i's, or the zero line's in the error view): BokehJS listens to the source a band had
-when it was first drawn, not to one it is moved to later (a page opened in the error view, switched to the signal,
-then given new noise, kept the old noise's tube around the new X̂_i). Extra filters
-of the run (:mod:`app.extras`) are drawn by :class:`app.views.overlay.Overlay`, one colour each.
+Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i (blue) and the
+tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are built once; a new run only
+replaces the data of their ColumnDataSources (decimated traces, float32) and the tube offsets. The tube is a ``Band``
+whose edges are X̂_i moved by ±3 s_i in the browser, in float64 (:data:`EDGE`): it costs no extra data, and as an
+annotation the browser redraws it without the per-glyph work (spatial index, selection view) that two extra line glyphs
+cost on every update. BokehJS recomputes a band's edges when its own properties or its source change, not when a
+transform it reads changes: a run whose data arrived before its new offsets kept the previous run's tube (after a
+preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band to recompute in the browser
+(:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in — and so does each source a band may stand on
+(X̂_i's, or the zero line's in the error view): BokehJS listens to the source a band had when it was first drawn, not to
+one it is moved to later (a page opened in the error view, switched to the signal, then given new noise, kept the old
+noise's tube around the new X̂_i). Extra filters of the run (:mod:`app.extras`) are drawn by
+:class:`app.views.overlay.Overlay`, one colour each.
 
 The **error view** (a switch above the plots) draws each filter's error X̂_i − X_i, X̌_i − X_i, … instead, with
 the band ±3 s_i around 0 and the signal as the zero line: at high orders X_1 spans ±10⁶ and the tube is invisible
@@ -28,7 +27,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import field, value
-from bokeh.models import Band, ColumnDataSource, CustomJS, Dodge, Legend, LegendItem, Range1d, Title
+from bokeh.models import Band, ColumnDataSource, CustomJS, CustomJSTransform, Dodge, Legend, LegendItem, Range1d, Title
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -40,7 +39,7 @@ from ..text import num, per_r_min
 from .overlay import KEY_DATA, Overlay, follow
 from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled, text_scale
 
-__all__ = ["RECOMPUTE_BAND", "TUBE_ROUNDING", "TrajectoriesView", "plot_height", "precise_band_base"]
+__all__ = ["EDGE", "RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
 
 #: the traces' line styles (bokeh Line properties)
 _TRUTH: dict[str, Any] = {"line_color": TRUTH, "line_width": 1.4}
@@ -51,6 +50,13 @@ _TUBE: dict[str, Any] = {"line_color": KBF, "line_dash": "dashed", "line_width":
 SUMMARY_HEIGHT = 30  #: the first plot carries the run's summary above its frame
 LEGEND_ROW = 30  #: height of one row of the legend (two entries a row)
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
+#: a tube edge in the browser: the line's values plus the offset ``d.value`` (a ``Dodge`` the server sets), in float64.
+#: BokehJS's own ``Dodge`` computes in the type of the line's array: in float32 an edge near |X̂_i| is off by up to half
+#: a float32 spacing there (2⁻²⁴ |X̂_i|) — at m = 6 with β = 1000, |X̂₁| reaches 7.6·10¹⁰ and that was 4096 beside a
+#: 3 s₁ of 5527. Offsets added in float64 to the drawn line are exact, and the data stay float32.
+EDGE = """const v = d.value, out = new Float64Array(xs.length);
+for (let k = 0; k < xs.length; k++) out[k] = xs[k] + v;
+return out;"""
 #: run in the browser when a tube offset changes: the band re-reads its edges (y ± the new offset) and repaints
 RECOMPUTE_BAND = "band.change.emit()"
 
@@ -101,25 +107,6 @@ def shown_series(series: dict, errors: bool, T: float) -> dict:
         return {n: v for n, v in series.items() if not n.startswith("error:")}
     zero = (np.array([0.0, T], np.float32), np.zeros(2, np.float32))
     return {"truth": zero, **{n[len("error:") :]: v for n, v in series.items() if n.startswith("error:")}}
-
-
-#: the largest rounding of the tube's edges, as a share of its half-width, that float32 line data may cause
-TUBE_ROUNDING = 1e-5
-
-
-def precise_band_base(shown: dict, run, i: int, half: float) -> dict:
-    """``shown`` with X̂_i in float64 where float32 would round the tube's edges by more than :data:`TUBE_ROUNDING`
-    of its half-width ``half``.
-
-    BokehJS computes the edges X̂_i ± 3 s_i in the type of the line's array: in float32 an edge near |X̂_i| is off by
-    up to half a float32 spacing there (2⁻²⁴ |X̂_i|). At m = 6 with β = 1000, |X̂₁| reaches 7.6·10¹⁰ and that is
-    4096 beside a 3 s₁ of 5527; the float64 line puts the edges at 3 s_i to 10⁻¹⁰ of it. Only such runs pay the
-    doubled bytes of that one line."""
-    y = shown["kbf"][1]
-    if not len(y) or float(np.spacing(np.float32(np.abs(y).max() + half))) <= TUBE_ROUNDING * half:
-        return shown
-    exact = next(tr for tr in run.tracks if tr.name == "kbf").estimate[i]
-    return {**shown, "kbf": (exact.t.astype(np.float64), exact.y.astype(np.float64))}
 
 
 def _y_limits(series: dict, tube: float, around_zero: bool = False) -> tuple[float, float]:
@@ -235,8 +222,11 @@ class TrajectoriesView(Viewer):
         fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
         fig.xaxis.axis_label = "time t"
         src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
-        up, down = Dodge(value=0.0), Dodge(value=0.0)
-        band = Band(base="t", lower=field("y", down), upper=field("y", up), source=src["kbf"], fill_alpha=0.0, **_TUBE)
+        up, down = Dodge(value=0.0), Dodge(value=0.0)  # the offsets ±3 s_i, added in float64 by EDGE
+        edges = [CustomJSTransform(args={"d": d}, func="return x + d.value", v_func=EDGE) for d in (down, up)]
+        band = Band(
+            base="t", lower=field("y", edges[0]), upper=field("y", edges[1]), source=src["kbf"], fill_alpha=0.0, **_TUBE
+        )
         recompute = CustomJS(args={"band": band}, code=RECOMPUTE_BAND)
         up.js_on_change("value", recompute)
         down.js_on_change("value", recompute)
@@ -274,8 +264,6 @@ class TrajectoriesView(Viewer):
             for i, fig in enumerate(self._figures):
                 if i < m:
                     shown = shown_series(traces.series[i], errors, run.T)
-                    if not errors:  # the tube stands on X̂_i: its edges as exact as 3 s_i needs
-                        shown = precise_band_base(shown, run, i, 3.0 * float(run.s[i]))
                     for name, src in self._sources[i].items():
                         t, y = shown[name]
                         src.data = {"t": t, "y": y}
