@@ -312,3 +312,32 @@ def test_the_scenario_plots_hold_their_bands_and_tell_filters_apart_in_presenter
     ticks, frame, (s_lo, s_hi) = sigma[5], sigma[7], sigma[1:3]
     gaps = [frame * math.log(b / a) / math.log(s_hi / s_lo) for a, b in itertools.pairwise(ticks)]
     assert len(ticks) >= 2 and min(gaps) >= TICK_GAP * PRESENTER_SCALE - 1, (ticks, gaps)
+
+
+#: [the lookup is skipped, the tube's colour as BokehJS paints it, the page's CSS rules (every stylesheet,
+#: shadow roots included) that set a --bk-* variable — BokehJS's canvas theming]
+UNTHEMED = """() => {
+    const proto = Bokeh.require("core/visuals/visual").VisualProperties.prototype;
+    const band = Array.from(Bokeh.index.all_views()).find(v => v.model.type === 'Band'
+        && v.model.source.name === 'traj-1-kbf');
+    const sheets = [], walk = (root) => { sheets.push(...(root.styleSheets || []), ...(root.adoptedStyleSheets || []));
+        for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot); };
+    walk(document);
+    const themed = [];
+    for (const sheet of sheets) { let rules = []; try { rules = Array.from(sheet.cssRules); } catch (e) {}
+        for (const r of rules) if (/--bk-[\\w-]+\\s*:/.test(r.cssText)) themed.push(r.cssText.slice(0, 80)); }
+    return [proto._get_css_value.__isl_unthemed === true, band.visuals.line.get_line_color(), themed]; }"""
+
+
+def test_the_canvas_takes_its_colours_from_the_models_without_css_lookups(app_server):
+    """BokehJS looked up a --bk-* CSS variable for every visual property at every paint, about 1000 a slider change,
+    each forcing the style recalculation pending after the change (the axes' paint 17.8 → 5.7 ms a change): the page
+    defines none of them, so the lookups are skipped (app.views.paint). Fails if BokehJS renames the method, or if a
+    stylesheet of the page starts theming the canvas."""
+    from app.colors import KBF
+
+    url, _ = app_server
+    with dashboard(url) as page:
+        skipped, color, themed = page.evaluate(UNTHEMED)
+    assert skipped, "the page did not install app.views.paint.UNTHEMED_CANVAS"
+    assert color == KBF and themed == []
