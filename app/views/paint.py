@@ -48,7 +48,8 @@ if (proto && typeof proto._update === "function" && !proto._update.__isl_skip_sa
 
 #: installs :data:`SKIP_SAME_STYLESHEET`'s companion: no canvas theming through CSS (``__isl_unthemed`` marks it)
 UNTHEMED_CANVAS = """
-const visual = window.Bokeh && Bokeh.require ? Bokeh.require("core/visuals/visual") : null;
+let visual = null;   // (another BokehJS may not have the module: then nothing is skipped, and the browser test fails)
+try { visual = Bokeh.require("core/visuals/visual"); } catch (e) { visual = null; }
 const vproto = visual && visual.VisualProperties ? visual.VisualProperties.prototype : null;
 if (vproto && typeof vproto._get_css_value === "function" && !vproto._get_css_value.__isl_unthemed) {
     const unthemed = function (name) { return ""; };
