@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-__all__ = ["EXTRA_COLORS", "ISL", "KBF", "TRUTH", "contrast", "text_on", "tint"]
+__all__ = ["EXTRA_COLORS", "ISL", "KBF", "TRUTH", "contrast", "difference", "text_on", "tint"]
 
 TRUTH = "#000000"  #: X_i (paper A, Fig. 3: black)
 KBF = "#1a9641"  #: Kalman–Bucy X̂_i and its ±3 s_i tube (green)
@@ -21,6 +21,25 @@ def _luminance(color: str) -> float:
     rgb = [int(color[k : k + 2], 16) / 255.0 for k in (1, 3, 5)]
     lin = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb]
     return 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+
+
+def _lab(color: str) -> tuple[float, float, float]:
+    """CIE L*a*b* (D65) of a ``#rrggbb`` colour (sRGB)."""
+    rgb = [int(color[k : k + 2], 16) / 255.0 for k in (1, 3, 5)]
+    r, g, b = (c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb)
+    xyz = (
+        (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.95047,
+        0.2126 * r + 0.7152 * g + 0.0722 * b,
+        (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.08883,
+    )
+    fx, fy, fz = (t ** (1 / 3) if t > 216 / 24389 else (24389 / 27 * t + 16) / 116 for t in xyz)
+    return 116 * fy - 16, 500 * (fx - fy), 200 * (fy - fz)
+
+
+def difference(a: str, b: str) -> float:
+    """How different two ``#rrggbb`` colours look: CIE76's ΔE, the distance of their L*a*b* (about 2.3 is just
+    noticeable; two greens of 15.8 read as the same filter beside each other on a plot)."""
+    return sum((p - q) ** 2 for p, q in zip(_lab(a), _lab(b), strict=True)) ** 0.5
 
 
 def contrast(a: str, b: str) -> float:

@@ -48,6 +48,9 @@ TAB_TITLES = {
     "scenarios": "Scenarios: σ(t), tails, sensor",
 }
 PAGE_CSS = a11y.PAGE_CSS
+#: the tab headers wrap onto a second row where one row is too narrow (BokehJS scrolls them sideways, out of sight:
+#: in presenter mode with the sidebar open, at 1280 px, the last tab read "Sc")
+TABS_CSS = ":host(.bk-above) .bk-headers-wrapper { flex-wrap: wrap; overflow: visible; }"
 
 #: the server's one queue of long jobs (sweeps, recommendations, worst cases): every session's, one at a time, each
 #: in a child process (see app.jobs.long for the measurements behind that choice)
@@ -257,6 +260,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         active=TABS.index(state.tab),
         sizing_mode="stretch_width",
         dynamic=True,
+        stylesheets=[TABS_CSS],
     )  # a hidden tab is not built until it is opened
     _link_tabs(tabs, state)
     page = pn.template.FastListTemplate(

@@ -21,8 +21,10 @@ views of the page (those drawn already and, through their prototypes, those draw
   and toolbar draws in its own), and :data:`PAGE_CSS` into the page;
 * **the template**: a "Skip to the views" link first in the tab order (it focuses the open tab: the controls of the
   sidebar and the plots' toolbars come before the tabs otherwise), the sidebar's toggle is a button reachable by
-  keyboard, the main area and the sidebar are landmarks, and the sidebar's list holds no list items (``role=none``);
-  the presenter toggle, which reloads the page, has the focus again after the reload.
+  keyboard that says whether the sidebar is open, the sidebar folded away (presenter mode) is ``inert`` — out of the
+  tab order and hidden from screen readers until it is unfolded —, the main area and the sidebar are landmarks, and
+  the sidebar's list holds no list items (``role=none``); the presenter toggle, which reloads the page, has the focus
+  again after the reload.
 
 If BokehJS no longer has what a part patches (another version), that part does nothing, and the browser tests fail on
 what they check (axe-core's rules and the keyboard walk in ``tests/test_browser_a11y.py``).
@@ -276,6 +278,16 @@ function template() {
     const sidebar = document.getElementById("sidebar");
     if (sidebar) { sidebar.setAttribute("role", "complementary"); sidebar.setAttribute("aria-label", "Controls"); }
     const toggle = document.getElementById("sidebar-button");
+    if (sidebar && !sidebar.__isl_fold) {   // folded away (class "hidden"): out of the tab order and unseen by readers
+        sidebar.__isl_fold = true;
+        const fold = () => {
+            const folded = sidebar.classList.contains("hidden");
+            sidebar.inert = folded;
+            if (toggle) toggle.setAttribute("aria-expanded", String(!folded));
+        };
+        new MutationObserver(fold).observe(sidebar, {attributes: true, attributeFilter: ["class"]});
+        fold();
+    }
     if (toggle && !toggle.__isl_keys) {
         toggle.__isl_keys = true;
         toggle.setAttribute("role", "button");

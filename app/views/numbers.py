@@ -22,7 +22,7 @@ from isl_core.runview import TUBE_THEORY
 
 from ..pipeline import COORDINATES
 from ..state import AppState
-from ..text import per_r_min_html
+from ..text import num, per_r_min_html
 from .style import EXTRA_COLORS, NOTE_FONT, SUBSCRIPT, text_scale
 
 __all__ = ["TABLE_CSS", "THEORY_OFF", "NumbersView", "numbers_html", "theory_cell"]
@@ -36,6 +36,8 @@ table.isl-numbers .tag { display: block; font-weight: normal; font-size: var(--i
 table.isl-numbers .theory { color: #555; font-style: italic; }
 table.isl-numbers.run td { text-align: left; }
 table.isl-numbers.ratios td { white-space: nowrap; }
+table.isl-numbers.ratios td .tag, table.isl-numbers.ratios td:first-child { white-space: normal; }
+p.isl-note { font-size: var(--isl-note-font, 13px); margin: 0 0 8px 0; }
 """
 
 
@@ -62,12 +64,22 @@ def theory_cell(measured: float, theory: float) -> str:
     ν = 0.001, and is not a number to read."""
     if not np.isfinite(theory):
         return "<td class='theory'>—<span class='tag'>unstable in theory</span></td>"
-    if measured > THEORY_OFF * theory or measured < theory / THEORY_OFF:
-        return (
-            f"<td class='theory'>not valid<span class='tag'>measured is {measured / theory:.3g}× it: the filter "
-            "has lost lock, the linearization does not hold (ν sweep tab)</span></td>"
-        )
+    if measured > THEORY_OFF * theory or measured < theory / THEORY_OFF:  # why: once, below the table (LOST_LOCK)
+        return f"<td class='theory'>not valid<span class='tag'>measured is {measured / theory:.3g}× it †</span></td>"
     return f"<td class='theory'>{_fmt(theory)}</td>"
+
+
+#: below the ratios where a theory cell says "not valid" (said once, so that the table keeps its width)
+LOST_LOCK = (
+    "<p class='isl-note'>† The filter has lost lock: statistical linearization assumes the innovation stays "
+    "Gaussian, which does not hold here (ν sweep tab).</p>"
+)
+
+
+def _ratio(x: float) -> str:
+    """A measured ratio: three decimals, or four significant digits once it is 1000 or more (a filter that lost lock
+    reads 658310, not 658309.575: the table keeps its width)."""
+    return f"{x:.3f}" if abs(x) < 1000 else num(x, 4)
 
 
 def extras_html(run, extra_prediction: dict | None) -> str:
@@ -111,7 +123,7 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         k = str(i + 1).translate(SUBSCRIPT)
         rows.append(
             f"<tr><td>X{k} {html.escape(COORDINATES[i])}</td><td class='theory'>{_fmt(run.s[i])}</td>"
-            f"<td>{run.ratio_hat[i]:.3f}</td><td>{run.ratio_check[i]:.3f}</td>"
+            f"<td>{_ratio(run.ratio_hat[i])}</td><td>{_ratio(run.ratio_check[i])}</td>"
             f"{theory_cell(run.ratio_check[i], prediction[i])}<td>{100 * run.tracks[0].inside[i]:.1f} %</td></tr>"
         )
     longer = (
@@ -131,8 +143,9 @@ def numbers_html(run, prediction, compute_seconds: float, extra_prediction: dict
         f"<tr><td>N (steps)</td><td>{run.N:,}</td></tr>"
         f"<tr><td>compute time (server)</td><td>{1000 * compute_seconds:.0f} ms</td></tr>"
     )
+    note = LOST_LOCK if any("†" in row for row in rows) else ""
     return (
-        f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>"
+        f"<table class='isl-numbers ratios'>{head}{''.join(rows)}</table>{note}"
         f"{extras_html(run, extra_prediction)}<table class='isl-numbers run'>{facts}</table>"
     )
 

@@ -11,16 +11,24 @@ leaves it out. Measured with the page of ``benchmarks/bench_app_latency.py``, th
 same server: forced style recalculations 21 → 4 per change; the browser's part p50 38.3 → 30.7 ms, p95 52.8 →
 39.8 ms.
 
+BokehJS also looks up a CSS variable (``--bk-line-color``, ``--bk-major-label-text-color``, …) for every visual
+property it paints (``VisualProperties._get_css_value``: ``getComputedStyle(el).getPropertyValue``), so that a page can
+theme its canvases by CSS; about 1000 lookups per slider change on the trajectories, and each one made after a style
+change (the numbers table's new HTML, a renderer's new position) forces the recalculation of the page's style. This
+page themes no canvas by CSS — no stylesheet it loads sets a ``--bk-*`` variable (a browser test checks every
+stylesheet of the page), so every lookup returned "" and the model's own value was used — and
+:data:`UNTHEMED_CANVAS` returns "" without the lookup (what it saves: :ref:`performance-latency`).
+
 The script is a document-ready callback of the session's document: it runs once the page's BokehJS is loaded, before
-the plots (built after the page connects) are drawn. If BokehJS no longer has the method (another version), it does
-nothing, and the browser test of the page (``tests/test_browser_*``) fails on the check it makes.
+the plots (built after the page connects) are drawn. If BokehJS no longer has either method (another version), that
+part does nothing, and the browser tests of the page (``tests/browser/test_browser_*``) fail on the checks they make.
 """
 
 from __future__ import annotations
 
 from bokeh.models import CustomJS
 
-__all__ = ["SKIP_SAME_STYLESHEET", "skip_same_stylesheet"]
+__all__ = ["SKIP_SAME_STYLESHEET", "UNTHEMED_CANVAS", "skip_same_stylesheet"]
 
 #: installs the skip once per page; ``__isl_skip_same`` marks the installed method (the browser test checks it)
 SKIP_SAME_STYLESHEET = """
@@ -38,7 +46,20 @@ if (proto && typeof proto._update === "function" && !proto._update.__isl_skip_sa
 """
 
 
+#: installs :data:`SKIP_SAME_STYLESHEET`'s companion: no canvas theming through CSS (``__isl_unthemed`` marks it)
+UNTHEMED_CANVAS = """
+let visual = null;   // (another BokehJS may not have the module: then nothing is skipped, and the browser test fails)
+try { visual = Bokeh.require("core/visuals/visual"); } catch (e) { visual = null; }
+const vproto = visual && visual.VisualProperties ? visual.VisualProperties.prototype : null;
+if (vproto && typeof vproto._get_css_value === "function" && !vproto._get_css_value.__isl_unthemed) {
+    const unthemed = function (name) { return ""; };
+    unthemed.__isl_unthemed = true;
+    vproto._get_css_value = unthemed;
+}
+"""
+
+
 def skip_same_stylesheet(doc) -> None:
     """Install :data:`SKIP_SAME_STYLESHEET` in the browser when ``doc`` is ready (nothing without a document)."""
     if doc is not None:
-        doc.js_on_event("document_ready", CustomJS(code=SKIP_SAME_STYLESHEET))
+        doc.js_on_event("document_ready", CustomJS(code=SKIP_SAME_STYLESHEET + UNTHEMED_CANVAS))

@@ -13,7 +13,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import value
-from bokeh.models import ColumnDataSource, DataRange1d, Legend, LegendItem, LogTicker, Range1d, Span
+from bokeh.models import ColumnDataSource, DataRange1d, Legend, LegendItem, Range1d, Span
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -24,7 +24,7 @@ from .fields import field
 from .filters_panel import bind
 from .filters_panel import number as number_box
 from .scenario_tables import SCENARIO_COLORS, TABLE_CSS, map_html, periods_html
-from .style import TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
+from .style import SCENARIO_DASHES, TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
 from .tuning import TuningView
 
 __all__ = ["ScenarioView"]
@@ -64,7 +64,7 @@ class ScenarioView(Viewer):
 
     def _figures(self):
         scale = text_scale(self.state)
-        # the y range fits the lines, not their bands: with few runs a band's lower end falls decades below
+        # the y range fits the lines and their 95 % bands (the bands' renderers join it as they are drawn)
         ratio = styled(
             figure(
                 y_axis_type="log",
@@ -72,12 +72,12 @@ class ScenarioView(Viewer):
                 sizing_mode="stretch_width",
                 x_range=Range1d(0, 1),
                 y_range=DataRange1d(renderers=[]),
-                title="RMSE ratio to the clairvoyant filter in time (simulated)",
+                title="RMSE ratio to the clairvoyant filter in time, worst coordinate (simulated)",
                 tools="pan,xwheel_zoom,box_zoom,reset,save",
             ),
             scale,
         )
-        ratio.yaxis.axis_label = "RMSE / clairvoyant sd (worst coordinate)"
+        ratio.yaxis.axis_label = "RMSE / clairvoyant sd"  # short: a long label was cut in presenter mode
         ratio_axis(ratio, scale)
         ratio.add_layout(Span(location=1.0, dimension="width", line_color="#888", line_width=1))
         sigma = styled(
@@ -93,7 +93,7 @@ class ScenarioView(Viewer):
         )
         sigma.xaxis.axis_label = f"time t, in units of 1/{R_MIN} at σ(0)"
         sigma.yaxis.axis_label = "σ"
-        sigma.yaxis.ticker = LogTicker(mantissas=[1, 2, 5])  # labels at every decade's 1, 2, 5
+        ratio_axis(sigma, scale)  # ticks 1, 2, 5, … far enough apart not to overlap (LogTicker's 15 and 20 did)
         for fig in (ratio, sigma):  # below the plot, in two columns: the filters' labels are long
             fig.add_layout(
                 Legend(
@@ -147,9 +147,9 @@ class ScenarioView(Viewer):
                 source=self._ratio_src,
                 color=color,
                 line_width=2,
-                line_dash="dashed" if name == "clairvoyant" else "solid",
+                line_dash=SCENARIO_DASHES.get(name, "solid"),  # the pattern tells the filters apart, not only the hue
             )
-            self._ratio_fig.y_range.renderers = [*self._ratio_fig.y_range.renderers, line]
+            self._ratio_fig.y_range.renderers = [*self._ratio_fig.y_range.renderers, line, band]
             self._legend_items[name] = LegendItem(label=value(label), renderers=[line, band])
             legend.items = [*legend.items, self._legend_items[name]]
         sigma_legend = self._sigma_fig.legend[0]
@@ -166,7 +166,12 @@ class ScenarioView(Viewer):
                         label=value(""),
                         renderers=[
                             self._sigma_fig.line(
-                                "t", name, source=self._sigma_src, color=SCENARIO_COLORS[name], line_width=2
+                                "t",
+                                name,
+                                source=self._sigma_src,
+                                color=SCENARIO_COLORS[name],
+                                line_width=2,
+                                line_dash=SCENARIO_DASHES.get(name, "solid"),
                             )
                         ],
                     )
@@ -230,7 +235,6 @@ class ScenarioView(Viewer):
                 number("sc_horizon", 190), number("sc_window", 170), number("sc_runs", 120), download, spinner, **row
             ),
             pn.pane.Markdown(p.preset_note, margin=(0, 10)),
-            pn.pane.Markdown(p.note, margin=(0, 10)),
             sizing_mode="stretch_width",
         )
 
@@ -294,9 +298,20 @@ class ScenarioView(Viewer):
             margin=(0, 10),
             styles={"font-size": TEXT_FONT},
         )
+        settings: list = [intro, self._controls()]
+        if self.state.present:  # a projector's first screen shows the picture; the settings are one click away
+            settings = [
+                pn.Card(
+                    *settings,
+                    title="The scenario and its settings",
+                    collapsed=True,
+                    sizing_mode="stretch_width",
+                    margin=(5, 10),
+                )
+            ]
         return pn.Column(
-            intro,
-            self._controls(),
+            *settings,
+            pn.pane.Markdown(self.state.scenarios.param.note, margin=(0, 10)),
             pn.pane.Bokeh(self._ratio_fig, margin=5, sizing_mode="stretch_width"),
             bias,
             pn.pane.Bokeh(self._sigma_fig, margin=5, sizing_mode="stretch_width"),

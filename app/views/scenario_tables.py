@@ -33,7 +33,7 @@ SCENARIO_COLORS = {
     "isl_tuned": "#7b9be0",
     "vb": "#7b3294",
     "kbf_robust": "#d6604d",
-    "imm": "#1b7837",
+    "imm": "#c51b7d",  # magenta: the green is the constant-σ Kalman–Bucy filter's
     **{k: v for k, v in EXTRA_COLORS.items() if k != "kbf"},
 }
 #: the map's short names (its key spells them out)

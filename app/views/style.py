@@ -12,11 +12,13 @@ __all__ = [
     "EXTRA_COLORS",
     "EXTRA_DASHES",
     "FILTER_COLORS",
+    "FILTER_MARKERS",
     "ISL",
     "KBF",
     "NOTE_FONT",
     "PRESENTER_SCALE",
     "RATIO_MANTISSAS",
+    "SCENARIO_DASHES",
     "SIGMA_COLORS",
     "SIGMA_DASHES",
     "SUBSCRIPT",
@@ -36,6 +38,31 @@ __all__ = [
 #: the optimal one, the mismatched one at σ̄ = σ) the one below still shows between the dashes
 EXTRA_DASHES = {"kbf_mismatched": "dashed", "kbf_minimax": "dotdash", "kbf_adaptive": [6, 3], "isl_model": [2, 2]}
 FILTER_COLORS = {"kbf": KBF, "isl": ISL, "isl_a31": "#7b9be0", **EXTRA_COLORS}
+#: each filter's marker where filters are drawn as points (the worst case): the shape tells them apart, not only the hue
+FILTER_MARKERS = {
+    "kbf": "circle",
+    "isl": "square",
+    "isl_a31": "square_pin",
+    "kbf_mismatched": "triangle",
+    "kbf_minimax": "inverted_triangle",
+    "kbf_adaptive": "diamond",
+    "isl_model": "hex",
+}
+#: each filter's line pattern in the scenario plots (by the names of :func:`app.scenario_picture.scenario_picture`'s
+#: run): no two filters share one, so that a line is told apart without its colour
+SCENARIO_DASHES = {
+    "clairvoyant": "dashed",
+    "kbf": "solid",
+    "isl": [10, 3],
+    "isl_tuned": [10, 3, 2, 3],
+    "vb": "dotted",
+    "kbf_robust": "dotdash",
+    "imm": [2, 2],
+    "kbf_mismatched": [6, 3],
+    "kbf_minimax": "dashdot",
+    "kbf_adaptive": [14, 4],
+    "isl_model": [4, 2, 4, 6],
+}
 SIGMA_COLORS = ("#d95f02", "#7570b3", "#1b9e77", "#e7298a", "#66a61e")  #: one per σ of the sweep
 SIGMA_DASHES = ("dotted", "dashed", "solid", "dashdot", "dotdash")  #: paper A, Fig. 2: σ = 2, 20, 200
 SUBSCRIPT = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")

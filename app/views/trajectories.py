@@ -1,18 +1,18 @@
 """Trajectories view (paper A, Fig. 3; paper B, Fig. 2): one plot per coordinate X_i, shared time axis.
 
-Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i
-(blue) and the tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are
-built once; a new run only replaces the data of their ColumnDataSources (decimated traces, float32) and the
-tube offsets. The tube is a ``Band`` whose edges are ``Dodge`` transforms of X̂_i by ±3 s_i: it costs no extra
-data, and as an annotation the browser redraws it without the per-glyph work (spatial index, selection view)
-that two extra line glyphs cost on every update. BokehJS recomputes a band's edges when its own properties or its
-source change, not when a transform it reads changes: a run whose data arrived before its new offsets kept the
-previous run's tube (after a preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band
-to recompute in the browser (:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in — and so does each
-source a band may stand on (X̂_i's, or the zero line's in the error view): BokehJS listens to the source a band had
-when it was first drawn, not to one it is moved to later (a page opened in the error view, switched to the signal,
-then given new noise, kept the old noise's tube around the new X̂_i). Extra filters
-of the run (:mod:`app.extras`) are drawn by :class:`app.views.overlay.Overlay`, one colour each.
+Per coordinate i: the truth X_i (black), the Kalman–Bucy estimate X̂_i (green), the ISL estimate X̌_i (blue) and the
+tube X̂_i ± 3 s_i (dashed green), s_i = √Δ_ii the optimal RMSE (A.29). The six figures are built once; a new run only
+replaces the data of their ColumnDataSources (decimated traces, float32) and the tube offsets. The tube is a ``Band``
+whose edges are X̂_i moved by ±3 s_i in the browser, in float64 (:data:`EDGE`): it costs no extra data, and as an
+annotation the browser redraws it without the per-glyph work (spatial index, selection view) that two extra line glyphs
+cost on every update. BokehJS recomputes a band's edges when its own properties or its source change, not when a
+transform it reads changes: a run whose data arrived before its new offsets kept the previous run's tube (after a
+preset, σ = 200's run was drawn inside σ = 20's ±3 s_i). So each offset tells its band to recompute in the browser
+(:data:`RECOMPUTE_BAND`) whatever order the run's changes arrive in — and so does each source a band may stand on
+(X̂_i's, or the zero line's in the error view): BokehJS listens to the source a band had when it was first drawn, not to
+one it is moved to later (a page opened in the error view, switched to the signal, then given new noise, kept the old
+noise's tube around the new X̂_i). Extra filters of the run (:mod:`app.extras`) are drawn by
+:class:`app.views.overlay.Overlay`, one colour each.
 
 The **error view** (a switch above the plots) draws each filter's error X̂_i − X_i, X̌_i − X_i, … instead, with
 the band ±3 s_i around 0 and the signal as the zero line: at high orders X_1 spans ±10⁶ and the tube is invisible
@@ -27,7 +27,7 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.core.properties import field, value
-from bokeh.models import Band, ColumnDataSource, CustomJS, Dodge, Legend, LegendItem, Range1d, Title
+from bokeh.models import Band, ColumnDataSource, CustomJS, CustomJSTransform, Dodge, Legend, LegendItem, Range1d, Title
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
@@ -39,7 +39,7 @@ from ..text import num, per_r_min
 from .overlay import KEY_DATA, Overlay, follow
 from .style import ISL, KBF, SUBSCRIPT, TRUTH, line, styled, text_scale
 
-__all__ = ["RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
+__all__ = ["EDGE", "RECOMPUTE_BAND", "TrajectoriesView", "plot_height"]
 
 #: the traces' line styles (bokeh Line properties)
 _TRUTH: dict[str, Any] = {"line_color": TRUTH, "line_width": 1.4}
@@ -50,6 +50,13 @@ _TUBE: dict[str, Any] = {"line_color": KBF, "line_dash": "dashed", "line_width":
 SUMMARY_HEIGHT = 30  #: the first plot carries the run's summary above its frame
 LEGEND_ROW = 30  #: height of one row of the legend (two entries a row)
 _EMPTY = {"t": np.zeros(0, np.float32), "y": np.zeros(0, np.float32)}
+#: a tube edge in the browser: the line's values plus the offset ``d.value`` (a ``Dodge`` the server sets), in float64.
+#: BokehJS's own ``Dodge`` computes in the type of the line's array: in float32 an edge near |X̂_i| is off by up to half
+#: a float32 spacing there (2⁻²⁴ |X̂_i|) — at m = 6 with β = 1000, |X̂₁| reaches 7.6·10¹⁰ and that was 4096 beside a
+#: 3 s₁ of 5527. Offsets added in float64 to the drawn line are exact, and the data stay float32.
+EDGE = """const v = d.value, out = new Float64Array(xs.length);
+for (let k = 0; k < xs.length; k++) out[k] = xs[k] + v;
+return out;"""
 #: run in the browser when a tube offset changes: the band re-reads its edges (y ± the new offset) and repaints
 RECOMPUTE_BAND = "band.change.emit()"
 
@@ -215,8 +222,11 @@ class TrajectoriesView(Viewer):
         fig.yaxis.axis_label = f"{COORDINATES[i]} X{k}"
         fig.xaxis.axis_label = "time t"
         src = {name: ColumnDataSource(dict(_EMPTY), name=f"traj-{i + 1}-{name}") for name in ("truth", "kbf", "isl")}
-        up, down = Dodge(value=0.0), Dodge(value=0.0)
-        band = Band(base="t", lower=field("y", down), upper=field("y", up), source=src["kbf"], fill_alpha=0.0, **_TUBE)
+        up, down = Dodge(value=0.0), Dodge(value=0.0)  # the offsets ±3 s_i, added in float64 by EDGE
+        edges = [CustomJSTransform(args={"d": d}, func="return x + d.value", v_func=EDGE) for d in (down, up)]
+        band = Band(
+            base="t", lower=field("y", edges[0]), upper=field("y", edges[1]), source=src["kbf"], fill_alpha=0.0, **_TUBE
+        )
         recompute = CustomJS(args={"band": band}, code=RECOMPUTE_BAND)
         up.js_on_change("value", recompute)
         down.js_on_change("value", recompute)

@@ -26,7 +26,7 @@ from isl_core.worstcase import FILTERS, LABELS
 from ..state import AppState
 from .fields import field
 from .filters_panel import number
-from .style import FILTER_COLORS, TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
+from .style import FILTER_COLORS, FILTER_MARKERS, TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
 from .sweep import parse_sigmas
 
 __all__ = ["WorstCaseView", "worst_case_html"]
@@ -113,7 +113,7 @@ class WorstCaseView(Viewer):
         items = []
         for name, src in self._sources.items():
             color = FILTER_COLORS[name]
-            dots = fig.scatter("x", "y", source=src, size=10, color=color, marker="circle")
+            dots = fig.scatter("x", "y", source=src, size=10, color=color, marker=FILTER_MARKERS.get(name, "circle"))
             fig.add_layout(
                 Whisker(
                     source=src,

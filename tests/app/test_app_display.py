@@ -80,6 +80,7 @@ def test_the_theory_is_refused_where_the_filter_has_lost_lock(state):
     assert off, (run.ratio_check, pred)  # the run itself shows the loss of lock
     text = numbers_html(run, pred, 0.0)
     assert text.count("not valid") == len(off) and f"{pred[off[0]]:.4g}" not in text.split("not valid")[0][-200:]
+    assert text.count("has lost lock") == 1  # why, said once below the table: the cells stay narrow
     assert theory_cell(1.2, 1.1).endswith(">1.1</td>") and "unstable" in theory_cell(1.2, math.inf)
 
 
@@ -138,3 +139,22 @@ def test_a_value_panels_own_parser_cannot_convert_stays_text():
     hardening.tolerant_query_parser()
     parsed = location.parse_query("?sigma=20&seed=" + "7" * 5000)
     assert parsed["sigma"] == 20 and parsed["seed"] == "7" * 5000
+
+
+def test_distinct_filters_are_drawn_apart_by_colour_and_not_by_colour_alone():
+    """The constant-σ Kalman–Bucy line and the IMM's were both green (ΔE 15.8) and every scenario line was solid; the
+    worst case drew every filter as the same circle."""
+    from itertools import combinations
+
+    from app.colors import difference
+    from app.views.scenario_tables import SCENARIO_COLORS
+    from app.views.style import FILTER_COLORS, FILTER_MARKERS, SCENARIO_DASHES
+
+    for colors in (SCENARIO_COLORS, FILTER_COLORS):
+        close = [(a, b) for (a, x), (b, y) in combinations(colors.items(), 2) if difference(x, y) < 20]
+        assert close == []
+    assert difference("#1b7837", "#1a9641") < 20  # (the two greens, for the scale)
+    assert set(SCENARIO_DASHES) == set(SCENARIO_COLORS) and len({str(d) for d in SCENARIO_DASHES.values()}) == len(
+        SCENARIO_DASHES
+    )
+    assert set(FILTER_MARKERS) == set(FILTER_COLORS) and len(set(FILTER_MARKERS.values())) == len(FILTER_MARKERS)

@@ -8,7 +8,7 @@ import pytest
 from bokeh.models import Band, ColumnDataSource, GlyphRenderer
 
 from app.state import AppState
-from app.views.trajectories import TrajectoriesView
+from app.views.trajectories import EDGE, TrajectoriesView
 
 
 @pytest.fixture
@@ -25,8 +25,8 @@ def test_plots_show_the_run_and_the_tube_is_three_s_around_the_kalman_bucy_estim
             np.testing.assert_array_equal(src.data["y"], traces.series[i][name][1])
         band = next(r for r in view._figures[i].center if isinstance(r, Band))
         assert band.source is view._sources[i]["kbf"]
-        assert band.upper.transform.value == pytest.approx(3 * run.s[i])
-        assert band.lower.transform.value == pytest.approx(-3 * run.s[i])
+        assert band.upper.transform.args["d"].value == pytest.approx(3 * run.s[i])
+        assert band.lower.transform.args["d"].value == pytest.approx(-3 * run.s[i])
     assert [p.visible for p in view._column.objects] == [False, False, True]  # no indicator, no reason: the plots
     assert [p.object for p in view._plots.objects[2:]] == view._figures[: run.model.m]  # (after the mode, the legend)
     assert [f.xaxis[0].visible for f in view._figures[:3]] == [False, False, True]  # one time axis, at the bottom
@@ -74,7 +74,8 @@ def test_the_error_view_draws_each_filters_error_in_a_three_s_band_around_zero()
         )
         assert list(view._sources[i]["truth"].data["y"]) == [0.0, 0.0]  # the signal is the zero line
         band = view._bands[i]
-        assert band.source is view._sources[i]["truth"] and band.upper.transform.value == pytest.approx(3 * run.s[i])
+        assert band.source is view._sources[i]["truth"]
+        assert band.upper.transform.args["d"].value == pytest.approx(3 * run.s[i])
         lo, hi = view._figures[i].y_range.start, view._figures[i].y_range.end
         assert lo <= -3 * run.s[i] and hi >= 3 * run.s[i]
         assert hi - lo < 20 * run.s[i] * max(run.tracks[1].ratio[i], 1.0)  # the errors' scale, not the signal's
@@ -129,3 +130,20 @@ def test_a_run_that_adds_no_line_does_not_rewalk_the_page(monkeypatch):
     walks = _live_page_walks(view, monkeypatch)
     view.state.sigma = 30.0  # a new run: data only
     assert view.state.run.model.sigma == 30.0 and walks == []
+
+
+def test_the_tubes_edges_are_added_in_float64_to_the_drawn_line():
+    """BokehJS's Dodge adds in the type of the line's array: in float32, at m = 6, β = 1000 (|X₁| up to 7.6·10¹⁰),
+    the drawn half-widths were 4096–8192 around a 3 s₁ of 5526.6. The edges are the line's float32 values plus the
+    offset in float64 (the browser test measures them to 1e-4 at that setting); the data stay float32."""
+    state = AppState()
+    state.set_inputs({"alpha": 0.01, "beta_from_w": False, "beta": 1000.0, "sigma": 933.0, "m": 6, "seed": 2})
+    state.start()
+    view = TrajectoriesView(state=state)
+    for i in range(6):
+        band, (up, down) = view._bands[i], view._dodges[i]
+        assert view._sources[i]["kbf"].data["y"].dtype == np.float32
+        assert band.upper.field == band.lower.field == "y"
+        assert band.upper.transform.args == {"d": up} and band.lower.transform.args == {"d": down}
+        assert band.upper.transform.v_func == band.lower.transform.v_func == EDGE and "Float64Array" in EDGE
+        assert (up.value, down.value) == pytest.approx((3 * state.run.s[i], -3 * state.run.s[i]))
