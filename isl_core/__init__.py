@@ -2,7 +2,7 @@
 
 Numerical core of the ``isl`` project: the model (A.1–A.6), the stationary Kalman–Bucy filter (A.21–A.24),
 the ISL filter (A.16–A.18), a compiled simulator of both on one Euler grid (B.30–B.34), and every filter over a
-recorded series with the model fitted to it (:mod:`isl_core.series`).
+recorded series with the model fitted to it (:mod:`!isl_core.series`).
 Imports numpy, scipy and numba only — never a UI library.
 """
 

@@ -135,7 +135,7 @@ def judge(
     nu : float, optional
         The ISL filters' ν (default the fitted β).
     progress, cancel : callable, optional
-        As in :func:`isl_core.series.select_order`.
+        As in :func:`isl_core.select_order`.
 
     Returns
     -------

@@ -35,7 +35,8 @@ KAPPA = 1e7  #: the diffuse start's variance, relative to the readings' variance
 
 @dataclass(frozen=True)
 class ReadingModel:
-    """The model (A.19) of m, α ≥ 0, β > 0 read through a sensor of noise sd σ_r > 0 (:mod:`~.record`)."""
+    """The model (A.19) of m, α ≥ 0, β > 0 read through a sensor of noise sd σ_r > 0
+    (:mod:`!isl_core.series.record`)."""
 
     m: int
     alpha: float

@@ -27,7 +27,8 @@ MAX_READINGS = 10_000_000  #: most readings a series may have (10⁷ readings of
 class Series:
     """A recorded series (module docstring): times ``t`` strictly increasing, readings ``z`` (NaN = missing).
 
-    Built by :func:`series` (which validates); ``name`` says where it came from, ``unit`` the time unit.
+    Built by :func:`!isl_core.series.series` (which validates); ``name`` says where it came from, ``unit`` the time
+    unit.
     """
 
     t: np.ndarray

@@ -4,7 +4,7 @@ model-aware ISL filters, the adaptive, variational-Bayes, robust and IMM filters
 The filters are the project's own (:mod:`isl_core.filters`), built for the model (A.19) of the reading model's
 m, α, β and σ = σ_r·√Δ̄ (:func:`isl_core.series.record.sigma_of_reading`, Δ̄ the typical interval); the σ-free ones
 use only m, α, β — the ISL filters' ν (default β, paper A's Fig. 3), the σ-learners' range (default
-:func:`sigma_range` of the readings). They run through the compiled loops of :mod:`isl_core.kernels.series`, with
+:func:`!sigma_range` of the readings). They run through the compiled loops of :mod:`isl_core.kernels.series`, with
 the exact transition between readings. Every filter starts at X₁ = the first reading, the other coordinates 0.
 """
 
@@ -145,7 +145,7 @@ def run_filters(
     sigma_range_: tuple[float, float] | None = None,
     memory: float = MEMORY,
 ) -> SeriesRun:
-    """Run the filters ``names`` (default :data:`SERIES_FILTERS`) over ``series`` (module docstring).
+    """Run the filters ``names`` (default :data:`!SERIES_FILTERS`) over ``series`` (module docstring).
 
     Parameters
     ----------
@@ -156,9 +156,9 @@ def run_filters(
     nu : float, optional
         The ISL filters' ν (default β).
     names : sequence of str
-        The filters, among :data:`SERIES_FILTERS`.
+        The filters, among :data:`!SERIES_FILTERS`.
     sigma_range_ : (float, float), optional
-        The σ-learners' range of (A.19)'s σ (default :func:`sigma_range`).
+        The σ-learners' range of (A.19)'s σ (default :func:`!sigma_range`).
     memory : float
         The σ-learners' memory W in readings.
 
