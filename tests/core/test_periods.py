@@ -50,9 +50,10 @@ def test_the_periods_of_a_change_and_of_a_constant_scenario():
         scenario_periods(Scenario(sigma_knots=((10.0, 2.0),)), 10.5)
 
 
-def test_the_statistic_is_the_pooled_mean_square_over_the_clairvoyant_variance_averaged_over_coordinates(drop):
-    """Written out with loops: per period, Σ over seeds and steps of e_i² over S·Σ_k P_ii, averaged over i, rooted;
-    the same on fine equal windows (periods on their edges) as on windows at the periods."""
+def test_the_statistic_is_the_pooled_mean_square_over_the_clairvoyant_variance_at_the_worst_coordinate(drop):
+    """Written out with loops: per period and coordinate i, Σ over seeds and steps of e_i² over S·Σ_k P_ii, rooted;
+    the cell is the largest over i (and names that i); the same on fine equal windows (periods on their edges) as on
+    windows at the periods."""
     periods, avg, stat = drop
     run = avg.run
     t, step = run.t * run.r_min, run.h * run.r_min  # a window starts at the first step at or after its time
@@ -61,7 +62,10 @@ def test_the_statistic_is_the_pooled_mean_square_over_the_clairvoyant_variance_a
         w = run.steps[keep].astype(float)
         num = sum(w[j] * avg.mse[s, np.flatnonzero(keep)[j]] for s in range(SEEDS) for j in range(len(w)))
         den = SEEDS * sum(w[j] * run.ref_var[np.flatnonzero(keep)[j]] for j in range(len(w)))
-        np.testing.assert_allclose(stat.ratio[:, p], np.sqrt((num / den[None, :]).mean(axis=1)), rtol=1e-12)
+        per_coordinate = np.sqrt(num / den[None, :])  # (filters, m)
+        np.testing.assert_allclose(stat.coordinates[:, p], per_coordinate, rtol=1e-12)
+        np.testing.assert_allclose(stat.ratio[:, p], per_coordinate.max(axis=1), rtol=1e-12)
+        np.testing.assert_array_equal(stat.coordinate[:, p], per_coordinate.argmax(axis=1))
     _, fine = _average(DROP, windows=80)  # windows of 0.1/r_min: the periods' edges are window edges
     np.testing.assert_allclose(fine.periods().ratio, stat.ratio, rtol=1e-12)
 
