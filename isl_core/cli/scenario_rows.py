@@ -10,26 +10,29 @@ import numpy as np
 __all__ = ["beyond_data", "print_beyond", "table_rows"]
 
 
+def _cell(st, r: int, c: int) -> dict[str, Any]:
+    """Row ``r``'s cell ``c`` of a table or of its cell statistics (the worst coordinate's ratio and interval, that
+    coordinate 1-based, every coordinate's ratio, the worst seed, the seeds above 2× and those that diverged)."""
+    return {
+        "ratio": st.ratio[r, c],
+        "low": st.low[r, c],
+        "high": st.high[r, c],
+        "coordinate": int(st.coordinate[r, c]) + 1,
+        "coordinates": [float(v) for v in st.coordinates[r, c]],
+        "worst_seed": st.worst_seed[r, c],
+        "worst_seed_id": int(st.worst_seed_id[r, c]),
+        "seeds_above_2x": int(st.above2[r, c]),
+        "seeds_diverged": int(st.diverged[r, c]),
+    }
+
+
 def table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
     """The fair table's rows as data: each filter's tuning, origin, assumed σ range and cost, its cells (the worst
     coordinate's ratio, every coordinate's, the worst seed, the seeds above 2×), its worst per preset, and its
     tuning-seed and held-out figures."""
     rows: list[dict[str, Any]] = []
     for r, row in enumerate(tab.rows):
-        cells = {
-            k: {
-                "ratio": tab.ratio[r, c],
-                "low": tab.low[r, c],
-                "high": tab.high[r, c],
-                "coordinate": int(tab.coordinate[r, c]) + 1,
-                "coordinates": [float(v) for v in tab.coordinates[r, c]],
-                "worst_seed": tab.worst_seed[r, c],
-                "worst_seed_id": int(tab.worst_seed_id[r, c]),
-                "seeds_above_2x": int(tab.above2[r, c]),
-                "seeds_diverged": int(tab.diverged[r, c]),
-            }
-            for c, k in enumerate(keys)
-        }
+        cells = {k: _cell(tab, r, c) for c, k in enumerate(keys)}
         presets = {}
         for p, name in enumerate(res.presets):
             worst, lo, hi = (a[r] for a in tab.preset(p))
@@ -76,20 +79,7 @@ def beyond_data(tab) -> dict[str, Any]:
     for i, r in enumerate(beyond_rows(tab)):
         out["rows"][tab.rows[r].name] = {
             "assumes": tab.rows[r].assumes,
-            "cells": {
-                k: {
-                    "ratio": st.ratio[i, c],
-                    "low": st.low[i, c],
-                    "high": st.high[i, c],
-                    "coordinate": int(st.coordinate[i, c]) + 1,
-                    "coordinates": [float(v) for v in st.coordinates[i, c]],
-                    "worst_seed": st.worst_seed[i, c],
-                    "worst_seed_id": int(st.worst_seed_id[i, c]),
-                    "seeds_above_2x": int(st.above2[i, c]),
-                    "seeds_diverged": int(st.diverged[i, c]),
-                }
-                for c, k in enumerate(keys)
-            },
+            "cells": {k: _cell(st, i, c) for c, k in enumerate(keys)},
         }
     return out
 
