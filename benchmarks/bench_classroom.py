@@ -246,7 +246,7 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
     deadline = time.perf_counter() + 120.0  # unused sessions are released 10 s after their last connection
     while time.perf_counter() < deadline:
         stats = lt.server_stats(log) if log is not None else []
-        if stats and stats[-1][0] == 0:
+        if stats and stats[-1][0] == 0 and all(lt.released_by_process(log).values()):  # in every process
             break
         await asyncio.sleep(2.0)
     if log is not None:  # the trimmer's line once nothing is left (a checkout from before it logged: 15 s)

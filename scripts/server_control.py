@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
-"""Start, probe and stop an isl dashboard server for the load script, the benchmarks and the serving tests; the
-server's processes (its workers and their long jobs' processes) and their memory. :mod:`session_client` re-exports
-every name, so that its users import one module."""
+"""Start, probe and stop an isl dashboard server for the load script, the benchmarks and the serving tests: its
+processes (its workers and their long jobs' processes), their memory, and its log (sessions, releases and memory
+trims, per process). :mod:`session_client` re-exports the server's side, :mod:`load_test` the log's."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import os
+import re
 import subprocess
 import sys
 import time
@@ -142,3 +144,46 @@ def stop_server(proc: subprocess.Popen, timeout: float = 15.0) -> int:
             proc.kill()
             proc.wait()
     return proc.returncode
+
+
+# ------------------------------------------------------------------------------------------------ its log
+STATS = re.compile(r"isl stats: sessions=(\d+) connections=(\d+) pending_releases=(\d+) rss_mb=([\d.]+)")
+
+
+TRIMS = re.compile(r"isl trim: sessions=(\d+) pending_releases=(\d+) collected=\w+ rss_mb=([\d.]+)")
+
+
+def server_stats(log_path: Path) -> list[tuple[int, int, int, float]]:
+    """Every ``isl stats`` line the server has logged so far (``--stats-interval``)."""
+    return [(int(a), int(b), int(c), float(d)) for a, b, c, d in STATS.findall(log_path.read_text())]
+
+
+def server_trims(log_path: Path) -> list[tuple[int, int]]:
+    """``(sessions, pending releases)`` of every ``isl trim`` line so far (app.serving.memory.MemoryTrimmer)."""
+    return [(int(a), int(b)) for a, b, _ in TRIMS.findall(log_path.read_text())]
+
+
+LINES = re.compile(r"isl (stats|trim): sessions=(\d+) (?:connections=\d+ )?pending_releases=(\d+) .*pid=(\d+)")
+
+
+def released_by_process(log_path: Path) -> dict[int, bool]:
+    """Per server process (the ``pid=`` of its ``isl stats`` and ``isl trim`` lines): whether it has trimmed its memory
+    with no session left and every release hook run since it last held a session."""
+    released: dict[int, bool] = {}
+    for kind, sessions, pending, pid in LINES.findall(log_path.read_text()):
+        if sessions != "0" or pending != "0":
+            released[int(pid)] = False
+        elif kind == "trim" or int(pid) not in released:
+            released[int(pid)] = True
+    return released
+
+
+async def all_released(log_path: Path, trims_before: int, timeout: float = 120.0) -> bool:
+    """Wait until the server has trimmed its memory with no session left and every release hook run (an ``isl
+    trim`` line after the first ``trims_before``), in every one of its processes; False after ``timeout`` seconds."""
+    deadline = time.perf_counter() + timeout
+    while time.perf_counter() < deadline:
+        if (0, 0) in server_trims(log_path)[trims_before:] and all(released_by_process(log_path).values()):
+            return True
+        await asyncio.sleep(0.2)
+    return False

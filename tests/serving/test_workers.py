@@ -130,3 +130,56 @@ def test_a_queue_made_before_a_fork_runs_jobs_in_the_forked_process():
         assert here.recv() == child.pid
     finally:
         child.join(30)
+
+
+WORST = "m=1&wc_alphas=[1.0]&wc_n_sigma=2&wc_horizon=20"  # the smallest worst-case table: a long job of seconds
+
+
+def test_long_jobs_come_back_in_every_process(tmp_path):
+    """A worst-case table asked for in a session of each of two processes: both come back (each process starts its
+    own long-job queue and fork server after the fork; the queue inherited across it had no thread, and a worst case
+    asked for in the second process never came back)."""
+    from bokeh.events import ButtonClick
+    from bokeh.models import Markup
+
+    def compute_button(doc):
+        return next(m for m in doc.models if getattr(m, "label", None) == "Compute" and type(m).__name__ == "Button")
+
+    def notes(doc) -> list[str]:
+        return [m.text or "" for m in doc.models if isinstance(m, Markup)]
+
+    with served(tmp_path, "--num-procs", "2", "--stats-interval", "0") as (url, _, log):
+
+        async def scenario() -> dict[str, list[str]]:
+            clients: dict[str, session_client.BokehClient] = {}  # the first session of each process
+            others = []
+            try:
+                for _ in range(12):  # the kernel spreads connections over the processes: until both have one
+                    token = await session_client.page_token(url, query=WORST)
+                    client = await session_client.BokehClient.connect(url, query=WORST, token=token)
+                    process = dict(BUILT.findall(log.read_text()))[get_session_id(token)]
+                    if process in clients:
+                        others.append(client)
+                    else:
+                        clients[process] = client
+                    if len(clients) == 2:
+                        break
+                assert len(clients) == 2, "12 pages all reached one process"
+                for client in clients.values():
+                    tabs = next(m for m in client.doc.models if type(m).__name__ == "Tabs")
+                    await client.change(tabs, active=2)  # the worst case's tab
+                    assert await client.wait_until(
+                        lambda c=client: any(getattr(m, "label", None) == "Compute" for m in c.doc.models), 120
+                    )
+                    await client.send_event(ButtonClick(compute_button(client.doc)))
+                for client in clients.values():
+                    assert await client.wait_until(
+                        lambda c=client: any("Simulated in" in t or "Failed" in t for t in notes(c.doc)), 300
+                    )
+                return {process: notes(client.doc) for process, client in clients.items()}
+            finally:
+                await asyncio.gather(*(c.close() for c in [*clients.values(), *others]))
+
+        answers = run(scenario())
+    for process, texts in answers.items():
+        assert any("Simulated in" in t for t in texts), (process, [t for t in texts if "Failed" in t])
