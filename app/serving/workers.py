@@ -66,8 +66,8 @@ def usable_cores(cpu_max: Path = _CGROUP_CPU_MAX) -> int:
 class Supervisor:
     """The parent's side: the workers by pid and task id, the signals it passes on, and why it stops."""
 
-    def __init__(self, count: int, grace_s: float = GRACE_S) -> None:
-        self.count, self.grace_s = count, grace_s
+    def __init__(self, count: int, grace_s: float = GRACE_S, max_restarts: int = MAX_RESTARTS) -> None:
+        self.count, self.grace_s, self.max_restarts = count, grace_s, max_restarts
         self.children: dict[int, int] = {}  # pid → task id
         self.stopping = False
         self.status = 0
@@ -118,6 +118,8 @@ class Supervisor:
         # advice for servers that fork). The parent's own collection at exit then takes milliseconds, not seconds.
         gc.freeze()
         for task in range(self.count):
+            if self.stopping:  # signalled while forking: fork no more
+                break
             if self.start_child(task) is not None:
                 return task
         log.info("serving with %d worker processes (parent pid %d)", self.count, self.pid)
@@ -135,7 +137,7 @@ class Supervisor:
                 self.stop(status=1)
                 continue
             restarts += 1
-            if restarts > MAX_RESTARTS:
+            if restarts > self.max_restarts:
                 log.error("workers died %d times: stopping the server", restarts)
                 self.stop(status=1)
                 continue
@@ -171,7 +173,7 @@ def supervise(num_processes: int | None, max_restarts: int | None = None) -> int
     if tornado.process._task_id is not None:
         raise RuntimeError("the server's workers are forked already")
     count = num_processes if num_processes and num_processes > 0 else usable_cores()
-    return Supervisor(count).run()
+    return Supervisor(count, max_restarts=MAX_RESTARTS if max_restarts is None else max_restarts).run()
 
 
 def install() -> None:
