@@ -36,9 +36,9 @@ documents), rather than spawning ``panel serve`` as a child. That lets it
 * stay one command for a container: PID 1 receives ``docker stop``'s SIGTERM directly and, with several worker
   processes, passes it on to each of them (:mod:`app.serving.workers`).
 
-With several processes (the default: one per usable core), the page's HTML is answered from a page built once per
-process at start-up (Panel's ``--reuse-sessions``), and a session's own page is built only when its websocket
-connects, in the process that accepted it: the operating system spreads connections over the processes, and a
+With several processes (the default: one per usable core), the page's HTML is answered from pages built once per
+process at start-up (Panel's ``--reuse-sessions``, :mod:`app.serving.pages`), and a session's own page is built
+only when its websocket connects, in the process that accepted it: the operating system spreads connections over the processes, and a
 page request and its websocket may reach different ones; building at the websocket means that each page is built
 once, where its session lives (:ref:`serving-many`). Long jobs take one slot for the whole server
 (:func:`app.jobs.long.machine_slot`), not one per process.
@@ -265,21 +265,18 @@ def _serve_command(
     from panel.command.serve import Serve
 
     class StrictServe(Serve):
-        index = None
-
         def warm_applications(self, applications, *args, **kwargs):
-            self.index = kwargs.get("index")
             super().warm_applications(applications, *args, **kwargs)
             raise_if_failed(applications.values())
 
         def customize_server(self, server):
             from tornado.process import task_id
 
-            if workers.is_worker():
-                # Before the fork, Panel's warm-up may not run the app (bokeh forks only a process where no app
-                # code ran): each worker builds the page its HTML answers come from here, before it serves.
-                apps = {path: context.application for path, context in server._tornado._applications.items()}
-                self.warm_applications(apps, True, initialize_session=True, index=self.index)
+            from app.serving import pages
+
+            # The pages this process answers HTML requests from, built here in each process (before a fork, Panel's
+            # warm-up may not run the app: bokeh forks only a process where no app code ran).
+            pages.build_pages({path: c.application for path, c in server._tornado._applications.items()})
             warm_long_jobs()  # in each process: a fork server and the queue's thread do not survive a fork
             if task_id() in (None, 0):
                 print(

@@ -12,6 +12,7 @@ import signal
 import socket
 import threading
 
+import pytest
 from _serving import fixture_app, run, served, session_client
 from bokeh.util.token import get_session_id
 
@@ -184,3 +185,27 @@ def test_long_jobs_come_back_from_forked_processes(tmp_path):
         assert len(BUILT.findall(log.read_text())) == 2  # built once each, in forked processes
     for texts in answers:
         assert any("Simulated in" in t for t in texts), [t for t in texts if "Failed" in t]
+
+
+@pytest.mark.parametrize(
+    ("query", "present"),
+    [
+        ("", False),
+        ("?present=1", True),
+        ("?present=yes&sigma=200", True),
+        ("?present=0", False),
+        ("?present=%00garbage", False),
+        ("?present=1&present=off", False),
+    ],
+)
+def test_a_page_is_answered_from_one_of_two_start_up_pages(query, present):
+    """Only presenter mode changes a page's HTML: any link maps to one of two pages built at start-up (a link cannot
+    make a process keep another), read as the page reads its link (a repeated key: its last value)."""
+    from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
+
+    from app.serving.pages import page_key
+
+    request = HTTPServerRequest(
+        start_line=RequestStartLine("GET", f"/app{query}", "HTTP/1.1"), headers=HTTPHeaders({"Host": "x"})
+    )
+    assert page_key(request) == ("/app", present)
