@@ -38,9 +38,9 @@ documents), rather than spawning ``panel serve`` as a child. That lets it
 
 With several processes (the default: one per usable core), the page's HTML is answered from pages built once per
 process at start-up (Panel's ``--reuse-sessions``, :mod:`app.serving.pages`), and a session's own page is built
-only when its websocket connects, in the process that accepted it: the operating system spreads connections over the processes, and a
-page request and its websocket may reach different ones; building at the websocket means that each page is built
-once, where its session lives (:ref:`serving-many`). Long jobs take one slot for the whole server
+only when its websocket connects, in the process that accepted it: the operating system spreads connections over
+the processes, and a page request and its websocket may reach different ones; building at the websocket means that
+each page is built once, where its session lives (:ref:`serving-cores`). Long jobs take one slot for the whole server
 (:func:`app.jobs.long.machine_slot`), not one per process.
 
 ``--check`` runs the warm-up only (a small simulation to fill the numba cache, then the app once) and exits:
