@@ -274,17 +274,17 @@ def _serve_command(
 
             from app.serving import pages
 
-            # The pages this process answers HTML requests from, built here in each process (before a fork, Panel's
-            # warm-up may not run the app: bokeh forks only a process where no app code ran).
-            pages.build_pages({path: c.application for path, c in server._tornado._applications.items()})
-            warm_long_jobs()  # in each process: a fork server and the queue's thread do not survive a fork
-            if task_id() in (None, 0):
+            if task_id() in (None, 0):  # first: another process may answer before this one is ready
                 print(
                     f"isl dashboard: {browser_url(server.address or '', server.port)}  (listening on "
                     f"{server.address}:{server.port}; websocket origins: {', '.join(origins)}; "
                     f"set {ENV['origins']} to add hosts)",
                     flush=True,
                 )
+            # The pages this process answers HTML requests from, built here in each process (before a fork, Panel's
+            # warm-up may not run the app: bokeh forks only a process where no app code ran).
+            pages.build_pages({path: c.application for path, c in server._tornado._applications.items()})
+            warm_long_jobs()  # in each process: a fork server and the queue's thread do not survive a fork
             from tornado.ioloop import PeriodicCallback
 
             if stats_interval_ms > 0:
