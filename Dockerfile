@@ -2,8 +2,9 @@
 #   docker build -t isl .
 #   docker run --rm -p 5006:5006 -e ISL_ALLOWED_ORIGINS=localhost:5006 isl
 # Settings by environment at `docker run` time: ISL_ALLOWED_ORIGINS (comma-separated host[:port] the browsers
-# use to reach the server), ISL_FRAME_ANCESTORS (a course page allowed to frame it), ISL_NUM_PROCS,
-# ISL_NUM_THREADS (see app/serving/serve.py). The image sets PYTHONMALLOC=malloc: a class's memory goes back to the
+# use to reach the server), ISL_FRAME_ANCESTORS (a course page allowed to frame it), ISL_NUM_PROCS (default: one
+# server process per core the container may use; 1: one process), ISL_NUM_THREADS (see app/serving/serve.py).
+# docker stop's SIGTERM reaches PID 1, which passes it on to every server process and exits once they have. The image sets PYTHONMALLOC=malloc: a class's memory goes back to the
 # OS when it ends (app/serving/memory.py). Its documentation is built into it and served at /docs/. Runs as any
 # UID in group 0 (OpenShift) and with --read-only --tmpfs /tmp.
 # The base image by digest: python:3.11.14-slim-bookworm (the multi-architecture index).

@@ -4,6 +4,7 @@
     PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before   # a worktree of the previous commit
     PYTHONPATH=. python benchmarks/bench_classroom.py --before . --before-env PYTHONMALLOC=pymalloc  # a setting
     PYTHONPATH=. python benchmarks/bench_classroom.py --url http://127.0.0.1:5006 --server-pid PID --log LOG
+    PYTHONPATH=. python benchmarks/bench_classroom.py --procs 1,0   # one process, then one per core (the default)
 
 Starts ``python -m app.serving`` on a free loopback port (or measures a running one) and, with the scripted
 browser-like client of ``scripts/session_client.py``:
@@ -18,9 +19,10 @@ browser-like client of ``scripts/session_client.py``:
    RSS is sampled every 2 s;
 4. *closed*: every session is closed; once the server reports none left, its RSS.
 
-Prints one table: errors, liveness p50/p99/max, the students' latency p50/p95 (baseline and loaded), page-ready
-times (idle and loaded), RSS (idle, peak, after close), and what the heavy sessions got done. The machine's load
-average is printed too: figures are only comparable on an otherwise idle machine.
+Every session opens as a browser does (the page's HTML, then its websocket). Prints one table: errors, liveness
+p50/p99/max, the students' latency p50/p95 (baseline and loaded), page-ready times (idle and loaded), RSS (idle,
+peak, after close), what the heavy sessions got done — in all, then per server process (its RSS with its long
+jobs' processes, the pages it built). The load average is printed: figures compare only on an idle machine.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ HEAVY = (
 )
 WORST = "m=6&wc_n_sigma=11&wc_horizon=2000"
 TIMELINE: list = []
+BUILT = re.compile(r"isl page: built for session \S+ in process (\d+)")  # app.serving.offloop's line
 DONE = re.compile(r"Simulated in|Failed|Refused|refused|queue|Cancelled")
 
 
@@ -66,6 +69,14 @@ class Figures:
     rss_closed: float = float("nan")
     heavy_runs: int = 0
     worst_tables: int = 0
+    processes: dict[int, list[float]] = field(default_factory=dict)  # a worker's pid → its RSS samples, in order
+    pages: dict[int, int] = field(default_factory=dict)  # a worker's pid → the pages it built
+
+    def sample(self, pid: int) -> float:
+        """The server's RSS in all (returned), and each of its processes' (kept)."""
+        for worker in sc.server_processes(pid):
+            self.processes.setdefault(worker, []).append(sc.rss_mb(worker))
+        return sc.rss_mb(pid)
 
 
 def pct(data: list[float], q: float) -> float:
@@ -83,7 +94,7 @@ async def page_ready(base: str, figures: Figures, query: str = "") -> float | No
     """Seconds from opening a page to its first run's plot data (a full client: it applies every patch)."""
     t0 = time.perf_counter()
     try:
-        client = await sc.BokehClient.connect(base, query=query, timeout=sc.CONNECT_TIMEOUT_S)
+        client = await sc.open_page(base, query)
     except Exception as exc:  # noqa: BLE001
         figures.errors.append(f"page: {exc!r}")
         return None
@@ -105,7 +116,7 @@ def _button(doc, label: str):
 
 async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open HEAVY and press "new noise" each time its run is shown."""
-    client = await sc.BokehClient.connect(base, query=HEAVY, timeout=sc.CONNECT_TIMEOUT_S)
+    client = await sc.open_page(base, HEAVY)
     try:
         await client.widgets()
         await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]), 300.0)
@@ -127,7 +138,7 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
 
 async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open the worst-case tab at its maximum and press Compute each time a table or a refusal is shown."""
-    client = await sc.BokehClient.connect(base, query=WORST, timeout=sc.CONNECT_TIMEOUT_S)
+    client = await sc.open_page(base, WORST)
     try:
         tabs = next(m for m in client.doc.models if type(m).__name__ == "Tabs")
         await client.change(tabs, active=2)
@@ -158,10 +169,7 @@ async def students(
     clients = []
     for first in range(0, n, 10):
         batch = await asyncio.gather(
-            *(
-                sc.BokehClient.connect(base, light=True, timeout=sc.CONNECT_TIMEOUT_S)
-                for _ in range(first, min(first + 10, n))
-            ),
+            *(sc.open_page(base, light=True) for _ in range(first, min(first + 10, n))),
             return_exceptions=True,
         )
         for c in batch:
@@ -204,7 +212,7 @@ async def students(
 async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: float, duration: float) -> Figures:
     fig = Figures()
     await asyncio.sleep(2.0)
-    fig.rss_idle = sc.rss_mb(pid)
+    fig.rss_idle = fig.sample(pid)
     for _ in range(3):
         if (t := await page_ready(base, fig)) is not None:
             fig.ready_idle.append(t)
@@ -219,7 +227,7 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
     t_end = time.perf_counter() + duration
     next_page = time.perf_counter() + 30.0
     while time.perf_counter() < t_end:
-        fig.rss.append(sc.rss_mb(pid))
+        fig.rss.append(fig.sample(pid))
         if time.perf_counter() >= next_page:
             next_page += 30.0
             if (t := await page_ready(base, fig)) is not None:
@@ -234,16 +242,19 @@ async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: floa
         except Exception as exc:  # noqa: BLE001
             fig.errors.append(f"heavy session: {exc!r}")
     await probe.finish(fig, TIMELINE)
-    fig.rss.append(sc.rss_mb(pid))
+    fig.rss.append(fig.sample(pid))
     deadline = time.perf_counter() + 120.0  # unused sessions are released 10 s after their last connection
     while time.perf_counter() < deadline:
         stats = lt.server_stats(log) if log is not None else []
-        if stats and stats[-1][0] == 0:
+        if stats and stats[-1][0] == 0 and all(lt.released_by_process(log).values()):  # in every process
             break
         await asyncio.sleep(2.0)
     if log is not None:  # the trimmer's line once nothing is left (a checkout from before it logged: 15 s)
         await lt.all_released(log, trims, 15.0)
-    fig.rss_closed = sc.rss_mb(pid)
+    fig.rss_closed = fig.sample(pid)
+    built = [int(p) for p in BUILT.findall(log.read_text())] if log is not None else []
+    if built:  # a checkout from before that log line: not known
+        fig.pages = {worker: built.count(worker) for worker in fig.processes}
     return fig
 
 
@@ -275,23 +286,32 @@ def rows(f: Figures) -> list[tuple[str, str]]:
             f"{f.rss_idle:.0f} / {max(f.rss, default=float('nan')):.0f} / {f.rss_closed:.0f} MB",
         ),
         ("heavy runs shown / worst-case answers", f"{f.heavy_runs} / {f.worst_tables}"),
+    ] + [
+        (
+            f"process {k}: RSS idle / peak / after close, pages built",
+            f"{rss[0]:.0f} / {max(rss):.0f} / {rss[-1]:.0f} MB, {f.pages.get(pid, '–')}",
+        )
+        for k, (pid, rss) in enumerate(f.processes.items(), 1)
     ]
 
 
 def report(columns: dict[str, Figures]) -> str:
     """One row per figure, one column per server (``before`` / ``after`` or just this checkout)."""
-    table = [rows(f) for f in columns.values()]
-    width = max(len(name) for name, _ in table[0])
-    cells = [max(len(h), *(len(row[1]) for row in t)) for h, t in zip(columns, table, strict=True)]
+    table = [dict(rows(f)) for f in columns.values()]
+    names = list(dict.fromkeys(name for t in table for name in t))  # a column with more processes has more rows
+    width = max(len(name) for name in names)
+    cells = [max(len(h), *(len(v) for v in t.values())) for h, t in zip(columns, table, strict=True)]
     lines = [f"{'':<{width}}  " + "  ".join(f"{h:<{c}}" for h, c in zip(columns, cells, strict=True))]
-    for k, (name, _) in enumerate(table[0]):
-        lines.append(f"{name:<{width}}  " + "  ".join(f"{t[k][1]:<{c}}" for t, c in zip(table, cells, strict=True)))
+    for name in names:
+        lines.append(
+            f"{name:<{width}}  " + "  ".join(f"{t.get(name, '–'):<{c}}" for t, c in zip(table, cells, strict=True))
+        )
     return "\n".join(lines)
 
 
-def measure(opts, repo: Path, env: list[str]) -> Figures:
-    """The scenario against a server started from checkout ``repo`` with more environment ``env`` (``NAME=VALUE``
-    items), or against the running one of ``--url``."""
+def measure(opts, repo: Path, env: list[str], procs: str = "0") -> Figures:
+    """The scenario against a server started from checkout ``repo`` with ``--num-procs procs`` and more environment
+    ``env`` (``NAME=VALUE`` items), or against the running one of ``--url``."""
     proc = None
     url, pid, log = opts.url, opts.server_pid, opts.log
     if url is None:
@@ -300,7 +320,7 @@ def measure(opts, repo: Path, env: list[str]) -> Figures:
         proc = sc.start_server(
             port,
             log,
-            ["--stats-interval", "1000", *opts.server_args.split()],
+            ["--stats-interval", "1000", "--num-procs", procs, *opts.server_args.split()],
             repo=repo,
             env=dict(item.split("=", 1) for item in env),
         )
@@ -318,16 +338,19 @@ def main() -> int:
     p.add_argument("--students", type=int, default=40)
     p.add_argument("--baseline", type=float, default=60.0, help="seconds of students alone")
     p.add_argument("--duration", type=float, default=300.0, help="seconds with the heavy sessions")
-    p.add_argument("--url")
-    p.add_argument("--server-pid", type=int)
+    p.add_argument("--url"), p.add_argument("--server-pid", type=int)
     p.add_argument("--log", type=Path, help="the running server's log (with --stats-interval 1000)")
     p.add_argument("--server-args", default="", help="more options for the server this script starts")
+    p.add_argument(
+        "--procs",
+        default="0",
+        help="--num-procs of the started server, comma-separated: one column each (default 0: one per core)",
+    )
     p.add_argument(
         "--before",
         type=Path,
         metavar="CHECKOUT",
-        help="first measure a server started from this other checkout (e.g. a git worktree of the "
-        "previous commit), then this one's: the table's before and after columns",
+        help="first measure a server of this other checkout (e.g. a worktree of the previous commit)",
     )
     p.add_argument(
         "--env",
@@ -350,11 +373,16 @@ def main() -> int:
         p.error("--env and --before-env take NAME=VALUE")
     if opts.before is not None and opts.url is not None:
         p.error("--before starts its own servers: it does not go with --url")
+    procs = [v.strip() for v in opts.procs.split(",") if v.strip()]
+    if not procs or not all(v.isdigit() for v in procs):
+        p.error(f"--procs takes process counts (0: one per core) separated by commas, got {opts.procs!r}")
     columns = {}
     if opts.before is not None:
-        columns["before"] = measure(opts, opts.before.resolve(), opts.before_env)
+        columns["before"] = measure(opts, opts.before.resolve(), opts.before_env, procs[0])
+    for count in procs:  # the timeline (ISL_TIMELINE) is the last column's
         TIMELINE.clear()
-    columns["after" if columns else "this checkout"] = figures = measure(opts, sc.REPO, opts.env)
+        name = "after" if opts.before is not None else {"0": "one per core", "1": "1 process"}.get(count, count)
+        columns[name] = measure(opts, sc.REPO, opts.env, count)
     print(
         f"classroom scenario: {opts.students} students, baseline {opts.baseline:g} s, loaded {opts.duration:g} s "
         f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)"
@@ -365,7 +393,7 @@ def main() -> int:
         with open(os.environ["ISL_TIMELINE"], "w") as f:
             for t, what, dt in sorted(TIMELINE):
                 f.write(f"{t - t0:8.3f} {what:20s} {1000 * dt:8.0f}\n")
-    return 0 if not figures.errors else 1
+    return 0 if not any(f.errors for f in columns.values()) else 1
 
 
 if __name__ == "__main__":

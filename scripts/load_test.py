@@ -34,13 +34,18 @@ import asyncio
 import json
 import os
 import random
-import re
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from server_control import (  # noqa: F401  (the server's log, read here and by the classroom benchmark)
+    all_released,
+    released_by_process,
+    server_stats,
+    server_trims,
+)
 from session_client import (  # (the client lives beside this script)
     CONNECT_TIMEOUT_S,
     BokehClient,
@@ -196,33 +201,6 @@ async def run_load(
 
 
 # ------------------------------------------------------------------------------------------------------ memory
-STATS = re.compile(r"isl stats: sessions=(\d+) connections=(\d+) pending_releases=(\d+) rss_mb=([\d.]+)")
-
-
-TRIMS = re.compile(r"isl trim: sessions=(\d+) pending_releases=(\d+) collected=\w+ rss_mb=([\d.]+)")
-
-
-def server_stats(log_path: Path) -> list[tuple[int, int, int, float]]:
-    """Every ``isl stats`` line the server has logged so far (``--stats-interval``)."""
-    return [(int(a), int(b), int(c), float(d)) for a, b, c, d in STATS.findall(log_path.read_text())]
-
-
-def server_trims(log_path: Path) -> list[tuple[int, int]]:
-    """``(sessions, pending releases)`` of every ``isl trim`` line so far (app.serving.memory.MemoryTrimmer)."""
-    return [(int(a), int(b)) for a, b, _ in TRIMS.findall(log_path.read_text())]
-
-
-async def all_released(log_path: Path, trims_before: int, timeout: float = 120.0) -> bool:
-    """Wait until the server has trimmed its memory with no session left and every release hook run (an ``isl
-    trim`` line after the first ``trims_before``); False after ``timeout`` seconds."""
-    deadline = time.perf_counter() + timeout
-    while time.perf_counter() < deadline:
-        if (0, 0) in server_trims(log_path)[trims_before:]:
-            return True
-        await asyncio.sleep(0.2)
-    return False
-
-
 @dataclass
 class MemoryRound:
     rss_before_mb: float

@@ -5,21 +5,18 @@
 same session token, same ``PULL-DOC`` / ``PATCH-DOC`` messages, a ``document_ready`` event after the pull), but
 without rendering: it keeps its own copy of the document, so it sees every update the server sends, and it can
 change widgets and fire events as a user would. Used by the load script (``scripts/load_test.py``), the classroom
-benchmark and the serving tests.
+benchmark and the serving tests. Starting and stopping a server: :mod:`server_control` (re-exported here).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import os
 import random
 import re
-import subprocess
 import sys
 import time
-import urllib.request
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Self
@@ -37,10 +34,21 @@ from bokeh.util.token import generate_jwt_token, generate_session_id
 from tornado.httpclient import HTTPRequest
 from tornado.websocket import websocket_connect
 
-REPO = Path(__file__).resolve().parents[1]
-#: the environment ./scripts/serve and the image give the server (the allocator: app/serving/memory.py)
-SERVE_ENV = {"PYTHONMALLOC": "malloc"}
-LOOPBACK = {"127.0.0.1", "localhost", "::1"}
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from server_control import (  # noqa: F401  (re-exported: the server's side, for the same users)
+    LOOPBACK,
+    REPO,
+    SERVE_ENV,
+    check_loopback,
+    descendants,
+    free_port,
+    rss_mb,
+    server_processes,
+    start_server,
+    stop_server,
+    wait_healthy,
+)
+
 DATA_EVENTS = {"ColumnDataChanged", "ColumnsStreamed", "ColumnsPatched"}
 # A session opens in a few seconds of server CPU, one after another: a generous bound that only catches hangs.
 CONNECT_TIMEOUT_S = 300.0
@@ -86,17 +94,18 @@ class BokehClient:
         light: bool = False,
         query: str = "",
         host: str | None = None,
+        token: str | None = None,
     ) -> BokehClient:
         """Open a session like a browser on ``base_url`` would, pull the document and announce it ready.
 
         ``light``: apply the server's later patches to ``doc`` except plot data (those go stale; ``patches`` still
         records every change) — one process can then drive a classroom.
         ``query``: the page's URL query (``"sigma=200&m=6"``), as a link would carry it. ``host``: the ``Host`` header
-        (as a reverse proxy forwards the public name), default the URL's.
+        (as a reverse proxy forwards the public name), default the URL's. ``token``: the session token of a page the
+        server sent (:func:`page_token`), as the browser that loaded the page would send it; default a new session.
         """
         parsed = urlparse(base_url)
-        session_id = generate_session_id()
-        token = generate_jwt_token(session_id)
+        token = token or generate_jwt_token(generate_session_id())
         ws_url = f"ws://{parsed.netloc}{app_path}/ws" + (f"?{query.lstrip('?')}" if query else "")
         request = HTTPRequest(
             ws_url,
@@ -300,101 +309,19 @@ def new_value(slider: Model, rng: random.Random, last: float | None = None) -> f
     return end if abs(end - last) > abs(start - last) else start
 
 
-# ------------------------------------------------------------------------------------------------ server helpers
-def check_loopback(url: str) -> None:
-    host = urlparse(url).hostname or ""
-    if host not in LOOPBACK:
-        raise SystemExit(f"load tests run against loopback only, got {url}")
+async def page_token(base_url: str, app_path: str = "/app", query: str = "", timeout: float = 60.0) -> str:
+    """Load the page as a browser would (``GET app_path``) and return the session token it carries."""
+    from tornado.httpclient import AsyncHTTPClient
+
+    url = f"{base_url}{app_path}" + (f"?{query.lstrip('?')}" if query else "")
+    page = (await AsyncHTTPClient().fetch(url, request_timeout=timeout)).body.decode()
+    found = re.search(r'"token":\s*"([^"]+)"', page)
+    if found is None:
+        raise RuntimeError(f"no session token in the page {url}")
+    return found.group(1)
 
 
-def rss_mb(pid: int) -> float:
-    """Resident memory of process ``pid`` and its descendants in MB (Linux ``/proc``; ``--num-procs`` forks)."""
-    children: dict[int, list[int]] = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
-    total, todo = 0.0, [pid]
-    while todo:
-        p = todo.pop()
-        todo += children.get(p, [])
-        try:
-            with open(f"/proc/{p}/status") as f:
-                total += next(int(line.split()[1]) for line in f if line.startswith("VmRSS:")) / 1024
-        except (OSError, StopIteration):
-            continue
-    return total
-
-
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_healthy(port: int, timeout: float, proc: subprocess.Popen | None = None) -> float:
-    """Seconds until ``/liveness`` answers 200; raises if the server exits or ``timeout`` passes."""
-    t0 = time.perf_counter()
-    while time.perf_counter() - t0 < timeout:
-        if proc is not None and proc.poll() is not None:
-            raise RuntimeError(f"server exited with code {proc.returncode} before it was healthy")
-        try:
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/liveness", timeout=2) as r:
-                if r.status == 200:
-                    return time.perf_counter() - t0
-        except OSError:
-            pass
-        time.sleep(0.1)
-    raise TimeoutError(f"server on port {port} not healthy after {timeout} s")
-
-
-def start_server(
-    port: int,
-    log_path: Path,
-    extra: Iterable[str] = (),
-    env: dict | None = None,
-    script: str | None = None,
-    repo: Path = REPO,
-) -> subprocess.Popen:
-    """Start ``python -m app.serving`` of checkout ``repo`` (default: this one) on 127.0.0.1:``port`` (optionally
-    serving another app ``script``)."""
-    # a checkout from before app/serving has app/serve.py (chosen by the tree: the editable install of this one
-    # would supply a missing app.serving from here)
-    module = "app.serving.serve" if (repo / "app" / "serving").is_dir() else "app.serve"
-    code = (
-        f"import sys\nimport {module} as s\n"
-        + (f"s.app_script = lambda: {script!r}\n" if script else "")
-        + "sys.exit(s.main(sys.argv[1:]))"
-    )
-    # this checkout served as scripts/serve serves it; an older checkout as it was (its scripts/serve set nothing)
-    served_as = SERVE_ENV if repo.resolve() == REPO else {}
-    full_env = {
-        **os.environ,
-        **served_as,
-        "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
-        **(env or {}),
-    }
-    with open(log_path, "w") as log:  # the child keeps its own descriptor
-        return subprocess.Popen(
-            [sys.executable, "-c", code, "--address", "127.0.0.1", "--port", str(port), *extra],
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            env=full_env,
-            cwd=repo,
-        )
-
-
-def stop_server(proc: subprocess.Popen, timeout: float = 15.0) -> int:
-    """SIGTERM, then SIGKILL after ``timeout``; the exit code."""
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-    return proc.returncode
+async def open_page(base_url: str, query: str = "", light: bool = False) -> BokehClient:
+    """A session opened as a browser opens it: the page's HTML (:func:`page_token`), then its websocket."""
+    token = await page_token(base_url, query=query, timeout=CONNECT_TIMEOUT_S)
+    return await BokehClient.connect(base_url, query=query, token=token, light=light, timeout=CONNECT_TIMEOUT_S)

@@ -44,7 +44,7 @@ def app_server(tmp_path_factory):
     port = free_port()
     log = tmp_path_factory.mktemp("serve") / "panel.log"
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    cmd = [sys.executable, "-m", "app.serving", "--port", str(port), "--address", "127.0.0.1"]
+    cmd = [sys.executable, "-m", "app.serving", "--port", str(port), "--address", "127.0.0.1", "--num-procs", "1"]
     with open(log, "w") as out:
         proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
     try:

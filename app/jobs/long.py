@@ -14,7 +14,10 @@ The rules, as data that a test can check without a browser:
 * a waiting job knows its place — ``on_position(k)`` is called with the number of jobs ahead of it (running ones
   included) whenever that number changes;
 * a job can be cancelled while it waits (it is dropped) or while it runs (its ``cancel`` event is set; the job's
-  progress callback raises at its next report).
+  progress callback raises at its next report);
+* with one server process per core, "one at a time" holds for the whole server, not per process: a job starts only
+  once it holds the server's slot (:func:`machine_slot`), so that heavy sessions on one process do not take every
+  core from the students of another; a job waiting for a job of another process counts that one as ahead of it.
 
 Each session reaches the queue through its :class:`app.jobs.threads.Jobs` (``submit_long``) and shows a job's progress,
 place and outcome through a :class:`LongTask`.
@@ -22,11 +25,13 @@ place and outcome through a :class:`LongTask`.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import logging
 import multiprocessing
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from functools import partial
 from multiprocessing.connection import wait
@@ -34,9 +39,11 @@ from typing import Any
 
 from .base import LONG_NICE, Cancelled, Outcome, QueueFull, call, in_steps, lower_priority
 
-__all__ = ["LongJobQueue", "LongTask", "Ticket", "in_process", "ping"]
+__all__ = ["SLOT_ENV", "LongJobQueue", "LongTask", "Ticket", "in_process", "machine_slot", "ping"]
 
 log = logging.getLogger(__name__)
+
+SLOT_ENV = "ISL_LONG_JOBS_LOCK"  #: the lock file of the server's one long-job slot (:func:`machine_slot`)
 
 
 @dataclass(eq=False)
@@ -56,12 +63,20 @@ class LongJobQueue:
     def __init__(self, workers: int = 1, max_waiting: int = 8, nice: int = LONG_NICE, processes: bool = False) -> None:
         self.max_waiting = max_waiting
         self.processes = processes  #: run each job's computation in a child process (:func:`in_process`)
+        self.workers, self.nice = workers, nice
+        self._start()
+
+    def _start(self) -> None:
+        """The queue's state and threads, in this process (again in a forked server worker: threads do not survive
+        a fork, and a queue inherited without them would never run a job)."""
+        self._pid = os.getpid()
         self._waiting: list[Ticket] = []
         self._running: list[Ticket] = []
+        self._elsewhere = 0  # 1 while a job waits for the machine's slot (another process's long job holds it)
         self._cv = threading.Condition()
         self._threads = [
-            threading.Thread(target=self._work, args=(lower_priority(nice),), daemon=True, name=f"isl-long-{k}")
-            for k in range(workers)
+            threading.Thread(target=self._work, args=(lower_priority(self.nice),), daemon=True, name=f"isl-long-{k}")
+            for k in range(self.workers)
         ]
         for t in self._threads:
             t.start()
@@ -75,6 +90,8 @@ class LongJobQueue:
     ) -> Ticket:
         """Queue ``fn(cancel_event)`` for ``owner``; ``done(outcome)`` when it ends. ``QueueFull`` if it may not."""
         ticket = Ticket(owner, fn, done, on_position)
+        if self._pid != os.getpid():
+            self._start()
         with self._cv:
             if any(t.owner is owner for t in (*self._waiting, *self._running)):
                 raise QueueFull("you already have a long computation waiting or running; wait for it or cancel it")
@@ -104,7 +121,7 @@ class LongJobQueue:
     def positions(self) -> dict[int, int]:
         """``{id(ticket): jobs ahead}`` of the waiting tickets (for tests and logs)."""
         with self._cv:
-            return {id(t): len(self._running) + k for k, t in enumerate(self._waiting)}
+            return {id(t): self._ahead() + k for k, t in enumerate(self._waiting)}
 
     @property
     def load(self) -> tuple[int, int]:
@@ -114,12 +131,20 @@ class LongJobQueue:
 
     def _report(self) -> None:
         with self._cv:
-            places = [(t, len(self._running) + k) for k, t in enumerate(self._waiting)]
+            places = [(t, self._ahead() + k) for k, t in enumerate(self._waiting)]
         for ticket, ahead in places:
             try:
                 ticket.on_position(ahead)
             except Exception:  # a closed session's callback must not stop the queue
                 log.debug("position report failed", exc_info=True)
+
+    def _ahead(self) -> int:
+        return len(self._running) + self._elsewhere
+
+    def _waits_elsewhere(self) -> None:
+        with self._cv:
+            self._elsewhere = 1
+        self._report()
 
     def _work(self, initializer: Callable[[], None]) -> None:
         initializer()
@@ -127,17 +152,51 @@ class LongJobQueue:
             with self._cv:
                 while not self._waiting:
                     self._cv.wait()
-                ticket = self._waiting.pop(0)
-                self._running.append(ticket)
-            self._report()
-            outcome = call(partial(ticket.fn, ticket.cancel))
-            with self._cv:
-                self._running.remove(ticket)
+            with machine_slot(on_wait=self._waits_elsewhere):  # another process of the server may run one
+                with self._cv:
+                    self._elsewhere = 0
+                    if not self._waiting:  # cancelled while it waited for the slot
+                        continue
+                    ticket = self._waiting.pop(0)
+                    self._running.append(ticket)
+                self._report()
+                outcome = call(partial(ticket.fn, ticket.cancel))
+                with self._cv:
+                    self._running.remove(ticket)
             self._report()
             try:
                 ticket.done(outcome)
             except Exception:
                 log.exception("delivering a long job's outcome failed")
+
+
+@contextlib.contextmanager
+def machine_slot(path: str | None = None, on_wait: Callable[[], None] | None = None) -> Iterator[None]:
+    """Hold the server's one long-job slot, shared by all its processes: an exclusive ``flock`` on the file named by
+    ``ISL_LONG_JOBS_LOCK`` (:func:`app.serving.serve.serve` creates it before the workers fork), waited for in the
+    kernel (``on_wait()`` first, if another process holds it). The kernel releases it when its holder's process ends,
+    however it ends: a killed worker cannot keep it. Without the variable (one process, tests) the queue's own thread
+    is the only limit."""
+    path = path if path is not None else os.environ.get(SLOT_ENV)
+    if not path:
+        yield
+        return
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o600)
+    except OSError:  # the file went away (its directory cleaned): this process's queue alone limits its jobs
+        log.warning("long jobs: cannot open the server's slot %s; this process runs its own one at a time", path)
+        yield
+        return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            if on_wait is not None:
+                on_wait()
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 #: modules the child processes' parent (a fork server) imports once, so that a job starts in milliseconds

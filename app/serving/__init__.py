@@ -6,6 +6,7 @@
 * :mod:`app.serving.hardening` — the exception handler, traceback-free websocket errors, per-session release hooks;
 * :mod:`app.serving.offloop` — each session's page built on a thread instead of the event loop, and what threads
   hand back to the loop (callbacks, link registrations) made safe to hand over;
+* :mod:`app.serving.workers` — one server process per core: how many, forked how, and stopped together;
 * :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class;
 * :mod:`app.serving.fastpath` — less of Panel's Python per slider change (design stylesheets only when they change).
 

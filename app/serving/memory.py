@@ -80,12 +80,13 @@ def log_stats(server) -> None:
     sessions = server.get_sessions()
     connections = sum(s.connection_count for s in sessions)
     log.info(
-        "isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f %s",
+        "isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f %s pid=%d",
         len(sessions),
         connections,
         hardening.live_release_hooks(),
         rss_mb(),
         PAUSES.take(),
+        os.getpid(),  # one server process of several: which one
     )
 
 
@@ -138,11 +139,12 @@ class MemoryTrimmer:
                 self._trim(0)
             # the event a memory measurement waits for (scripts/load_test.py), instead of a guess at the interval
             log.info(
-                "isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f",
+                "isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f pid=%d",
                 sessions,
                 pending,
                 collected,
                 rss_mb(),
+                os.getpid(),  # one server process of several: which one
             )
         else:
             young_then_freeze()

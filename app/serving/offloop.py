@@ -42,11 +42,13 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import threading
 import weakref
 from concurrent.futures import ThreadPoolExecutor
 
 log = logging.getLogger(__name__)
+pages_log = logging.getLogger("isl.pages")  #: one line per page built (its session and process: serving-many)
 
 #: the one thread that runs the app script for new sessions
 PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-page")
@@ -190,6 +192,7 @@ def build_pages_off_loop(application) -> None:
         await asyncio.get_running_loop().run_in_executor(PAGE_POOL, initialize, doc)
         state._thread_id_[doc] = loop_thread  # the session's document belongs to the loop from now on
         built.add(doc)
+        pages_log.info("isl page: built for session %s in process %d", session_context.id, os.getpid())
 
     def initialize_document(doc) -> None:
         if doc in built:

@@ -9,7 +9,7 @@ option                          environment              default
 ``--address``                   ``ISL_ADDRESS``          ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
 ``--port``                      ``ISL_PORT``             5006
 ``--allow-websocket-origin``    ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
-``--num-procs``                 ``ISL_NUM_PROCS``        1 (more classes: more servers, :ref:`serving-many`)
+``--num-procs``                 ``ISL_NUM_PROCS``        0: one process per usable core (:ref:`serving-many`)
 ``--num-threads``               ``ISL_NUM_THREADS``      4 threads run the callbacks (the kernel is nogil)
 ``--unused-session-lifetime``   —                        10000 ms after the last connection closes
 ``--check-unused-sessions``     —                        2000 ms between sweeps for unused sessions
@@ -33,7 +33,15 @@ documents), rather than spawning ``panel serve`` as a child. That lets it
 * make ``--warm`` strict: Panel logs a failing app script and serves an empty page anyway; here the failure of
   the warm-up run ends the process with exit code 1, so a broken image never reports healthy;
 * print the URL once the port is bound and return an exit code to ``isl serve``;
-* stay one process for a container (PID 1 receives ``docker stop``'s SIGTERM directly).
+* stay one command for a container: PID 1 receives ``docker stop``'s SIGTERM directly and, with several worker
+  processes, passes it on to each of them (:mod:`app.serving.workers`).
+
+With several processes (the default: one per usable core), the page's HTML is answered from pages built once per
+process at start-up (Panel's ``--reuse-sessions``, :mod:`app.serving.pages`), and a session's own page is built
+only when its websocket connects, in the process that accepted it: the operating system spreads connections over
+the processes, and a page request and its websocket may reach different ones; building at the websocket means that
+each page is built once, where its session lives (:ref:`serving-cores`). Long jobs take one slot for the whole server
+(:func:`app.jobs.long.machine_slot`), not one per process.
 
 ``--check`` runs the warm-up only (a small simulation to fill the numba cache, then the app once) and exits:
 the Docker build uses it. ``--health`` asks ``/liveness`` of a local server and exits 0/1: the image's
@@ -50,6 +58,7 @@ import urllib.request
 from collections.abc import Sequence
 from importlib.util import find_spec
 
+from app.serving import workers
 from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, log_stats, quiet_garbage_collection
 from app.serving.warmup import AppStartupError, check_app, raise_if_failed, warm_core, warm_long_jobs
 
@@ -159,8 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--num-procs",
         type=int,
-        default=_env_int(ENV["num_procs"], 1),
-        help=f"worker processes, 0 = one per core (env {ENV['num_procs']}, default 1)",
+        default=_env_int(ENV["num_procs"], 0),
+        help=f"server processes, 0 = one per usable core (env {ENV['num_procs']}, default 0)",
     )
     p.add_argument(
         "--num-threads",
@@ -233,6 +242,7 @@ def panel_argv(opts: argparse.Namespace, script: str, origins: Sequence[str]) ->
         "--log-level",
         opts.log_level,
         "--warm",
+        "--reuse-sessions",  # the page's HTML from a page built at start-up; its own page built at its websocket
     ]  # /liveness: webguard's (Panel's can build a session)
     for origin in origins:
         argv += ["--allow-websocket-origin", origin]
@@ -262,13 +272,19 @@ def _serve_command(
         def customize_server(self, server):
             from tornado.process import task_id
 
-            if task_id() in (None, 0):
+            from app.serving import pages
+
+            if task_id() in (None, 0):  # first: another process may answer before this one is ready
                 print(
                     f"isl dashboard: {browser_url(server.address or '', server.port)}  (listening on "
                     f"{server.address}:{server.port}; websocket origins: {', '.join(origins)}; "
                     f"set {ENV['origins']} to add hosts)",
                     flush=True,
                 )
+            # The pages this process answers HTML requests from, built here in each process (before a fork, Panel's
+            # warm-up may not run the app: bokeh forks only a process where no app code ran).
+            pages.build_pages({path: c.application for path, c in server._tornado._applications.items()})
+            warm_long_jobs()  # in each process: a fork server and the queue's thread do not survive a fork
             from tornado.ioloop import PeriodicCallback
 
             if stats_interval_ms > 0:
@@ -315,8 +331,11 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     # default) to get it back each time: a page's build stalled the loop for seconds. 0.5 ms bounds that wait
     # (:ref:`performance-warm-up`).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
-    warm_core()
-    warm_long_jobs()
+    warm_core()  # before the fork: the kernels compiled once, their memory shared by the processes
+    opts.num_procs = opts.num_procs or workers.usable_cores()
+    if opts.num_procs > 1:
+        workers.install()  # SIGTERM and SIGINT reach every process; a start-up failure stops them all
+    slot = workers.long_job_slot()  # one long job at a time for the whole server (app.jobs.long.machine_slot)
     argv = panel_argv(opts, app_script(), origins)
     parser = argparse.ArgumentParser(prog="panel serve")
     command = _serve_command(origins, opts.stats_interval, ancestors, opts.trim_interval)(parser=parser)
@@ -325,11 +344,13 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
         command.invoke(args)
     except AppStartupError as exc:
         log.error("%s", exc)
-        return 1
-    except SystemExit as exc:  # bokeh exits 1 when the port is in use
+        return workers.STARTUP_FAILED if workers.is_worker() else 1
+    except SystemExit as exc:  # bokeh exits 1 when the port is in use; the parent of the workers exits with them
         return exc.code if isinstance(exc.code, int) else 1
     except KeyboardInterrupt:
         pass
+    finally:
+        slot.close()
     return 0
 
 

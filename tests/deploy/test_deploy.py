@@ -57,3 +57,15 @@ def test_pods_run_as_the_image_is_hardened_for_and_probe_liveness():
     env = {e["name"]: e["value"] for e in container["env"]}
     assert env["ISL_ALLOWED_ORIGINS"] == docs["Ingress"]["spec"]["rules"][0]["host"]
     assert container["resources"]["requests"]["cpu"]
+
+
+def test_one_process_per_requested_core_stopped_within_the_grace_period():
+    """The pod forks one server process per core it requests (the default would follow a CPU limit, or without one
+    the node's cores), and the server ends all of them before Kubernetes would kill the pod."""
+    from app.serving.workers import GRACE_S
+
+    spec = documents()["Deployment"]["spec"]["template"]["spec"]
+    (container,) = spec["containers"]
+    env = {e["name"]: e["value"] for e in container["env"]}
+    assert int(env["ISL_NUM_PROCS"]) == int(container["resources"]["requests"]["cpu"])
+    assert spec["terminationGracePeriodSeconds"] > GRACE_S + 5

@@ -72,7 +72,8 @@ def test_panel_arguments_are_the_safe_defaults(clean_env):
     assert args.warm and not args.liveness
     assert not args.admin and not args.dev and not args.autoreload
     assert args.allow_websocket_origin == ["localhost:5006", "127.0.0.1:5006"]
-    assert args.num_threads == serve.DEFAULT_NUM_THREADS and args.num_procs == 1
+    assert args.num_threads == serve.DEFAULT_NUM_THREADS and args.num_procs == 0  # one per core (app.serving.workers)
+    assert args.reuse_sessions  # a page's HTML does not build it: its websocket does, in the process it reaches
     assert args.unused_session_lifetime == serve.UNUSED_SESSION_LIFETIME_MS
     assert args.check_unused_sessions == serve.CHECK_UNUSED_SESSIONS_MS
     assert args.websocket_max_message_size == serve.WEBSOCKET_MAX_MESSAGE_BYTES
@@ -279,16 +280,17 @@ def test_memory_is_trimmed_only_after_sessions_end():
 
 
 # ------------------------------------------------------------------------------------------- real servers
-def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path):
+@pytest.mark.parametrize("procs", ["1", "2"])
+def test_broken_app_fails_the_check_and_exits_instead_of_serving(tmp_path, procs):
     broken = tmp_path / "broken.py"
     broken.write_text("import panel as pn\nraise RuntimeError('broken on purpose')\n")
     with pytest.raises(serve.AppStartupError, match="broken on purpose"):
         serve.check_app(str(broken))
     port = session_client.free_port()
     log = tmp_path / "broken.log"
-    proc = session_client.start_server(port, log, ["--stats-interval", "0"], script=str(broken))
+    proc = session_client.start_server(port, log, ["--stats-interval", "0", "--num-procs", procs], script=str(broken))
     try:
-        code = proc.wait(120)
+        code = proc.wait(120)  # with two processes, each fails its warm-up and the parent stops with them
     finally:
         session_client.stop_server(proc)
     assert code == 1
