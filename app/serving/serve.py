@@ -34,14 +34,14 @@ documents), rather than spawning ``panel serve`` as a child. That lets it
   the warm-up run ends the process with exit code 1, so a broken image never reports healthy;
 * print the URL once the port is bound and return an exit code to ``isl serve``;
 * stay one command for a container: PID 1 receives ``docker stop``'s SIGTERM directly and, with several worker
-  processes, passes it on to each of them (:mod:`app.serving.workers`).
+  processes, passes it on to each of them (:mod:`!app.serving.workers`).
 
 With several processes (the default: one per usable core), the page's HTML is answered from pages built once per
-process at start-up (Panel's ``--reuse-sessions``, :mod:`app.serving.pages`), and a session's own page is built
+process at start-up (Panel's ``--reuse-sessions``, :mod:`!app.serving.pages`), and a session's own page is built
 only when its websocket connects, in the process that accepted it: the operating system spreads connections over
 the processes, and a page request and its websocket may reach different ones; building at the websocket means that
 each page is built once, where its session lives (:ref:`serving-cores`). Long jobs take one slot for the whole server
-(:func:`app.jobs.long.machine_slot`), not one per process.
+(:func:`!app.jobs.long.machine_slot`), not one per process.
 
 ``--check`` runs the warm-up only (a small simulation to fill the numba cache, then the app once) and exits:
 the Docker build uses it. ``--health`` asks ``/liveness`` of a local server and exits 0/1: the image's
