@@ -18,6 +18,7 @@ import param
 from bokeh.models import CustomJSTickFormatter
 from panel.viewable import Viewer
 
+from .. import inputs
 from ..presets import PRESETS
 from ..state import PARAMS, AppState
 from ..text import num
@@ -56,12 +57,16 @@ class Guarded:
             isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
         )
 
+    def typed(self, value):
+        """What the user meant by ``value``: a box's ±inf is a number typed too long for a float."""
+        return value
+
     def _process_events(self, events: dict) -> None:
         refuse = getattr(self, "_refuse", None)
         bad = [v for k, v in events.items() if k in ("value", "value_throttled") and not self.fits(v)]
         if bad and refuse is not None:
             events = {k: v for k, v in events.items() if k not in ("value", "value_throttled")}
-            refuse(bad[0])
+            refuse(self.typed(bad[0]))
         if events:
             super()._process_events(events)  # type: ignore[misc]  # the Panel widget after this mixin has it
 
@@ -74,15 +79,21 @@ def _within(widget, value, integral: bool) -> bool:
     return widget.start - slack <= value <= widget.end + slack and (not integral or float(value).is_integer())
 
 
-class WholeInput(Guarded, pn.widgets.IntInput):
-    """A box for a whole number: anything else the browser sends is refused by the state, by name."""
-
-    def fits(self, value) -> bool:
-        return value is None or (super().fits(value) and float(value).is_integer() and abs(value) < 2**53)
-
-
 class NumberInput(Guarded, pn.widgets.FloatInput):
-    """A box for a number: anything else the browser sends is refused by the state, by name."""
+    """A box for a number: anything else the browser sends is refused by the state, by name. BokehJS reads what is
+    typed with ``Number()``: a number too long for a float (``1e400``, 5000 digits) arrives as ±inf, and is refused
+    as what it is (:class:`app.inputs.TooLong`)."""
+
+    def typed(self, value):
+        return inputs.TooLong(value) if isinstance(value, float) and math.isinf(value) else value
+
+
+class WholeInput(NumberInput):
+    """A box for a whole number, stepping by 1. It reads what is typed as a number, like :class:`NumberInput`, and the
+    state refuses a value that is not whole, by name: BokehJS's own whole-number box drops every character but digits
+    as they are typed, so "1e400" became 1400 and "1.5" became 15 — and ran."""
+
+    step = param.Number(default=1.0, doc="The arrow keys' step.")
 
 
 class Slider(Guarded, pn.widgets.FloatSlider):
@@ -127,9 +138,14 @@ class _Binding:
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
         if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-            widget._refuse = lambda raw: state.set(name, to_state(raw, force=True))
+            widget._refuse = self._refuse
         state.watch(self._from_state, [name])
         self._from_state()
+
+    def _refuse(self, raw) -> None:
+        self.state.set(self.name, self._to_state(raw, force=True))
+        if self.name in self.state.refusals:
+            revert(self.state, self.widget, lambda: self._to_widget(self.state.get(self.name)))
 
     def _from_widget(self, *events) -> None:
         """Small runs follow ``value`` (while dragging); large ones only ``value_throttled`` (on release).
@@ -141,12 +157,14 @@ class _Binding:
             return
         want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
         for event in events:
-            if event.name == want and event.new is None:
-                self.state.set(self.name, None)  # an emptied box: the state refuses it with a message
-            elif event.name == want:
-                value = self._to_state(event.new)
-                if value is not None:
-                    self.state.set(self.name, value)
+            if event.name != want:
+                continue
+            value = None if event.new is None else self._to_state(event.new)  # None from a box: it was emptied
+            if event.new is not None and (value is None or same(value, self.state.get(self.name))):
+                continue  # the state's own value (a revert's echo): not a change
+            self.state.set(self.name, value)
+            if self.name in self.state.refusals:  # refused: the widget shows the state's value again
+                revert(self.state, self.widget, lambda: self._to_widget(self.state.get(self.name)))
 
     def _from_state(self, *events) -> None:
         value = self._to_widget(self.state.get(self.name))
@@ -157,6 +175,31 @@ class _Binding:
             self.widget.value = value
         finally:
             self._quiet = False
+
+
+def revert(state: AppState, widget, shown: Callable[[], Any]) -> None:
+    """Show the input's value again in ``widget`` once the state has refused what the browser sent: ``shown()`` is
+    that value as the widget holds it (None: it holds it already). Done on the session's next turn — a change made
+    while Panel applies the browser's own is not sent back to it — and sent even when the server's copy of the widget
+    never took the refused value (the browser shows it all the same). The binding must not hand the state its own
+    value back (:func:`same`): that would lift the refusal it has just made."""
+
+    def back() -> None:
+        value = shown()
+        if value is not None and value != widget.value:
+            widget.value = value  # the binding's echo: the state already holds it
+        else:
+            widget.param.trigger("value")
+
+    state.later(back)
+
+
+def same(a, b) -> bool:
+    """Whether a widget's value is the state's own (the echo of a revert, not a new value)."""
+    try:
+        return bool(a == b)
+    except Exception:  # noqa: BLE001  (a value's own __eq__ may raise, e.g. numpy's ambiguous truth: not the same)
+        return False
 
 
 def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float = 0.01) -> pn.widgets.FloatSlider:
@@ -217,9 +260,8 @@ class ControlsView(Viewer):
         self._nu = log_slider(s, "nu", 0.001, 10000.0)
         self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6, sizing_mode="stretch_width"))
         # no range on the box: BokehJS's box drops a value outside it silently; the state refuses it in words
-        # a box for any number: BokehJS's whole-number box turned a typed "1.5" into 15 and ran it
         self._seed = _plain(
-            s, "seed", NumberInput(label="seed", width=120, description=s.param.seed.doc, value=float(s.seed))
+            s, "seed", WholeInput(label="seed", width=120, description=s.param.seed.doc, value=float(s.seed))
         )
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
         self._sync_alpha_zero()
