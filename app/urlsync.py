@@ -2,7 +2,8 @@
 
 :class:`UrlSync` links an :class:`app.state.AppState` with ``pn.state.location``:
 
-* **URL → state**, when the session opens and when the browser navigates (back/forward): each known query
+* **URL → state**, when the session opens and when the browser navigates (Back/Forward, :func:`follow_history`:
+  Panel's own copy of the URL does not follow them): each known query
   parameter is read by the strict parser of :mod:`app.inputs` (no ``json``, no recursion, bounded length: a
   hostile spelling gets a message, never an exception) and set on the state in one batch, which validates it like
   a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
@@ -31,7 +32,16 @@ from . import inputs
 from .serving.offloop import session_loop
 from .state import ALL_INPUTS, KINDS, PARAMS, AppState, input_label
 
-__all__ = ["URL_INPUTS", "URL_PAUSE", "UrlSync", "after_pause", "parse_query", "query_string", "read_query"]
+__all__ = [
+    "URL_INPUTS",
+    "URL_PAUSE",
+    "UrlSync",
+    "after_pause",
+    "follow_history",
+    "parse_query",
+    "query_string",
+    "read_query",
+]
 
 URL_INPUTS = ALL_INPUTS  #: the inputs a link carries
 MAX_QUERY = 65536  #: characters of a query read at all (tornado refuses longer request lines anyway)
@@ -48,6 +58,31 @@ def after_pause(doc) -> Callable[[Callable[[], None], float], None] | None:
     if loop is None:
         return None
     return lambda fn, after: loop.add_callback(loop.call_later, after, fn)
+
+
+#: the page's history moves (Back, Forward) reach the server as the Location's new query. Panel's Location listens to
+#: ``hashchange`` only, and writes every change of its query with ``history.pushState`` — which here would add an
+#: entry and drop the Forward ones — so the new query is set with ``pushState`` standing for ``replaceState`` (the
+#: same URL: the entry Back/Forward reached stays as it is)
+HISTORY_JS = """
+const doc = Bokeh.documents[Bokeh.documents.length - 1];
+window.addEventListener('popstate', () => {
+    const location = doc.get_model_by_name('location');
+    if (location == null || location.search === window.location.search) return;
+    const push = window.history.pushState;
+    window.history.pushState = window.history.replaceState;
+    try { location.search = window.location.search; } finally { window.history.pushState = push; }
+});
+"""
+
+
+def follow_history(doc) -> None:
+    """Back and Forward in the browser restore the view their URL names: the page's ``popstate`` sets the query
+    :class:`UrlSync` reads (:data:`HISTORY_JS`). Nothing without a document."""
+    if doc is not None:
+        from bokeh.models import CustomJS
+
+        doc.js_on_event("document_ready", CustomJS(code=HISTORY_JS))
 
 
 def _encode(value) -> str:
