@@ -33,6 +33,7 @@ def test_a_slider_value_refused_with_the_others_returns_to_the_run_on_screen(app
     never says alpha=100, and the refusal beside α names α."""
     url, _ = app_server
     with dashboard(url + "?sigma=741") as page:
+        page.evaluate(RECORD_URLS)
         handle = page.get_by_role("slider", name=ALPHA_SLIDER)
         handle.focus()
         handle.press("End")
@@ -40,8 +41,18 @@ def test_a_slider_value_refused_with_the_others_returns_to_the_run_on_screen(app
         refusal.wait_for(timeout=30_000)
         page.wait_for_function(f"() => Math.abs(({VALUE})('α') - Math.log10(0.5)) < 1e-9", timeout=10_000)
         assert "is back at 0.5" in refusal.inner_text()
-        page.wait_for_timeout(1000)  # the link follows the inputs once they rest (URL_PAUSE): none of them moved
-        assert "alpha" not in query(page), page.url
+        sigma = page.get_by_role("slider", name="σ, observation noise intensity")
+        sigma.focus()
+        sigma.press("ArrowLeft")  # a good change: the link follows it, once every earlier change is answered
+        page.wait_for_url(lambda u: "sigma=" in u and "sigma=741" not in u, timeout=30_000)
+        urls = page.evaluate("() => window.__urls")
+        assert urls and all("alpha" not in u for u in urls), urls
+
+
+#: every URL the page writes to its history, kept in ``window.__urls``
+RECORD_URLS = """() => { window.__urls = []; const push = window.history.pushState;
+    window.history.pushState = function (state, title, url) { window.__urls.push(String(url));
+                                                               return push.call(this, state, title, url); }; }"""
 
 
 def test_back_and_forward_restore_the_view_their_link_names(app_server):
@@ -125,3 +136,25 @@ def test_a_whole_number_box_takes_whole_numbers_only(app_server):
         refusal.wait_for(timeout=20_000)
         expect(box).to_have_value(before, timeout=10_000)
         assert "sc_runs" not in query(page)
+
+
+@pytest.mark.parametrize(
+    ("tab", "label", "typed", "said"),
+    [
+        ("trajectories", PARAMS["sigma_design"].label, "-5", "-5 is below that range"),
+        ("sweep", "σ values (comma separated)", "2, 1e400", "too long for a float"),
+        ("worstcase", "α values (comma separated)", "1, NaN", "nan is not a finite number"),
+        ("compare", "σ of the second run", FIVE_THOUSAND_DIGITS, "too long for a float"),
+    ],
+    ids=["sigma-design", "sweep-sigmas", "worstcase-alphas", "compare-sigma"],
+)
+def test_every_box_shows_its_value_again_after_a_refusal(app_server, tab, label, typed, said):
+    url, _ = app_server
+    with dashboard(f"{url}?tab={tab}", ready="() => true") as page:
+        box = page.get_by_role("textbox", name=label)
+        box.wait_for(timeout=60_000)
+        before = box.input_value()
+        box.fill(typed)
+        box.press("Enter")
+        page.locator(".isl-refusal", has_text=said).wait_for(timeout=20_000)
+        expect(box).to_have_value(before, timeout=10_000)
