@@ -2,8 +2,8 @@
 
 :class:`UrlSync` links an :class:`app.state.AppState` with ``pn.state.location``:
 
-* **URL → state**, when the session opens and when the browser navigates (Back/Forward, :func:`follow_history`:
-  Panel's own copy of the URL does not follow them): each known query
+* **URL → state**, when the session opens (Back and Forward reopen it at their address, :func:`follow_history`) and
+  when the page's Location reports a new address: each known query
   parameter is read by the strict parser of :mod:`app.inputs` (no ``json``, no recursion, bounded length: a
   hostile spelling gets a message, never an exception) and set on the state in one batch, which validates it like
   a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
@@ -60,25 +60,15 @@ def after_pause(doc) -> Callable[[Callable[[], None], float], None] | None:
     return lambda fn, after: loop.add_callback(loop.call_later, after, fn)
 
 
-#: the page's history moves (Back, Forward) reach the server as the Location's new query. Panel's Location listens to
-#: ``hashchange`` only, and writes every change of its query with ``history.pushState`` — which here would add an
-#: entry and drop the Forward ones — so the new query is set with ``pushState`` standing for ``replaceState`` (the
-#: same URL: the entry Back/Forward reached stays as it is)
-HISTORY_JS = """
-const doc = Bokeh.documents[Bokeh.documents.length - 1];
-window.addEventListener('popstate', () => {
-    const location = doc.get_model_by_name('location');
-    if (location == null || location.search === window.location.search) return;
-    const push = window.history.pushState;
-    window.history.pushState = window.history.replaceState;
-    try { location.search = window.location.search; } finally { window.history.pushState = push; }
-});
-"""
+#: Back and Forward reload the page at the address they reach: a new session opens that view. Panel's Location follows
+#: ``hashchange`` only; handing it the new query instead (an in-page update) crossed with the server's own pending
+#: write of the address: the browser then showed the server's older address over the view it had gone back to
+HISTORY_JS = "window.addEventListener('popstate', () => window.location.reload());"
 
 
 def follow_history(doc) -> None:
-    """Back and Forward in the browser restore the view their URL names: the page's ``popstate`` sets the query
-    :class:`UrlSync` reads (:data:`HISTORY_JS`). Nothing without a document."""
+    """Back and Forward in the browser restore the view their URL names: the page reloads at that address
+    (:data:`HISTORY_JS`). Nothing without a document."""
     if doc is not None:
         from bokeh.models import CustomJS
 

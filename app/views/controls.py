@@ -135,6 +135,7 @@ class _Binding:
         self.state, self.name, self.widget = state, name, widget
         self._to_widget, self._to_state = to_widget, to_state
         self._quiet = False
+        self._moved = False  # the server moved the widget since the browser's last value
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
         if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
@@ -159,6 +160,9 @@ class _Binding:
         for event in events:
             if event.name != want:
                 continue
+            if self._moved:  # the browser's value and the server's may have crossed: the browser then shows the older
+                self._moved = False
+                self.state.later(lambda: resend(self.widget))
             value = None if event.new is None else self._to_state(event.new)  # None from a box: it was emptied
             if event.new is not None and (value is None or same(value, self.state.get(self.name))):
                 continue  # the state's own value (a revert's echo): not a change
@@ -170,11 +174,20 @@ class _Binding:
         value = self._to_widget(self.state.get(self.name))
         if value is None or value == self.widget.value:
             return  # the widget already shows it: sending it back would fight a slider being dragged
-        self._quiet = True
+        self._quiet, self._moved = True, True
         try:
             self.widget.value = value
         finally:
             self._quiet = False
+
+
+def resend(widget) -> None:
+    """Send ``widget``'s value to the browser again. A preset moves a slider from the server while a key moves it in
+    the browser: each side's message crosses the other's, and the browser ends on the preset's value while the server
+    (and the link, and the run) took the key's. Bokeh sends a property only when its server copy changes, and that copy
+    holds the browser's value already: the value is sent as a change to itself."""
+    for model, _ in list(widget._models.values()):
+        model.trigger("value", model.value, model.value)
 
 
 def revert(state: AppState, widget, shown: Callable[[], Any]) -> None:

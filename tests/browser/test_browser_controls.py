@@ -10,7 +10,7 @@ import math
 import urllib.parse
 
 import pytest
-from _browser import PLOT_DATA, dashboard
+from _browser import NAMED, PLOT_DATA, dashboard
 from playwright.sync_api import expect
 
 from app.state import PARAMS
@@ -18,8 +18,9 @@ from app.state import PARAMS
 pytestmark = [pytest.mark.browser]
 
 #: ``value(title)``: the value BokehJS holds for the widget titled so (a slider's is log10 of the input's)
-VALUE = """(title) => { const m = Array.from(Bokeh.documents[0].all_models)
-    .find(m => (m.type === 'Slider' || m.type === 'Spinner') && m.title === title); return m ? m.value : null; }"""
+VALUE = """(title) => { if (!window.Bokeh || !Bokeh.documents.length) return null;
+    const m = Array.from(Bokeh.documents[0].all_models)
+        .find(m => (m.type === 'Slider' || m.type === 'Spinner') && m.title === title); return m ? m.value : null; }"""
 ALPHA_SLIDER = "α, damping of the top derivative"
 M_SLIDER = "m, state dimension"
 
@@ -55,6 +56,13 @@ RECORD_URLS = """() => { window.__urls = []; const push = window.history.pushSta
                                                                return push.call(this, state, title, url); }; }"""
 
 
+def history(page, step: str) -> None:
+    """Back or Forward, and wait until the page at that address has drawn its run."""
+    with page.expect_event("load", timeout=30_000):
+        getattr(page, step)()
+    page.wait_for_function(PLOT_DATA, timeout=30_000)
+
+
 def test_back_and_forward_restore_the_view_their_link_names(app_server):
     url, _ = app_server
     with dashboard(url) as page:
@@ -64,19 +72,15 @@ def test_back_and_forward_restore_the_view_their_link_names(app_server):
         handle.focus()
         handle.press("End")
         page.wait_for_url(lambda u: "m=6" in u, timeout=30_000)
-        page.go_back()
-        assert query(page).get("m") is None
+        history(page, "go_back")
+        assert query(page).get("m") is None and query(page).get("sigma") == "200"
         page.wait_for_function(f"() => ({VALUE})('m (state dimension)') === 3", timeout=30_000)
-        page.wait_for_function(
-            "() => { const d = Bokeh.documents[0]; return d.get_model_by_name('traj-3-isl') !== null"
-            " && Array.from(d.all_models).filter(m => m.type === 'Figure' && m.visible).length >= 3; }",
-            timeout=30_000,
-        )
-        page.go_forward()
+        assert page.evaluate(f"() => ({NAMED})('traj-3-isl') !== null && ({NAMED})('traj-4-isl') === null")
+        history(page, "go_forward")
         assert query(page).get("m") == "6"
         page.wait_for_function(f"() => ({VALUE})('m (state dimension)') === 6", timeout=30_000)
-        page.go_back()
-        page.go_back()
+        history(page, "go_back")
+        history(page, "go_back")
         page.wait_for_function(f"() => ({VALUE})('σ') === {math.log10(20.0)}", timeout=30_000)
         assert "sigma" not in query(page)
 

@@ -23,7 +23,7 @@ import urllib.parse
 
 import numpy as np
 import pytest
-from _browser import BAND_OFFSETS, SCENARIO_TEXT, TAB_OPEN, dashboard
+from _browser import BAND_OFFSETS, PLOT_DATA, SCENARIO_TEXT, TAB_OPEN, dashboard
 
 from app.pipeline import APP_MAX_STEPS, compute, plan
 from app.state import PARAMS, AppState
@@ -251,19 +251,19 @@ def history(page, rng: random.Random) -> str:
         """() => { const i = navigation.currentEntry.index, before = navigation.entries()[i - 1];
             return [Boolean(before && before.url.startsWith(location.origin)), navigation.canGoForward]; }"""
     )
-    if forward and (not back or rng.random() < 0.5):
-        page.go_forward()
-        return "Forward"
-    if back:
-        page.go_back()
-        return "Back"
-    return "no history yet"
+    step = "Forward" if forward and (not back or rng.random() < 0.5) else "Back" if back else ""
+    if not step:
+        return "no history yet"
+    with page.expect_event("load", timeout=30_000):  # the page reopens at that address
+        page.go_forward() if step == "Forward" else page.go_back()
+    page.wait_for_function(PLOT_DATA, timeout=30_000)
+    return step
 
 
 def act(page, rng: random.Random, state: AppState) -> str:
     """One random action a class would take; returns what it did."""
     kinds = ["preset", "slider", "view", "extra", "noise", "scenario", "refused", "history"]
-    kind = rng.choices(kinds, weights=[2, 10, 2, 2, 2, 0.3, 1.5, 1.5])[0]
+    kind = rng.choices(kinds, weights=[2, 10, 2, 2, 2, 0.3, 1.5, 0.8])[0]
     if kind == "refused":
         return refused_end(page, rng, state)
     if kind == "history":
