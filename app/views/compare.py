@@ -23,10 +23,10 @@ from ..inputs import Kind
 from ..pipeline import COORDINATES, Request, compute
 from ..state import AppState
 from ..text import R_MIN, per_r_min
-from .controls import NumberInput, revert, same
 from .fields import REFUSAL_CSS
 from .numbers import TABLE_CSS
 from .style import SUBSCRIPT, TEXT_FONT, px
+from .widgets import NumberInput, revert, same
 
 __all__ = ["CompareView", "alt_text", "compare_figure", "other_sigma"]
 

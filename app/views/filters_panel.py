@@ -16,9 +16,9 @@ from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
 from ..state import PARAMS, AppState
-from .controls import Guarded, NumberInput, WholeInput, revert, same
 from .fields import field
 from .style import EXTRA_COLORS, NOTE_FONT
+from .widgets import Guarded, NumberInput, WholeInput, revert, same
 
 __all__ = ["FiltersPanel", "bind", "number"]
 
