@@ -27,12 +27,20 @@ import numpy as np
 
 from isl_core.validate import read_int, read_real
 
-__all__ = ["MAX_TEXT", "Kind", "clean", "kinds_of", "parse_text", "show"]
+__all__ = ["MAX_TEXT", "Kind", "TooLong", "clean", "kinds_of", "parse_text", "show"]
 
 MAX_TEXT = 200  #: longest query value read from a URL (the longest good one, a list of five σ, has ~40 characters)
 MAX_ITEMS = 20  #: longest list read from a URL
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,40}", re.ASCII)
 _NOT_FINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+
+
+class TooLong(float):
+    """A number typed in a box that the browser could only read as ±infinity: more than a float holds (beyond
+    ±1.8e308, e.g. "1e400" or 5000 digits). Refused as such — not as "inf", which the user did not type."""
+
+    def __repr__(self) -> str:
+        return "a number too long for a float"
 
 
 @dataclass(frozen=True)
@@ -73,6 +81,8 @@ def show(value: object) -> str:
     if isinstance(value, str):
         text = value if len(value) <= 40 else value[:37] + "…"
         return f'"{text}"'
+    if isinstance(value, TooLong):
+        return repr(value)
     if isinstance(value, bool | np.bool_):
         return "true" if value else "false"
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):
@@ -98,6 +108,8 @@ def _problem(value: object, kind: Kind) -> str:
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
             return f"{show(value)} is not a number"
         x = float(value) if not isinstance(value, numbers.Integral) or abs(int(value)) < 10**300 else math.inf
+        if isinstance(value, TooLong):
+            return "the number typed is too long for a float (it is beyond ±1.8e308)"
         if not math.isfinite(x):
             return f"{show(value)} is not a finite number"
         if kind.what == "whole" and not float(x).is_integer():

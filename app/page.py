@@ -25,7 +25,7 @@ from threadpoolctl import threadpool_limits
 from app.jobs import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs, LongJobQueue
 from app.serving import fastpath, hardening, offloop
 from app.state import TABS, AppState
-from app.urlsync import UrlSync, after_pause
+from app.urlsync import UrlSync, after_pause, follow_history
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
 from app.views.about import docs_link
 from app.views.compare import CompareView
@@ -229,6 +229,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         state = AppState(jobs=session_jobs(gate))
     if pn.state.location is not None:
         UrlSync(state, pn.state.location, after_pause(pn.state.curdoc))  # kept alive by the watchers it registers
+        follow_history(pn.state.curdoc)
     state.start()
     hardening.release_on_destroy(state.close)
     skip_same_stylesheet(pn.state.curdoc)

@@ -2,7 +2,8 @@
 
 :class:`UrlSync` links an :class:`app.state.AppState` with ``pn.state.location``:
 
-* **URL → state**, when the session opens and when the browser navigates (back/forward): each known query
+* **URL → state**, when the session opens (Back and Forward reopen it at their address, :func:`follow_history`) and
+  when the page's Location reports a new address: each known query
   parameter is read by the strict parser of :mod:`app.inputs` (no ``json``, no recursion, bounded length: a
   hostile spelling gets a message, never an exception) and set on the state in one batch, which validates it like
   a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
@@ -31,7 +32,16 @@ from . import inputs
 from .serving.offloop import session_loop
 from .state import ALL_INPUTS, KINDS, PARAMS, AppState, input_label
 
-__all__ = ["URL_INPUTS", "URL_PAUSE", "UrlSync", "after_pause", "parse_query", "query_string", "read_query"]
+__all__ = [
+    "URL_INPUTS",
+    "URL_PAUSE",
+    "UrlSync",
+    "after_pause",
+    "follow_history",
+    "parse_query",
+    "query_string",
+    "read_query",
+]
 
 URL_INPUTS = ALL_INPUTS  #: the inputs a link carries
 MAX_QUERY = 65536  #: characters of a query read at all (tornado refuses longer request lines anyway)
@@ -48,6 +58,21 @@ def after_pause(doc) -> Callable[[Callable[[], None], float], None] | None:
     if loop is None:
         return None
     return lambda fn, after: loop.add_callback(loop.call_later, after, fn)
+
+
+#: Back and Forward reload the page at the address they reach: a new session opens that view. Panel's Location follows
+#: ``hashchange`` only; handing it the new query instead (an in-page update) crossed with the server's own pending
+#: write of the address: the browser then showed the server's older address over the view it had gone back to
+HISTORY_JS = "window.addEventListener('popstate', () => window.location.reload());"
+
+
+def follow_history(doc) -> None:
+    """Back and Forward in the browser restore the view their URL names: the page reloads at that address
+    (:data:`HISTORY_JS`). Nothing without a document."""
+    if doc is not None:
+        from bokeh.models import CustomJS
+
+        doc.js_on_event("document_ready", CustomJS(code=HISTORY_JS))
 
 
 def _encode(value) -> str:

@@ -6,14 +6,11 @@ tab, presenter mode), the latest run and the page's message; the other concerns 
 (:class:`app.state.Room`): :attr:`~AppState.baselines` (the extra filters), :attr:`~AppState.sweep` (the ν-sweep),
 :attr:`~AppState.worstcase` and :attr:`~AppState.scenarios`.
 
-Every input has a *key* — its name in links, messages and refusals (``sigma``, ``sc_runs``) — and every assignment to
-an input, in any room, from a widget, a link or a script, is checked here, once (:meth:`AppState.admit`): a bad
-value (nan, inf, out of range, wrong type, None, a string, a boolean) is refused with a message naming the input and
-its range, and the last good run stays on screen. Errors of the core (too many steps, a diverged filter) become
-messages too.
-
-Runs (:mod:`app.pipeline`) are computed by :class:`app.jobs.Jobs`: off the event loop when the app gives it thread
-pools, inline otherwise (tests, scripts). Outputs are written only by the state and its rooms.
+Every input has a *key* — its name in links, messages and refusals (``sigma``, ``sc_runs``); every assignment to an
+input, in any room, from a widget, a link or a script, is checked here, once (:meth:`AppState.admit`): a bad value is
+refused beside its input, naming it and its range, and the last good run stays on screen. A run the core refuses
+(too many steps, a diverged filter) takes its inputs back to the run on screen (:mod:`app.state.refused_run`). Runs
+(:mod:`app.pipeline`) are jobs (:class:`app.jobs.Jobs`): off the event loop when served, inline in tests and scripts.
 """
 
 from __future__ import annotations
@@ -33,6 +30,7 @@ from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from ..presets import PRESETS
 from .baselines import BaselinesRoom
+from .refused_run import RUN_KEYS, refuse_run
 from .room import Room
 from .scenarios import ScenarioRoom
 from .session_inputs import DISPLAY_INPUTS, INPUTS, TABS, VIEWS, SessionInputs
@@ -80,18 +78,14 @@ def input_label(name: str, link: bool = False) -> str:
 class AppState(SessionInputs):
     """The session's inputs, validated on assignment, its run and message, and its rooms (the module docstring)."""
 
-    run = param.ClassSelector(
-        class_=RunView, default=None, allow_None=True, precedence=-1, doc="The latest good run (decimated for display)."
-    )
+    run = param.ClassSelector(class_=RunView, default=None, allow_None=True, precedence=-1, doc="The run on screen.")
     traces = param.ClassSelector(class_=Traces, default=None, allow_None=True, precedence=-1)
     prediction = param.Array(default=None, allow_None=True, precedence=-1, doc="Predicted š_i/s_i of `run`.")
     compute_seconds = param.Number(0.0, precedence=-1, doc="Wall time of the latest run's computation.")
     busy = param.Boolean(False, precedence=-1, doc="A large run (not followed live) is being computed.")
     message = param.String("", precedence=-1, doc="What the user should know: a refused input, an error.")
     message_kind = param.Selector(objects=["info", "warning", "danger"], default="info", precedence=-1)
-    refusals = param.Dict(
-        default={}, precedence=-1, doc="Input name → why its last value was refused (shown beside it)."
-    )
+    refusals = param.Dict(default={}, precedence=-1, doc="Input key → why its value was refused (shown beside it).")
     message_inline = param.Boolean(False, precedence=-1, doc="The message is one input's refusal, shown beside it.")
     extra_prediction = param.Dict(default={}, precedence=-1, doc="Predicted ratios of the run's extra filters.")
 
@@ -103,7 +97,8 @@ class AppState(SessionInputs):
         self.jobs = jobs or Jobs()
         self.started = False
         self._quiet = False  # set while the state itself corrects an input (no new run)
-        self.shown_request: Request | None = None  # the inputs of the run on screen
+        self.shown_request: Request | None = None  # the request of the run on screen
+        self.shown_inputs: dict | None = None  # the inputs of the run on screen, by key (RUN_KEYS)
         self._serial = 0
         self.baselines = BaselinesRoom(self)
         self.sweep = SweepRoom(self)
@@ -177,16 +172,12 @@ class AppState(SessionInputs):
             self.alpha_before_zero = value
         return True, value
 
-    def label_of(self, name: str, link: bool = False) -> str:
-        """How messages name an input: its label, and with ``link`` also its name in links (``σ (sigma=…)``)."""
-        return input_label(name, link)
-
     def clean(self, name: str, value, pending: dict | None = None, link: bool = False):
         """``value`` checked for input ``name`` (:mod:`app.inputs`): the clean value or a ``ValueError`` in words.
 
         ``pending``: other inputs about to be set with it (the σ range is checked against its new other end).
         """
-        value = inputs.clean(self.label_of(name, link), value, KINDS[name])
+        value = inputs.clean(input_label(name, link), value, KINDS[name])
         if name in ("sigma_min", "sigma_max"):
             self.baselines.check(
                 name, value, {k: v for k, v in (pending or {}).items() if k in ("sigma_min", "sigma_max")}
@@ -295,7 +286,7 @@ class AppState(SessionInputs):
         self.jobs.submit(
             "run",
             partial(compute, self.request(), nearest=True),
-            partial(self._apply_run, self._serial),
+            partial(self._apply_run, self._serial, self.run_inputs()),
             cancellable=True,
         )
         self.sweep.refresh_curves()
@@ -319,7 +310,7 @@ class AppState(SessionInputs):
         self.jobs.submit(
             "run",
             partial(compute, self.request(), nearest=nearest),
-            partial(self._apply_run, self._serial),
+            partial(self._apply_run, self._serial, self.run_inputs()),
             pool="run" if self.live else "large",
             cancellable=True,
         )
@@ -329,11 +320,14 @@ class AppState(SessionInputs):
         if self.baselines.extra_filters or any(e.name == "extra_filters" for e in events):
             self._on_inputs(*events)
 
-    def _apply_run(self, serial: int, outcome: Outcome, superseded: bool) -> None:
+    def run_inputs(self) -> dict:
+        """The inputs a run is made of, by key (:data:`app.state.refused_run.RUN_KEYS`)."""
+        return {key: self.get(key) for key in RUN_KEYS}
+
+    def _apply_run(self, serial: int, asked: dict, outcome: Outcome, superseded: bool) -> None:
         if outcome.error is not None:
             if not superseded:
-                kept = "The last good run is kept." if self.run is not None else "Nothing is shown until it is changed."
-                self.say(f"{describe(outcome.error)}. {kept}", "danger")
+                refuse_run(self, asked, outcome.error)
             self.busy = superseded
             return
         res: Result = outcome.value
@@ -343,7 +337,7 @@ class AppState(SessionInputs):
                 self.horizon = res.request.horizon
             finally:
                 self._quiet = False
-        self.shown_request = res.request
+        self.shown_request, self.shown_inputs = res.request, {**asked, "horizon": res.request.horizon}
         self.param.update(
             run=res.run,
             traces=res.traces,
@@ -356,6 +350,14 @@ class AppState(SessionInputs):
             self.say(f"Showing the nearest allowed setting: {res.adjusted}.", "warning")
         elif serial == self._serial and not self.refusals:
             self._clear()
+
+    def restore(self, values: dict) -> None:
+        """Set inputs (by key) back to the values of the run on screen: no new run (it is that run)."""
+        self._quiet = True
+        try:
+            self.set_inputs(values)
+        finally:
+            self._quiet = False
 
     def apply_preset(self, name: str) -> None:
         """Set the inputs of preset ``name`` (see :mod:`app.presets`) in one batch: one new run."""

@@ -23,10 +23,10 @@ from ..inputs import Kind
 from ..pipeline import COORDINATES, Request, compute
 from ..state import AppState
 from ..text import R_MIN, per_r_min
-from .controls import NumberInput
 from .fields import REFUSAL_CSS
 from .numbers import TABLE_CSS
 from .style import SUBSCRIPT, TEXT_FONT, px
+from .widgets import NumberInput, revert, same
 
 __all__ = ["CompareView", "alt_text", "compare_figure", "other_sigma"]
 
@@ -84,7 +84,7 @@ class CompareView(Viewer):
         # a box without a range (BokehJS drops a value outside it silently), checked here and refused in words
         self._input = NumberInput(label=self.param.sigma_b.label, value=self.sigma_b, width=px(self.state, 180))
         self._input._refuse = self._take
-        self._input.param.watch(lambda event: self._take(event.new), "value")
+        self._input.param.watch(self._typed, "value")
         self._refusal = pn.pane.HTML("", visible=False, stylesheets=[REFUSAL_CSS], margin=(0, 10, 6, 10))
         self._button = pn.widgets.Button(
             label="Compare", color="primary", width=px(self.state, 130), margin=(24, 10, 0, 10)
@@ -94,6 +94,10 @@ class CompareView(Viewer):
         self.state.param.watch(self._stale, ["run"])
         self._note.object = "Press **Compare** to draw the run on screen beside the same run at the σ above."
 
+    def _typed(self, event) -> None:
+        if not same(event.new, self.sigma_b):  # else the box shows σ of the second run again (after a refusal)
+            self._take(event.new)
+
     def _take(self, value) -> None:
         """σ of the second run from the box, or its refusal beside the box (the previous σ is kept)."""
         try:
@@ -102,6 +106,7 @@ class CompareView(Viewer):
         except ValueError as exc:
             text = html.escape(f"Refused: {exc}. The comparison keeps σ = {self.sigma_b:g}.")
             self._refusal.param.update(object=f"<div class='isl-refusal' role='alert'>{text}</div>", visible=True)
+            revert(self.state, self._input, lambda: self.sigma_b)
 
     def draw(self) -> None:
         """Simulate the second run and draw both (a job; the picture replaces the last one when it is done)."""

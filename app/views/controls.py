@@ -9,9 +9,6 @@ current run is small (:attr:`AppState.live`), otherwise it applies on release (`
 from __future__ import annotations
 
 import math
-import numbers
-from collections.abc import Callable
-from typing import Any, ClassVar
 
 import panel as pn
 import param
@@ -22,6 +19,7 @@ from ..presets import PRESETS
 from ..state import PARAMS, AppState
 from ..text import num
 from .fields import field, refusal
+from .widgets import Guarded, IntSlider, NumberInput, Slider, WholeInput, resend, revert, same
 
 __all__ = [
     "ControlsView",
@@ -38,80 +36,6 @@ __all__ = [
 _LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toString();"
 
 
-class Guarded:
-    """A widget whose impossible browser values become refusals in words.
-
-    Panel converts and checks a value the browser sends before any watcher sees it: a scripted client's nan for an
-    integer, 10³⁰⁸ on a log slider or 2.5 in the seed box raised there ("cannot convert float NaN to integer"), and the
-    page showed "something went wrong" instead of the refusal the state gives every bad value, which names the input
-    and its range. A value :meth:`fits` refuses goes to the binding's ``refuse`` (the state refuses it), not to Panel.
-    """
-
-    #: set where the widget is bound to the state (a value it refuses goes there); unset on a widget without a binding
-    _refuse: Callable[[Any], None]
-
-    def fits(self, value) -> bool:
-        """Whether Panel can take ``value`` for this widget."""
-        return value is None or (
-            isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-        )
-
-    def _process_events(self, events: dict) -> None:
-        refuse = getattr(self, "_refuse", None)
-        bad = [v for k, v in events.items() if k in ("value", "value_throttled") and not self.fits(v)]
-        if bad and refuse is not None:
-            events = {k: v for k, v in events.items() if k not in ("value", "value_throttled")}
-            refuse(bad[0])
-        if events:
-            super()._process_events(events)  # type: ignore[misc]  # the Panel widget after this mixin has it
-
-
-def _within(widget, value, integral: bool) -> bool:
-    """A finite number inside ``widget``'s range (half a step of slack), whole if ``integral``."""
-    if not (isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)):
-        return False
-    slack = 0.5 * float(widget.step or 0)
-    return widget.start - slack <= value <= widget.end + slack and (not integral or float(value).is_integer())
-
-
-class WholeInput(Guarded, pn.widgets.IntInput):
-    """A box for a whole number: anything else the browser sends is refused by the state, by name."""
-
-    def fits(self, value) -> bool:
-        return value is None or (super().fits(value) and float(value).is_integer() and abs(value) < 2**53)
-
-
-class NumberInput(Guarded, pn.widgets.FloatInput):
-    """A box for a number: anything else the browser sends is refused by the state, by name."""
-
-
-class Slider(Guarded, pn.widgets.FloatSlider):
-    """A FloatSlider whose changes reach the server at once, at the least server cost.
-
-    Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
-    already keeps only the newest request, so the delay would only add latency to every update. Panel also
-    counts each change as a "busy" event for a global busy indicator that this page does not show (the state's
-    own ``busy`` drives the spinner); slider values are left out of that bookkeeping, which costs the server's loop
-    time at every move (:ref:`performance-latency`).
-    """
-
-    _debounce = 0
-    _busy__ignore: ClassVar[list[str]] = ["value", "value_throttled"]
-
-    def fits(self, value) -> bool:
-        return _within(self, value, integral=False)
-
-
-class IntSlider(Guarded, pn.widgets.IntSlider):
-    """An IntSlider without Panel's debounce and busy bookkeeping (see :class:`Slider`)."""
-
-    _debounce = 0
-    _busy__ignore: ClassVar[list[str]] = ["value", "value_throttled"]
-
-    def fits(self, value) -> bool:
-        return _within(self, value, integral=True)
-
-
 def round_sig(x: float, digits: int = 3) -> float:
     """``x`` rounded to ``digits`` significant digits."""
     return float(f"{x:.{digits - 1}e}")
@@ -124,12 +48,18 @@ class _Binding:
         self.state, self.name, self.widget = state, name, widget
         self._to_widget, self._to_state = to_widget, to_state
         self._quiet = False
+        self._moved = False  # the server moved the widget since the browser's last value
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
         if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-            widget._refuse = lambda raw: state.set(name, to_state(raw, force=True))
+            widget._refuse = self._refuse
         state.watch(self._from_state, [name])
         self._from_state()
+
+    def _refuse(self, raw) -> None:
+        self.state.set(self.name, self._to_state(raw, force=True))
+        if self.name in self.state.refusals:
+            revert(self.state, self.widget, lambda: self._to_widget(self.state.get(self.name)))
 
     def _from_widget(self, *events) -> None:
         """Small runs follow ``value`` (while dragging); large ones only ``value_throttled`` (on release).
@@ -141,18 +71,23 @@ class _Binding:
             return
         want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
         for event in events:
-            if event.name == want and event.new is None:
-                self.state.set(self.name, None)  # an emptied box: the state refuses it with a message
-            elif event.name == want:
-                value = self._to_state(event.new)
-                if value is not None:
-                    self.state.set(self.name, value)
+            if event.name != want:
+                continue
+            if self._moved:  # the browser's value and the server's may have crossed: the browser then shows the older
+                self._moved = False
+                self.state.later(lambda: resend(self.widget))
+            value = None if event.new is None else self._to_state(event.new)  # None from a box: it was emptied
+            if event.new is not None and (value is None or same(value, self.state.get(self.name))):
+                continue  # the state's own value (a revert's echo): not a change
+            self.state.set(self.name, value)
+            if self.name in self.state.refusals:  # refused: the widget shows the state's value again
+                revert(self.state, self.widget, lambda: self._to_widget(self.state.get(self.name)))
 
     def _from_state(self, *events) -> None:
         value = self._to_widget(self.state.get(self.name))
         if value is None or value == self.widget.value:
             return  # the widget already shows it: sending it back would fight a slider being dragged
-        self._quiet = True
+        self._quiet, self._moved = True, True
         try:
             self.widget.value = value
         finally:
@@ -217,9 +152,8 @@ class ControlsView(Viewer):
         self._nu = log_slider(s, "nu", 0.001, 10000.0)
         self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6, sizing_mode="stretch_width"))
         # no range on the box: BokehJS's box drops a value outside it silently; the state refuses it in words
-        # a box for any number: BokehJS's whole-number box turned a typed "1.5" into 15 and ran it
         self._seed = _plain(
-            s, "seed", NumberInput(label="seed", width=120, description=s.param.seed.doc, value=float(s.seed))
+            s, "seed", WholeInput(label="seed", width=120, description=s.param.seed.doc, value=float(s.seed))
         )
         self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
         self._sync_alpha_zero()

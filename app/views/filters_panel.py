@@ -16,9 +16,9 @@ from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
 from ..state import PARAMS, AppState
-from .controls import Guarded, NumberInput, WholeInput
 from .fields import field
 from .style import EXTRA_COLORS, NOTE_FONT
+from .widgets import Guarded, NumberInput, WholeInput, revert, same
 
 __all__ = ["FiltersPanel", "bind", "number"]
 
@@ -28,8 +28,12 @@ def bind(state: AppState, name: str, widget):
     quiet = [False]
 
     def from_widget(event) -> None:
-        if not quiet[0]:
-            state.set(name, list(event.new) if isinstance(event.new, (list, tuple)) else event.new)
+        value = list(event.new) if isinstance(event.new, (list, tuple)) else event.new
+        if quiet[0] or (value is not None and same(value, state.get(name))):  # the state's own value (a revert's echo)
+            return
+        state.set(name, value)
+        if name in state.refusals:  # refused: the box shows the state's value again
+            revert(state, widget, lambda: state.get(name))
 
     def from_state(*events) -> None:
         value = state.get(name)
@@ -40,9 +44,13 @@ def bind(state: AppState, name: str, widget):
             finally:
                 quiet[0] = False
 
+    def refuse(raw) -> None:
+        state.set(name, raw)
+        revert(state, widget, lambda: state.get(name))
+
     widget.param.watch(from_widget, "value")
     if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-        widget._refuse = lambda raw: state.set(name, raw)
+        widget._refuse = refuse
     state.watch(from_state, [name])
     from_state()
     return widget

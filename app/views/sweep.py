@@ -24,7 +24,7 @@ from isl_core.filters.baselines import LABELS
 from ..pipeline import COORDINATES
 from ..state import AppState
 from .controls import log_slider
-from .fields import field
+from .fields import field, list_box
 from .style import (
     EXTRA_COLORS,
     NOTE_FONT,
@@ -39,23 +39,10 @@ from .style import (
     text_scale,
 )
 
-__all__ = ["SweepView", "parse_sigmas"]
+__all__ = ["SweepView"]
 
 _SLOTS = len(SIGMA_COLORS)
 _EXTRA_CURVES = ("kbf_mismatched", "kbf_minimax", "isl_model")  #: extra filters with a theory (app.sweeps)
-
-
-def parse_sigmas(text: str) -> list[float | str]:
-    """``"2, 20, 200"`` → ``[2.0, 20.0, 200.0]``; an entry that is not a number stays text, which the state refuses
-    by name (``"2, abc"``: "abc" is not a number)."""
-
-    def entry(v: str) -> float | str:
-        try:
-            return float(v)
-        except ValueError:
-            return v.strip()
-
-    return [entry(v) for v in text.replace(";", ",").split(",") if v.strip()]
 
 
 def _positive(a: np.ndarray) -> np.ndarray:
@@ -222,13 +209,7 @@ class SweepView(Viewer):
     # ---- controls ----------------------------------------------------------------------------------
     def _controls(self) -> pn.Column:
         s = self.state
-        sigmas = pn.widgets.TextInput(
-            label="σ values (comma separated)",
-            value=", ".join(f"{v:g}" for v in s.sweep.sigmas),
-            width=px(self.state, 220),
-        )
-        sigmas.param.watch(lambda e: s.set("sweep_sigmas", parse_sigmas(e.new)), "value")
-        s.sweep.param.watch(lambda e: setattr(sigmas, "value", ", ".join(f"{v:g}" for v in e.new)), "sigmas")
+        sigmas = list_box(s, "sweep_sigmas", pn.widgets.TextInput(label="σ values (comma separated)", width=px(s, 220)))
         horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
         horizon.width = 260
         run, cancel, progress = job_buttons(

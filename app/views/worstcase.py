@@ -24,10 +24,9 @@ from isl_core import WorstCaseTable
 from isl_core.worstcase import FILTERS, LABELS
 
 from ..state import AppState
-from .fields import field
+from .fields import field, list_box
 from .filters_panel import number
 from .style import FILTER_COLORS, FILTER_MARKERS, TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
-from .sweep import parse_sigmas
 
 __all__ = ["WorstCaseView", "worst_case_html"]
 
@@ -161,13 +160,7 @@ class WorstCaseView(Viewer):
         p = s.worstcase.param
         lo = field(s, "sigma_min", number(s, "sigma_min", width=px(self.state, 110)))
         hi = field(s, "sigma_max", number(s, "sigma_max", width=px(self.state, 110)))
-        alphas = pn.widgets.TextInput(
-            label="α values (comma separated)",
-            width=px(self.state, 220),
-            value=", ".join(f"{v:g}" for v in s.worstcase.alphas),
-        )
-        alphas.param.watch(lambda e: s.set("wc_alphas", parse_sigmas(e.new)), "value")
-        p.watch(lambda e: setattr(alphas, "value", ", ".join(f"{v:g}" for v in e.new)), "alphas")
+        alphas = list_box(s, "wc_alphas", pn.widgets.TextInput(label="α values (comma separated)", width=px(s, 220)))
         n = field(s, "wc_n_sigma", number(s, "wc_n_sigma", width=px(self.state, 110)))
         horizon = field(s, "wc_horizon", number(s, "wc_horizon", step=50.0, width=px(self.state, 190)))
         run, cancel, progress = job_buttons(

@@ -134,12 +134,27 @@ def test_a_good_change_clears_the_message(state):
     assert state.message == "" and state.run.model.sigma == 30.0
 
 
-def test_too_many_steps_is_a_message_and_keeps_the_run(state):
+def test_too_many_steps_is_refused_at_the_horizon_which_returns_to_the_run_on_screen(state):
     state.param.update(alpha=25.0, sigma=200.0)  # h is tiny here: 1000/r_min needs millions of steps
     run = state.run
     state.horizon = 1000.0
     assert state.run is run and "steps" in state.message and f"{APP_MAX_STEPS:,}" in state.message
-    assert state.horizon == 1000.0  # the input is valid; the run it asks for is not
+    assert state.horizon == 10.0 and state.run_inputs() == state.shown_inputs  # every input is the run's again
+    assert set(state.refusals) == {"horizon"} and "horizon (× 1/rₘᵢₙ) = 1000" in state.refusals["horizon"]
+
+
+def test_a_value_refused_only_with_the_others_is_refused_at_the_input_just_moved(state):
+    """α = 100 is in range, σ = 741 too; together (at horizon 10) the run needs ~3 million steps: α goes back to the
+    run on screen's, the refusal stands beside α, names it and says so in the page's message."""
+    state.sigma = 741.0
+    run, alpha = state.run, state.alpha
+    state.alpha = 100.0
+    assert state.run is run and state.alpha == alpha and state.run_inputs() == state.shown_inputs
+    assert set(state.refusals) == {"alpha"} and state.refusals["alpha"] == state.message
+    assert "α = 100" in state.message and f"α is back at {alpha:g}" in state.message
+    assert not state.message_inline  # also in the sidebar's summary
+    state.alpha = 0.6  # a good value lifts the refusal
+    assert state.refusals == {} and state.run.model.alpha == 0.6
 
 
 def test_core_divergence_is_a_message(state, monkeypatch):

@@ -72,6 +72,25 @@ def test_a_refused_value_never_reaches_the_url():
     assert "Refused" in state.message and location.search == ""
 
 
+def test_a_value_refused_only_with_the_others_never_reaches_the_url():
+    """α = 100 with σ = 741 needs too many steps: the run is refused after its job, α returns to the run on screen's,
+    and the link, written once the change is answered, names the run on screen (no alpha=100 at any moment)."""
+    loop, pool = ManualLoop(), ThreadPoolExecutor(max_workers=1)
+    try:
+        state, location = linked("?sigma=741", jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule))
+        loop.pump(lambda: not state.computing and state.run is not None)
+        seen = []
+        location.param.watch(lambda event: seen.append(event.new), "search")
+        state.alpha = 100.0
+        assert state.computing and location.search == "?sigma=741"
+        loop.pump(lambda: not state.computing and "alpha" in state.refusals)
+        assert state.alpha == AppState.param.alpha.default and location.search == "?sigma=741"
+        assert all("alpha" not in search for search in seen), seen
+        assert state.run.model.alpha == state.alpha
+    finally:
+        pool.shutdown(wait=True)
+
+
 def test_every_input_round_trips_through_the_query():
     state, _ = linked()
     state.set_inputs(

@@ -1,10 +1,12 @@
 """A property of the page, driven by random sequences of actions: after every action, what BokehJS has computed —
-every tube's drawn offsets, every line's arrays, every legend label of the trajectory plots, and the scenario
-legend — is what the run the page's link describes says.
+every tube's drawn offsets, every line's arrays, every legend label of the trajectory plots, the scenario legend, and
+the value every model control holds — is what the run the page's link describes says.
 
 The actions are what a class does: the paper's presets, slider keys on α, σ, ν and m, the error view, the other
-filters, new noise, and the scenario presets (which set α, σ and ν too). The expected values are recomputed here from
-the link (the same request through the core), so the check holds for the run the page says it shows. The sequence
+filters, new noise, the scenario presets (which set α, σ and ν too) — and what it should not be able to break: a
+slider pushed to an end the other inputs refuse (α = 100 at σ = 200 needs millions of steps), a refused number typed
+in the seed box, Back and Forward. The expected values are recomputed here from the link (the same request through
+the core), so the check holds for the run the page says it shows. The sequence
 comes from a seed that a failure prints (``ISL_PROPERTY_SEED`` replays it); ``ISL_PROPERTY_ACTIONS`` sets its length
 (default 200).
 """
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import random
 import time
@@ -20,10 +23,10 @@ import urllib.parse
 
 import numpy as np
 import pytest
-from _browser import BAND_OFFSETS, SCENARIO_TEXT, TAB_OPEN, dashboard
+from _browser import BAND_OFFSETS, PLOT_DATA, SCENARIO_TEXT, TAB_OPEN, dashboard
 
-from app.pipeline import compute
-from app.state import AppState
+from app.pipeline import APP_MAX_STEPS, compute, plan
+from app.state import PARAMS, AppState
 from app.state.scenarios import PRESETS as SCENARIO_PRESETS
 from app.urlsync import parse_query
 from app.views.trajectories import KEY_LABELS, shown_series
@@ -42,6 +45,17 @@ SLIDERS = {
     "m": "m, state dimension",
 }
 PRESET_BUTTONS = ("Fig. 3, σ = 20", "Fig. 3, σ = 200")
+#: the sliders' ends a class may push to (End): refused when the run they ask for needs too many steps
+ENDS = {"alpha": 100.0, "sigma": 1000.0, "horizon": 1000.0}
+#: typed in the seed box: each refused (below the range, not whole, too long for a float, out of range)
+BAD_SEEDS = ("-5", "1.5", "1e400", "9" * 400, "3000000000")
+#: the model controls as BokehJS holds them: slider values (log10 of the input's for α, σ, ν, horizon) and the seed box
+CONTROLS = """(titles) => { const models = Array.from(Bokeh.documents[0].all_models);
+    return Object.fromEntries(Object.entries(titles).map(([key, title]) => {
+        const m = models.find(m => (m.type === 'Slider' || m.type === 'Spinner') && m.title === title);
+        return [key, m ? m.value : null]; })); }"""
+CONTROL_TITLES = {k: PARAMS[k].label for k in ("alpha", "sigma", "nu", "m", "horizon", "seed")}
+CONTROL_TITLES["m"] = "m (state dimension)"
 EXTRA_BOXES = ("KBF for mid σ", "KBF adaptive", "ISL model-aware")
 
 #: what BokehJS holds for the trajectory plots: each band's [source, points, min/max of its drawn upper and lower
@@ -150,9 +164,110 @@ BANDS_OR_NEW_LINK = """([want, url]) => window.location.href !== url || Object.e
         && v.model.source.data.y.length > 0 && Math.abs(v._upper[0] - v.model.source.data.y[0] - w) <= 1e-3 * w))"""
 
 
+def controls_mismatch(page, state: AppState) -> str:
+    """'' when every model control shows the input of the run ``state`` (the link's) describes, else what differs."""
+    held = page.evaluate(CONTROLS, CONTROL_TITLES)
+    for key, value in held.items():
+        want = state.get(key)
+        if key == "alpha" and want == 0.0:
+            continue  # α = 0: the slider (log α) is disabled and shows no value
+        # a log slider holds log10 of the 3-digit value, or the key's position that value was rounded from
+        ok = value == want if key in ("m", "seed") else value is not None and abs(value - math.log10(want)) <= 0.006
+        if not ok:
+            return f"{key}: the control holds {value}, the link {want}"
+    return ""
+
+
+def link_state(url: str) -> AppState:
+    """The inputs the link ``url`` names (no run)."""
+    state = AppState()
+    state.set_inputs(parse_query(urllib.parse.urlsplit(url).query))
+    return state
+
+
+def wait_controls(page) -> None:
+    """Wait (on BokehJS's own state, at most 20 s) until every model control shows what the page's link names, the
+    link read again whenever it changes."""
+    from playwright.sync_api import Error as PlaywrightError
+
+    deadline = time.monotonic() + 20.0
+    while time.monotonic() < deadline:
+        url = page.url
+        state = link_state(url)
+        want = json.dumps({k: state.get(k) for k in CONTROL_TITLES})
+        cond = f"""([titles, url]) => {{ const want = {want}; const held = ({CONTROLS})(titles);
+            return window.location.href !== url || Object.entries(held).every(([k, v]) =>
+                (k === 'alpha' && want[k] === 0) || (k === 'm' || k === 'seed' ? v === want[k]
+                    : v !== null && Math.abs(v - Math.log10(want[k])) <= 0.006)); }}"""
+        with contextlib.suppress(PlaywrightError):
+            page.wait_for_function(cond, arg=[CONTROL_TITLES, url], timeout=3_000, polling=100)
+        if page.url == url and not controls_mismatch(page, state):
+            return
+
+
+def settle_all(page, what: str, cache: dict) -> dict:
+    """Wait until every control and the picture show the run the link describes (:func:`settle`); at most 90 s."""
+    deadline, last = time.monotonic() + 90.0, ""
+    while time.monotonic() < deadline:
+        wait_controls(page)
+        want = settle(page, what, cache)
+        last = controls_mismatch(page, want["state"])
+        if not last:
+            return want
+    raise AssertionError(f"{what}: a control does not show the run its link describes ({page.url}): {last}")
+
+
+def refused_end(page, rng: random.Random, state: AppState) -> str:
+    """A slider pushed to an end the other inputs refuse (too many steps), if one is; else a refused seed typed."""
+    refused = []
+    for key, end in ENDS.items():
+        trial = AppState()
+        trial.set_inputs({k: state.get(k) for k in CONTROL_TITLES} | {key: end})
+        if plan(trial.request())[3].N > APP_MAX_STEPS:
+            refused.append(key)
+    if not refused:
+        return typed_seed(page, rng)
+    key = rng.choice(refused)
+    name = SLIDERS.get(key) or PARAMS[key].label
+    handle = page.get_by_role("slider", name=name)
+    handle.focus()
+    handle.press("End")
+    page.locator(".isl-refusal", has_text=f"{PARAMS[key].label} = {ENDS[key]:g}").wait_for(timeout=30_000)
+    return f"{key} End (refused)"
+
+
+def typed_seed(page, rng: random.Random) -> str:
+    typed = rng.choice(BAD_SEEDS)
+    box = page.get_by_role("textbox", name="seed")
+    box.fill(typed)
+    box.press("Enter")
+    page.locator(".isl-refusal", has_text="seed must be").wait_for(timeout=30_000)
+    return f"seed typed {typed[:12]!r} (refused)"
+
+
+def history(page, rng: random.Random) -> str:
+    """Back, or Forward when there is one (and never back beyond the dashboard's first view)."""
+    back, forward = page.evaluate(
+        """() => { const i = navigation.currentEntry.index, before = navigation.entries()[i - 1];
+            return [Boolean(before && before.url.startsWith(location.origin)), navigation.canGoForward]; }"""
+    )
+    step = "Forward" if forward and (not back or rng.random() < 0.5) else "Back" if back else ""
+    if not step:
+        return "no history yet"
+    with page.expect_event("load", timeout=30_000):  # the page reopens at that address
+        page.go_forward() if step == "Forward" else page.go_back()
+    page.wait_for_function(PLOT_DATA, timeout=30_000)
+    return step
+
+
 def act(page, rng: random.Random, state: AppState) -> str:
     """One random action a class would take; returns what it did."""
-    kind = rng.choices(["preset", "slider", "view", "extra", "noise", "scenario"], weights=[2, 10, 2, 2, 2, 0.3])[0]
+    kinds = ["preset", "slider", "view", "extra", "noise", "scenario", "refused", "history"]
+    kind = rng.choices(kinds, weights=[2, 10, 2, 2, 2, 0.3, 1.5, 0.8])[0]
+    if kind == "refused":
+        return refused_end(page, rng, state)
+    if kind == "history":
+        return history(page, rng)
     if kind == "preset":
         name = rng.choice(PRESET_BUTTONS)
         page.get_by_role("button", name=name, exact=True).click()
@@ -228,7 +343,7 @@ def test_after_every_random_action_the_page_draws_the_run_its_link_describes(app
             want = settle(page, "the first run", cache)
             while len(done) < ACTIONS:
                 done.append(act(page, rng, want["state"]))
-                want = settle(page, f"after {done[-1]}", cache)
+                want = settle_all(page, f"after {done[-1]}", cache)
                 assert not errors, f"the page raised {errors}"
         except AssertionError as exc:
             raise AssertionError(f"ISL_PROPERTY_SEED={seed}, after {len(done)} actions {done[-8:]}: {exc}") from None
