@@ -1,4 +1,4 @@
-"""The classroom scenario: 40 students moving sliders while 4 sessions try to stall the server (issue figures).
+"""The classroom scenario: 40 students moving sliders while 4 sessions try to stall the server.
 
     PYTHONPATH=. python benchmarks/bench_classroom.py [--students 40] [--duration 300] [--baseline 60]
     PYTHONPATH=. python benchmarks/bench_classroom.py --before ../isl-before   # a worktree of the previous commit
