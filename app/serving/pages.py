@@ -24,7 +24,7 @@ def page_key(request) -> tuple[str, bool]:
         present = parse_text(values[-1].decode("utf-8", "replace"), Kind("switch")) is True
     except ValueError:
         present = False
-    return request.path, present
+    return request.path.rstrip("/") or "/", present  # "/app/" is "/app": bokeh routes both to the page
 
 
 def build_pages(applications: dict) -> None:
@@ -58,4 +58,7 @@ def build_pages(applications: dict) -> None:
                 session.block_expiration()
                 state._on_load(None)
             _cleanup_doc(session.document, destroy=False)
-        state._session_key_funcs[path] = page_key
+        # both of bokeh's routes to the page (``/app/?``): a path Panel has no key function for gets one of its own,
+        # keyed by the link's theme, and a new kept session for every theme a link names
+        for route in {path, path.rstrip("/") + "/"}:
+            state._session_key_funcs[route] = page_key

@@ -198,14 +198,16 @@ def test_long_jobs_come_back_from_forked_processes(tmp_path):
         ("?present=1&present=off", False),
     ],
 )
-def test_a_page_is_answered_from_one_of_two_start_up_pages(query, present):
+@pytest.mark.parametrize("path", ["/app", "/app/"])  # bokeh routes both to the page
+def test_a_page_is_answered_from_one_of_two_start_up_pages(path, query, present):
     """Only presenter mode changes a page's HTML: any link maps to one of two pages built at start-up (a link cannot
-    make a process keep another), read as the page reads its link (a repeated key: its last value)."""
+    make a process keep another, with or without the trailing slash), read as the page reads its link (a repeated
+    key: its last value)."""
     from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
 
     from app.serving.pages import page_key
 
     request = HTTPServerRequest(
-        start_line=RequestStartLine("GET", f"/app{query}", "HTTP/1.1"), headers=HTTPHeaders({"Host": "x"})
+        start_line=RequestStartLine("GET", f"{path}{query}", "HTTP/1.1"), headers=HTTPHeaders({"Host": "x"})
     )
     assert page_key(request) == ("/app", present)
