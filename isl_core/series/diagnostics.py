@@ -29,7 +29,7 @@ from scipy.stats import chi2
 from ..validate import check_real
 from .mle import Fit, fit, select_order
 from .record import MIN_READINGS, Series
-from .run import SeriesRun, SeriesTrack, run_filters
+from .run import SeriesRun, SeriesTrack, run_filters, sigma_range
 
 __all__ = ["HOLDOUT", "Diagnostics", "Judgement", "diagnose", "judge"]
 
@@ -158,7 +158,8 @@ def judge(
         fitted = fit(part, m, alpha=alpha)
     if cancel is not None and cancel():
         raise InterruptedError("the fit was cancelled")
-    run = run_filters(series, fitted.params, nu=nu)
+    # the σ-learners' range and start from the fitted part too: nothing of the judged tail reaches the filters' set-up
+    run = run_filters(series, fitted.params, nu=nu, sigma_range_=sigma_range(part))
     mask = np.zeros(series.n, dtype=bool)
     mask[split:] = True
     return Judgement(fitted, split, run, tuple(diagnose(tr, mask) for tr in run.tracks), orders)
