@@ -15,7 +15,7 @@ from ..pipeline import describe
 from .baselines import BaselinesRoom
 from .session_inputs import INPUTS
 
-__all__ = ["RUN_KEYS", "moved", "refusal_text", "refuse_run"]
+__all__ = ["RUN_KEYS", "moved", "refusal_text", "refuse_run", "run_refusal_shown"]
 
 RUN_KEYS = (*INPUTS, *BaselinesRoom.KEYS)  #: the inputs a displayed run is made of (the model's and the extras')
 
@@ -62,3 +62,9 @@ def refuse_run(state, asked: dict, error: BaseException) -> None:
     text = refusal_text({k: _label(state, k) for k in keys}, keys, asked, shown, describe(error))
     state.say(text, "danger")
     state.refusals = dict.fromkeys(keys, text)
+
+
+def run_refusal_shown(state) -> bool:
+    """Whether the refusals on screen are a refused run's (:func:`refuse_run`: one text, beside the inputs and in the
+    page's message). A later run replaces the run they say the inputs are back at, so they end with it."""
+    return bool(state.refusals) and not state.message_inline and set(state.refusals.values()) == {state.message}

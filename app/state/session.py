@@ -30,7 +30,7 @@ from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from ..presets import PRESETS
 from .baselines import BaselinesRoom
-from .refused_run import RUN_KEYS, refuse_run
+from .refused_run import RUN_KEYS, refuse_run, run_refusal_shown
 from .room import Room
 from .scenarios import ScenarioRoom
 from .session_inputs import DISPLAY_INPUTS, INPUTS, TABS, VIEWS, SessionInputs
@@ -348,7 +348,7 @@ class AppState(SessionInputs):
         )
         if res.adjusted and not superseded:
             self.say(f"Showing the nearest allowed setting: {res.adjusted}.", "warning")
-        elif serial == self._serial and not self.refusals:
+        elif serial == self._serial and (not self.refusals or run_refusal_shown(self)):
             self._clear()
 
     def restore(self, values: dict) -> None:

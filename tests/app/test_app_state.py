@@ -157,6 +157,16 @@ def test_a_value_refused_only_with_the_others_is_refused_at_the_input_just_moved
     assert state.refusals == {} and state.run.model.alpha == 0.6
 
 
+def test_a_refused_runs_message_ends_with_the_next_run_whatever_input_starts_it(state):
+    """After α = 100 with σ = 741 is refused (α back at the run on screen's), a good run started by σ replaces that
+    run: the refusal, which says α is back at the run on screen, goes with it (and blocks nothing any more)."""
+    state.sigma = 741.0
+    state.alpha = 100.0
+    assert set(state.refusals) == {"alpha"}
+    state.sigma = 30.0
+    assert state.run.model.sigma == 30.0 and state.refusals == {} and state.message == ""
+
+
 def test_core_divergence_is_a_message(state, monkeypatch):
     def diverge(*args, **kwargs):
         raise DivergenceError("filter ISL diverged at t = 1")
