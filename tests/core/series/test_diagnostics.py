@@ -102,6 +102,7 @@ def test_extreme_series_get_a_judgement_or_a_reason(t, z, refusal):
             judge(series(t, z), m=2)
         return
     j = judge(series(t, z), m=2)
-    assert np.isfinite(j.fit.loglik) and all(d.rmse >= 0 for d in j.diagnostics)  # a constant tail: 0 is fair
+    # every filter's prediction RMSE a finite number (a constant tail: 0 is fair), never an overflow's inf or a NaN
+    assert np.isfinite(j.fit.loglik) and all(np.isfinite(d.rmse) and d.rmse >= 0 for d in j.diagnostics)
     kalman = j.diagnostics[0]
     assert np.isfinite(kalman.nis) and kalman.nis >= 0
