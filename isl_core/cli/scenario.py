@@ -40,6 +40,8 @@ def _tuning(args, *, quiet: bool):
         workers=args.workers,
         cache=not args.no_cache,
         progress=progress_bar("tuning", not quiet),
+        rate=args.rate,
+        refine=args.refine,
     )
 
 
@@ -54,6 +56,8 @@ def cmd_scenario(args) -> int:
 
 
 def _meta(res) -> dict:
+    from ..scenario.tuning import FAMILIES
+
     return {
         "alpha": res.alpha,
         "m": res.m,
@@ -68,6 +72,11 @@ def _meta(res) -> dict:
         "scenarios": dict(zip(res.presets, res.preset_labels, strict=True)),
         "one_reading_over_r_min": dict(zip(res.presets, res.reading_time, strict=True)),
         "steps": dict(zip(res.presets, res.steps, strict=True)),
+        "rate_readings_per_r_min": res.rate,
+        "refine": res.refine,
+        "h": dict(zip(res.presets, res.h, strict=True)),
+        "steps_per_reading": dict(zip(res.presets, res.substeps, strict=True)),
+        "minimax_on_grid_edge": {f: res.on_edge(f) for f in FAMILIES if res.on_edge(f)},
     }
 
 

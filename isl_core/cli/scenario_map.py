@@ -33,6 +33,7 @@ def scenario_map(args) -> int:
             workers=args.workers,
             cache=not args.no_cache,
             progress=progress_bar("tuning", not (args.quiet or args.json)),
+            rate=args.rate,
         )
     res = who_wins_map(
         args.map,

@@ -56,6 +56,7 @@ __all__ = [
 ]
 
 MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
+MAX_REFINE = 6  #: halvings of a sensor grid's step (2^6 = 64 steps per base step: :func:`scenario_grid`)
 
 
 @dataclass(frozen=True)
@@ -112,9 +113,14 @@ class ScenarioRun:
         return np.sqrt(mse / ref[None, :])
 
 
-def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float):
+def scenario_grid(
+    model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float, refine: int = 0
+):
     """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
-    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
+    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit. With a sensor
+    interval Δ > 0, h is Δ/q₀ exactly, q₀ the fewest steps per reading that are no longer than that step, and
+    ``refine`` halves it that many times (q = q₀·2^refine steps per reading; the noise's path is the same,
+    :mod:`isl_core.kernels.draws`): the readings stay the sensor's, only the simulation's step changes.
 
     Examples
     --------
@@ -136,13 +142,28 @@ def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[F
     for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
         other = Model(model.alpha, model.beta, s, model.m)
         h = min(h, run_plan(other, nu, T=T, extra=extra, cap=MAX_STEPS).h)
-    n = math.ceil(plan.T / h)
+    refine = check_int("refine (halvings of the step)", refine, lo=0, hi=MAX_REFINE)
+    if scenario.sensor_interval > 0.0:
+        span = scenario.sensor_interval / r_min  # one reading interval, in time
+        q0 = max(1, math.ceil(span / h * (1.0 - 1e-12)))
+        h0 = span / q0
+        n = math.ceil(T / h0 * (1.0 - 1e-12)) << refine
+        h = h0 / (1 << refine)
+    elif refine:
+        raise ValueError(
+            f"refine = {refine} needs a sensor interval (a reading rate): with a reading every step, halving the step "
+            "would double the readings"
+        )
+    else:
+        n = math.ceil(plan.T / h)
+        h = T / n
     if n > MAX_SCENARIO_STEPS:
         raise ValueError(
             f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
-            f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon or σ values closer together"
+            f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon, σ values closer together or a lower "
+            "reading rate"
         )
-    return T / n, n, r_min
+    return h, n, r_min
 
 
 @dataclass(frozen=True)
@@ -163,6 +184,7 @@ class ScenarioPlan:
     learning_state: tuple[np.ndarray, np.ndarray, np.ndarray]
     delta: np.ndarray
     imm: IMMState
+    refine: int = 0
 
     def memory_time(self, memory: float) -> float:
         """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
@@ -185,11 +207,17 @@ class ScenarioPlan:
             self.edges, np.zeros((nw, nf, model.m)), np.zeros((nw, int(learning.sum()))), np.zeros((nw, model.m + 1))
         )
         clair = clairvoyant_state(self.delta, self.q)  # its P_0: Δ at σ(0)
-        self._advance(x, e, rng, bank, state, clair, imm, windows, progress)
+        bridges = [
+            np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(lev,))))
+            for lev in range(1, self.refine + 1)
+        ]  # the Brownian bridge's normals, one stream per level of refinement
+        self._advance(x, e, rng, bank, state, clair, imm, windows, progress, bridges)
         return self._result(seed, windows, state.died, learning)
 
-    def _advance(self, x, e, rng, bank, state, clair, imm, windows, progress) -> None:
-        """The scenario loop over the whole run, chunk by chunk, σ_k of each chunk from the scenario."""
+    def _advance(self, x, e, rng, bank, state, clair, imm, windows, progress, bridges=()) -> None:
+        """The scenario loop over the whole run, chunk by chunk, σ_k of each chunk from the scenario; on a refined
+        grid each chunk's bridge normals from ``bridges`` (level ℓ's stream, base step after base step, so that the
+        runs refined L and L + 1 times share levels 1 … L)."""
         model, scenario, h, n, r_min = self.model, self.scenario, self.h, self.N, self.r_min
         grid, law = Grid(h, model.alpha, model.beta), scenario.noise_law()
         k = 0
@@ -200,9 +228,14 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.array([t0]))
             else:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
-            done = advance_scenario(
-                x, e, rng, todo, k, grid, Observation(sig, law, self.q), bank, state, clair, imm, windows
-            )
+            obs = Observation(sig, law, self.q)
+            if self.refine:
+                base = todo >> self.refine
+                bridge = np.concatenate(
+                    [g.standard_normal((base, 1 << lev, 2)) for lev, g in enumerate(bridges)], axis=1
+                )
+                obs = Observation(sig, law, self.q, bridge, self.refine)
+            done = advance_scenario(x, e, rng, todo, k, grid, obs, bank, state, clair, imm, windows)
             if done < todo:
                 raise DivergenceError(
                     f"the simulated truth diverged at t = {(k + done) * h:.4g} "
@@ -257,6 +290,7 @@ def plan_scenario(
     extra: Sequence[FilterSpec] = (),
     edges: Sequence[float] | None = None,
     grid_filters: Sequence[FilterSpec] | None = None,
+    refine: int = 0,
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
     over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
@@ -274,6 +308,8 @@ def plan_scenario(
         Window edges instead of ``windows`` equal ones.
     grid_filters : sequence of FilterSpec, optional
         Filters that count for the step size.
+    refine : int, default 0
+        With a sensor interval, halve the step this many times, on the same path of the noise (:func:`scenario_grid`).
 
     Returns
     -------
@@ -300,7 +336,7 @@ def plan_scenario(
     times = window_times(horizon, windows, edges)
     specs = check_filters(model, nu, extra)
     more = check_specs("grid_filters", model, grid_filters or (), allow_empty=True)
-    h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon)
+    h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon, refine)
     kb = kalman_bucy(model)
     clair = FilterSpec(
         "clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha, np.zeros(model.m), False
@@ -325,6 +361,7 @@ def plan_scenario(
         learning,
         np.array(kb.delta, dtype=float),
         imm_state(filters, model.m, q, h),
+        refine,
     )
 
 

@@ -28,9 +28,10 @@ FAMILIES = {
     "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
     "imm": ("IMM", ("switch", "modes")),
 }
-#: W in readings: 10 … 3000 in 15 geometric steps, and 2 … 6.7 below them: the minimax of the adaptive, VB and robust
-#: filters sat at 10, the lower end of the earlier grid
-_MEMORY = (2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
+#: W in readings: 10 … 3000 in 15 geometric steps, and 1.5 … 6.7 below them: the minimax of the adaptive, VB and
+#: robust filters sat at 10, the lower end of an earlier grid, then at 2; W = 1 (λ = 1: the last reading alone, and
+#: variational Bayes' ρ = 0) is the hard limit below
+_MEMORY = (1.5, 2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
 
 
 @dataclass(frozen=True)

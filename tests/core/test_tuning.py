@@ -47,9 +47,10 @@ def test_every_variant_of_every_family_rides_in_the_runs_with_its_knob(tuning):
         ("constant", "settled"),
     ]
     assert tuning.y.shape == (6, 4, len(tuning.names), 3)  # seeds × cells × filters × coordinates
-    # one reading is one step in these presets: W readings are W·h·r_min
+    # one reading lasts 1/R at the default rate R = 100 readings per 1/r_min, q steps of h: W readings are W/R
     r_min = kalman_bucy(Model.from_w(1.0, 3.0, 20.0, 3)).r_min
-    assert tuning.reading_time[1] == pytest.approx(tuning.h[1] * r_min, rel=1e-12)
+    assert tuning.rate == 100.0 and tuning.reading_time[1] == pytest.approx(0.01, rel=1e-12)
+    assert tuning.reading_time[1] == pytest.approx(tuning.substeps[1] * tuning.h[1] * r_min, rel=1e-12)
 
 
 def test_the_minimax_and_the_oracle_knobs_are_the_least_largest_ratios_written_out(tuning):
@@ -66,7 +67,7 @@ def test_the_minimax_and_the_oracle_knobs_are_the_least_largest_ratios_written_o
 def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tuning(tuning):
     """Common random numbers: every filter's error depends on the noise and the grid only, not on the filters
     beside it — the tuned IMM and VB filters run alone (on the grid of all the variants) give their columns."""
-    _, sigma0, scenario = PRESETS["drop"]
+    sigma0, scenario = tuning.scenarios[0]  # the drop as the tuning ran it: read at its rate
     model = Model.from_w(1.0, 3.0, sigma0, 3)
     every = tuning.grid_filters(model)
     chosen = [tuning.minimax("imm"), tuning.minimax("vb")]
