@@ -12,7 +12,8 @@ own ratio is ≈ 1 in every scenario (its P is exact on the grid): that is the c
 
 Grid: h is the smallest step :func:`isl_core.grid.run_plan` gives for the model at σ(0), at the smallest and at the
 largest σ of the path (a drop of σ speeds every filter up: the step must follow the fastest); a sensor reads every
-q = round(Δ/h) ≥ 1 steps. T = ``horizon`` in units of 1/r_min at σ(0). The start is that of
+q ≥ 1 steps, h then Δ/q exactly, and ``refine`` halves h below that on the same path of the noise
+(:func:`isl_core.scenario.grid.scenario_grid`). T = ``horizon`` in units of 1/r_min at σ(0). The start is that of
 :func:`isl_core.simulate.simulate` (``"stationary"``): every filter at X(0) − e₀, e₀ ~ N(0, Δ) at σ(0) — the
 clairvoyant filter's P_0. With the default scenario the Kalman–Bucy and ISL filters' errors are those of
 :func:`isl_core.simulate.simulate` with the same seed, bit for bit at every step (same grid, same draws, same
@@ -22,7 +23,6 @@ arithmetic; a test compares every step's squared error with one window per step)
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -32,7 +32,7 @@ from .._engine import CHUNK, DivergenceError, draw_start, pack
 from ..filters.base import KIND_CLAIRVOYANT, FilterSpec
 from ..filters.isl import isl_filter
 from ..filters.kalman import optimal_kbf
-from ..grid import MAX_STEPS, check_filters, check_specs, run_plan
+from ..grid import check_filters, check_specs
 from ..kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
 from ..kernels.clairvoyant import clairvoyant_state
 from ..kernels.imm import imm_state
@@ -42,6 +42,7 @@ from ..riccati import kalman_bucy
 from ..validate import check_int, check_real
 from .bank import learning_state, learns_sigma
 from .base import Scenario
+from .grid import MAX_SCENARIO_STEPS, scenario_grid
 from .windows import first_step, memory_time, window_edges, window_times
 
 __all__ = [
@@ -54,9 +55,6 @@ __all__ = [
     "scenario_grid",
     "simulate_scenario",
 ]
-
-MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
-MAX_REFINE = 6  #: halvings of a sensor grid's step (2^6 = 64 steps per base step: :func:`scenario_grid`)
 
 
 @dataclass(frozen=True)
@@ -111,59 +109,6 @@ class ScenarioRun:
         mse = np.tensordot(w, self.mse[keep], axes=1) / w.sum()
         ref = np.tensordot(w, self.ref_var[keep], axes=1) / w.sum()
         return np.sqrt(mse / ref[None, :])
-
-
-def scenario_grid(
-    model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float, refine: int = 0
-):
-    """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
-    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit. With a sensor
-    interval Δ > 0, h is Δ/q₀ exactly, q₀ the fewest steps per reading that are no longer than that step, and
-    ``refine`` halves it that many times (q = q₀·2^refine steps per reading; the noise's path is the same,
-    :mod:`isl_core.kernels.draws`): the readings stay the sensor's, only the simulation's step changes.
-
-    Examples
-    --------
-    >>> import math
-    >>> from isl_core import Scenario, run_plan, scenario_grid
-    >>> from isl_core import Model
-    >>> model = Model.from_w(0.5, 3.0, 20.0)
-    >>> h, n, r_min = scenario_grid(model, model.beta, Scenario(), (), 10.0)
-    >>> plan = run_plan(model, model.beta, horizon=10.0)  # σ constant: the grid of simulate
-    >>> math.isclose(h, plan.h), n == plan.N
-    (True, True)
-    """
-    r_min = kalman_bucy(model).r_min
-    T = horizon / r_min  # exactly: not lengthened for a slowly settling filter as simulate's default run is
-    plan = run_plan(model, nu, T=T, extra=extra, cap=MAX_STEPS)
-    # σ(t) is monotone between knots: its extremes on [0, T] are at 0, the knots and T
-    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < horizon), horizon]))
-    h = plan.h
-    for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
-        other = Model(model.alpha, model.beta, s, model.m)
-        h = min(h, run_plan(other, nu, T=T, extra=extra, cap=MAX_STEPS).h)
-    refine = check_int("refine (halvings of the step)", refine, lo=0, hi=MAX_REFINE)
-    if scenario.sensor_interval > 0.0:
-        span = scenario.sensor_interval / r_min  # one reading interval, in time
-        q0 = max(1, math.ceil(span / h * (1.0 - 1e-12)))
-        h0 = span / q0
-        n = math.ceil(T / h0 * (1.0 - 1e-12)) << refine
-        h = h0 / (1 << refine)
-    elif refine:
-        raise ValueError(
-            f"refine = {refine} needs a sensor interval (a reading rate): with a reading every step, halving the step "
-            "would double the readings"
-        )
-    else:
-        n = math.ceil(plan.T / h)
-        h = T / n
-    if n > MAX_SCENARIO_STEPS:
-        raise ValueError(
-            f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
-            f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon, σ values closer together or a lower "
-            "reading rate"
-        )
-    return h, n, r_min
 
 
 @dataclass(frozen=True)
