@@ -27,10 +27,10 @@ def scenario_grid(
     model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float, refine: int = 0
 ):
     """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
-    (:mod:`isl_core.scenario.run`), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
+    (:mod:`!isl_core.scenario.run`), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
     With a sensor interval Δ > 0, h is Δ/q₀ exactly, q₀ the fewest steps per reading that are no longer than that
     step, and ``refine`` halves it that many times (q = q₀·2^refine steps per reading; the noise's path is the same,
-    :mod:`isl_core.kernels.draws`): the readings stay the sensor's, only the simulation's step changes.
+    :mod:`!isl_core.kernels.draws`): the readings stay the sensor's, only the simulation's step changes.
 
     Examples
     --------
