@@ -340,7 +340,7 @@ class ScenarioRoom(Room):
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return
         fn = partial(tune, self._host.alpha, m=self._host.m, w=self._model_w())
-        busy = f"Tuning every filter: 6 presets × 32 seeds, 190 variants, {DEFAULT_RATE:g} readings per 1/{R_MIN} …"
+        busy = f"Tuning every filter: 6 presets × 32 seeds, 268 variants, {DEFAULT_RATE:g} readings per 1/{R_MIN} …"
         self._tune_task.start(fn, self._apply_tuning, busy)
 
     def cancel_tuning(self) -> None:

@@ -145,6 +145,8 @@ class Tuning:
             values = sorted({p[name] for p in points})
             if len(values) > 1 and value in (values[0], values[-1]):
                 out[name] = "lowest" if value == values[0] else "highest"
+                if name == "memory" and value == values[0]:  # the grid starts at the limit of W: see the grids
+                    out[name] += ": the hard limit W = 1" if value == 1.0 else ": W > 1 is its hard limit"
         return out
 
     def oracle(self, family: str, preset: int) -> int:

@@ -64,6 +64,22 @@ def test_the_minimax_and_the_oracle_knobs_are_the_least_largest_ratios_written_o
         assert tuning.oracle(family, 1) == idx[int(np.argmin(ratio[3, idx]))]
 
 
+def test_a_minimax_knob_at_its_grids_end_is_named(tuning):
+    """No bracketed optimum: a knob whose minimax value is its grid's first or last is named, one with a single
+    value never (the IMM's modes here)."""
+    for family in FAMILIES:
+        knob, edges = tuning.knobs[tuning.minimax(family)], tuning.on_edge(family)
+        for name, value in knob.items():
+            values = sorted({p[name] for p in GRIDS.points(family)})
+            if value == values[0] and len(values) > 1:
+                assert edges[name].startswith("lowest")
+            elif value == values[-1] and len(values) > 1:
+                assert edges[name] == "highest"
+            else:
+                assert name not in edges
+    assert "modes" not in tuning.on_edge("imm")
+
+
 def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tuning(tuning):
     """Common random numbers: every filter's error depends on the noise and the grid only, not on the filters
     beside it — the tuned IMM and VB filters run alone (on the grid of all the variants) give their columns."""
