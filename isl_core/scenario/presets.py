@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from ..validate import check_real
 from .base import Scenario
 
-__all__ = ["BEYOND", "DEFAULT_RATE", "PRESETS", "RATES", "at_rate", "check_rate"]
+__all__ = ["BEYOND", "DEFAULT_RATE", "PRESETS", "RATES", "at_rate", "check_rate", "read_at"]
 
 DEFAULT_RATE = 100.0  #: readings per 1/r_min at σ(0) of the table, the tuning and the page (:ref:`reading-rate`)
 RATES = (10.0, 30.0, 100.0)  #: the rates the findings give the table at
@@ -43,15 +43,18 @@ def check_rate(rate: float | None) -> float | None:
     return check_real("rate (sensor readings per 1/r_min)", rate, lo=0.0, lo_open=True, hi=RATE_MAX)
 
 
+def read_at(scenario: Scenario, rate: float | None) -> Scenario:
+    """``scenario`` read at ``rate`` readings per 1/r_min at σ(0) (:ref:`reading-rate`): its sensor interval 1/``rate``,
+    or its own when longer (a slower sensor keeps it); unchanged for ``rate`` None."""
+    rate = check_rate(rate)
+    if rate is None:
+        return scenario
+    return dataclasses.replace(scenario, sensor_interval=max(scenario.sensor_interval, 1.0 / rate))
+
+
 def at_rate(
     presets: Mapping[str, tuple[str, float, Scenario]], rate: float | None
 ) -> dict[str, tuple[str, float, Scenario]]:
-    """The presets read at ``rate`` readings per 1/r_min at σ(0) (:ref:`reading-rate`): each scenario's sensor interval
-    1/``rate``, or its own when longer (a preset of a slower sensor keeps it); unchanged for ``rate`` None."""
+    """The presets read at ``rate`` (:func:`read_at`)."""
     rate = check_rate(rate)
-    if rate is None:
-        return dict(presets)
-    return {
-        k: (lab, s0, dataclasses.replace(sc, sensor_interval=max(sc.sensor_interval, 1.0 / rate)))
-        for k, (lab, s0, sc) in presets.items()
-    }
+    return {k: (lab, s0, read_at(sc, rate)) for k, (lab, s0, sc) in presets.items()}
