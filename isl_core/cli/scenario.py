@@ -189,8 +189,8 @@ def _table_out(args, res) -> int:
     return 0
 
 
-def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
-    from ..scenario.table import knob_text
+def _print_head(res, tab) -> None:
+    """The table's first lines: what a cell is, the seeds, the model, the reading rate, the tuning, knobs at an end."""
     from ..scenario.tuning import FAMILIES
 
     seeds = tab.seeds[0]
@@ -212,6 +212,12 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
             "minimax at a grid's end (no bracketed optimum): "
             + "; ".join(f"{f} {', '.join(f'{k} {v}' for k, v in e.items())}" for f, e in edges.items())
         )
+
+
+def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
+    from ..scenario.table import knob_text
+
+    _print_head(res, tab)
     for p, name in enumerate(res.presets):
         cells = res.preset_cells(p)
         print(
