@@ -10,7 +10,10 @@
 ``--rates`` lays the tables at several reading rates (``isl scenario --rate R --json``) side by side: each row's
 minimax knob and worst held-out cell per rate, the winner of each cell per rate, the knobs at their grid's end.
 ``--converged`` compares a table with the same table at h/2 (``--refine 1``): per row and cell, how far the cell
-moved in units of its interval's half-width.
+moved in units of its interval's half-width; ``--converged-curves`` the same for every variant of every family at its
+own knob, from two tunings (``isl scenario --tune --json`` and ``--refine 1 --tune --json``), and each family's minimax
+on both. ``--curve FAMILY tune.json`` prints one family's minimax objective (its largest ratio over every cell) per
+knob, on the tuning's seeds.
 
 Prints, in the page's order: the fair table (σ changes; tails, sensor, constant σ), each tuned row out of sample, who
 wins each cell, the rows beyond every assumed σ range, and — with the worst-case JSON — the worst case over σ per α and
@@ -257,7 +260,56 @@ def converged(coarse: dict, fine: dict) -> list[str]:
     return out
 
 
+def _objective(doc: dict) -> dict[str, tuple[dict, float, bool]]:
+    """Per variant: its knob, its largest ratio over the cells (the minimax objective) and whether it is the minimax."""
+    out: dict[str, tuple[dict, float, bool]] = {}
+    for c in doc["curves"]:
+        knob = {k: c[k] for k in KNOBS if k in c}
+        prev = out.get(c["variant"], (knob, -math.inf, False))
+        out[c["variant"]] = (knob, max(prev[1], _key(c["ratio"])), c["minimax"])
+    return out
+
+
+def curve(family: str, doc: dict) -> list[str]:
+    """One family's minimax objective per knob (* the minimax)."""
+    out = [f"| {family}: knob | largest ratio over the cells |", "|---|---|"]
+    for name, (knob, worst, best) in _objective(doc).items():
+        if name.startswith(family + "@"):
+            text = ", ".join(KNOBS[k].format(v) for k, v in knob.items())
+            out.append(f"| {'**' if best else ''}{text}{'** (minimax)' if best else ''} | {fmt(worst)} |")
+    return [*out, ""]
+
+
+def converged_curves(coarse: dict, fine: dict) -> list[str]:
+    """Every variant at its own knob, h against h/2, in units of the coarse cell's half-width; each family's minimax."""
+    moves: dict[str, list[float]] = {}
+    fine_cells = {(c["variant"], c["cell"]): c for c in fine["curves"]}
+    for c in coarse["curves"]:
+        f = fine_cells[(c["variant"], c["cell"])]
+        if None in (c["ratio"], c["low"], c["high"], f["ratio"]) or c["high"] <= c["low"]:
+            continue
+        moves.setdefault(c["family"], []).append(abs(f["ratio"] - c["ratio"]) / ((c["high"] - c["low"]) / 2.0))
+    out = [
+        "| family | variants × cells | largest move / half-width | moved > half-width | minimax at h → h/2 |",
+        "|---|---|---|---|---|",
+    ]
+    best = [{n: (k, w) for n, (k, w, b) in _objective(d).items() if b} for d in (coarse, fine)]
+    for family, m in moves.items():
+        ends = []
+        for b in best:
+            (knob, worst) = next(v for n, v in b.items() if n.startswith(family + "@"))
+            ends.append(f"{', '.join(KNOBS[k].format(v) for k, v in knob.items())} ({fmt(worst)})")
+        out.append(f"| {family} | {len(m)} | {max(m):.3f} | {sum(x > 1.0 for x in m)} | {ends[0]} → {ends[1]} |")
+    return [*out, ""]
+
+
 def main(argv: list[str]) -> int:
+    if argv[:1] == ["--converged-curves"] and len(argv) == 3:
+        print("\n".join(converged_curves(_load(argv[1]), _load(argv[2]))))
+        return 0
+    if argv[:1] == ["--curve"] and len(argv) == 3:
+        print("\n".join(curve(argv[1], _load(argv[2]))))
+        return 0
     if argv[:1] == ["--rates"] and len(argv) >= 2:
         print("\n".join(rates([_load(p) for p in argv[1:]])))
         return 0
