@@ -153,6 +153,18 @@ def rows(f: Figures) -> dict[str, str]:
     }
 
 
+def report(columns: dict[str, Figures]) -> str:
+    """One row per figure, one column per server."""
+    table = {name: rows(f) for name, f in columns.items()}
+    names = list(next(iter(table.values())))
+    width = max(len(row) for row in names)
+    cells = {name: max(len(name), *(len(v) for v in t.values())) for name, t in table.items()}
+    lines = [f"{'':<{width}}  " + "  ".join(f"{name:<{cells[name]}}" for name in table)]
+    for row in names:
+        lines.append(f"{row:<{width}}  " + "  ".join(f"{t[row]:<{cells[name]}}" for name, t in table.items()))
+    return "\n".join(lines)
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--duration", type=float, default=300.0, help="seconds the pages run (default 300)")
@@ -166,11 +178,7 @@ def main() -> int:
         f"three heavy pages and a default page in chromium, {opts.duration:g} s "
         f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)"
     )
-    table = {name: rows(f) for name, f in columns.items()}
-    width = max(len(r) for r in next(iter(table.values())))
-    print(f"{'':<{width}}  " + "  ".join(f"{name:<28}" for name in table))
-    for row in next(iter(table.values())):
-        print(f"{row:<{width}}  " + "  ".join(f"{t[row]:<28}" for t in table.values()))
+    print(report(columns))
     for name, f in columns.items():
         for error in f.errors:
             print(f"{name}: {error}")
