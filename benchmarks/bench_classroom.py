@@ -349,33 +349,12 @@ def main() -> int:
     p.add_argument("--url"), p.add_argument("--server-pid", type=int)
     p.add_argument("--log", type=Path, help="the running server's log (with --stats-interval 1000)")
     p.add_argument("--server-args", default="", help="more options for the server this script starts")
+    p.add_argument("--procs", default="0", help="--num-procs of the started server, one column each (0: per core)")
+    p.add_argument("--before", type=Path, metavar="CHECKOUT", help="first measure a server of this other checkout")
     p.add_argument(
-        "--procs",
-        default="0",
-        help="--num-procs of the started server, comma-separated: one column each (default 0: one per core)",
+        "--env", action="append", default=[], metavar="NAME=VALUE", help="the started server's environment (repeatable)"
     )
-    p.add_argument(
-        "--before",
-        type=Path,
-        metavar="CHECKOUT",
-        help="first measure a server of this other checkout (e.g. a worktree of the previous commit)",
-    )
-    p.add_argument(
-        "--env",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="environment of the server this script starts (repeatable; this checkout's is served as "
-        "scripts/serve serves it), e.g. PYTHONMALLOC=pymalloc",
-    )
-    p.add_argument(
-        "--before-env",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="environment of the --before server (repeatable); with --before . one checkout is measured "
-        "twice, e.g. with and without an allocator setting",
-    )
+    p.add_argument("--before-env", action="append", default=[], metavar="NAME=VALUE", help="the --before server's")
     opts = p.parse_args()
     if any("=" not in item for item in opts.env + opts.before_env):
         p.error("--env and --before-env take NAME=VALUE")
