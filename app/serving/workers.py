@@ -204,34 +204,36 @@ SOCKETS: list[socket.socket] = []
 LISTEN_BACKLOG = 128  #: each worker's queue of connections not yet accepted (tornado's default)
 
 
-def _twin(sock: socket.socket, listen: bool) -> socket.socket:
-    """A new socket on ``sock``'s address and port, in the same ``SO_REUSEPORT`` group; listening if ``listen``."""
-    twin = socket.socket(sock.family, sock.type, sock.proto)
-    twin.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    twin.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
-    if sock.family == socket.AF_INET6:
-        twin.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
-    twin.setblocking(False)
-    twin.bind(sock.getsockname())
+def _reusing(family: int, kind: int, proto: int, address: tuple, listen: bool) -> socket.socket:
+    """A socket bound to ``address`` in its ``SO_REUSEPORT`` group; listening if ``listen``."""
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    if family == socket.AF_INET6:
+        sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+    sock.setblocking(False)
+    sock.bind(address)
     if listen:
-        twin.listen(LISTEN_BACKLOG)
-    return twin
+        sock.listen(LISTEN_BACKLOG)
+    return sock
 
 
 def bind_reserved(address: str | None, port: int) -> tuple[list[socket.socket], int]:
     """``bokeh.server.util.bind_sockets`` for a server of several processes: the port bound with ``SO_REUSEPORT``
-    by sockets that do not listen (tornado binds and resolves the address; its listening sockets are closed once
-    the reserving ones hold the port). Each worker listens on its own (:func:`listen_own`), and the kernel hands
-    each new connection to one of them by a hash of its addresses — an even spread, where one shared socket went
-    to whichever process woke first (8 and 48 pages of a class)."""
+    by sockets that do not listen. Each worker listens on its own (:func:`listen_own`), and the kernel hands each new
+    connection to one of them by a hash of its addresses — an even spread, where one shared socket went to whichever
+    process woke first (8 and 48 pages of a class).
+
+    tornado binds first, as for one process, without ``SO_REUSEPORT``: it resolves the address and fails if anything
+    listens on the port — another server's workers included, which a socket in their group would silently have
+    joined (a second server started on the same port then took half the first one's connections)."""
     from tornado.netutil import bind_sockets
 
-    listening = bind_sockets(port or 0, address or None, reuse_port=True)
-    try:
-        SOCKETS[:] = [_twin(sock, listen=False) for sock in listening]
-    finally:
-        for sock in listening:
-            sock.close()
+    probes = bind_sockets(port or 0, address or None)
+    found = [(s.family, s.type, s.proto, s.getsockname()) for s in probes]
+    for sock in probes:
+        sock.close()
+    SOCKETS[:] = [_reusing(*where, listen=False) for where in found]
     return SOCKETS, SOCKETS[0].getsockname()[1]
 
 
@@ -239,7 +241,7 @@ def listen_own() -> None:
     """In a freshly forked worker: replace the parent's reserving sockets by listening ones of its own (in place, in
     the list bokeh holds), in the same ``SO_REUSEPORT`` group."""
     for k, sock in enumerate(SOCKETS):
-        SOCKETS[k] = _twin(sock, listen=True)
+        SOCKETS[k] = _reusing(sock.family, sock.type, sock.proto, sock.getsockname(), listen=True)
         sock.close()  # this process's copy; the parent keeps the port
 
 

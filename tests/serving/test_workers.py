@@ -98,6 +98,13 @@ def test_pages_built_once_where_their_websocket_lands_and_sigterm_ends_every_pro
         own = [listening(pid, stopper.port) for pid in children(proc.pid)]
         assert not listening(proc.pid, stopper.port)
         assert len(own) == 2 and all(len(s) == 1 for s in own) and own[0] != own[1], own
+        # a second server on the same port fails as with one process, instead of joining the first one's group
+        second = session_client.start_server(
+            stopper.port, tmp_path / "second.log", ["--num-procs", "2", "--stats-interval", "0"], script=script
+        )
+        assert second.wait(120) == 1
+        assert "already in use" in (tmp_path / "second.log").read_text()
+        assert [listening(pid, stopper.port) for pid in children(proc.pid)] == own  # the first serves on
 
         async def scenario() -> tuple[list[str], int]:
             tokens = [await session_client.page_token(url) for _ in range(PAGES)]
