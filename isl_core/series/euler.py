@@ -24,24 +24,31 @@ from .record import Series
 __all__ = ["euler_kalman_bucy"]
 
 
-def euler_kalman_bucy(series: Series, model: Model, start) -> np.ndarray:
+def euler_kalman_bucy(series: Series, model: Model, start, h: float | None = None) -> np.ndarray:
     """The Euler-grid Kalman–Bucy filter of ``model`` (its σ included) over ``series`` from X̂(t_1) = ``start``
     (module docstring): the estimates (N, m) at the series' times.
 
-    The series must be regular (its step is the grid's h) with every reading present after the first (the first
-    time's reading, which the start replaces, may be missing)."""
+    ``h``: the grid's step (default the series' interval, which must then be regular); given, the times must lie on
+    the grid t_1 + k·h to 10⁻⁸ of their size (a CSV file's 9 significant digits). Every reading after the first
+    must be present (the first time's reading, which the start replaces, may be missing)."""
     from scipy.signal import dlsim
 
     start = np.asarray(start, dtype=float)
     if start.shape != (model.m,):
         raise ValueError(f"start must hold the m = {model.m} coordinates of X̂ at the first time, got {start.shape}")
-    if not series.regular:
-        raise ValueError("the series must be read every h (regular times): it is the Euler grid of a simulation")
+    if h is None:
+        if not series.regular:
+            raise ValueError("the series must be read every h (regular times): it is the Euler grid of a simulation")
+        h = series.spacing
+    else:
+        grid = series.t[0] + h * np.arange(series.n)
+        off = float(np.max(np.abs(series.t - grid)))
+        if not off <= 1e-8 * max(float(np.max(np.abs(series.t))), h):
+            raise ValueError(f"the times are not the grid t_1 + k·h of h = {h:g} (off by up to {off:g})")
     z = series.z[1:]
     if not np.all(np.isfinite(z)):
         row = int(np.flatnonzero(~np.isfinite(z))[0]) + 2
         raise ValueError(f"every reading after the first must be present: row {row} has none")
-    h = series.spacing
     kb = kalman_bucy(model)
     K = np.asarray(kb.K, dtype=float)
     M = np.eye(model.m) + h * np.asarray(model.A, dtype=float)
