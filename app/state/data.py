@@ -82,7 +82,7 @@ class DataRoom(Room):
             self._load()
 
     def _on_holdout(self, *events) -> None:
-        if self._wanted and self.series is not None:
+        if self.series is not None:  # a series on screen: fitted again with the new share
             self.fit()
 
     def _load(self) -> None:

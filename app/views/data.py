@@ -218,10 +218,11 @@ class DataView(Viewer):
     def _file_input(self) -> pn.Column:
         room = self.state.data
         upload = pn.widgets.FileInput(
+            label=f"your CSV file (at most {MAX_UPLOAD // 1_000_000} MB)",
             accept=".csv,.txt,text/csv,text/plain",
             multiple=False,
             width=px(self.state, 280),
-            margin=(24, 10, 0, 10),
+            margin=(5, 10, 0, 10),
             description=f"A CSV file of at most {MAX_UPLOAD // 1_000_000} MB and {MAX_ROWS:,} rows",
         )
         upload.param.watch(lambda event: room.upload(event.new, upload.filename), "value")

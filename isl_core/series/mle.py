@@ -86,7 +86,8 @@ def _se(series: Series, p: ReadingModel, burn: int, alpha_free: bool, grid) -> t
         with np.errstate(all="ignore"):
             return loglik_at(series, ReadingModel(p.m, a, b, s), grid, burn=burn)
 
-    H = _hessian(ll, x)
+    with np.errstate(over="ignore", invalid="ignore"):  # parameters near the float range's end (β of dense times
+        H = _hessian(ll, x)  # and huge readings): the steps' products overflow, and no standard error is given
     with np.errstate(invalid="ignore"):
         try:
             cov = np.linalg.inv(-H)

@@ -193,7 +193,8 @@ def run_filters(
     for tr in run:  # back to the series' units, in place (no second copy of N × filters arrays)
         tr.estimate[...] *= scale
         if tr.variance is not None:
-            tr.variance[...] *= scale**2
+            with np.errstate(over="ignore"):  # as in likelihood._run: X_i's variance, i ≥ 2, may pass the range
+                tr.variance[...] *= scale**2
         tr.prediction[...] *= s
         np.subtract(series.z, tr.prediction, out=tr.innovation)
         tr.innovation_var[...] *= s * s

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from _browser import TAB_OPEN, dashboard
+from test_browser_a11y import FOCUSED, violations
 
 from isl_core.series import judge, read_csv
 
@@ -69,4 +70,17 @@ def test_an_uploaded_csv_is_drawn_as_the_core_fits_it_and_unsorted_times_are_ref
         alert.wait_for(timeout=60_000)
         assert "row 3" in alert.inner_text() and "Nothing was fitted" in alert.inner_text()
         assert page.evaluate(DRAWN)["kalman"]["y"] == drawn["kalman"]["y"]
+        # the fitted tab, a refusal on screen: axe-core's WCAG 2.1 AA rules, and a keyboard walk from the data set's
+        # box to the plot's toolbar — every stop named, with its focus ring
+        assert violations(page) == []
+        page.get_by_role("combobox", name="data set").focus()
+        stops = []
+        while len(stops) < 30 and (not stops or stops[-1][2] != "Pan"):
+            page.keyboard.press("Tab")
+            stops.append(page.evaluate(FOCUSED) or ["(nothing)", None, "", "", "", False, None, None])
+    assert stops[-1][2] == "Pan", [s[:3] for s in stops]
+    assert [s[:4] for s in stops if not (s[3].startswith("solid") and float(s[3].split()[1][:-2]) >= 2)] == []
+    assert [s[:3] for s in stops if not s[2] and s[0] != "INPUT"] == []
+    names = [s[2] for s in stops]
+    assert any(n == "Fit" for n in names) and "Estimates (CSV)" in names, names
     assert "Traceback" not in log.read_text()
