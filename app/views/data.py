@@ -204,7 +204,7 @@ class DataView(Viewer):
                 low = line.low if line.low is not None else none
                 high = line.high if line.high is not None else none
                 self._sources[line.name].data = {"t": line.t, "y": line.y, "low": low, "high": high}
-                label = line.label + ("" if line.low is not None else " (no stated variance)")
+                label = line.label + ("" if line.low is not None else " (no band)")
                 if self._items[line.name].label != value(label):
                     self._items[line.name].label = value(label)
             self._split.update(location=res.t_split, visible=True)

@@ -94,6 +94,9 @@ def test_an_upload_is_fitted_judged_and_downloaded_and_the_other_column_refused(
         assert res is not None and res.n == 50 and res.summary["split"] == 40 and res.t_split == 40.0
         assert [d["name"] for d in res.summary["diagnostics"]] == [line.name for line in res.lines]
         assert room.note.startswith("Fitted in ") and "m = " in room.note
+        f = res.summary["fit"]  # the legend speaks the series' units, not the filters' inner ones
+        assert res.lines[0].label == f"Kalman (σ_r = {f['sigma_r']:.4g} given)"
+        assert res.lines[1].label == f"ISL (ν = {res.summary['nu']:.4g})"
         csv = room.estimates_file()
         head = [line for line in csv.splitlines() if line.startswith("#")]
         assert head[-1].startswith("# t,z,kalman_X1,") and len(csv.splitlines()) == len(head) + 50
