@@ -124,6 +124,13 @@ class DataRoom(Room):
         self._reading += 1
         self._read(None, None)
 
+    def too_large(self, filename, size: str) -> None:
+        """The browser did not send a file over the limit (:data:`app.views.data.SIZE_GUARD_JS`): refused in words."""
+        name = str(filename or "the file")[:80]
+        n = int(size) if str(size).isdigit() and len(str(size)) < 16 else None
+        what = f"{n:,} bytes" if n is not None else "more"
+        self._refuse_file(f"{name} has {what}, over the limit of {MAX_UPLOAD // 1_000_000} MB")
+
     def choose_columns(self, time: str, value: str) -> None:
         """The time and value columns of the uploaded file (from its header), then the series read again."""
         if self._file is None or (time, value) == (self.time_column, self.value_column):

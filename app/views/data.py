@@ -32,7 +32,7 @@ from .filters_panel import number as number_box
 from .scenario_tables import SCENARIO_COLORS
 from .style import SCENARIO_DASHES, TEXT_FONT, job_buttons, px, styled, text_scale
 
-__all__ = ["COLORS", "DASHES", "DataView", "diagnostics_html", "fit_html"]
+__all__ = ["COLORS", "DASHES", "TOO_LARGE", "DataView", "diagnostics_html", "fit_html", "install_size_guard"]
 
 #: each filter's colour and line pattern, as in the scenario plots (the Kalman filter at the fitted σ_r: the green
 #: of the Kalman–Bucy filter that knows σ)
@@ -127,6 +127,34 @@ DIAGNOSTICS_NOTE = (
     "**Predictive log L**: the log-likelihood of the held-out readings under the filter's stated Gaussian (larger is "
     "better). The ISL filters state no variance: no NIS and no predictive log L (—)."
 )
+
+
+#: what the browser reports instead of sending a file over the limit (the file input's ``mime_type``, then its size)
+TOO_LARGE = "isl/too-large;"
+#: in the browser, once per page: a file input given a file over the limit does not read or send it (the page's
+#: connection carries 20 MB in one message — bokeh's server closes one that sends more); it reports the
+#: file's name and size instead, and the server refuses it in words beside the input
+SIZE_GUARD_JS = """
+const M = Bokeh.Models.get('FileInput'), V = M && M.prototype.default_view;
+if (V && !V.prototype._isl_guarded) {
+    const load = V.prototype.load_files;
+    V.prototype.load_files = async function (files) {
+        const big = Array.from(files).find(f => f.size > limit);
+        if (!big) return load.call(this, files);
+        this.input_el.value = '';
+        this.model.setv({filename: big.name, mime_type: tag + big.size});
+    };
+    V.prototype._isl_guarded = true;
+}
+"""
+
+
+def install_size_guard(doc) -> None:
+    """Install :data:`SIZE_GUARD_JS` in the page of ``doc`` when it is ready (nothing without a document)."""
+    if doc is not None:
+        from bokeh.models import CustomJS
+
+        doc.js_on_event("document_ready", CustomJS(code=SIZE_GUARD_JS, args={"limit": MAX_UPLOAD, "tag": TOO_LARGE}))
 
 
 class DataView(Viewer):
@@ -226,6 +254,12 @@ class DataView(Viewer):
             description=f"A CSV file of at most {MAX_UPLOAD // 1_000_000} MB and {MAX_ROWS:,} rows",
         )
         upload.param.watch(lambda event: room.upload(event.new, upload.filename), "value")
+
+        def too_large(event) -> None:  # the browser's report of a file it did not send (SIZE_GUARD_JS)
+            if isinstance(event.new, str) and event.new.startswith(TOO_LARGE):
+                room.too_large(upload.filename, event.new[len(TOO_LARGE) :])
+
+        upload.param.watch(too_large, "mime_type")
         return pn.Column(upload, self._refusal, margin=0, width=px(self.state, 300))
 
     def _columns(self) -> pn.Row:

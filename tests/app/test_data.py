@@ -78,6 +78,16 @@ def test_a_file_over_the_limit_is_refused_before_it_is_parsed(fits, monkeypatch)
     )
 
 
+def test_a_file_the_browser_did_not_send_is_refused_in_words():
+    state = AppState()
+    state.data.too_large("huge.csv", "16000000")  # what the page's guard reports instead of the file
+    assert (
+        state.data.upload_note == "Refused: huge.csv has 16,000,000 bytes, over the limit of 10 MB. Nothing was fitted."
+    )
+    state.data.too_large(None, "9" * 40)  # whatever a hostile page reports
+    assert state.data.upload_note.startswith("Refused: the file has more, over the limit of 10 MB.")
+
+
 def _small() -> bytes:
     rng = np.random.default_rng(11)
     z = np.cumsum(rng.standard_normal(50)) + rng.standard_normal(50)

@@ -1,6 +1,6 @@
 """The "Your data" tab in the browser: a CSV file uploaded, fitted, and the estimates BokehJS draws (its views' arrays)
 equal to the core's (:func:`isl_core.series.judge`) for that file; a file with unsorted times refused beside the file
-input, nothing fitted."""
+input, nothing fitted; a file over the limit refused by the browser before it is sent."""
 
 from __future__ import annotations
 
@@ -70,6 +70,13 @@ def test_an_uploaded_csv_is_drawn_as_the_core_fits_it_and_unsorted_times_are_ref
         alert.wait_for(timeout=60_000)
         assert "row 3" in alert.inner_text() and "Nothing was fitted" in alert.inner_text()
         assert page.evaluate(DRAWN)["kalman"]["y"] == drawn["kalman"]["y"]
+        # a file over the limit is not even sent (the page's connection carries 20 MB a message): refused in words
+        page.locator("input[type=file]").set_input_files(
+            files=[{"name": "huge.csv", "mimeType": "text/csv", "buffer": b"1,2\n" * 4_000_000}]
+        )
+        page.get_by_role("alert").filter(has_text="huge.csv has 16,000,000 bytes, over the limit of 10 MB").wait_for(
+            timeout=30_000
+        )
         # the fitted tab, a refusal on screen: axe-core's WCAG 2.1 AA rules, and a keyboard walk from the data set's
         # box to the plot's toolbar — every stop named, with its focus ring
         assert violations(page) == []
