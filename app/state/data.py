@@ -1,13 +1,14 @@
-"""The "Your data" tab's room: a recorded series — a shipped data set or the user's CSV file — with the model fitted to
-it, every filter run over it and judged on its held-out tail (:ref:`data`).
+"""The "Your data" tab's room: a recorded series — a shipped data set or the user's CSV file — with the model fitted
+to it, every filter run over it and judged on its held-out tail (:ref:`data`).
 
 Its inputs (keys ``data_…``, in links like every input): the data set (``data_set=nile``; ``upload`` for a file of
-one's own, which a link cannot carry) and the share of the times held out. An uploaded file stays in the session's
-memory only (nothing is written to disk) and is dropped when the session ends; it is refused beside the file input —
-over :data:`app.state.data_job.MAX_UPLOAD` before anything is parsed, or as the core refuses it (non-numbers, times
-unsorted or repeated, empty, binary) — and nothing is fitted then. Reading a file or a set is a job off the event
-loop; the fit (:func:`app.state.data_job.fit_series`) is the session's long job (progress, cancel, the server's
-queue), started when the tab is open and the series or the held-out share changes, or by the Fit button.
+one's own, which a link cannot carry), the share of the times held out and the order m (0: chosen by BIC). An
+uploaded file stays in the session's memory only (nothing is written to disk) and is dropped when the session
+ends; it is refused beside the file input — over :data:`app.state.data_job.MAX_UPLOAD` before anything is parsed,
+or as the core refuses it (non-numbers, times unsorted or repeated, empty, binary) — and nothing is fitted then.
+Reading a file or a set is a job off the event loop; the fit (:func:`app.state.data_job.fit_series`) is the
+session's long job (progress, cancel, the server's queue), started when the tab is open and the series, the
+held-out share or m changes, or by the Fit button.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ SOURCES = (*DATASETS, "upload")  #: the data set input's choices: the shipped se
 class DataRoom(Room):
     """Inputs, series, fit and downloads of the "Your data" tab (the module docstring); keys ``data_…``."""
 
-    KEYS: ClassVar[dict[str, str]] = {"data_set": "source", "data_holdout": "holdout"}
+    KEYS: ClassVar[dict[str, str]] = {"data_set": "source", "data_holdout": "holdout", "data_m": "order"}
 
     source = param.Selector(
         objects=list(SOURCES),
@@ -44,6 +45,13 @@ class DataRoom(Room):
         bounds=(0.05, 0.9),
         label="held-out share",
         doc="Share of the times at the end kept out of the fit: the filters are judged on them (0.05 to 0.9).",
+    )
+
+    order = param.Integer(
+        0,
+        bounds=(0, 6),
+        label="order m (0: by BIC)",
+        doc="The model's order m, 1 to 6; 0 fits every m and keeps the one of least BIC (a long series: minutes).",
     )
 
     series = param.ClassSelector(class_=Series, default=None, allow_None=True, precedence=-1)
@@ -66,7 +74,7 @@ class DataRoom(Room):
         self._settling = False  # the room itself shows the uploaded file as the data set: nothing to read
         self._fitted: Series | None = None  # the series of the fit on screen
         self.param.watch(self._on_source, ["source"])
-        self.param.watch(self._on_holdout, ["holdout"])
+        self.param.watch(self._on_holdout, ["holdout", "order"])
         self._again = False  # a fit was asked for while another ran
         self.param.watch(self._on_busy, ["busy"])
 
@@ -187,9 +195,10 @@ class DataRoom(Room):
         from .data_job import fit_series
 
         self._task.start(
-            partial(fit_series, s, self.holdout),
+            partial(fit_series, s, self.holdout, m=self.order or None),
             partial(self._apply, s),
-            f"Fitting m = 1 … 6 to {s.name} ({s.n:,} times), then every filter …",
+            f"Fitting {f'm = {self.order}' if self.order else 'm = 1 … 6'} to {s.name} ({s.n:,} times), then every"
+            " filter …",
         )
 
     def cancel(self) -> None:
@@ -210,7 +219,8 @@ class DataRoom(Room):
             result=res,
             note=(
                 f"Fitted in {outcome.seconds:.1f} s on the first {res.summary['split']:,} of {res.n:,} times; "
-                f"m = {f['m']} chosen by BIC; the filters judged on the rest."
+                f"m = {f['m']}{' chosen by BIC' if res.summary['orders'] else ' given'}; the filters judged on the"
+                " rest."
             ),
         )
 

@@ -109,10 +109,16 @@ def _shown(n: int, traces: list[np.ndarray], points: int) -> np.ndarray:
 
 
 def fit_series(
-    series: Series, holdout: float, *, points: int = DISPLAY_POINTS, progress: Callable[[float], None] | None = None
+    series: Series,
+    holdout: float,
+    *,
+    m: int | None = None,
+    points: int = DISPLAY_POINTS,
+    progress: Callable[[float], None] | None = None,
 ) -> DataResult:
-    """Fit, run and judge ``series`` with ``holdout`` of its times held out (module docstring)."""
-    j = judge(series, holdout=holdout, progress=progress)
+    """Fit, run and judge ``series`` with ``holdout`` of its times held out, at order ``m`` (None: chosen by BIC)
+    (module docstring)."""
+    j = judge(series, m=m, holdout=holdout, progress=progress)
     tracks = j.run.tracks
     traces = [series.z, *(tr.estimate[:, 0] for tr in tracks)]
     idx = _shown(series.n, traces, points)

@@ -302,6 +302,7 @@ class DataView(Viewer):
             ),
         )
         holdout = field(s, "data_holdout", number_box(s, "data_holdout", step=0.05, width=px(s, 150)))
+        order = field(s, "data_m", number_box(s, "data_m", width=px(s, 170)))
         run, cancel, progress = job_buttons(p.busy, p.progress, "Fit", s.data.fit, s.data.cancel, scale=text_scale(s))
         downloads = [
             pn.widgets.FileDownload(
@@ -321,7 +322,7 @@ class DataView(Viewer):
         row = dict(flex_wrap="wrap", sizing_mode="stretch_width")
         return pn.Column(
             pn.FlexBox(source, self._file_input(), self._columns(), **row),
-            pn.FlexBox(holdout, run, cancel, progress, *downloads, **row),
+            pn.FlexBox(holdout, order, run, cancel, progress, *downloads, **row),
             sizing_mode="stretch_width",
         )
 
@@ -332,7 +333,8 @@ class DataView(Viewer):
             "times (strictly increasing, regular or not; dates allowed) and one of readings (an empty cell: no "
             "reading); `#` lines are comments. The file stays in this page's memory only, and is dropped when you "
             "leave. The model's α, β and the reading noise σ_r are fitted by **maximum likelihood** on the first part "
-            "of the series (m = 1 … 6, the order of least BIC), every filter runs over the whole series with them, "
+            "of the series (m = 1 … 6, the order of least BIC, unless you give m), every filter runs over the whole "
+            "series with them, "
             "and each is judged on the **held-out tail** by how well it predicted readings the fit never saw — there "
             "is no truth to compare with.",
             margin=(0, 10),

@@ -116,14 +116,17 @@ def test_an_upload_is_fitted_judged_and_downloaded_and_the_other_column_refused(
         assert room.result is res
         room.holdout = 0.3  # refitted with the new share
         assert room.result.summary["split"] == 35
+        room.order = 1  # m given: one fit, no table of orders
+        assert room.result.summary["fit"]["m"] == 1 and room.result.summary["orders"] == []
+        assert "m = 1 given" in room.note
     assert [r for r in caplog.records if r.levelno >= logging.WARNING] == []
     room.release()
     assert room.result is None and room.series is None and room._file is None  # nothing kept after the session
 
 
 def test_the_data_set_is_in_links_and_a_bad_one_is_refused_in_words():
-    values, problems = read_query("?tab=data&data_set=co2&data_holdout=0.3")
-    assert values == {"tab": "data", "data_set": "co2", "data_holdout": 0.3} and problems == {}
+    values, problems = read_query("?tab=data&data_set=co2&data_holdout=0.3&data_m=2")
+    assert values == {"tab": "data", "data_set": "co2", "data_holdout": 0.3, "data_m": 2} and problems == {}
     state = AppState()
     bad = state.set_inputs({"data_set": "rhine", "data_holdout": 2.0}, link=True)
     assert bad == [
