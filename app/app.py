@@ -2,6 +2,8 @@
 
 The server runs this script for every session, in a fresh namespace: it only builds that session's page. Everything
 shared by the sessions lives in the module :mod:`app.page`.
+A plain ``panel serve`` runs it without the patches of Panel and Bokeh that ``python -m app.serving`` installs at
+its start-up (:mod:`app.serving.patches`): threads, stalls and error replies are then Panel's own.
 """
 
 import sys
