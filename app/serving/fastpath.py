@@ -37,7 +37,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .patches import mark
+from .mark import mark
 
 __all__ = [
     "install",

@@ -24,7 +24,7 @@ from typing import Any
 
 import panel as pn
 
-from .patches import mark
+from .mark import mark
 from .session import handle_exception, locked
 
 log = logging.getLogger("isl.app")

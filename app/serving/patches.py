@@ -19,15 +19,11 @@ from __future__ import annotations
 import ast
 import hashlib
 import re
-from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.util import find_spec
 from pathlib import Path
-from typing import Any, TypeVar
 
-__all__ = ["PATCHES", "Patch", "digest", "install", "mark"]
-
-F = TypeVar("F", bound=Callable[..., Any])
+__all__ = ["PATCHES", "Patch", "digest", "install"]
 
 #: where the TypeScript declarations of the browser's libraries are installed, by the prefix a target names
 _DECLARATIONS = {"bokehjs": ("bokeh", "server/static/js/lib"), "paneljs": ("panel", "dist/lib")}
@@ -235,17 +231,6 @@ def _declaration(text: str, cls: str, method: str) -> str | None:
         else None
     )
     return line.group().strip() if line else None
-
-
-def mark(fn: F, **marks: Any) -> F:
-    """``fn`` with ``marks`` set as its attributes (e.g. ``_isl_fast=True, _isl_original=original``), returned: a
-    second install sees its mark and does nothing, and the original stays reachable.
-
-    Python functions take attributes, but a type checker knows only a function's signature: setting them here
-    keeps each patch's own code checked."""
-    for name, value in marks.items():
-        setattr(fn, name, value)
-    return fn
 
 
 def install() -> None:
