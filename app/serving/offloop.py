@@ -49,9 +49,9 @@ import os
 import threading
 import weakref
 
-from .session import PAGE_POOL, building_page, session_loop
+from .session import PAGE_POOL, session_loop
 
-__all__ = ["PerThreadStack", "SnapshotRegistry", "build_pages_off_loop", "building_page", "install", "session_loop"]
+__all__ = ["PerThreadStack", "SnapshotRegistry", "build_pages_off_loop", "install"]
 
 log = logging.getLogger(__name__)
 pages_log = logging.getLogger("isl.pages")  #: one line per page built (its session and process: serving-many)

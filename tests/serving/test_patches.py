@@ -86,13 +86,13 @@ def test_no_view_imports_the_modules_that_patch():
 
 def test_importing_the_dashboard_patches_nothing_and_the_start_up_installs_once():
     code = (
-        "import json\n"
+        "import json, sys\n"
         "from panel.reactive import Reactive, Syncable\n"
         "import panel as pn\n"
         "import app.page, app.views\n"
         "marks = lambda: [hasattr(Syncable._change_event, '_isl_serialized'), "
         "hasattr(Reactive._update_properties, '_isl_fast'), hasattr(type(pn.state).execute, '_isl_original')]\n"
-        "imported = marks()\n"
+        "imported = marks() + [m for m in ('fastpath', 'hardening', 'offloop') if 'app.serving.' + m in sys.modules]\n"
         "from app.serving import patches\n"
         "patches.install()\n"
         "first = (Syncable._change_event, Reactive._update_properties)\n"
