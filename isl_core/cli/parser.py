@@ -286,6 +286,13 @@ def _add_scenario(sub) -> argparse.ArgumentParser:
         default=2.0,
         help="start left out where sigma does not change, units of 1/r_min (default 2)",
     )
+    p.add_argument(
+        "--rate",
+        type=positive,
+        default=100.0,
+        help="sensor readings per 1/r_min at sigma(0), the same for every filter (default 100)",
+    )
+    p.add_argument("--refine", type=_whole, default=0, help="halvings of the Euler step below a reading (default 0)")
     p.add_argument("--level", type=positive, default=0.95, help="confidence level of the intervals (default 0.95)")
     p.add_argument("--workers", type=_whole, default=None, help="threads of the tuning runs (default: CPU count)")
     p.add_argument(
