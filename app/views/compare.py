@@ -18,6 +18,8 @@ import panel as pn
 import param
 from panel.viewable import Viewer
 
+from isl_core import BOUNDS
+
 from .. import inputs
 from ..inputs import Kind
 from ..pipeline import COORDINATES, Request, compute
@@ -73,7 +75,7 @@ class CompareView(Viewer):
     """The run on screen beside the same run at another σ (a tab of its own, built when first opened)."""
 
     state = param.ClassSelector(class_=AppState)
-    sigma_b = param.Number(200.0, bounds=(0.1, 1000.0), label="σ of the second run")
+    sigma_b = param.Number(200.0, bounds=BOUNDS.sigma.range, label="σ of the second run")
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
