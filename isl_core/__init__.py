@@ -95,7 +95,7 @@ from .theory import (
     predicted_ratios_grid,
     theory_ratios,
 )
-from .validate import read_int, read_real
+from .validate import NOT_FINITE, read_int, read_real
 from .worstcase import WORST_CASE_FILTERS, WORST_CASE_LABELS, Candidates, WorstCaseTable, worst_case
 
 __all__ = [
@@ -111,6 +111,7 @@ __all__ = [
     "MAPS",
     "M_MAX",
     "NOISE_LAWS",
+    "NOT_FINITE",
     "PAPER_A",
     "PAPER_B",
     "SCENARIO_PRESETS",

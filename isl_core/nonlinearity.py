@@ -26,7 +26,7 @@ from .bounds import BOUNDS
 from .riccati import G_matrix
 from .validate import check_real
 
-__all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "linearization", "phi"]
+__all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "linearization", "linearization_at", "phi"]
 
 
 def gamma_abs(p: float) -> float:
@@ -163,7 +163,12 @@ def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.nda
     >>> bool(np.allclose(L, 9.0 * c) and np.allclose(Phi, 9.0 * np.outer(c, c)))
     True
     """
-    sigma = BOUNDS.sigma.real(sigma)
+    return linearization_at(coef, q, BOUNDS.sigma.real(sigma))
+
+
+def linearization_at(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`isl_core.linearization` at a σ already checked (a :class:`isl_core.Model`'s): the core's own filters
+    linearize at their model's σ once per filter and per grid, and need not check it again each time."""
     coef = np.asarray(coef, dtype=float)
     q = np.asarray(q, dtype=float)
     g1, g2 = gamma_moments(tuple(float(x) for x in q))

@@ -26,6 +26,7 @@ from isl_core.runview import RunView
 
 from .. import inputs
 from ..export import run_csv, run_png
+from ..extras import check_order
 from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from ..presets import PRESETS
@@ -178,10 +179,10 @@ class AppState(SessionInputs):
         ``pending``: other inputs about to be set with it (the σ range is checked against its new other end).
         """
         value = inputs.clean(input_label(name, link), value, KINDS[name])
-        if name in ("sigma_min", "sigma_max"):
-            self.baselines.check(
-                name, value, {k: v for k, v in (pending or {}).items() if k in ("sigma_min", "sigma_max")}
-            )
+        if name in ("sigma_min", "sigma_max"):  # the σ range stays a range, with its other end as it will be
+            lo, hi = self.baselines.sigma_range
+            ends = {"sigma_min": lo, "sigma_max": hi, **(pending or {}), name: value}
+            check_order(ends["sigma_min"], ends["sigma_max"])
         return value
 
     def set_inputs(self, values: dict, problems: dict[str, str] | None = None, *, link: bool = False) -> list[str]:

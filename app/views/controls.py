@@ -53,7 +53,7 @@ class _Binding:
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
         if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-            widget._refuse = self._refuse
+            widget.refuse_with(self._refuse)
         state.watch(self._from_state, [name])
         self._from_state()
 
