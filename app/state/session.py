@@ -29,7 +29,7 @@ from ..export import run_csv, run_png
 from ..extras import check_order
 from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
-from ..presets import PRESETS
+from ..presets import PAPER_PRESETS
 from .baselines import BaselinesRoom
 from .refused_run import RUN_KEYS, refuse_run, run_refusal_shown
 from .room import Room
@@ -362,11 +362,11 @@ class AppState(SessionInputs):
 
     def apply_preset(self, name: str) -> None:
         """Set the inputs of preset ``name`` (see :mod:`app.presets`) in one batch: one new run."""
-        if name not in PRESETS:
-            self.say(f"Unknown preset {name!r}; choose one of {', '.join(PRESETS)}.", "danger")
+        if name not in PAPER_PRESETS:
+            self.say(f"Unknown preset {name!r}; choose one of {', '.join(PAPER_PRESETS)}.", "danger")
             return
         self._clear()
-        self.set_inputs(PRESETS[name].values)
+        self.set_inputs(PAPER_PRESETS[name].values)
 
     def csv(self) -> io.StringIO:
         """The run on screen as CSV (:func:`app.export.run_csv`), for the download button."""

@@ -15,7 +15,7 @@ import param
 from bokeh.models import CustomJSTickFormatter
 from panel.viewable import Viewer
 
-from ..presets import PRESETS
+from ..presets import PAPER_PRESETS
 from ..state import PARAMS, AppState
 from ..text import num
 from .fields import field, refusal
@@ -213,7 +213,7 @@ class ControlsView(Viewer):
 
     def _preset_buttons(self) -> pn.Column:
         buttons = []
-        for name, preset in PRESETS.items():
+        for name, preset in PAPER_PRESETS.items():
             b = pn.widgets.Button(
                 label=name,
                 description=preset.description,
