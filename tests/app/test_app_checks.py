@@ -48,3 +48,23 @@ def test_one_slider_request_checks_sigma_once_per_model_it_makes():
     assert seen["boundary"] == 1
     # the run's model and the fixed-gain filters' design models: each checks its σ when made, nothing after it
     assert seen["models"] >= 1 and seen["sigma"] == seen["models"], dict(seen)
+
+
+@pytest.mark.parametrize("name", ["alpha", "beta", "w", "sigma", "nu", "m", "seed", "horizon"])
+def test_each_input_takes_its_range_from_the_cores_table(name):
+    """The session's inputs are declared with the table's ranges, and the boundary refuses just outside them with
+    the range in words (one table: a page, a link and the core never disagree on a bound)."""
+    from isl_core import BOUNDS
+
+    state = AppState()
+    bound = BOUNDS[name]
+    assert state.param[name].bounds == bound.range and state.param[name].label.startswith(bound.symbol)
+    lo, hi = bound.range
+    beyond = hi + 1 if bound.kind == "int" else hi * 1.5
+    setattr(state, name, beyond)
+    assert getattr(state, name) != beyond and name in state.refusals
+
+    def plain(x: float) -> str:  # as people write a bound: whole numbers in full
+        return str(int(x)) if float(x).is_integer() else f"{x:g}"
+
+    assert f"from {plain(lo)} to {plain(hi)};" in state.refusals[name], state.refusals[name]
