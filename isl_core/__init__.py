@@ -9,6 +9,7 @@ Imports numpy, scipy and numba only — never a UI library.
 __version__ = "0.2.0"  #: the project's one version string (pyproject.toml reads it; ``isl --version`` prints it)
 
 from .bounds import BOUNDS, Bound
+from .decimate import DISPLAY_POINTS, minmax_indices
 from .filters import (
     BASELINES,
     AdaptiveGain,
@@ -74,6 +75,7 @@ from .scenario.table import PRESETS as SCENARIO_PRESETS
 from .scenario.table import beyond_rows, beyond_stats, knob_text
 from .scenario.tuning import paper_nu
 from .series import (
+    SERIES_FILTERS,
     Diagnostics,
     Fit,
     Judgement,
@@ -85,7 +87,9 @@ from .series import (
     run_filters,
     select_order,
 )
-from .series.sources import DATASETS, dataset, read_csv
+from .series.run import sigma_range as series_sigma_range
+from .series.sources import DATASETS, csv_columns, dataset, read_csv
+from .series.sources import MAX_ROWS as MAX_CSV_ROWS
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .theory import (
@@ -103,18 +107,21 @@ __all__ = [
     "BASELINES",
     "BOUNDS",
     "DATASETS",
+    "DISPLAY_POINTS",
     "FAMILIES",
     "FIG2_ALPHAS",
     "FIG2_NU_OVER_BETA",
     "FIG2_SIGMAS",
     "FILTER_LABELS",
     "MAPS",
+    "MAX_CSV_ROWS",
     "M_MAX",
     "NOISE_LAWS",
     "NOT_FINITE",
     "PAPER_A",
     "PAPER_B",
     "SCENARIO_PRESETS",
+    "SERIES_FILTERS",
     "SIGMA_RANGE",
     "STEP_AT",
     "SWEEP_BURN",
@@ -171,6 +178,7 @@ __all__ = [
     "care_residual",
     "clairvoyant",
     "clear_caches",
+    "csv_columns",
     "dataset",
     "filter_costs",
     "gamma_abs",
@@ -185,6 +193,7 @@ __all__ = [
     "knob_text",
     "linearization",
     "linearized_matrix",
+    "minmax_indices",
     "mismatched_kbf",
     "mismatched_kbf_ratios",
     "model_aware_isl",
@@ -208,6 +217,7 @@ __all__ = [
     "scenario_periods",
     "scenario_table",
     "select_order",
+    "series_sigma_range",
     "settling_rate",
     "simulate",
     "simulate_rmse",

@@ -31,6 +31,7 @@ from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from ..presets import PAPER_PRESETS
 from .baselines import BaselinesRoom
+from .data import DataRoom
 from .refused_run import RUN_KEYS, refuse_run, run_refusal_shown
 from .room import Room
 from .scenarios import ScenarioRoom
@@ -51,13 +52,13 @@ __all__ = [
     "input_label",
 ]
 
-
 #: the session's rooms: attribute → class (built in this order: a room may watch the ones before it)
 ROOMS: dict[str, type[Room]] = {
     "baselines": BaselinesRoom,
     "sweep": SweepRoom,
     "worstcase": WorstCaseRoom,
     "scenarios": ScenarioRoom,
+    "data": DataRoom,
 }
 #: every input's key → (the room's attribute, None for the session's own, and the parameter's name)
 OWNERS: dict[str, tuple[str | None, str]] = {
@@ -105,6 +106,7 @@ class AppState(SessionInputs):
         self.sweep = SweepRoom(self)
         self.worstcase = WorstCaseRoom(self)
         self.scenarios = ScenarioRoom(self)
+        self.data = DataRoom(self)
         self.param.watch(self._on_inputs, list(INPUTS))
         self.baselines.param.watch(self._on_extra_inputs, list(self.baselines.KEYS.values()))
         if rest := {k: v for k, v in params.items() if k not in own}:  # inputs of the rooms, by key
@@ -180,9 +182,8 @@ class AppState(SessionInputs):
         """
         value = inputs.clean(input_label(name, link), value, KINDS[name])
         if name in ("sigma_min", "sigma_max"):  # the σ range stays a range, with its other end as it will be
-            lo, hi = self.baselines.sigma_range
-            ends = {"sigma_min": lo, "sigma_max": hi, **(pending or {}), name: value}
-            check_order(ends["sigma_min"], ends["sigma_max"])
+            ends, room = {**(pending or {}), name: value}, self.baselines
+            check_order(ends.get("sigma_min", room.sigma_min), ends.get("sigma_max", room.sigma_max))
         return value
 
     def set_inputs(self, values: dict, problems: dict[str, str] | None = None, *, link: bool = False) -> list[str]:
@@ -394,7 +395,6 @@ class AppState(SessionInputs):
 
 #: every input's declaration (a param.Parameter: label, doc, bounds), by key
 PARAMS = {key: (AppState if attr is None else ROOMS[attr]).param[name] for key, (attr, name) in OWNERS.items()}
+_ITEMS = {k: v for cls in ROOMS.values() for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()}  # of list inputs
 #: kind and range of every input (:mod:`app.inputs`), from the declarations above
-KINDS = inputs.kinds_of(
-    ALL_INPUTS, PARAMS, {k: v for cls in ROOMS.values() for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()}
-)
+KINDS = inputs.kinds_of(ALL_INPUTS, PARAMS, _ITEMS)
