@@ -71,6 +71,7 @@ from .scenario import (
 )
 from .scenario.heldout import held_out
 from .scenario.map import AXIS_LABELS, STEP_AT
+from .scenario.presets import DEFAULT_RATE
 from .scenario.table import PRESETS as SCENARIO_PRESETS
 from .scenario.table import beyond_rows, beyond_stats, knob_text
 from .scenario.tuning import paper_nu
@@ -107,6 +108,7 @@ __all__ = [
     "BASELINES",
     "BOUNDS",
     "DATASETS",
+    "DEFAULT_RATE",
     "DISPLAY_POINTS",
     "FAMILIES",
     "FIG2_ALPHAS",
