@@ -176,7 +176,7 @@ def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.nda
 @lru_cache(maxsize=64)
 def gamma_moments(q: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``γ_{1+q_i}`` (m,) and ``γ_{q_i+q_j}`` (m, m) for the exponents ``q`` (read-only; cached: a dashboard run
-    linearizes eight filters, 0.5 ms of Γ function calls uncached). ``isl_core.clear_caches`` empties the cache."""
+    linearizes eight filters with the same exponents). ``isl_core.clear_caches`` empties the cache."""
     g1 = np.array([gamma_abs(1.0 + qi) for qi in q])
     g2 = np.array([[gamma_abs(qi + qj) for qj in q] for qi in q])
     g1.flags.writeable = g2.flags.writeable = False

@@ -55,7 +55,7 @@ __all__ = [
     "simulate_scenario",
 ]
 
-MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
+MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; its time: :ref:`performance-scenario`)
 
 
 @dataclass(frozen=True)

@@ -28,8 +28,8 @@ FAMILIES = {
     "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
     "imm": ("IMM", ("switch", "modes")),
 }
-#: W in readings: 10 … 3000 in 15 geometric steps, and 2 … 6.7 below them: the minimax of the adaptive, VB and robust
-#: filters sat at 10, the lower end of the earlier grid
+#: W in readings: 10 … 3000 in 15 geometric steps, and 2 … 6.7 below them, so that a minimax near 10 (where the
+#: adaptive, VB and robust filters' lie) is inside the grid, not at its edge
 _MEMORY = (2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
 
 
