@@ -39,7 +39,7 @@ def _probe() -> None:  # a function of this file, to ask numba whether it can ca
     pass
 
 
-def sources_digest(folder: str | os.PathLike | None = None) -> str:
+def sources_digest(folder: str | os.PathLike[str] | None = None) -> str:
     """A digest of every ``*.py`` file under ``folder`` (default: the ``isl_core`` package, subpackages included):
     their paths relative to ``folder`` and their contents."""
     root = Path(folder) if folder is not None else PACKAGE
