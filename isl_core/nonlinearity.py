@@ -50,7 +50,8 @@ def gamma_abs(p: float) -> float:
     (1.0, True)
     """
     p = check_real("p", p, lo=-1.0, lo_open=True)
-    return 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+    moment: float = 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+    return moment
 
 
 def isl_exponents(m: int) -> np.ndarray:
@@ -105,7 +106,8 @@ def isl_gains(m: int, nu: float) -> np.ndarray:
     q = isl_exponents(m)
     i = np.arange(1, m + 1)
     gam = np.array([gamma_abs(2.0 * qi) for qi in q])
-    return g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+    coef: np.ndarray = g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+    return coef
 
 
 def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -134,7 +136,8 @@ def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
     ((3, 3), True, True)
     """
     x = np.asarray(x, dtype=float)[..., None]
-    return coef * np.sign(x) * np.abs(x) ** q
+    values: np.ndarray = coef * np.sign(x) * np.abs(x) ** q
+    return values
 
 
 def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:

@@ -64,7 +64,8 @@ def _hamiltonian_care(a1: np.ndarray) -> np.ndarray:
     w, v = np.linalg.eig(h)
     stable = np.argsort(w.real)[:m]
     d = np.linalg.solve(v[:m, stable].T, v[m:, stable].T).T.real
-    return 0.5 * (d + d.T)
+    sym: np.ndarray = 0.5 * (d + d.T)
+    return sym
 
 
 @lru_cache(maxsize=4096)
@@ -269,4 +270,5 @@ def care_residual(model: Model, delta: np.ndarray) -> np.ndarray:
     True
     """
     A, E, C = model.A, model.E, model.C
-    return A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2
+    res: np.ndarray = A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2
+    return res
