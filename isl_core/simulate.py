@@ -31,7 +31,7 @@ from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
 from .kernels.bundles import Trajectory
 from .model import Model
-from .riccati import kalman_bucy
+from .riccati import KalmanBucy, kalman_bucy
 from .validate import check_int
 
 __all__ = ["DivergenceError", "Run", "Track", "simulate"]
@@ -176,7 +176,17 @@ def simulate(
     return Run(model, float(nu), seed, t, X, tracks, s, kb.r_min, h, T, stretch, start, every)
 
 
-def _trajectories(model, kb, filters, h, n, seed, start, every, progress):
+def _trajectories(
+    model: Model,
+    kb: KalmanBucy,
+    filters: Sequence[FilterSpec],
+    h: float,
+    n: int,
+    seed: int,
+    start: str,
+    every: int,
+    progress: Callable[[float], None] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One run of ``filters``: squared-error sums ``sq``, truth ``X``, errors ``E``, adaptive σ̂ ``S`` at the kept
     steps ``kept`` (every ``every``-th; all of them at once, or thinned chunk by chunk)."""
     na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
@@ -207,7 +217,15 @@ def _trajectories(model, kb, filters, h, n, seed, start, every, progress):
     return sq, keep.X, keep.E, keep.S, keep.index
 
 
-def _tracks(filters, sq, n, E, S, X, s) -> tuple[Track, ...]:
+def _tracks(
+    filters: Sequence[FilterSpec],
+    sq: np.ndarray,
+    n: int,
+    E: np.ndarray,
+    S: np.ndarray,
+    X: np.ndarray,
+    s: np.ndarray,
+) -> tuple[Track, ...]:
     """Each filter's :class:`Track`: its errors, RMSE (A.30) and ratios, and σ̂ for an adaptive one."""
     tracks = []
     sigma_hat = iter(S)
