@@ -29,6 +29,7 @@ from app.urlsync import UrlSync, after_pause, follow_history
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
 from app.views.about import docs_link
 from app.views.compare import CompareView
+from app.views.data import DataView, install_size_guard
 from app.views.filters_panel import FiltersPanel
 from app.views.paint import skip_same_stylesheet
 from app.views.scenario import ScenarioView
@@ -46,6 +47,7 @@ TAB_TITLES = {
     "worstcase": "Worst case over σ",
     "compare": "Compare σ",
     "scenarios": "Scenarios: σ(t), tails, sensor",
+    "data": "Your data",
 }
 PAGE_CSS = a11y.PAGE_CSS
 #: the tab headers wrap onto a second row where one row is too narrow (BokehJS scrolls them sideways, out of sight:
@@ -255,6 +257,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         "worstcase": on_first_open(state, "worstcase", lambda: WorstCaseView(state=state)),
         "compare": on_first_open(state, "compare", lambda: CompareView(state=state)),
         "scenarios": on_first_open(state, "scenarios", lambda: ScenarioView(state=state)),
+        "data": on_first_open(state, "data", lambda: DataView(state=state)),
     }
     tabs = pn.Tabs(
         *((TAB_TITLES[name], views[name]) for name in TABS),
@@ -285,6 +288,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
     a11y.install(pn.state.curdoc)
+    install_size_guard(pn.state.curdoc)  # the Your data tab's file input sends no file over its limit
     if gate is not None and offloop.building_page():
         gate.apply_here()
     return page
