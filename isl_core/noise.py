@@ -41,7 +41,7 @@ def _f(x: float, d: float) -> float:
 def _climb(r: float, d: float) -> tuple[float | None, float, list[float], list[float]]:
     """The layers' edges X (decreasing from r) and heights Y = f(X) for a base edge r, and how far the last layer's
     top overshoots f(0) = 1 (> 0: r is too small; None when a layer already passed 1)."""
-    from scipy import special, stats  # here, not at import: only a Student-t run needs it (≈ 0.9 s to load)
+    from scipy import special, stats  # here, not at import: only a Student-t run needs them (slow to import)
 
     y0 = _f(r, d)
     if y0 == 0.0:

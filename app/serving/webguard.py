@@ -15,7 +15,7 @@ Panel's ``customize_server`` hook):
 * **Compression**: text, JavaScript, JSON and CSS answers are gzip-compressed for clients that accept it (the page's
   2 MB of scripts travel as ≈ 0.5 MB).
 * ``GET /liveness``: 200 with ``{"alive": true}`` as long as the event loop answers — nothing else is done: Panel's
-  own handler builds a whole session when asked with ``?endpoint=/app`` (1.2–1.8 s on the loop).
+  own handler builds a whole session when asked with ``?endpoint=/app`` (seconds of the event loop).
 """
 
 from __future__ import annotations

@@ -9,7 +9,8 @@ set of sources keeps its directory: a few MB each.) A container may allow no wri
 group 0, a read-only root file system): numba would then refuse to load the kernels' modules ("cannot cache function
 …: no locator available"). :func:`_cache_flag` checks that first; if the place is not writable it points numba at a
 directory under the system's temporary directory (``/tmp``, a tmpfs in such containers), and if even that fails it
-compiles without a cache (each process then compiles once, ≈ 10 s). Either fallback is said in one log line (logger
+compiles without a cache (each process then compiles once: :ref:`performance-choices`). Either fallback is said in
+one log line (logger
 ``isl_core``).
 
 ``fastmath={"contract"}`` only lets LLVM fuse ``a*b + c`` into one FMA (one rounding instead of two); it

@@ -18,7 +18,7 @@ PACKAGES = ("isl_core", "app")
 
 #: what narration looks like, by name; each pattern is tried on one docstring or one comment at a time
 NARRATION = {
-    "a timing": re.compile(r"\d[\d.,]*\s?(?:ns|µs|us|ms)\b"),
+    "a timing": re.compile(r"\d[\d.,]*\s?(?:ns|µs|us|ms)\b|(?:≈\s?\d[\d.]*|\d[\d.]*\s?[–-]\s?\d[\d.]*)\s?s\b"),
     "a before → after figure": re.compile(r"\d[\d.,]*\s?(?:[a-zµ%]{1,3}\s?)?→\s?[\d.]+"),
     "a percentile": re.compile(r"\bp(?:50|90|95|99)\b"),
     "a date": re.compile(r"\b20\d\d-\d\d-\d\d\b"),
@@ -64,6 +64,7 @@ def narration(source: str) -> list[tuple[int, str, str]]:
         '"""The same steps lost 1 registration in 20 000."""',
         "x = 1  # measured at 1e59c63",
         '"""Measured on 2026-12-05."""',
+        "# a tab stayed blank for 2–3 s",
         "def f():\n    '''Data arrived 83-90 → 44 when both sides send.'''",
     ],
 )
