@@ -35,8 +35,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from .model import M_MAX, Model, shift_matrix
-from .validate import check_int
+from .bounds import BOUNDS
+from .model import Model, shift_matrix
 
 __all__ = ["A_MAX", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0", "normalized_care"]
 
@@ -116,7 +116,7 @@ def G_matrix(m: int) -> np.ndarray:
     >>> bool(np.allclose(G, G.T) and np.all(np.linalg.eigvalsh(G) > 0))
     True
     """
-    return _G(check_int("m", m, lo=1, hi=M_MAX)).copy()
+    return _G(BOUNDS.m.whole(m)).copy()
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._engine import CHUNK, DivergenceError, Tracked, check_progress, check_start, draw_start, freeze, run_chunks
+from .bounds import BOUNDS
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
@@ -172,7 +173,7 @@ def simulate(
     True
     """
     plan = run_plan(model, nu, horizon=horizon, T=T, h=h, extra=extra, step_filters=step_filters)
-    seed = check_int("seed", seed, lo=0)
+    seed = BOUNDS.seed.whole(seed)
     every = check_int("every", every, lo=1)
     start = check_start(start)
     check_progress(progress)

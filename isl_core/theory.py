@@ -40,6 +40,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .bounds import BOUNDS
 from .filters.base import FilterSpec
 from .filters.isl import isl_filter
 from .filters.kalman import mismatched_kbf
@@ -178,7 +179,7 @@ def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = No
 
 
 def _isl_spec(model: Model, nu: float, damp: float | None) -> FilterSpec:
-    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    nu = BOUNDS.nu.real(nu)
     spec = isl_filter(model, nu)
     if damp is not None:
         spec = dataclasses.replace(spec, damp=check_real("damp", damp, lo=0.0))

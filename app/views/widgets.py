@@ -31,8 +31,12 @@ class Guarded:
     and its range. A value :meth:`fits` refuses goes to the binding's ``refuse`` (the state refuses it), not to Panel.
     """
 
-    #: set where the widget is bound to the state (a value it refuses goes there); unset on a widget without a binding
-    _refuse: Callable[[Any], None]
+    _refuse: Callable[[Any], None] | None = None  # where a value the widget cannot take goes (refuse_with)
+
+    def refuse_with(self, refuse: Callable[[Any], None]) -> None:
+        """Hand every value the browser sends that Panel cannot take to ``refuse`` (the binding to the state, which
+        refuses it in words); without it, such a value goes to Panel as before."""
+        self._refuse = refuse
 
     def fits(self, value) -> bool:
         """Whether Panel can take ``value`` for this widget."""
@@ -45,7 +49,7 @@ class Guarded:
         return value
 
     def _process_events(self, events: dict) -> None:
-        refuse = getattr(self, "_refuse", None)
+        refuse = self._refuse
         bad = [v for k, v in events.items() if k in ("value", "value_throttled") and not self.fits(v)]
         if bad and refuse is not None:
             events = {k: v for k, v in events.items() if k not in ("value", "value_throttled")}

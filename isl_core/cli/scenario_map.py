@@ -16,6 +16,7 @@ def scenario_map(args: argparse.Namespace) -> int:
     """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin —
     with the table's tuning (computed if not cached; ``--untuned``: the constructors' defaults)."""
     from ..scenario.map import AXIS_LABELS, STEP_AT, who_wins_map
+    from ..scenario.tuning import tune
 
     after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
     if after < args.window:
@@ -25,8 +26,6 @@ def scenario_map(args: argparse.Namespace) -> int:
         )
     tuning = None
     if not args.untuned:
-        from ..scenario.tuning import tune
-
         tuning = tune(
             args.alpha,
             m=args.m,
@@ -34,6 +33,7 @@ def scenario_map(args: argparse.Namespace) -> int:
             workers=args.workers,
             cache=not args.no_cache,
             progress=progress_bar("tuning", not (args.quiet or args.json)),
+            rate=args.rate,
         )
     res = who_wins_map(
         args.map,
