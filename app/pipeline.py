@@ -118,7 +118,7 @@ def plan(req: Request):
 
 
 def _floor_sig(x: float, digits: int = 3) -> float:
-    """``x`` > 0 rounded DOWN to ``digits`` significant digits (714.28 → 714)."""
+    """``x`` > 0 rounded DOWN to ``digits`` significant digits (714.28 gives 714)."""
     q = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
     return float(f"{math.floor(x / q) * q:.{digits}g}")
 

@@ -243,8 +243,16 @@ def clear_caches() -> None:
 
     Examples
     --------
+    A solution is computed once and then shared; after ``clear_caches`` it is computed afresh:
+
     >>> import isl_core
+    >>> model = isl_core.Model.from_w(0.5, 3.0, 20.0)
+    >>> solved = isl_core.kalman_bucy(model)
+    >>> isl_core.kalman_bucy(model) is solved
+    True
     >>> isl_core.clear_caches()
+    >>> isl_core.kalman_bucy(model) is solved
+    False
     """
     from . import nonlinearity, riccati
     from .filters import adaptive

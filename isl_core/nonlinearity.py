@@ -50,7 +50,8 @@ def gamma_abs(p: float) -> float:
     (1.0, True)
     """
     p = check_real("p", p, lo=-1.0, lo_open=True)
-    return 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+    moment: float = 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+    return moment
 
 
 def isl_exponents(m: int) -> np.ndarray:
@@ -105,7 +106,8 @@ def isl_gains(m: int, nu: float) -> np.ndarray:
     q = isl_exponents(m)
     i = np.arange(1, m + 1)
     gam = np.array([gamma_abs(2.0 * qi) for qi in q])
-    return g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+    coef: np.ndarray = g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+    return coef
 
 
 def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -134,7 +136,8 @@ def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
     ((3, 3), True, True)
     """
     x = np.asarray(x, dtype=float)[..., None]
-    return coef * np.sign(x) * np.abs(x) ** q
+    values: np.ndarray = coef * np.sign(x) * np.abs(x) ** q
+    return values
 
 
 def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -181,7 +184,7 @@ def linearization_at(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.
 @lru_cache(maxsize=64)
 def gamma_moments(q: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``γ_{1+q_i}`` (m,) and ``γ_{q_i+q_j}`` (m, m) for the exponents ``q`` (read-only; cached: a dashboard run
-    linearizes eight filters, 0.5 ms of Γ function calls uncached). ``isl_core.clear_caches`` empties the cache."""
+    linearizes eight filters with the same exponents). ``isl_core.clear_caches`` empties the cache."""
     g1 = np.array([gamma_abs(1.0 + qi) for qi in q])
     g2 = np.array([[gamma_abs(qi + qj) for qj in q] for qi in q])
     g1.flags.writeable = g2.flags.writeable = False

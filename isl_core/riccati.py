@@ -64,16 +64,17 @@ def _hamiltonian_care(a1: np.ndarray) -> np.ndarray:
     w, v = np.linalg.eig(h)
     stable = np.argsort(w.real)[:m]
     d = np.linalg.solve(v[:m, stable].T, v[m:, stable].T).T.real
-    return 0.5 * (d + d.T)
+    sym: np.ndarray = 0.5 * (d + d.T)
+    return sym
 
 
 @lru_cache(maxsize=4096)
 def normalized_care(m: int, a: float) -> np.ndarray:
     """Solution Δ' of ``A'Δ' + Δ'A'ᵀ + EEᵀ − Δ'CᵀCΔ' = 0`` with ``A' = A0 − a EEᵀ`` (A.10 when a = 0).
 
-    The normalized CARE is well conditioned, so the eigenvectors of its 2m×2m Hamiltonian give Δ'
-    (≈ 0.05 ms); if their residual or definiteness is off by more than ``1e3·m²·eps``, scipy's Schur
-    solver (≈ 10 ms) takes over. Cached: the result is read-only.
+    The normalized CARE is well conditioned, so the eigenvectors of its 2m×2m Hamiltonian give Δ' (far cheaper
+    than a Schur decomposition: :ref:`performance-choices`); if their residual or definiteness is off by more than
+    ``1e3·m²·eps``, scipy's Schur solver takes over. Cached: the result is read-only.
     """
     a1 = shift_matrix(m)
     a1[-1, -1] = -a
@@ -164,7 +165,7 @@ def kalman_bucy(model: Model) -> KalmanBucy:
     """Solve the CARE (A.23) for ``model`` and return gain, Δ, s_i and r_min (A.24).
 
     Cached per (frozen, hashable) model — its arrays are read-only: one dashboard run asks for it four times (the
-    grid, the run, the theory, the filters), each solve ≈ 0.15 ms. ``isl_core.clear_caches`` empties the cache.
+    grid, the run, the theory, the filters). ``isl_core.clear_caches`` empties the cache.
 
     Parameters
     ----------
@@ -269,4 +270,5 @@ def care_residual(model: Model, delta: np.ndarray) -> np.ndarray:
     True
     """
     A, E, C = model.A, model.E, model.C
-    return A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2
+    res: np.ndarray = A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2
+    return res

@@ -47,11 +47,13 @@ class RmseResult:
 
     def ratios(self) -> np.ndarray:
         """Whole-run ratios ``š_i/s_i`` (nf, m), (A.30)."""
-        return np.sqrt(self.sq.sum(axis=0) / self.counts.sum()) / self.s
+        ratios: np.ndarray = np.sqrt(self.sq.sum(axis=0) / self.counts.sum()) / self.s
+        return ratios
 
     def batch_ratios(self) -> np.ndarray:
         """Per-batch ratios (batches, nf, m), for batch-means confidence intervals."""
-        return np.sqrt(self.sq / self.counts[:, None, None]) / self.s
+        ratios: np.ndarray = np.sqrt(self.sq / self.counts[:, None, None]) / self.s
+        return ratios
 
 
 def simulate_rmse(

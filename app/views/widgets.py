@@ -86,7 +86,7 @@ class WholeInput(NumberInput):
 class Slider(Guarded, pn.widgets.FloatSlider):
     """A FloatSlider whose changes reach the server at once, at the least server cost.
 
-    Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
+    Panel holds browser → server changes back a moment (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
     already keeps only the newest request, so the delay would only add latency to every update. Panel also
     counts each change as a "busy" event for a global busy indicator that this page does not show (the state's
     own ``busy`` drives the spinner); slider values are left out of that bookkeeping, which costs the server's loop

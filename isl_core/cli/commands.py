@@ -11,6 +11,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 __all__ = [
     "UsageError",
@@ -136,7 +137,7 @@ def cmd_run(args) -> int:
     return 0
 
 
-def nan_to_none(obj):
+def nan_to_none(obj: Any) -> Any:
     """JSON has no nan/inf: map them to null, recursively."""
     if isinstance(obj, dict):
         return {k: nan_to_none(v) for k, v in obj.items()}
