@@ -176,7 +176,11 @@ def _half(y: np.ndarray, level: float, axis: int = 0) -> np.ndarray:
     return cast("np.ndarray", student.ppf((1 + level) / 2, seeds - 1) * sd / math.sqrt(seeds))
 
 
-def worst_from(y: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+#: (ratio, low, high, coordinate) of :func:`worst_from`
+Worst = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def worst_from(y: np.ndarray, level: float) -> Worst:
     """(ratio, low, high, coordinate) of the worst coordinate from the seeds' contributions ``y`` (seeds, cells,
     filters, m), each (filters, cells): per cell and filter the coordinate with the largest pooled ratio, that ratio
     and its Student interval (module docstring). A diverged filter reads inf."""

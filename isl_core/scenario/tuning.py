@@ -37,7 +37,7 @@ from ..filters.base import SIGMA_RANGE, FilterSpec
 from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
-from .periods import Period, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
+from .periods import Period, Worst, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
 from .presets import DEFAULT_RATE, PRESETS, at_rate, check_rate
 from .run import ScenarioPlan, plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
@@ -96,9 +96,7 @@ class Tuning:
     rate: float | None = None
     refine: int = 0
     substeps: tuple[int, ...] = ()
-    _stats: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
-        default_factory=dict, repr=False, compare=False
-    )
+    _stats: dict[float, Worst] = field(default_factory=dict, repr=False, compare=False)
 
     def stats(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(ratio, low, high), each (filters, cells): the period statistic at the worst coordinate and its interval
@@ -251,21 +249,7 @@ def _compute(
     return out, [p for p, _ in plans], [per for _, per in plans]
 
 
-def _assemble(
-    alpha: float,
-    m: int,
-    w: float,
-    presets: Mapping[str, tuple[str, float, Scenario]],
-    seeds: tuple[int, ...],
-    horizon: float,
-    burn: float,
-    grids: TuningGrids,
-    ys: list[np.ndarray],
-    plans: list[ScenarioPlan],
-    periods: list[tuple[Period, ...]],
-    seconds: float,
-    rate: float | None,
-) -> Tuning:
+def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, periods, seconds, rate) -> Tuning:
     cells = tuple((p, per) for p, pers in enumerate(periods) for per in pers)
     plan = plans[0]
     _, paper = paper_nu(plan.model, alpha, m, w)
