@@ -4,9 +4,9 @@ through the presets beyond every assumed range (:data:`isl_core.scenario.presets
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -15,7 +15,30 @@ from .periods import seed_ratios, worst_from
 from .variants import TuningGrids
 
 if TYPE_CHECKING:
-    from .table import ScenarioTable
+    from .heldout import HeldOut
+
+
+class _Row(Protocol):
+    @property
+    def role(self) -> str: ...
+
+    @property
+    def columns(self) -> tuple[int, ...]: ...
+
+
+class _Table(Protocol):
+    """What the rows beyond every assumed range read of a table (:class:`~isl_core.scenario.table.ScenarioTable`,
+    which imports this module)."""
+
+    @property
+    def held(self) -> HeldOut | None: ...
+
+    @property
+    def rows(self) -> Sequence[_Row]: ...
+
+    @property
+    def level(self) -> float: ...
+
 
 __all__ = ["CellStats", "assumes", "beyond_rows", "beyond_stats", "cell_stats"]
 
@@ -71,7 +94,7 @@ def cell_stats(ys: list[np.ndarray], seeds: list[tuple[int, ...]], level: float)
     return CellStats(ratio, low, high, coordinate, coordinates, worst_seed, worst_id, above2, diverged)
 
 
-def beyond_stats(table: ScenarioTable) -> CellStats | None:
+def beyond_stats(table: _Table) -> CellStats | None:
     """The table's reference, tuned and paper rows (in that order: :func:`beyond_rows`) over the held-out run's
     presets beyond every assumed range, or None without them."""
     held = table.held
@@ -82,6 +105,6 @@ def beyond_stats(table: ScenarioTable) -> CellStats | None:
     return cell_stats(ys, [held.seeds] * len(rows), table.level)
 
 
-def beyond_rows(table: ScenarioTable) -> list[int]:
+def beyond_rows(table: _Table) -> list[int]:
     """The rows run through the presets beyond every assumed range: all but the oracle rows."""
     return [r for r, row in enumerate(table.rows) if row.role != "oracle"]
