@@ -54,6 +54,8 @@ def cmd_scenario(args) -> int:
 
 
 def _meta(res) -> dict:
+    from ..scenario.shipped import describe
+
     return {
         "alpha": res.alpha,
         "m": res.m,
@@ -68,6 +70,7 @@ def _meta(res) -> dict:
         "scenarios": dict(zip(res.presets, res.preset_labels, strict=True)),
         "one_reading_over_r_min": dict(zip(res.presets, res.reading_time, strict=True)),
         "steps": dict(zip(res.presets, res.steps, strict=True)),
+        "shipped_tuning": describe(res.alpha, res.m, res.w),  # what the dashboard uses without a computed tuning
     }
 
 
