@@ -75,13 +75,32 @@ def _kept(path: Path, record: dict) -> dict[tuple[float, int], dict]:
     return {(e["alpha"], e["m"]): e for e in old["entries"]}
 
 
+def markdown(record: dict) -> str:
+    """The file's grid as the table of the scenarios page: per point each family's knob and the computing time."""
+    from isl_core.scenario.table import knob_text
+
+    head = "| m | α (w = 3) | ISL ν/β | model-aware ν/β | adaptive | VB | robust | IMM | s |\n" + "|---" * 9 + "|\n"
+    rows = []
+    for e in sorted(record["entries"], key=lambda e: (e["m"], e["alpha"])):
+        k = e["knobs"]
+        cells = [f"{2.0 ** k[f]['ell']:.3g}" for f in ("isl", "isl_model")]
+        cells += [knob_text(k[f]) for f in ("kbf_adaptive", "vb", "kbf_robust")]
+        cells.append(f"p = {k['imm']['switch']:g}, J = {k['imm']['modes']}")
+        rows.append(f"| {e['m']} | {e['alpha']:g} | " + " | ".join(cells) + f" | {e['seconds']:.0f} |")
+    return head + "\n".join(rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--alpha", type=float, nargs="+", help="α of the grid (w = 3; default: every point's)")
     parser.add_argument("--m", type=int, nargs="+", help="m of the grid (with --alpha: every α at every m)")
     parser.add_argument("--workers", type=int, default=2, help="threads per tuning (default 2)")
     parser.add_argument("--out", type=Path, default=SHIPPED, help=f"where to write (default {SHIPPED})")
+    parser.add_argument("--markdown", action="store_true", help="print the file's grid as a Markdown table, and stop")
     args = parser.parse_args(argv)
+    if args.markdown:
+        print(markdown(json.loads(args.out.read_text(encoding="utf-8"))))
+        return 0
     start = time.perf_counter()
     probe = probe_tuning(args.workers)
     record = {
