@@ -28,7 +28,7 @@ from isl_core.scenario.tuning import tune
 
 #: (m, α) in the order computed, the most useful first: the default page's model, the scenario table's (α = 1), every
 #: other m at one α, then more α per m, the dearest last (the steps a seed grow with α at m ≥ 2; α = 25 and 100 only
-#: at m = 1, where they are cheap: at m ≥ 2 they need 10⁶–10⁷ steps a seed, hours a point)
+#: at m = 1, where they are cheap: at m ≥ 2 they need 1.4–12 million steps a seed over the presets, hours a point)
 POINTS = (
     (3, 0.5),
     (3, 1.0),
