@@ -68,6 +68,7 @@ PROBE: dict = {
     "horizon": 13.0,
     "grids": {"isl_ell": [-2.0, 4.0], "memory": [10.0], "robust_c": [2.0], "imm_switch": [0.001], "imm_modes": [21]},
 }
+_SAME = 1e-9  #: relative difference under which two α (or w) are the same point: rounding, not another model
 _NOT_RULE = {"alpha", "m", "w", "presets", "grids", "workers", "progress", "cache", "compute"}
 
 
@@ -230,12 +231,13 @@ def _shipped(grid: ShippedGrid, entry: dict, alpha: float, w: float, target: flo
     tune_args = grid.rule["tune"]
     grids = TuningGrids(**{k: tuple(v) for k, v in grid.rule["grids"].items()})
     point = f"α = {entry['alpha']:g}, m = {entry['m']}"
-    exact = math.isclose(target, entry["alpha"], rel_tol=1e-9)
-    yours = f"your α = {alpha:g}" + (f" with w = {w:g} is α = {target:.3g} at w = 3" if w != W_GRID else "")
+    exact = math.isclose(target, entry["alpha"], rel_tol=_SAME)
+    other_w = not math.isclose(w, W_GRID, rel_tol=_SAME)  # w = β/√(2α) of β = 3√(2α) may be 3 to rounding
+    yours = f"your α = {alpha:g}" + (f" with w = {w:g} is α = {target:.3g} at w = 3" if other_w else "")
     label = f"tuned at {point}"
     if not exact:
         label += f"; {yours}: nearest grid point"
-    elif w != W_GRID:
+    elif other_w:
         label += f"; {yours}"
     span = (
         f"shipped tuning, {label} (grid at m = {entry['m']}: α ∈ {_words(grid.alphas(entry['m']))}, w = 3; "

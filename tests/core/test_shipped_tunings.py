@@ -4,6 +4,7 @@ bit, read at the nearest grid point and labelled as such, and why a grid in α a
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -66,6 +67,8 @@ def test_between_grid_points_the_nearest_in_log_alpha_is_taken_and_labelled(smal
     assert nearest(0.5, 2, path=str(small_file)).alpha == 1.0  # |log 2.5| > |log 2|
     exact = nearest(1.0, 2, path=str(small_file))
     assert exact.exact and exact.label == "tuned at α = 1, m = 2"
+    rounded = nearest(17.0, 2, 3.0 * math.sqrt(34.0) / math.sqrt(34.0), path=str(small_file))  # w = 3 to rounding
+    assert rounded.label == "tuned at α = 1, m = 2; your α = 17: nearest grid point"
     model = Model.from_w(0.4, 3.0, 20.0, 2)  # its filters: the knobs on the page's model
     specs = near.tuned_filters(model)
     assert [s.name for s in specs] == list(FAMILIES)
