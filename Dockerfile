@@ -17,7 +17,7 @@ COPY pyproject.toml README.md requirements.lock ./
 COPY isl_core ./isl_core
 COPY app ./app
 RUN python -m venv /opt/venv \
-    && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock ".[data]"
+    && /opt/venv/bin/pip install --no-cache-dir -c requirements.lock ".[app,data]"
 
 # The documentation, which the dashboard serves at /docs/ (a classroom without internet has it): built in a stage of
 # its own with the docs extra and MathJax (npm ci of docs/js, copied into the pages by docs/conf.py), warnings as

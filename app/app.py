@@ -2,6 +2,8 @@
 
 The server runs this script for every session, in a fresh namespace: it only builds that session's page. Everything
 shared by the sessions lives in the module :mod:`app.page`.
+A plain ``panel serve`` runs it without the patches of Panel and Bokeh that ``python -m app.serving`` installs at
+its start-up (:mod:`app.serving.patches`): threads, stalls and error replies are then Panel's own.
 """
 
 import sys
@@ -13,11 +15,11 @@ if not __package__:  # run as a script (`panel serve app/app.py`): make `app` th
 import panel as pn
 
 from app.page import LONG_JOBS, TITLE, LocalFast, SessionGate, create_app, deferred, session_jobs
-from app.serving import fastpath
+from app.serving.session import settle_markup_stylesheets
 
 __all__ = ["LONG_JOBS", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 if pn.state.served:
     with pn.state.curdoc.models.freeze():  # one walk of the page's models at the end, not one per root added
         create_app().servable(title="isl — Kalman–Bucy vs ISL")
-        fastpath.settle_markup_stylesheets(pn.state.curdoc)
+        settle_markup_stylesheets(pn.state.curdoc)  # their first update then changes no stylesheet

@@ -1,22 +1,28 @@
-"""The ``isl`` console script: the core's command line (:mod:`isl_core.cli`) with the dashboard's additions.
+"""What the dashboard adds to the core's ``isl`` command (:mod:`isl_core.cli`), where the ``app`` extra is installed.
 
     isl figure3 [--sigmas 20 200] [--alpha A] [--w W] [--nu NU] [--seed K] [--out DIR]
     isl sweep ... [--no-png]            (the core's sweep, plus fig2.html and fig2.png)
     isl serve [options of app.serving.serve]
 
 Every computation is the core's; this module only draws figures (:mod:`app.static_figures`) and serves the app.
+The core's console script loads :func:`extension` through the ``isl.cli`` entry point; :func:`main` is the same
+command for a checkout that is not installed.
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
+from importlib.util import find_spec
 from pathlib import Path
 
 from isl_core.cli import Extension, positive, seed_number
 from isl_core.cli import main as core_main
 
-__all__ = ["DASHBOARD", "main"]
+__all__ = ["DASHBOARD", "REQUIRES", "extension", "main"]
+
+#: the libraries of the ``app`` extra (pyproject.toml) that the dashboard's commands import
+REQUIRES = ("panel", "bokeh", "param", "matplotlib")
 
 
 def sweep_figures(res, out: Path, args) -> list[Path]:
@@ -92,6 +98,22 @@ def serve(argv: list[str]) -> int:
 
 #: what the dashboard adds to the core's ``isl``
 DASHBOARD = Extension(add=add_commands, passthrough={"serve": serve})
+
+
+def extension() -> Extension:
+    """:data:`DASHBOARD` — the ``isl.cli`` entry point the core's ``isl`` loads — or ``ModuleNotFoundError`` naming
+    what is missing when the ``app`` extra is not installed (checked without importing it: ``isl run`` stays quick)."""
+    missing = [name for name in REQUIRES if not _importable(name)]
+    if missing:
+        raise ModuleNotFoundError(f"the dashboard needs {', '.join(missing)} (the app extra)", name=missing[0])
+    return DASHBOARD
+
+
+def _importable(name: str) -> bool:
+    try:
+        return find_spec(name) is not None
+    except ImportError:
+        return False
 
 
 def main(argv: list[str] | None = None) -> int:

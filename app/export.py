@@ -8,7 +8,11 @@ over every step, as on the page.
 Layout: ``#`` lines first — the version and date, every input (with w, the horizon asked for and the horizon
 simulated), the grid (h, N, T, the rows kept), the start, the averaging window, then per coordinate s_i (theory)
 and every filter's measured ratio with its theory — then one row per kept step with named columns
-``t, X1_position, …, kbf_X1_position, …, isl_X1_position, …`` (X the signal, then each filter's estimate).
+``t, X1_position, …, reading, kbf_X1_position, …, isl_X1_position, …`` (X the signal, the reading, then each
+filter's estimate). ``reading`` is what the filters took in: the observation's average over the interval since the
+row before, (Y(t) − Y(t_prev))/(t − t_prev) (:func:`isl_core.simulate`'s readings; none, ``nan``, in the first row),
+so that the file read back as a recorded series (:func:`isl_core.series.read_csv` with ``time="t"``,
+``value="reading"``) is the run's own observation (:ref:`data-readings`).
 """
 
 from __future__ import annotations
@@ -48,6 +52,8 @@ def _header(state, req, run, view, prediction: dict) -> list[str]:
         f"horizon: asked {req.horizon:.17g}/r_min, simulated {run.horizon:.17g}/r_min (lengthened x{run.stretch:.6g});"
         f" r_min={run.r_min:.17g} T={run.T:.17g} h={run.h:.17g} N={run.N}",
         f"rows: every {run.every} step(s) ({len(run.t)} rows); the RMSE and ratios below are over all N steps",
+        "reading: the observation's average over the interval since the row before, (Y(t) - Y(t_prev))/(t - t_prev),"
+        " dY = X1 dt + sigma dW (none in the first row)",
         f"start: every filter at X(0) - e0, e0 ~ N(0, Delta) ({run.start}); averaging window t in [0, T], no burn-in",
         "other filters: "
         + (", ".join(f"{tr.name} = {tr.label}" for tr in run.tracks[2:]) or "none")
@@ -78,11 +84,21 @@ def run_csv(state) -> str:
     model = Model(req.alpha, req.beta, req.sigma, req.m)
     extra, every_spec = extra_filters(req, model)
     every = max(1, math.ceil((view.N + 1) / MAX_ROWS))
-    run = simulate(model, req.nu, horizon=req.horizon, seed=req.seed, extra=extra, step_filters=every_spec, every=every)
+    run = simulate(
+        model,
+        req.nu,
+        horizon=req.horizon,
+        seed=req.seed,
+        extra=extra,
+        step_filters=every_spec,
+        every=every,
+        readings=True,
+    )
     prediction = {"kbf": np.ones(req.m), "isl": state.prediction, **(state.extra_prediction or {})}
     coords = [f"X{i + 1}_{c}" for i, c in enumerate(_coordinates(req.m))]
-    cols = ["t", *coords, *(f"{tr.name}_{c}" for tr in run.tracks for c in coords)]
-    data = np.column_stack([run.t, run.X, *(tr.estimate for tr in run.tracks)])
+    cols = ["t", *coords, "reading", *(f"{tr.name}_{c}" for tr in run.tracks for c in coords)]
+    assert run.readings is not None  # asked for above
+    data = np.column_stack([run.t, run.X, run.readings, *(tr.estimate for tr in run.tracks)])
     out = io.StringIO()
     head = "\n".join(_header(state, req, run, view, prediction)) + "\n" + ",".join(cols)
     np.savetxt(out, data, delimiter=",", header=head, comments="# ", fmt="%.9g")

@@ -23,12 +23,13 @@ from panel.viewable import Viewable
 from threadpoolctl import threadpool_limits
 
 from app.jobs import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs, LongJobQueue
-from app.serving import fastpath, hardening, offloop
+from app.serving.session import building_page, handle_exception, prebuild, release_on_destroy, session_lock
 from app.state import TABS, AppState
 from app.urlsync import UrlSync, after_pause, follow_history
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
 from app.views.about import docs_link
 from app.views.compare import CompareView
+from app.views.data import DataView, install_size_guard
 from app.views.filters_panel import FiltersPanel
 from app.views.paint import skip_same_stylesheet
 from app.views.scenario import ScenarioView
@@ -46,6 +47,7 @@ TAB_TITLES = {
     "worstcase": "Worst case over σ",
     "compare": "Compare σ",
     "scenarios": "Scenarios: σ(t), tails, sensor",
+    "data": "Your data",
 }
 PAGE_CSS = a11y.PAGE_CSS
 #: the tab headers wrap onto a second row where one row is too narrow (BokehJS scrolls them sideways, out of sight:
@@ -59,29 +61,8 @@ LONG_JOBS = LongJobQueue(workers=1, max_waiting=8, processes=True)
 # The model's matrices are m×m (m ≤ 6): multithreaded BLAS only adds overhead, and its spinning threads slow the
 # other sessions' jobs (:ref:`performance-warm-up`).
 threadpool_limits(limits=1, user_api="blas")
-pn.extension(notifications=True)  # the hardening handler reports errors as notifications
-
-
-def _serialize_busy_bookkeeping() -> None:
-    """Panel counts every widget event as "busy" by lifting the read-only flag of ``pn.state.busy`` for a moment
-    (``edit_readonly`` changes the class's parameter object); with ``--num-threads`` two worker threads interleave
-    there and one fails with "Read-only parameter 'busy' cannot be modified" — a callback error on the page (seen
-    in the browser tests when the other filters were ticked at once). The three bookkeeping methods take one lock."""
-    lock = threading.RLock()
-    for name in ("_add_busy_event", "_remove_busy_event", "_cleanup_busy_counter"):
-        method = getattr(pn.state, name)
-
-        def locked(*args, _method=method, **kwargs):
-            with lock:
-                return _method(*args, **kwargs)
-
-        setattr(pn.state, name, locked)
-
-
-_serialize_busy_bookkeeping()
-hardening.install()  # tracebacks to the log, a short message to the user; session data released on close
-offloop.install()  # parts built on threads (deferred) may register links while the loop attaches others
-fastpath.install()  # Panel asks the design for stylesheets only when they change
+# an error in a callback: its traceback to the server's log, a notice with an incident id to the user
+pn.extension(notifications=True, exception_handler=handle_exception)
 
 
 class SessionGate:
@@ -145,11 +126,11 @@ class SessionGate:
             # document while the views update: without it Panel rebuilds each pane's stylesheet models on each
             # update, and new models make the server re-walk every model of the page (:ref:`performance-page-building`).
             # The session's lock: a browser event of this page may be being processed on a thread right now
-            # (hardening.serialize_session_events); it holds the lock only while its callback runs.
+            # (app.serving.hardening.serialize_session_events); it holds the lock only while its callback runs.
             if not held:
                 return
             apply = held.pop()
-            with hardening.session_lock(doc), set_curdoc(doc), pn.io.hold(doc):
+            with session_lock(doc), set_curdoc(doc), pn.io.hold(doc):
                 apply()
 
         with set_curdoc(doc):
@@ -204,15 +185,15 @@ def deferred(build: Callable[[], object], shown: bool = True):
     ``recompute``), the serialization of the part's models and Panel's search of the page for links; built with the
     page instead (off the loop, one walk), the browser pulls the whole page at once. The hidden tabs' parts
     (``shown=False``) are still deferred: most pages never open them. Their models are built on the thread too
-    (:func:`app.serving.offloop.prebuild`), not on the loop when the part is swapped in. Measurements:
+    (:func:`app.serving.session.prebuild`), not on the loop when the part is swapped in. Measurements:
     :ref:`performance-page-building`.
     """
-    if shown and offloop.building_page():
+    if shown and building_page():
         return pn.panel(build())
 
     def built():
         obj = pn.panel(build())
-        offloop.prebuild(obj, pane._inner_layout)
+        prebuild(obj, pane._inner_layout)
         return obj
 
     # a least height, so that the loading indicator Panel lays over the part while it is built can be seen (at
@@ -231,7 +212,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         UrlSync(state, pn.state.location, after_pause(pn.state.curdoc))  # kept alive by the watchers it registers
         follow_history(pn.state.curdoc)
     state.start()
-    hardening.release_on_destroy(state.close)
+    release_on_destroy(state.close)
     skip_same_stylesheet(pn.state.curdoc)
     basis = round(620 * text_scale(state))  # the plots' least width beside the numbers (wider text: wider plots)
     trajectories = deferred(
@@ -255,6 +236,7 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         "worstcase": on_first_open(state, "worstcase", lambda: WorstCaseView(state=state)),
         "compare": on_first_open(state, "compare", lambda: CompareView(state=state)),
         "scenarios": on_first_open(state, "scenarios", lambda: ScenarioView(state=state)),
+        "data": on_first_open(state, "data", lambda: DataView(state=state)),
     }
     tabs = pn.Tabs(
         *((TAB_TITLES[name], views[name]) for name in TABS),
@@ -285,7 +267,8 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
     a11y.install(pn.state.curdoc)
-    if gate is not None and offloop.building_page():
+    install_size_guard(pn.state.curdoc)  # the Your data tab's file input sends no file over its limit
+    if gate is not None and building_page():
         gate.apply_here()
     return page
 
@@ -310,7 +293,7 @@ window.location.href = url.toString();
 
 def on_first_open(state: AppState, name: str, build: Callable[[], object]):
     """The part shown in tab ``name``: built with the page when the page opens on that tab, else when the tab is first
-    opened — on a worker thread, its bokeh models too (:func:`app.serving.offloop.prebuild`), then swapped in on the
+    opened — on a worker thread, its bokeh models too (:func:`app.serving.session.prebuild`), then swapped in on the
     session's loop. Meanwhile the tab says what is happening: built by Panel as the tab opened, the part was sent
     only once it was whole, and a tab stayed blank for 2–3 s."""
     if state.tab == name:
@@ -334,7 +317,7 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
 
         with set_curdoc(doc), patch_curdoc(doc):
             part = pn.panel(build())
-            offloop.prebuild(part, holder)
+            prebuild(part, holder)
         return part
 
     def show(outcome, superseded: bool) -> None:

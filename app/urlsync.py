@@ -29,7 +29,7 @@ import urllib.parse
 from collections.abc import Callable
 
 from . import inputs
-from .serving.offloop import session_loop
+from .serving.session import session_loop
 from .state import ALL_INPUTS, KINDS, PARAMS, AppState, input_label
 
 __all__ = [

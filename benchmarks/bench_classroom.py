@@ -184,13 +184,21 @@ async def students(
         await asyncio.sleep(rng.uniform(0, 3.0))
         while time.perf_counter() < until and not client.closed:
             slider = sc.find_slider(client.doc, "σ")
+            previous, shown = last, slider.value  # the last value sent, the one the server last showed this client
             value = last = sc.new_value(slider, rng, last)
-            _, t0 = await client.change(slider, value=value, value_throttled=value)
+            msgid, t0 = await client.change(slider, value=value, value_throttled=value)
             if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 30.0):
                 out.append(client.data_update_after(t0) - t0)
                 TIMELINE.append((t0, "student", out[-1]))
-            else:
-                figures.errors.append("student: no plot update within 30 s")
+            else:  # for diagnosis: what was sent and what came back; then whether the update only came late
+                seen = client.seen_since(t0, msgid)
+                late = await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 90.0)
+                came = client.data_update_after(t0)
+                figures.errors.append(
+                    f"student: no plot update within 30 s (σ slider sent {value:.3f}, last sent {previous}, shown "
+                    f"{shown:.3f}; {seen}; "
+                    + (f"the update came {came - t0:.1f} s after the change)" if late and came else "none in 120 s)")
+                )
             await asyncio.sleep(3.0 * rng.uniform(0.75, 1.25))
 
     try:
@@ -341,33 +349,12 @@ def main() -> int:
     p.add_argument("--url"), p.add_argument("--server-pid", type=int)
     p.add_argument("--log", type=Path, help="the running server's log (with --stats-interval 1000)")
     p.add_argument("--server-args", default="", help="more options for the server this script starts")
+    p.add_argument("--procs", default="0", help="--num-procs of the started server, one column each (0: per core)")
+    p.add_argument("--before", type=Path, metavar="CHECKOUT", help="first measure a server of this other checkout")
     p.add_argument(
-        "--procs",
-        default="0",
-        help="--num-procs of the started server, comma-separated: one column each (default 0: one per core)",
+        "--env", action="append", default=[], metavar="NAME=VALUE", help="the started server's environment (repeatable)"
     )
-    p.add_argument(
-        "--before",
-        type=Path,
-        metavar="CHECKOUT",
-        help="first measure a server of this other checkout (e.g. a worktree of the previous commit)",
-    )
-    p.add_argument(
-        "--env",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="environment of the server this script starts (repeatable; this checkout's is served as "
-        "scripts/serve serves it), e.g. PYTHONMALLOC=pymalloc",
-    )
-    p.add_argument(
-        "--before-env",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="environment of the --before server (repeatable); with --before . one checkout is measured "
-        "twice, e.g. with and without an allocator setting",
-    )
+    p.add_argument("--before-env", action="append", default=[], metavar="NAME=VALUE", help="the --before server's")
     opts = p.parse_args()
     if any("=" not in item for item in opts.env + opts.before_env):
         p.error("--env and --before-env take NAME=VALUE")
@@ -388,6 +375,9 @@ def main() -> int:
         f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)"
     )
     print(report(columns))
+    for name, figures in columns.items():  # each error in full: its text carries the diagnosis
+        for error in figures.errors:
+            print(f"{name}: {error}")
     if os.environ.get("ISL_TIMELINE"):
         t0 = min(t for t, _, _ in TIMELINE)
         with open(os.environ["ISL_TIMELINE"], "w") as f:

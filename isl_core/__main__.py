@@ -1,7 +1,7 @@
-"""``python -m isl_core``: the core's ``isl`` command line (run, sweep, recommend, worstcase)."""
+"""``python -m isl_core``: the ``isl`` command (the dashboard's commands too where its ``app`` extra is installed)."""
 
 import sys
 
-from isl_core.cli import main
+from isl_core.cli import console
 
-sys.exit(main())
+sys.exit(console())

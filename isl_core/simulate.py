@@ -15,17 +15,24 @@ Start (:ref:`start`): the truth at X(0) = 0 except X_m(0) ~ N(0, β²/(2α)) whe
 then stationary from t = 0, so its measured ratio is ≈ 1 at any horizon. ``start="truth"`` starts every filter at
 the truth, with no start error (its measured ratio is then below 1 on short runs).
 
+Readings (``readings=True``, :ref:`data-readings`): what the filters took in, as a recorded series holds it — at each
+kept time t_k after the first, the observation's average over the interval since the previous kept time,
+``z_k = (Y(t_k) − Y(t_{k−1}))/(t_k − t_{k−1})`` with ``ΔY = X_1·h + σ√h·ε`` per step (B.34). The kernel draws ε
+and never forms Y; the readings replay the same stream of the same seed (the start's draws, then the rows
+(v_k, ε_k): :func:`isl_core._engine.draw_noise`), so they are the noise the filters saw.
+
 Empirical RMSE along one trajectory (A.30): ``š_i = √(mean_{k=1..N} (Z_i(t_k) − X_i(t_k))²)``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._engine import CHUNK, DivergenceError, Tracked, check_progress, check_start, freeze, run_chunks
+from ._engine import CHUNK, DivergenceError, Tracked, check_progress, check_start, draw_start, freeze, run_chunks
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
@@ -67,7 +74,8 @@ class Run(Tracked):
     ``tracks`` in order: Kalman–Bucy, ISL, extras; their RMSE and ratios are over every step k = 1..N.
     ``s = √diag Δ`` (theory, A.29–A.30), ``r_min`` (A.24), ``h`` step, ``T = N·h``. ``stretch = r_min / r``
     with r the settling rate of the optimal and the ISL filter (≥ 1; T = horizon/r when the horizon was given in
-    units of 1/r_min), ``start`` how the filters started (:data:`!STARTS`).
+    units of 1/r_min), ``start`` how the filters started (:data:`!STARTS`). ``readings`` (K,): the observation's
+    average over the interval before each kept time (NaN at t = 0; module docstring), when asked for.
     """
 
     model: Model
@@ -83,6 +91,7 @@ class Run(Tracked):
     stretch: float = 1.0
     start: str = "stationary"
     every: int = 1
+    readings: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def N(self) -> int:
@@ -107,6 +116,7 @@ def simulate(
     step_filters: Sequence[FilterSpec] = (),
     start: str = "stationary",
     every: int = 1,
+    readings: bool = False,
     progress: Callable[[float], None] | None = None,
 ) -> Run:
     """Simulate truth, the optimal Kalman–Bucy filter and the ISL filter with tuning ``nu`` on one grid.
@@ -117,7 +127,8 @@ def simulate(
     simulated but must not change the grid when they are (e.g. those a view can show on demand). ``seed`` (int ≥ 0)
     fixes the noise: the same seed gives the same run, bit for bit. ``extra`` filters ride on the same noise.
     ``start``: :data:`!STARTS`. ``every``: keep the trajectories at every ``every``-th step only (memory ÷ every;
-    the RMSE still counts every step). ``progress(fraction)`` is called between kernel chunks; raising from it
+    the RMSE still counts every step). ``readings``: also the readings the filters took in (module docstring).
+    ``progress(fraction)`` is called between kernel chunks; raising from it
     cancels. Raises ``ValueError`` for bad input or too many steps, :class:`DivergenceError` for a blown-up filter.
 
     Parameters
@@ -138,6 +149,8 @@ def simulate(
         How the filters start (:data:`!STARTS`).
     every : int, default 1
         Keep every ``every``-th step of the trajectories.
+    readings : bool, default False
+        Also the readings, ``Run.readings``.
     progress : callable, optional
         Called with the fraction done.
 
@@ -166,17 +179,19 @@ def simulate(
     kb = kalman_bucy(model)
     filters = [optimal_kbf(model, kb), *check_filters(model, nu, extra)]
     T, h, n, stretch = plan.T, plan.h, plan.N, plan.stretch
-    sq, X, E, S, kept = _trajectories(model, kb, filters, h, n, seed, start, every, progress)
+    observed = _Readings(model, kb, seed, start, n, h, every) if readings else None
+    sq, X, E, S, kept = _trajectories(model, kb, filters, h, n, seed, start, every, progress, observed)
     s = freeze(kb.s.copy())
     X = freeze(X)
     tracks = _tracks(filters, sq, n, E, S, X, s)
     t = kept.astype(np.float64)
     t *= h
     t = freeze(t)
-    return Run(model, float(nu), seed, t, X, tracks, s, kb.r_min, h, T, stretch, start, every)
+    z = None if observed is None else freeze(observed.result(kept))
+    return Run(model, float(nu), seed, t, X, tracks, s, kb.r_min, h, T, stretch, start, every, z)
 
 
-def _trajectories(model, kb, filters, h, n, seed, start, every, progress):
+def _trajectories(model, kb, filters, h, n, seed, start, every, progress, observed=None):
     """One run of ``filters``: squared-error sums ``sq``, truth ``X``, errors ``E``, adaptive σ̂ ``S`` at the kept
     steps ``kept`` (every ``every``-th; all of them at once, or thinned chunk by chunk)."""
     na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
@@ -195,8 +210,11 @@ def _trajectories(model, kb, filters, h, n, seed, start, every, progress):
             out=Trajectory(True, 0, X, E, S),
             progress=progress,
         )
+        if observed is not None:
+            for k in range(0, n + 1, CHUNK):
+                observed(X[k : k + CHUNK])
         return sq, X, E, S, np.arange(n + 1)
-    keep = _Stride(every, n, model.m, len(filters), na)
+    keep = _Stride(every, n, model.m, len(filters), na, observed)
     rows = min(CHUNK, n) + 1
     buffers = Trajectory(
         True, 0, np.empty((rows, model.m)), np.empty((len(filters), rows, model.m)), np.empty((na, rows))
@@ -221,8 +239,8 @@ def _tracks(filters, sq, n, E, S, X, s) -> tuple[Track, ...]:
 class _Stride:
     """Keeps the samples k = 0, every, 2·every, … of the chunks :func:`run_chunks` hands over."""
 
-    def __init__(self, every: int, n: int, m: int, nf: int, na: int) -> None:
-        self.every, self.seen = every, 0
+    def __init__(self, every: int, n: int, m: int, nf: int, na: int, observed=None) -> None:
+        self.every, self.seen, self.observed = every, 0, observed
         self.index = np.arange(0, n + 1, every)
         self.X, self.E, self.S = (
             np.empty((len(self.index), m)),
@@ -236,3 +254,31 @@ class _Stride:
         at = rows // self.every
         self.X[at], self.E[:, at], self.S[:, at] = X[rows - k0], E[:, rows - k0], S[:, rows - k0]
         self.seen = k1
+        if self.observed is not None:
+            self.observed(X)
+
+
+class _Readings:
+    """Sums ΔY = X_1·h + σ√h·ε_k (B.34) of the steps between kept times, ε_k replayed from the seed (module
+    docstring); called with the truth at consecutive samples, from sample 0 on (step k starts at sample k)."""
+
+    def __init__(self, model: Model, kb, seed: int, start: str, n: int, h: float, every: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        draw_start(model, kb, self.rng, start)  # the start's draws come first in the stream
+        self.sigma_sqh, self.h, self.n, self.every, self.seen = model.sigma * math.sqrt(h), h, n, every, 0
+        self.sums = np.zeros(n // every + 2)
+
+    def __call__(self, X: np.ndarray) -> None:
+        k0 = self.seen
+        steps = max(0, min(k0 + len(X), self.n) - k0)  # samples n and beyond start no step
+        if steps:
+            eps = self.rng.standard_normal((steps, 2))[:, 1]  # rows (v_k, ε_k), as the kernel draws them
+            dy = self.h * X[:steps, 0] + self.sigma_sqh * eps
+            np.add.at(self.sums, np.arange(k0, k0 + steps) // self.every + 1, dy)  # step k ends in row k//every + 1
+        self.seen = k0 + len(X)
+
+    def result(self, kept: np.ndarray) -> np.ndarray:
+        """The readings at the kept samples ``kept`` (NaN at the first)."""
+        z = np.full(len(kept), np.nan)
+        z[1:] = self.sums[1 : len(kept)] / (np.diff(kept) * self.h)
+        return z

@@ -4,6 +4,16 @@
     isl scenario --json > table.json
     isl worstcase --json > worstcase.json
     .venv/bin/python scripts/findings_tables.py table.json [worstcase.json]
+    .venv/bin/python scripts/findings_tables.py --rates table-10.json table-30.json table-100.json …
+    .venv/bin/python scripts/findings_tables.py --converged table-100.json table-100-refined.json
+
+``--rates`` lays the tables at several reading rates (``isl scenario --rate R --json``) side by side: each row's
+minimax knob and worst held-out cell per rate, the winner of each cell per rate, the knobs at their grid's end.
+``--converged`` compares a table with the same table at h/2 (``--refine 1``): per row and cell, how far the cell
+moved in units of its interval's half-width; ``--converged-curves`` the same for every variant of every family at its
+own knob, from two tunings (``isl scenario --tune --json`` and ``--refine 1 --tune --json``), and each family's minimax
+on both. ``--curve FAMILY tune.json`` prints one family's minimax objective (its largest ratio over every cell) per
+knob, on the tuning's seeds.
 
 Prints, in the page's order: the fair table (σ changes; tails, sensor, constant σ), each tuned row out of sample, who
 wins each cell, the rows beyond every assumed σ range, and — with the worst-case JSON — the worst case over σ per α and
@@ -169,7 +179,143 @@ def worst_case(doc: dict) -> list[str]:
     return [*out, ""]
 
 
+def _load(path: str) -> dict:
+    with open(path) as fh:
+        return json.load(fh)
+
+
+def rates(docs: list[dict]) -> list[str]:
+    """Each row's knob and worst held-out cell, and each cell's winner, per reading rate."""
+    heads = [f"R = {d['meta']['rate_readings_per_r_min']:g}" for d in docs]
+    out = ["| row | " + " | ".join(heads) + " |", "|---|" + "---|" * len(docs)]
+    by = [{r["name"]: r for r in d["rows"]} for d in docs]
+    for r in docs[0]["rows"]:
+        if r["role"] not in ("tuned", "paper", "reference"):
+            continue
+        parts = []
+        for rows in by:
+            row = rows[r["name"]]
+            worst = max(row["cells"], key=lambda k: _key(row["cells"][k]["ratio"]))
+            flag = ", **flagged**" if row.get("flagged") else ""
+            parts.append(f"{knob(row)}: {fmt(row['cells'][worst]['ratio'])} ({CELLS.get(worst, worst)}{flag})")
+        out.append(f"| {NAMES[r['name']]} | " + " | ".join(parts) + " |")
+    out += ["", "| cell | " + " | ".join(heads) + " |", "|---|" + "---|" * len(docs)]
+    winners = [{w["cell"]: w for w in d["winners"]} for d in docs]
+    for w in docs[0]["winners"]:
+        parts = []
+        for ws in winners:
+            x = ws[w["cell"]]
+            a = NAMES[x["winner"]]
+            parts.append(f"tie: {a}, {NAMES[x['runner_up']]}" if x["tie"] else f"{a} ({x['margin']:.2f}×)")
+        out.append(f"| {CELLS.get(w['cell'], w['cell'])} | " + " | ".join(parts) + " |")
+    out += ["", "| grid | " + " | ".join(heads) + " |", "|---|" + "---|" * len(docs)]
+    out.append(
+        "| minimax at a grid's end | "
+        + " | ".join(
+            "; ".join(f"{f}: {', '.join(f'{k} {v}' for k, v in e.items())}" for f, e in edges.items()) or "none"
+            for edges in (d["meta"].get("minimax_on_grid_edge", {}) for d in docs)
+        )
+        + " |"
+    )
+    steps = [d["meta"]["steps_per_reading"] for d in docs]
+    for preset in docs[0]["meta"]["steps_per_reading"]:
+        out.append(
+            f"| {preset}: steps a reading (h) | "
+            + " | ".join(f"{s[preset]} ({d['meta']['h'][preset]:.3g})" for s, d in zip(steps, docs, strict=True))
+            + " |"
+        )
+    return [*out, ""]
+
+
+def _key(x) -> float:
+    return math.inf if x is None else x
+
+
+def converged(coarse: dict, fine: dict) -> list[str]:
+    """How far each row's cells moved from h to h/2, in units of the coarse cell's interval half-width."""
+    rate = coarse["meta"]["rate_readings_per_r_min"]
+    qs = (coarse["meta"]["steps_per_reading"], fine["meta"]["steps_per_reading"])
+    out = [
+        f"R = {rate:g}: steps a reading {qs[0]} → {qs[1]}",
+        "",
+        "| row | largest move / half-width (cell) | cells moved more than the half-width |",
+        "|---|---|---|",
+    ]
+    rows = {r["name"]: r for r in fine["rows"]}
+    worst_all = 0.0
+    for r in coarse["rows"]:
+        if r["role"] == "oracle":
+            continue
+        moves = {}
+        for k, c in r["cells"].items():
+            f = rows[r["name"]]["cells"][k]
+            half = (c["high"] - c["low"]) / 2.0 if c["high"] is not None and c["low"] is not None else None
+            if half and f["ratio"] is not None and c["ratio"] is not None:
+                moves[k] = abs(f["ratio"] - c["ratio"]) / half
+        k = max(moves, key=moves.get)
+        worst_all = max(worst_all, moves[k])
+        over = [CELLS.get(c, c) for c, v in moves.items() if v > 1.0]
+        out.append(f"| {NAMES[r['name']]} | {moves[k]:.3f} ({CELLS.get(k, k)}) | {', '.join(over) or 'none'} |")
+    out += ["", f"largest over every row and cell: {worst_all:.3f} of a half-width", ""]
+    return out
+
+
+def _objective(doc: dict) -> dict[str, tuple[dict, float, bool]]:
+    """Per variant: its knob, its largest ratio over the cells (the minimax objective) and whether it is the minimax."""
+    out: dict[str, tuple[dict, float, bool]] = {}
+    for c in doc["curves"]:
+        knob = {k: c[k] for k in KNOBS if k in c}
+        prev = out.get(c["variant"], (knob, -math.inf, False))
+        out[c["variant"]] = (knob, max(prev[1], _key(c["ratio"])), c["minimax"])
+    return out
+
+
+def curve(family: str, doc: dict) -> list[str]:
+    """One family's minimax objective per knob (* the minimax)."""
+    out = [f"| {family}: knob | largest ratio over the cells |", "|---|---|"]
+    for name, (knob, worst, best) in _objective(doc).items():
+        if name.startswith(family + "@"):
+            text = ", ".join(KNOBS[k].format(v) for k, v in knob.items())
+            out.append(f"| {'**' if best else ''}{text}{'** (minimax)' if best else ''} | {fmt(worst)} |")
+    return [*out, ""]
+
+
+def converged_curves(coarse: dict, fine: dict) -> list[str]:
+    """Every variant at its own knob, h against h/2, in units of the coarse cell's half-width; each family's minimax."""
+    moves: dict[str, list[float]] = {}
+    fine_cells = {(c["variant"], c["cell"]): c for c in fine["curves"]}
+    for c in coarse["curves"]:
+        f = fine_cells[(c["variant"], c["cell"])]
+        if None in (c["ratio"], c["low"], c["high"], f["ratio"]) or c["high"] <= c["low"]:
+            continue
+        moves.setdefault(c["family"], []).append(abs(f["ratio"] - c["ratio"]) / ((c["high"] - c["low"]) / 2.0))
+    out = [
+        "| family | variants × cells | largest move / half-width | moved > half-width | minimax at h → h/2 |",
+        "|---|---|---|---|---|",
+    ]
+    best = [{n: (k, w) for n, (k, w, b) in _objective(d).items() if b} for d in (coarse, fine)]
+    for family, m in moves.items():
+        ends = []
+        for b in best:
+            (knob, worst) = next(v for n, v in b.items() if n.startswith(family + "@"))
+            ends.append(f"{', '.join(KNOBS[k].format(v) for k, v in knob.items())} ({fmt(worst)})")
+        out.append(f"| {family} | {len(m)} | {max(m):.3f} | {sum(x > 1.0 for x in m)} | {ends[0]} → {ends[1]} |")
+    return [*out, ""]
+
+
 def main(argv: list[str]) -> int:
+    if argv[:1] == ["--converged-curves"] and len(argv) == 3:
+        print("\n".join(converged_curves(_load(argv[1]), _load(argv[2]))))
+        return 0
+    if argv[:1] == ["--curve"] and len(argv) == 3:
+        print("\n".join(curve(argv[1], _load(argv[2]))))
+        return 0
+    if argv[:1] == ["--rates"] and len(argv) >= 2:
+        print("\n".join(rates([_load(p) for p in argv[1:]])))
+        return 0
+    if argv[:1] == ["--converged"] and len(argv) == 3:
+        print("\n".join(converged(_load(argv[1]), _load(argv[2]))))
+        return 0
     if len(argv) not in (1, 2):
         print(__doc__, file=sys.stderr)
         return 2

@@ -248,6 +248,25 @@ class BokehClient:
                 return t
         return None
 
+    def seen_since(self, t0: float, msgid: str | None = None) -> str:
+        """What this client received after ``t0`` (and the server's answer to ``msgid``), in words: a diagnosis for a
+        change that went unanswered — was it taken, did anything come back, and what."""
+        names = {
+            m.id: f"{type(m).__name__}({getattr(m, 'name', None) or getattr(m, 'title', None) or m.id})"
+            for m in self.doc.models
+        }
+        after = [(t, kinds, models) for t, kinds, models in self.patches if t >= t0]
+        touched = sorted({names.get(m, m) for _, _, models in after for m in models})
+        reply = self.replies.get(msgid) if msgid is not None else None
+        answer = "no reply" if reply is None else reply.msgtype + (f" {reply.text}" if reply.text else "")
+        last = f"{self.patches[-1][0] - t0:+.1f} s" if self.patches else "none"
+        return (
+            f"server's answer to the change: {answer}; {len(after)} patch(es) since "
+            f"({', '.join(sorted(set().union(*(k for _, k, _ in after)))) or 'none'}) touching "
+            f"{', '.join(touched[:8]) or 'nothing'}{' …' if len(touched) > 8 else ''}; last patch at {last}; "
+            f"closed={self.closed}, errors={self.errors[-1:] or 'none'}"
+        )
+
     def _cds_ids(self) -> set[str]:
         if self.light and self._cds is not None:
             return self._cds

@@ -28,27 +28,21 @@ loop while σ moved, that comprehension was 205 of the ≈ 3000 busy samples (as
 :func:`lazy_serializer_references` keeps ``{id(model): model}`` and makes the ref only of a model a message names; a
 test compares whole messages made both ways.
 
-**Markup stylesheets that change at the first update.** Panel builds a markup pane's model (HTML, Markdown, Alert)
-with the stylesheets its template's design applies, and updates it with those of ``_get_properties``, which also hold
-the theme's base sheet (``default.css``). So the first update of each such pane changed its ``stylesheets``, a list
-of models, and bokeh re-walked every model of the page: ≈ 30 ms of the event loop per pane at a session's first
-slider change (70–100 ms against 13–25 ms for the next ones, one session at a time). :func:`settle_markup_stylesheets`
-gives the models those stylesheets while the page is built.
-
-:func:`install` is idempotent; :mod:`app.page` calls it when the dashboard is imported.
+:func:`install` is idempotent; :func:`app.serving.patches.install` calls it at the server's start-up. (The markup
+panes' stylesheets given while the page is built, which changes no library code, are
+:func:`app.serving.session.settle_markup_stylesheets`.)
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from .patches import mark
+from .mark import mark
 
 __all__ = [
     "install",
     "lazy_serializer_references",
     "serialize_set_properties_only",
-    "settle_markup_stylesheets",
     "skip_unused_design_params",
 ]
 
@@ -150,25 +144,8 @@ def lazy_serializer_references() -> None:
     Serializer.__init__ = __init__
 
 
-def settle_markup_stylesheets(doc) -> None:
-    """Give the model of every markup pane shown in ``doc`` the stylesheets its first update would send (see the
-    module's docstring); one walk of the page's models for all of them. Nothing without a document."""
-    from panel.io.state import state
-    from panel.pane.markup import HTMLBasePane
-
-    if doc is None:
-        return
-    roots = [view for view, _, shown, _ in list(state._views.values()) if shown is doc and hasattr(view, "select")]
-    with doc.models.freeze():
-        for pane in {id(p): p for root in roots for p in root.select(HTMLBasePane)}.values():
-            for model, _ in list(pane._models.values()):
-                if model.document is doc:
-                    sheets = pane._get_properties(doc).get("stylesheets")
-                    if sheets is not None and sheets != model.stylesheets:
-                        model.stylesheets = sheets
-
-
 def install() -> None:
+    """Install the three patches (idempotent)."""
     skip_unused_design_params()
     serialize_set_properties_only()
     lazy_serializer_references()

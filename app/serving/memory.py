@@ -72,10 +72,10 @@ PAUSES = CollectorPauses()
 
 def log_stats(server) -> None:
     """One ``isl stats`` line: live sessions, open connections, sessions whose release hooks have not run yet
-    (:func:`app.hardening.release_on_destroy`), resident memory of this process, and the garbage collector's
+    (:func:`app.serving.session.release_on_destroy`), resident memory of this process, and the garbage collector's
     pauses since the last line (:class:`CollectorPauses`: collections, their total and longest time, per
     generation)."""
-    from app.serving import hardening
+    from app.serving import session
 
     sessions = server.get_sessions()
     connections = sum(s.connection_count for s in sessions)
@@ -83,7 +83,7 @@ def log_stats(server) -> None:
         "isl stats: sessions=%d connections=%d pending_releases=%d rss_mb=%.1f %s pid=%d",
         len(sessions),
         connections,
-        hardening.live_release_hooks(),
+        session.live_release_hooks(),
         rss_mb(),
         PAUSES.take(),
         os.getpid(),  # one server process of several: which one
@@ -121,9 +121,9 @@ class MemoryTrimmer:
             self._trim = None
 
     def __call__(self) -> None:
-        from app.serving import hardening
+        from app.serving import session
 
-        sessions, pending = len(self.server.get_sessions()), hardening.live_release_hooks()
+        sessions, pending = len(self.server.get_sessions()), session.live_release_hooks()
         # a session's memory is free once it has ended *and* its release hooks have run: trim after either
         if sessions + pending < self.sessions:
             self.ended += self.sessions - (sessions + pending)

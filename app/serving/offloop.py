@@ -12,9 +12,9 @@ app script (``initialize_document``) right there. The script builds the page's P
   built, Panel's record of the document's thread is set back to the event loop's, where the session lives from then
   on. One thread, so that no two app scripts run at once (the script runner swaps ``sys.modules`` entries and
   bokeh's output functions while it runs).
-* :func:`prebuild` (called by :func:`app.page.deferred` on the thread that evaluates a deferred part) builds that
-  part's bokeh models before Panel attaches it: Panel reuses a component's models when it already has them for the
-  page's root, so the event loop only attaches them instead of building them.
+* :func:`app.serving.session.prebuild` (called by :func:`app.page.deferred` on the thread that evaluates a deferred
+  part) builds that part's bokeh models before Panel attaches it: Panel reuses a component's models when it already
+  has them for the page's root, so the event loop only attaches them instead of building them.
 
 Both rely on bokeh's ``curdoc()`` being right on each thread; bokeh keeps its stack of patched documents in one
 list for the whole process, so a build on the page thread and a callback on the loop would see each other's
@@ -36,6 +36,9 @@ that meant the session's run stayed "in flight" for good, every later slider cha
 stopped following its sliders (CI's load run: one session of 20 got no plot update within 30 s; a stress run of
 the same steps lost 1 registration in 20 000). :func:`install` makes ``execute`` hand such a callback to the
 session's loop first (tornado's thread-safe ``add_callback``), which registers it there.
+
+:func:`install` is idempotent; :func:`app.serving.patches.install` calls it at the server's start-up, and the server
+calls :func:`build_pages_off_loop` for its application.
 """
 
 from __future__ import annotations
@@ -45,13 +48,13 @@ import logging
 import os
 import threading
 import weakref
-from concurrent.futures import ThreadPoolExecutor
+
+from .session import PAGE_POOL, session_loop
+
+__all__ = ["PerThreadStack", "SnapshotRegistry", "build_pages_off_loop", "install"]
 
 log = logging.getLogger(__name__)
 pages_log = logging.getLogger("isl.pages")  #: one line per page built (its session and process: serving-many)
-
-#: the one thread that runs the app script for new sessions
-PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-page")
 
 
 class PerThreadStack(threading.local):
@@ -117,13 +120,6 @@ def install() -> None:
         _state.execute = _execute_via_loop(_state.execute)
 
 
-def session_loop(doc):
-    """The tornado ``IOLoop`` serving ``doc``'s session; None outside a served session."""
-    context = getattr(doc, "session_context", None)
-    server = getattr(context, "server_context", None)
-    return getattr(getattr(server, "application_context", None), "io_loop", None)
-
-
 def _on_loop(loop) -> bool:
     try:
         return asyncio.get_running_loop() is loop.asyncio_loop
@@ -169,11 +165,6 @@ def _register(doc, callback) -> None:
         log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 
-def building_page() -> bool:
-    """This thread is :data:`PAGE_POOL`'s, building a new session's page (see :func:`build_pages_off_loop`)."""
-    return threading.current_thread().name.startswith("isl-page")
-
-
 def build_pages_off_loop(application) -> None:
     """Make ``application`` (a bokeh/Panel ``Application``) build each new session's document on
     :data:`PAGE_POOL` instead of the event loop (idempotent)."""
@@ -203,19 +194,3 @@ def build_pages_off_loop(application) -> None:
     application.on_session_created = on_session_created
     application.initialize_document = initialize_document
     application._isl_pages_off_loop = True
-
-
-def prebuild(obj, container) -> None:
-    """Build ``obj``'s bokeh models for every page root ``container`` is shown in, where ``obj`` will become
-    ``container``'s child; models built here are not attached to any document until Panel swaps ``obj`` in on the
-    event loop (it then reuses them). Outside a server session there is nothing to do."""
-    from panel.io.state import state
-
-    for ref, (model, _) in list(container._models.items()):
-        view = state._views.get(ref)
-        if view is None or view[3] is not None:  # no longer shown, or a notebook comm: leave it to Panel
-            continue
-        _, root, doc, _ = view
-        if doc is None or doc.session_context is None or ref in obj._models:
-            continue
-        obj._get_model(doc, root, model, None)

@@ -28,8 +28,8 @@ Why in-process: this module builds the argument list of ``panel serve`` and runs
 sub-command in this process (the code path of the ``panel`` executable, so every flag means what Panel
 documents), rather than spawning ``panel serve`` as a child. That lets it
 
-* install :mod:`!app.serving.hardening` in the serving process before any session exists, so the exception handler
-  and the traceback-free websocket error replies cover every session whatever the app imports;
+* install the patches of Panel and Bokeh (:mod:`!app.serving.patches`) in the serving process before any session
+  exists, so the exception handler and the traceback-free websocket error replies cover every session;
 * make ``--warm`` strict: Panel logs a failing app script and serves an empty page anyway; here the failure of
   the warm-up run ends the process with exit code 1, so a broken image never reports healthy;
 * print the URL once the port is bound and return an exit code to ``isl serve``;
@@ -320,11 +320,8 @@ def health(port: int, timeout: float = 3.0) -> int:
 
 def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[str] = ()) -> int:
     """Serve until interrupted; 1 if the app fails its warm-up or the port cannot be bound."""
-    from app.serving import hardening
-
     if os.environ.pop(BOKEH_ORIGIN_ENV, None) is not None:
         log.warning("ignoring %s; set %s instead", BOKEH_ORIGIN_ENV, ENV["origins"])
-    hardening.install()
     check_allocator()
     # The event loop's thread releases the interpreter lock at every file-system call of Panel's page building
     # (several a component) and, beside compute threads running Python, waited up to the switch interval (5 ms by
@@ -371,6 +368,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if opts.health:
         return health(opts.port)
+    from app.serving import patches
+
+    patches.install()  # once, before any session exists: the Python patches of Panel and Bokeh (docs: development)
     if opts.check:
         try:
             warm_core()

@@ -16,8 +16,9 @@ gives each child tornado's task id, and in the parent:
   and ends with them. A worker still alive :data:`GRACE_S` seconds later is killed, so the port is free within the
   grace period of a container runtime (Kubernetes: 30 s, ``docker stop``: 10 s);
 * a worker that fails its start-up (:data:`STARTUP_FAILED`, the app script failed its warm-up) stops the whole
-  server with exit code 1, as one process would; a worker that dies otherwise (out of memory, a crash) is forked
-  again, as tornado does — never during a shutdown.
+  server with exit code 1, as one process would; a worker that ends otherwise (out of memory, a crash, a signal
+  sent to it alone, even with status 0) is forked again — never during a shutdown. The handlers only set flags and
+  send signals; the parent's wait loop logs what they did.
 
 Each worker also asks the kernel for SIGTERM should its parent die (``PR_SET_PDEATHSIG``): a parent killed with
 SIGKILL, which it cannot pass on, leaves no worker behind.
@@ -36,6 +37,7 @@ import math
 import os
 import random
 import signal
+import socket
 import sys
 from pathlib import Path
 
@@ -70,6 +72,8 @@ class Supervisor:
         self.count, self.grace_s, self.max_restarts = count, grace_s, max_restarts
         self.children: dict[int, int] = {}  # pid → task id
         self.stopping = False
+        self.signalled: int | None = None  # a signal the handler passed on, not yet logged
+        self.killed: list[int] = []  # workers killed at the grace period's end, not yet logged
         self.status = 0
         self.pid = os.getpid()
 
@@ -83,22 +87,24 @@ class Supervisor:
         return None
 
     def stop(self, signum: int = signal.SIGTERM, status: int | None = None) -> None:
-        """Pass ``signum`` on to every worker and arm the grace period's end (signal handler; idempotent)."""
+        """Pass ``signum`` on to every worker and arm the grace period's end (idempotent).
+
+        Called from the signal handler: it only sets flags, sends signals and arms a timer — no logging, whose locks
+        the interrupted code may hold (what happened is logged by :meth:`run`'s loop, outside any handler)."""
         if status is not None and self.status == 0:
             self.status = status
         if self.stopping:
             return
-        self.stopping = True
+        self.stopping, self.signalled = True, signum
         for pid in list(self.children):
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGTERM)
         signal.signal(signal.SIGALRM, self._kill_remaining)
         signal.setitimer(signal.ITIMER_REAL, self.grace_s)
-        log.info("stopping %d worker process(es) (signal %d)", len(self.children), signum)
 
-    def _kill_remaining(self, signum, frame) -> None:
+    def _kill_remaining(self, signum, frame) -> None:  # the grace period's timer (a signal handler: no logging)
         for pid in list(self.children):
-            log.warning("worker %d did not stop within %.0f s: killed", pid, self.grace_s)
+            self.killed.append(pid)
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGKILL)
 
@@ -108,6 +114,14 @@ class Supervisor:
             os.kill(os.getpid(), signum)
             return
         self.stop(signum)
+
+    def _report(self) -> None:
+        """Log what the signal handlers did since the last call (from the wait loop, never from a handler)."""
+        if self.signalled is not None:
+            log.info("stopping %d worker process(es) (signal %d)", len(self.children), self.signalled)
+            self.signalled = None
+        while self.killed:
+            log.warning("worker %d did not stop within %.0f s: killed", self.killed.pop(0), self.grace_s)
 
     def run(self) -> int:
         """Fork the workers and wait for them; returns the task id in a worker, exits with the status in the parent."""
@@ -125,12 +139,14 @@ class Supervisor:
         log.info("serving with %d worker processes (parent pid %d)", self.count, self.pid)
         restarts = 0
         while self.children:
+            self._report()
             pid, wait_status = os.wait()  # a signal handler runs in here; the wait resumes after it (PEP 475)
+            self._report()
             if pid not in self.children:
                 continue
             task = self.children.pop(pid)
             code = os.waitstatus_to_exitcode(wait_status)
-            if self.stopping or code == 0:
+            if self.stopping:
                 continue
             if code == STARTUP_FAILED:
                 log.error("worker %d failed its start-up: stopping the server", task)
@@ -141,9 +157,12 @@ class Supervisor:
                 log.error("workers died %d times: stopping the server", restarts)
                 self.stop(status=1)
                 continue
+            # a worker ends only when the server stops: one that ended otherwise — with an error, killed, or with
+            # status 0 after a signal of its own — leaves its share of the class to the others; it is forked again
             log.warning("worker %d (pid %d) ended with status %d: starting it again", task, pid, code)
             if self.start_child(task) is not None:
                 return task
+        self._report()
         signal.setitimer(signal.ITIMER_REAL, 0)
         sys.exit(self.status)
 
@@ -167,26 +186,81 @@ def _become_worker(task: int, parent: int) -> None:
 
 
 def supervise(num_processes: int | None, max_restarts: int | None = None) -> int:
-    """``tornado.process.fork_processes`` with the signal handling above (same signature and return value)."""
+    """``tornado.process.fork_processes`` with the signal handling above (same signature and return value); each
+    worker then listens on sockets of its own (:func:`bind_reserved`)."""
     import tornado.process
 
     if tornado.process._task_id is not None:
         raise RuntimeError("the server's workers are forked already")
     count = num_processes if num_processes and num_processes > 0 else usable_cores()
-    return Supervisor(count, max_restarts=MAX_RESTARTS if max_restarts is None else max_restarts).run()
+    task = Supervisor(count, max_restarts=MAX_RESTARTS if max_restarts is None else max_restarts).run()
+    listen_own()
+    return task
+
+
+#: the port's sockets, the very list bokeh adds to its server after the fork: bound in the parent, which never
+#: accepts (not listening: it only holds the port), replaced in each worker by listening ones of its own
+SOCKETS: list[socket.socket] = []
+LISTEN_BACKLOG = 128  #: each worker's queue of connections not yet accepted (tornado's default)
+
+
+def _reusing(family: int, kind: int, proto: int, address: tuple, listen: bool) -> socket.socket:
+    """A socket bound to ``address`` in its ``SO_REUSEPORT`` group; listening if ``listen``."""
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    if family == socket.AF_INET6:
+        sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+    sock.setblocking(False)
+    sock.bind(address)
+    if listen:
+        sock.listen(LISTEN_BACKLOG)
+    return sock
+
+
+def bind_reserved(address: str | None, port: int) -> tuple[list[socket.socket], int]:
+    """``bokeh.server.util.bind_sockets`` for a server of several processes: the port bound with ``SO_REUSEPORT``
+    by sockets that do not listen. Each worker listens on its own (:func:`listen_own`), and the kernel hands each new
+    connection to one of them by a hash of its addresses — an even spread, where one shared socket went to whichever
+    process woke first (8 and 48 pages of a class).
+
+    tornado binds first, as for one process, without ``SO_REUSEPORT``: it resolves the address and fails if anything
+    listens on the port — another server's workers included, which a socket in their group would silently have
+    joined (a second server started on the same port then took half the first one's connections)."""
+    from tornado.netutil import bind_sockets
+
+    probes = bind_sockets(port or 0, address or None)
+    found = [(s.family, s.type, s.proto, s.getsockname()) for s in probes]
+    for sock in probes:
+        sock.close()
+    SOCKETS[:] = [_reusing(*where, listen=False) for where in found]
+    return SOCKETS, SOCKETS[0].getsockname()[1]
+
+
+def listen_own() -> None:
+    """In a freshly forked worker: replace the parent's reserving sockets by listening ones of its own (in place, in
+    the list bokeh holds), in the same ``SO_REUSEPORT`` group."""
+    for k, sock in enumerate(SOCKETS):
+        SOCKETS[k] = _reusing(sock.family, sock.type, sock.proto, sock.getsockname(), listen=True)
+        sock.close()  # this process's copy; the parent keeps the port
 
 
 def install() -> None:
     """Make tornado fork the server's workers through :func:`supervise` (bokeh calls ``fork_processes`` through the
-    ``tornado.process`` module, so replacing it there is enough)."""
+    ``tornado.process`` module, so replacing it there is enough), and bokeh bind its port for them
+    (:func:`bind_reserved`, which bokeh's server module imported by name)."""
+    import bokeh.server.server
     import tornado.process
 
     tornado.process.fork_processes = supervise
+    bokeh.server.server.bind_sockets = bind_reserved
 
 
 class LongJobSlot:
     """The lock file of the server's one long-job slot (:func:`app.jobs.long.machine_slot`), named to every process
-    by ``ISL_LONG_JOBS_LOCK``; the process that made it removes it on :meth:`close` (a worker's close does nothing)."""
+    by ``ISL_LONG_JOBS_LOCK``; the process that made it removes it on :meth:`close` (a worker's close does nothing),
+    and gives the variable back the value it had before — a process that starts several servers one after another
+    (the tests) must not hand a later one the name of a removed file."""
 
     def __init__(self, directory: str | None = None) -> None:
         import tempfile
@@ -194,6 +268,7 @@ class LongJobSlot:
         from app.jobs.long import SLOT_ENV
 
         self.owner, self.path = os.getpid(), None
+        self._before = os.environ.get(SLOT_ENV)
         try:
             fd, self.path = tempfile.mkstemp(prefix="isl-long-jobs-", suffix=".lock", dir=directory)
             os.close(fd)
@@ -202,10 +277,18 @@ class LongJobSlot:
             log.warning("long jobs: no lock file for the server's slot (%s); one at a time per process", exc)
 
     def close(self) -> None:
-        if self.path is not None and os.getpid() == self.owner:
-            with contextlib.suppress(OSError):
-                os.unlink(self.path)
-            self.path = None
+        from app.jobs.long import SLOT_ENV
+
+        if self.path is None or os.getpid() != self.owner:
+            return
+        with contextlib.suppress(OSError):
+            os.unlink(self.path)
+        if os.environ.get(SLOT_ENV) == self.path:  # still ours: the value from before, or none
+            if self._before is None:
+                os.environ.pop(SLOT_ENV, None)
+            else:
+                os.environ[SLOT_ENV] = self._before
+        self.path = None
 
 
 def long_job_slot() -> LongJobSlot:

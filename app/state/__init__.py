@@ -1,11 +1,13 @@
 """A session's state: :class:`AppState` (the model, the run, the page's message) and the rooms it composes, one per
-concern — :class:`BaselinesRoom`, :class:`SweepRoom`, :class:`WorstCaseRoom`, :class:`ScenarioRoom` (each a
-:class:`Room`). Every input is reached by its key (its name in links): :meth:`AppState.get`, :meth:`AppState.set`,
-:meth:`AppState.set_inputs`, :meth:`AppState.watch`; :data:`PARAMS` holds each key's declaration."""
+concern — :class:`BaselinesRoom`, :class:`SweepRoom`, :class:`WorstCaseRoom`, :class:`ScenarioRoom`,
+:class:`DataRoom` (each a :class:`Room`). Every input is reached by its key (its name in links): :meth:`AppState.get`,
+:meth:`AppState.set`, :meth:`AppState.set_inputs`, :meth:`AppState.watch`; :data:`PARAMS` holds each key's
+declaration."""
 
 from __future__ import annotations
 
 from .baselines import BaselinesRoom
+from .data import DataRoom
 from .room import Room
 from .scenarios import ScenarioRoom
 from .session import (
@@ -36,6 +38,7 @@ __all__ = [
     "VIEWS",
     "AppState",
     "BaselinesRoom",
+    "DataRoom",
     "Room",
     "ScenarioRoom",
     "SweepRoom",

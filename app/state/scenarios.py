@@ -27,6 +27,7 @@ from isl_core import Scenario, WhoWinsMap, who_wins_map
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario.map import MAPS
+from isl_core.scenario.presets import DEFAULT_RATE
 from isl_core.scenario.table import PRESETS as TABLE_PRESETS
 from isl_core.scenario.tuning import Tuning, tune
 
@@ -97,6 +98,11 @@ def _preset_inputs(sigma0: float, scenario: Scenario) -> dict:
 PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, sigma0, sc in TABLE_PRESETS.values()}
 
 
+def _rate(interval: float) -> str:
+    """A sensor interval (units of 1/r_min) as the page states it: the readings per 1/r_min."""
+    return f"{1.0 / interval:.3g} times per 1/{R_MIN} at σ(0)"
+
+
 class ScenarioRoom(Room):
     """Inputs, picture, map and tuning of the Scenario tab (the module docstring); keys ``sc_…``."""
 
@@ -142,7 +148,10 @@ class ScenarioRoom(Room):
         0.0,
         bounds=(0.0, 5.0),
         label=f"sensor interval (× 1/{R_MIN})",
-        doc=("The filters read the integrated observation every Δ (0: at every simulation step)."),
+        doc=(
+            "The filters read the integrated observation every Δ; below 1/100 (0 included) every 1/100: the "
+            "scenario table's reading rate, 100 readings per 1/r_min."
+        ),
     )
     horizon = param.Number(
         30.0,
@@ -216,7 +225,7 @@ class ScenarioRoom(Room):
             dof=self.dof,
             outlier_rate=self.outlier_rate,
             outlier_scale=self.outlier_scale,
-            sensor_interval=self.sensor,
+            sensor_interval=max(self.sensor, 1.0 / DEFAULT_RATE),  # the table's reading rate, or a slower sensor
         )
         if self.window > self.horizon:
             raise ValueError(
@@ -273,7 +282,9 @@ class ScenarioRoom(Room):
             note=(
                 f"Simulated in {outcome.seconds:.2g} s: {req.runs} runs "
                 f"(seeds {pic.average.seeds[0]}–{pic.average.seeds[-1]}) of {per_r_min(req.horizon)}, "
-                f"{pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each. Tuning: {pic.origin}."
+                f"{pic.average.run.N:,} steps of h = {pic.average.run.h:.3g} each; every filter reads the sensor "
+                f"{_rate(req.scenario.sensor_interval)} (each reading the integral of dY over its interval), "
+                f"{pic.average.run.q} steps a reading. Tuning: {pic.origin}."
             ),
         )
 
@@ -330,7 +341,8 @@ class ScenarioRoom(Room):
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return
         fn = partial(tune, self._host.alpha, m=self._host.m, w=self._model_w())
-        self._tune_task.start(fn, self._apply_tuning, "Tuning every filter: 6 presets × 32 seeds, 184 variants …")
+        busy = f"Tuning every filter: 6 presets × 32 seeds, 268 variants, {DEFAULT_RATE:g} readings per 1/{R_MIN} …"
+        self._tune_task.start(fn, self._apply_tuning, busy)
 
     def cancel_tuning(self) -> None:
         """Stop the tuning: dropped if it waits in the queue, else ended."""

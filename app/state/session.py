@@ -30,6 +30,7 @@ from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
 from ..presets import PRESETS
 from .baselines import BaselinesRoom
+from .data import DataRoom
 from .refused_run import RUN_KEYS, refuse_run, run_refusal_shown
 from .room import Room
 from .scenarios import ScenarioRoom
@@ -57,6 +58,7 @@ ROOMS: dict[str, type[Room]] = {
     "sweep": SweepRoom,
     "worstcase": WorstCaseRoom,
     "scenarios": ScenarioRoom,
+    "data": DataRoom,
 }
 #: every input's key → (the room's attribute, None for the session's own, and the parameter's name)
 OWNERS: dict[str, tuple[str | None, str]] = {
@@ -104,6 +106,7 @@ class AppState(SessionInputs):
         self.sweep = SweepRoom(self)
         self.worstcase = WorstCaseRoom(self)
         self.scenarios = ScenarioRoom(self)
+        self.data = DataRoom(self)
         self.param.watch(self._on_inputs, list(INPUTS))
         self.baselines.param.watch(self._on_extra_inputs, list(self.baselines.KEYS.values()))
         if rest := {k: v for k, v in params.items() if k not in own}:  # inputs of the rooms, by key

@@ -15,7 +15,7 @@ INPUTS = ("alpha", "beta_from_w", "w", "beta", "sigma", "nu", "m", "seed", "hori
 #: how the page shows the run, kept in the link like the inputs (a shared link, presenter mode's reload); no new run
 DISPLAY_INPUTS = ("view", "tab", "present")
 VIEWS = ("signal", "errors")  #: the trajectories' two views: the signal and its estimates, or each filter's error
-TABS = ("trajectories", "sweep", "worstcase", "compare", "scenarios")  #: the page's tabs, in order
+TABS = ("trajectories", "sweep", "worstcase", "compare", "scenarios", "data")  #: the page's tabs, in order
 
 
 class SessionInputs(param.Parameterized):

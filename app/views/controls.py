@@ -70,12 +70,13 @@ class _Binding:
         if self._quiet:
             return
         want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
+        released = "value_throttled" not in self.widget.param or any(e.name == "value_throttled" for e in events)
+        if self._moved and released:  # the browser's value and the server's may have crossed: the browser then shows
+            self._moved = False  # the older; sent again once the slider is let go (mid-drag, the handle jumped back)
+            self.state.later(lambda: resend(self.widget))
         for event in events:
             if event.name != want:
                 continue
-            if self._moved:  # the browser's value and the server's may have crossed: the browser then shows the older
-                self._moved = False
-                self.state.later(lambda: resend(self.widget))
             value = None if event.new is None else self._to_state(event.new)  # None from a box: it was emptied
             if event.new is not None and (value is None or same(value, self.state.get(self.name))):
                 continue  # the state's own value (a revert's echo): not a change

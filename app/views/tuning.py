@@ -23,6 +23,7 @@ from bokeh.plotting import figure
 from panel.viewable import Viewer
 
 from isl_core.scenario.heldout import held_out
+from isl_core.scenario.presets import DEFAULT_RATE
 from isl_core.scenario.table import knob_text, table_from
 from isl_core.scenario.tuning import FAMILIES
 
@@ -204,7 +205,8 @@ class TuningView(Viewer):
         intro = pn.pane.Markdown(
             "**One tuning rule for every filter.** Each family's knob is the one whose largest ratio over the "
             "scenario table's presets and periods is least (the minimax); the curves show the statistic against the "
-            "knob, preset by preset.",
+            f"knob, preset by preset. Every filter reads the sensor {DEFAULT_RATE:g} times per 1/{R_MIN} at σ(0), "
+            "each reading the integral of dY over its interval.",
             margin=(10, 10, 0, 10),
             styles={"font-size": TEXT_FONT},
         )

@@ -16,7 +16,7 @@ import json
 
 from .commands import UsageError, nan_to_none
 
-__all__ = ["add_data", "cmd_data"]
+__all__ = ["add_data", "cmd_data", "summary"]
 
 
 def add_data(sub, positive, nonneg, whole) -> argparse.ArgumentParser:
@@ -62,6 +62,21 @@ def _table(out: dict) -> str:
     return "\n".join(lines).replace("nan", "—")
 
 
+def summary(series, judgement) -> dict:
+    """What ``isl data --json`` prints for ``judgement`` (:func:`isl_core.series.judge`) of ``series``: the source,
+    the readings, the split, ``fit``, ``orders``, ``nu`` and ``diagnostics`` (NaN where a number does not exist)."""
+    j = judgement
+    return {
+        "source": series.name,
+        "readings": int(series.present.sum()),
+        "split": j.split,
+        "fit": j.fit.as_dict(),
+        "orders": [{k: f.as_dict()[k] for k in ("m", "loglik", "aic", "bic")} for f in j.orders],
+        "nu": j.run.nu,
+        "diagnostics": [d.as_dict() for d in j.diagnostics],
+    }
+
+
 def cmd_data(args) -> int:
     """Fit, run and judge (module docstring); print the result."""
     try:
@@ -73,15 +88,7 @@ def cmd_data(args) -> int:
         raise UsageError(f"isl data: error: {exc}") from None
     except ValueError as exc:
         raise UsageError(f"isl data: error: {exc}") from None
-    out = {
-        "source": s.name,
-        "readings": int(s.present.sum()),
-        "split": j.split,
-        "fit": j.fit.as_dict(),
-        "orders": [{k: f.as_dict()[k] for k in ("m", "loglik", "aic", "bic")} for f in j.orders],
-        "nu": j.run.nu,
-        "diagnostics": [d.as_dict() for d in j.diagnostics],
-    }
+    out = summary(s, j)
     if args.json:
         print(json.dumps(nan_to_none(out), indent=2, allow_nan=False))
     else:

@@ -7,8 +7,9 @@
     isl scenario [--alpha A] [--scenarios sigma_drop,...] [--seeds N] [--tune | --map KIND] [--json] [--csv FILE]
     isl data SOURCE [--m M] [--alpha A] [--time COL --value COL] [--holdout F] [--json]
 
-These are the core's (``python -m isl_core``); the dashboard's ``isl`` console script (:mod:`app.cli`) is the same
-command with an :class:`Extension`: ``isl figure3``, ``isl serve`` and the sweep's HTML and PNG figures.
+These are the core's (:func:`main`). The ``isl`` console script and ``python -m isl_core`` (:func:`console`) add the
+dashboard's :class:`Extension` (:mod:`app.cli`: ``isl figure3``, ``isl serve`` and the sweep's HTML and PNG figures)
+where the ``app`` extra is installed; without it those two commands say what to install.
 Bad arguments end with exit code 2 and one line on stderr; a diverged filter with exit code 1.
 """
 
@@ -26,7 +27,23 @@ from isl_core.cli.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep,
 from isl_core.cli.data import add_data
 from isl_core.cli.scenario import cmd_scenario
 
-__all__ = ["Extension", "UsageError", "build_parser", "main", "positive", "seed_number"]
+__all__ = [
+    "APP_COMMANDS",
+    "Extension",
+    "UsageError",
+    "build_parser",
+    "console",
+    "installed_extension",
+    "main",
+    "positive",
+    "seed_number",
+]
+
+#: the entry-point group through which an installed package adds to ``isl`` (the dashboard: ``app.cli:extension``)
+EXTENSIONS = "isl.cli"
+#: the commands of the dashboard's ``app`` extra; without it they say what to install
+APP_COMMANDS = ("serve", "figure3")
+APP_HINT = "the dashboard needs the app extra: pip install 'isl[app]'"
 
 
 @dataclass(frozen=True)
@@ -269,6 +286,13 @@ def _add_scenario(sub) -> argparse.ArgumentParser:
         default=2.0,
         help="start left out where sigma does not change, units of 1/r_min (default 2)",
     )
+    p.add_argument(
+        "--rate",
+        type=positive,
+        default=100.0,
+        help="sensor readings per 1/r_min at sigma(0), the same for every filter (default 100)",
+    )
+    p.add_argument("--refine", type=_whole, default=0, help="halvings of the Euler step below a reading (default 0)")
     p.add_argument("--level", type=positive, default=0.95, help="confidence level of the intervals (default 0.95)")
     p.add_argument("--workers", type=_whole, default=None, help="threads of the tuning runs (default: CPU count)")
     p.add_argument(
@@ -310,6 +334,35 @@ def build_parser(extension: Extension | None = None) -> argparse.ArgumentParser:
 def _fail(message: str, code: int) -> int:
     print(" ".join(message.split()), file=sys.stderr)  # exactly one line
     return code
+
+
+def installed_extension() -> Extension | None:
+    """The :class:`Extension` an installed package declares in the ``isl.cli`` entry-point group, if it loads: the
+    dashboard's needs its ``app`` extra (Panel, Bokeh, param, matplotlib), and without it there is none."""
+    from importlib.metadata import entry_points
+
+    for point in entry_points(group=EXTENSIONS):
+        try:
+            return point.load()()
+        except ImportError:
+            continue
+    return None
+
+
+def _needs_app(command: str) -> Callable[[list[str]], int]:
+    def refuse(argv: list[str]) -> int:
+        return _fail(f"isl {command}: {APP_HINT}", 2)
+
+    return refuse
+
+
+def console(argv: list[str] | None = None) -> int:
+    """The ``isl`` console script: the core's commands, and the dashboard's where its ``app`` extra is installed
+    (without it, ``isl serve`` and ``isl figure3`` say what to install and exit with code 2)."""
+    extension = installed_extension()
+    if extension is None:
+        extension = Extension(passthrough=MappingProxyType({name: _needs_app(name) for name in APP_COMMANDS}))
+    return main(argv, extension)
 
 
 def main(argv: list[str] | None = None, extension: Extension | None = None) -> int:

@@ -40,6 +40,8 @@ def _tuning(args, *, quiet: bool):
         workers=args.workers,
         cache=not args.no_cache,
         progress=progress_bar("tuning", not quiet),
+        rate=args.rate,
+        refine=args.refine,
     )
 
 
@@ -55,6 +57,7 @@ def cmd_scenario(args) -> int:
 
 def _meta(res) -> dict:
     from ..scenario.shipped import describe
+    from ..scenario.tuning import FAMILIES
 
     return {
         "alpha": res.alpha,
@@ -70,6 +73,11 @@ def _meta(res) -> dict:
         "scenarios": dict(zip(res.presets, res.preset_labels, strict=True)),
         "one_reading_over_r_min": dict(zip(res.presets, res.reading_time, strict=True)),
         "steps": dict(zip(res.presets, res.steps, strict=True)),
+        "rate_readings_per_r_min": res.rate,
+        "refine": res.refine,
+        "h": dict(zip(res.presets, res.h, strict=True)),
+        "steps_per_reading": dict(zip(res.presets, res.substeps, strict=True)),
+        "minimax_on_grid_edge": {f: res.on_edge(f) for f in FAMILIES if res.on_edge(f)},
         "shipped_tuning": describe(res.alpha, res.m, res.w),  # what the dashboard uses without a computed tuning
     }
 
@@ -183,20 +191,41 @@ def _table_out(args, res) -> int:
     return 0
 
 
-def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
-    from ..scenario.table import knob_text
+def _print_head(res, tab) -> None:
+    """The table's first lines: what a cell is, the seeds, the model, the reading rate, the tuning, knobs at an end."""
+    from ..scenario.tuning import FAMILIES
 
     seeds = tab.seeds[0]
     print(
         f"fair table: the RMSE ratio to the clairvoyant Kalman filter per period at the worst coordinate (Xi), pooled "
         f"over the report seeds {seeds[0]}-{seeds[-1]} (held out: the tuning used seeds {res.seeds[0]}-"
         f"{res.seeds[-1]}; the oracle rows are read on those), {100 * tab.level:g} % Student interval over the "
-        f"seeds; alpha = {res.alpha:g}, m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min"
+        f"seeds; alpha = {res.alpha:g}, m = {res.m}, w = {res.w:g}, horizon {res.horizon:g}/r_min; "
+        + (
+            f"every filter reads the sensor {res.rate:g} times per 1/r_min at sigma(0)"
+            if res.rate is not None
+            else "every filter reads the sensor at every Euler step"
+        )
     )
     print(f"tuned rows: every family at its minimax knob; {res.origin}")
+    edges = {f: res.on_edge(f) for f in FAMILIES if res.on_edge(f)}
+    if edges:
+        print(
+            "minimax at a grid's end (no bracketed optimum): "
+            + "; ".join(f"{f} {', '.join(f'{k} {v}' for k, v in e.items())}" for f, e in edges.items())
+        )
+
+
+def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
+    from ..scenario.table import knob_text
+
+    _print_head(res, tab)
     for p, name in enumerate(res.presets):
         cells = res.preset_cells(p)
-        print(f"\n{name}: {res.preset_labels[p]}   (W readings = W x {res.reading_time[p]:.3g}/r_min)")
+        print(
+            f"\n{name}: {res.preset_labels[p]}   (W readings = W x {res.reading_time[p]:.3g}/r_min; "
+            f"h = {res.h[p]:.3g}, {res.substeps[p] if res.substeps else 1} steps a reading)"
+        )
         print(f"  {'filter':64}" + "".join(f" | {res.cells[c][1].label[:26]:>26}" for c in cells))
         for r, row in enumerate(tab.rows):
             label = row.label if row.role != "oracle" else f"{row.name}: {knob_text(row.tuning[p])}"

@@ -15,6 +15,7 @@ def scenario_map(args) -> int:
     """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin —
     with the table's tuning (computed if not cached; ``--untuned``: the constructors' defaults)."""
     from ..scenario.map import AXIS_LABELS, STEP_AT, who_wins_map
+    from ..scenario.tuning import tune
 
     after = args.horizon - STEP_AT if args.map == "sigma_step" else args.horizon
     if after < args.window:
@@ -24,8 +25,6 @@ def scenario_map(args) -> int:
         )
     tuning = None
     if not args.untuned:
-        from ..scenario.tuning import tune
-
         tuning = tune(
             args.alpha,
             m=args.m,
@@ -33,6 +32,7 @@ def scenario_map(args) -> int:
             workers=args.workers,
             cache=not args.no_cache,
             progress=progress_bar("tuning", not (args.quiet or args.json)),
+            rate=args.rate,
         )
     res = who_wins_map(
         args.map,

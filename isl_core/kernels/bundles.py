@@ -109,11 +109,15 @@ class NoiseLaw(NamedTuple):
 
 class Observation(NamedTuple):
     """What a scenario's filters observe over one chunk of steps: σ_k ``sigma`` (n,) — or (1,), its one value while σ
-    is constant —, the noise ``law`` and a sensor reading every ``q`` steps."""
+    is constant —, the noise ``law`` and a sensor reading every ``q`` steps; on a grid refined ``level`` times
+    (2^level steps per base step), the Brownian bridge's normals ``bridge`` (base steps, 2^level − 1, 2) that split
+    each base step's draws (v, ε) into its fine steps' (:func:`isl_core.kernels.draws.split_ahead`)."""
 
     sigma: np.ndarray
     law: NoiseLaw
     q: int
+    bridge: np.ndarray = np.zeros((0, 1, 2))
+    level: int = 0
 
 
 class FilterState(NamedTuple):

@@ -38,8 +38,9 @@ for bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters 
 (``benchmarks/bench_scenario.py``).
 
 Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
-:data:`isl_core.noise.DRAWS` steps ahead. Squared errors at t_{k+1} are summed into window w for the steps k in
-[``edges[w]``, ``edges[w + 1]``), σ̂ likewise.
+:data:`isl_core.noise.DRAWS` steps ahead; on a grid refined ``obs.level`` times, per base step, split into its fine
+steps by the Brownian bridge (:func:`isl_core.kernels.draws.split_ahead`: the same path as the base grid's).
+Squared errors at t_{k+1} are summed into window w for the steps k in [``edges[w]``, ``edges[w + 1]``), σ̂ likewise.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ from ..filters.base import (
 from .cache import CACHE, FASTMATH
 from .clairvoyant import clairvoyant_step
 from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
-from .draws import DRAWS, draw_ahead
+from .draws import DRAWS, draw_ahead, split_ahead
 from .imm import imm_step
 from .variational import predict_cov, vb_update
 
@@ -145,7 +146,7 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
     update (p = 1, G = the correction).
     """
     h, alpha, beta = grid
-    sig, law, q = obs
+    sig, law, q, bridge, level = obs
     damp, coef, kind, table, ad = bank
     acc, died, vb_P, vb_ab, vb_par = state
     edges, wsq, wsig, wref = windows
@@ -159,7 +160,9 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
     beta_sqh = beta * sqh
     decay = 1.0 - h * alpha
     gain = sqqh * coef
-    vbuf, ebuf = np.empty(DRAWS), np.empty(DRAWS)
+    block = DRAWS << level  # fine steps whose noise is drawn at once: DRAWS base steps
+    vbuf, ebuf = np.empty(block), np.empty(block)
+    vbase, ebase = np.empty(DRAWS), np.empty(DRAWS)
     el, G, sq = np.zeros((m, nl)), np.zeros((m, nl)), np.zeros((m, nl))
     zd, cp = np.full(nl, decay), np.zeros(nl)  # idle lanes: the truth's own decay, e = −X from 0
     lane = np.full(nl, IDLE, dtype=np.int64)
@@ -216,9 +219,13 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
             same, pending = 0, 0
             w += 1
             edge = edges[w + 1] if w < nw - 1 else k0 + n + 1
-        b = j % DRAWS
+        b = j % block
         if b == 0:
-            draw_ahead(rng, law, vbuf, ebuf, min(DRAWS, n - j))
+            if level == 0:
+                draw_ahead(rng, law, vbuf, ebuf, min(DRAWS, n - j))
+            else:  # the base steps' draws, split by the bridge: the coarse grid's path (isl_core.kernels.draws)
+                count = min(DRAWS, (n - j) >> level)
+                split_ahead(rng, law, vbase, ebase, bridge, j >> level, count, level, vbuf, ebuf)
         s_k = sig[j * stride]
         noise = s_k * ebuf[b]
         c_noise = h * (s_k * s_k) * nv

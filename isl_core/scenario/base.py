@@ -17,8 +17,10 @@ t_j ≤ t < t_{j+1} (σ(0) before t_1); with ``"drift"``, log σ is linear in t 
   ``outlier_scale`` k), so E ε² = 1 − p + p·k² (:meth:`Scenario.noise_variance`).
 
 **Sensor interval** Δ = ``sensor_interval`` (1/r_min units; 0 = every step): the filters see Y only every
-q = max(1, round(Δ/h)) steps, as the increment of Y over those q steps, and propagate in between
-(:meth:`Scenario.sensor_steps`). The truth keeps the step h.
+q = max(1, round(Δ/h)) steps, as the increment of Y over those q steps — what a sensor that integrates dY over its
+interval delivers — and propagate in between (:meth:`Scenario.sensor_steps`). The truth keeps the step h, which a
+scenario run takes as Δ/q exactly (:func:`isl_core.scenario_grid`), so the readings are the sensor's whatever the step;
+a table at a reading rate R sets Δ = 1/R (:func:`isl_core.scenario.presets.at_rate`, :ref:`reading-rate`).
 
 **The clairvoyant reference** (:func:`clairvoyant`) is the Kalman filter of the simulated model — the Euler grid
 above, not its continuous-time limit — that knows σ_k, the noise's variance and the sensor interval: the best

@@ -25,7 +25,7 @@ import numpy as np
 from ..validate import check_int
 from .base import Scenario
 from .periods import Period, scenario_periods
-from .presets import BEYOND
+from .presets import BEYOND, at_rate
 from .tuning import FAMILIES, Tuning, plan_preset, run_cells
 from .tuning_cache import cache_dir, cache_key, load, save
 
@@ -111,8 +111,19 @@ def held_out(
     seed_ids = tuple(range(first, first + count))
     columns = report_columns(tuning)
     presets = tuning.preset_map()
+    beyond = at_rate(beyond, tuning.rate)  # read at the tuning's rate, as its presets were
     key = {
-        **cache_key(tuning.alpha, tuning.m, tuning.w, tuning.seeds, tuning.horizon, tuning.burn, presets, tuning.grids),
+        **cache_key(
+            tuning.alpha,
+            tuning.m,
+            tuning.w,
+            tuning.seeds,
+            tuning.horizon,
+            tuning.burn,
+            presets,
+            tuning.grids,
+            tuning.refine,
+        ),
         "report_seeds": list(seed_ids),
         "columns": [tuning.names[j] for j in columns],
         "beyond": {k: [s0, repr(sc)] for k, (_, s0, sc) in beyond.items()},
@@ -134,7 +145,9 @@ def held_out(
     else:
         only = [(tuning.family[j], tuning.knobs[j]) for j in columns[3:]]
         plans = [
-            plan_preset(tuning.alpha, tuning.m, tuning.w, s0, sc, tuning.horizon, tuning.burn, tuning.grids, only)
+            plan_preset(
+                tuning.alpha, tuning.m, tuning.w, s0, sc, tuning.horizon, tuning.burn, tuning.grids, only, tuning.refine
+            )
             for s0, sc in (*tuning.scenarios, *((s0, sc) for _, s0, sc in beyond.values()))
         ]
         start = time.perf_counter()

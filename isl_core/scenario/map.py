@@ -17,7 +17,9 @@ with a tie where the margin's lower 95 % bound is ≤ 1:
   σ = 20: the settled period after ``burn`` (one row);
 * ``"sensor"`` — a sensor read every Δ/r_min, for each Δ of ``values`` (default 0 … 0.5), σ = 20: likewise.
 
-Times are in units of 1/r_min of the model at σ(0) = 20. Any model with α > 0 is paper A's for one w: β = w√(2α)
+Every cell is read at the tuning's reading rate R (:ref:`reading-rate`; without a tuning the table's default, 100
+readings per 1/r_min): a sensor interval Δ below 1/R reads every 1/R. Times are in units of 1/r_min of the model at
+σ(0) = 20. Any model with α > 0 is paper A's for one w: β = w√(2α)
 (A.25), so a model given by its β is mapped with w = β/√(2α).
 """
 
@@ -40,6 +42,7 @@ from ..validate import check_int, check_real, check_reals
 from .average import average_scenario
 from .base import Scenario
 from .periods import Period, edge_times, per_seed, worst_from, worst_margin
+from .presets import DEFAULT_RATE, read_at
 from .shipped import ShippedTuning, nearest
 from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
 
@@ -212,6 +215,7 @@ def who_wins_map(
     burn = check_real("burn", burn, lo=0.0, hi=after, hi_open=True)
     model = Model.from_w(alpha, w, SIGMA0, m)
     nu, nu_label, extra, origin, first = map_filters(model, alpha, m, w, tuning, untuned)
+    rate = tuning.rate if tuning is not None else DEFAULT_RATE  # read as the tuning read (the cached one: the default)
     periods, horizon = _periods(kind, window, after, burn)
     cells, lows = [], []
     names: tuple[str, ...] = ()
@@ -220,7 +224,7 @@ def who_wins_map(
         avg = average_scenario(
             model,
             nu,
-            _scenario(kind, value),
+            read_at(_scenario(kind, value), rate),
             seeds=range(first, first + seeds),
             horizon=horizon,
             extra=extra,

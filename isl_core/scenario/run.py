@@ -12,7 +12,8 @@ own ratio is ≈ 1 in every scenario (its P is exact on the grid): that is the c
 
 Grid: h is the smallest step :func:`isl_core.grid.run_plan` gives for the model at σ(0), at the smallest and at the
 largest σ of the path (a drop of σ speeds every filter up: the step must follow the fastest); a sensor reads every
-q = round(Δ/h) ≥ 1 steps. T = ``horizon`` in units of 1/r_min at σ(0). The start is that of
+q ≥ 1 steps, h then Δ/q exactly, and ``refine`` halves h below that on the same path of the noise
+(:func:`isl_core.scenario.grid.scenario_grid`). T = ``horizon`` in units of 1/r_min at σ(0). The start is that of
 :func:`isl_core.simulate.simulate` (``"stationary"``): every filter at X(0) − e₀, e₀ ~ N(0, Δ) at σ(0) — the
 clairvoyant filter's P_0. With the default scenario the Kalman–Bucy and ISL filters' errors are those of
 :func:`isl_core.simulate.simulate` with the same seed, bit for bit at every step (same grid, same draws, same
@@ -22,7 +23,6 @@ arithmetic; a test compares every step's squared error with one window per step)
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -32,7 +32,7 @@ from .._engine import CHUNK, DivergenceError, draw_start, pack
 from ..filters.base import KIND_CLAIRVOYANT, FilterSpec
 from ..filters.isl import isl_filter
 from ..filters.kalman import optimal_kbf
-from ..grid import MAX_STEPS, check_filters, check_specs, run_plan
+from ..grid import check_filters, check_specs
 from ..kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
 from ..kernels.clairvoyant import clairvoyant_state
 from ..kernels.imm import imm_state
@@ -42,6 +42,7 @@ from ..riccati import kalman_bucy
 from ..validate import check_int, check_real
 from .bank import learning_state, learns_sigma
 from .base import Scenario
+from .grid import MAX_SCENARIO_STEPS, scenario_grid
 from .windows import first_step, memory_time, window_edges, window_times
 
 __all__ = [
@@ -54,8 +55,6 @@ __all__ = [
     "scenario_grid",
     "simulate_scenario",
 ]
-
-MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
 
 
 @dataclass(frozen=True)
@@ -112,39 +111,6 @@ class ScenarioRun:
         return np.sqrt(mse / ref[None, :])
 
 
-def scenario_grid(model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float):
-    """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
-    (module docstring), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
-
-    Examples
-    --------
-    >>> import math
-    >>> from isl_core import Scenario, run_plan, scenario_grid
-    >>> from isl_core import Model
-    >>> model = Model.from_w(0.5, 3.0, 20.0)
-    >>> h, n, r_min = scenario_grid(model, model.beta, Scenario(), (), 10.0)
-    >>> plan = run_plan(model, model.beta, horizon=10.0)  # σ constant: the grid of simulate
-    >>> math.isclose(h, plan.h), n == plan.N
-    (True, True)
-    """
-    r_min = kalman_bucy(model).r_min
-    T = horizon / r_min  # exactly: not lengthened for a slowly settling filter as simulate's default run is
-    plan = run_plan(model, nu, T=T, extra=extra, cap=MAX_STEPS)
-    # σ(t) is monotone between knots: its extremes on [0, T] are at 0, the knots and T
-    sig = scenario.sigma_at(model.sigma, np.array([0.0, *(t for t, _ in scenario.sigma_knots if t < horizon), horizon]))
-    h = plan.h
-    for s in {float(sig.min()), float(sig.max())} - {model.sigma}:
-        other = Model(model.alpha, model.beta, s, model.m)
-        h = min(h, run_plan(other, nu, T=T, extra=extra, cap=MAX_STEPS).h)
-    n = math.ceil(plan.T / h)
-    if n > MAX_SCENARIO_STEPS:
-        raise ValueError(
-            f"horizon = {horizon:g} needs {n:,} steps of h = {h:.3g} at these σ values; at most "
-            f"{MAX_SCENARIO_STEPS:,} are simulated: choose a shorter horizon or σ values closer together"
-        )
-    return T / n, n, r_min
-
-
 @dataclass(frozen=True)
 class ScenarioPlan:
     """What every seed's run of one scenario shares (:func:`plan_scenario`): the grid, the filters packed for the
@@ -163,6 +129,7 @@ class ScenarioPlan:
     learning_state: tuple[np.ndarray, np.ndarray, np.ndarray]
     delta: np.ndarray
     imm: IMMState
+    refine: int = 0
 
     def memory_time(self, memory: float) -> float:
         """W = ``memory`` sensor readings as a time in units of 1/r_min at σ(0): W·q·h·r_min
@@ -185,11 +152,17 @@ class ScenarioPlan:
             self.edges, np.zeros((nw, nf, model.m)), np.zeros((nw, int(learning.sum()))), np.zeros((nw, model.m + 1))
         )
         clair = clairvoyant_state(self.delta, self.q)  # its P_0: Δ at σ(0)
-        self._advance(x, e, rng, bank, state, clair, imm, windows, progress)
+        bridges = [
+            np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(lev,))))
+            for lev in range(1, self.refine + 1)
+        ]  # the Brownian bridge's normals, one stream per level of refinement
+        self._advance(x, e, rng, bank, state, clair, imm, windows, progress, bridges)
         return self._result(seed, windows, state.died, learning)
 
-    def _advance(self, x, e, rng, bank, state, clair, imm, windows, progress) -> None:
-        """The scenario loop over the whole run, chunk by chunk, σ_k of each chunk from the scenario."""
+    def _advance(self, x, e, rng, bank, state, clair, imm, windows, progress, bridges=()) -> None:
+        """The scenario loop over the whole run, chunk by chunk, σ_k of each chunk from the scenario; on a refined
+        grid each chunk's bridge normals from ``bridges`` (level ℓ's stream, base step after base step, so that the
+        runs refined L and L + 1 times share levels 1 … L)."""
         model, scenario, h, n, r_min = self.model, self.scenario, self.h, self.N, self.r_min
         grid, law = Grid(h, model.alpha, model.beta), scenario.noise_law()
         k = 0
@@ -200,9 +173,14 @@ class ScenarioPlan:
                 sig = scenario.sigma_at(model.sigma, np.array([t0]))
             else:
                 sig = scenario.sigma_at(model.sigma, np.arange(k, k + todo) * (h * r_min))
-            done = advance_scenario(
-                x, e, rng, todo, k, grid, Observation(sig, law, self.q), bank, state, clair, imm, windows
-            )
+            obs = Observation(sig, law, self.q)
+            if self.refine:
+                base = todo >> self.refine
+                bridge = np.concatenate(
+                    [g.standard_normal((base, 1 << lev, 2)) for lev, g in enumerate(bridges)], axis=1
+                )
+                obs = Observation(sig, law, self.q, bridge, self.refine)
+            done = advance_scenario(x, e, rng, todo, k, grid, obs, bank, state, clair, imm, windows)
             if done < todo:
                 raise DivergenceError(
                     f"the simulated truth diverged at t = {(k + done) * h:.4g} "
@@ -257,6 +235,7 @@ def plan_scenario(
     extra: Sequence[FilterSpec] = (),
     edges: Sequence[float] | None = None,
     grid_filters: Sequence[FilterSpec] | None = None,
+    refine: int = 0,
 ) -> ScenarioPlan:
     """The runs of ``scenario`` (default: paper A's model; module docstring) with ``windows`` equal time windows
     over ``horizon`` (units of 1/r_min at σ(0)), or with windows between the times ``edges`` (0 = edges[0] < … <
@@ -274,6 +253,8 @@ def plan_scenario(
         Window edges instead of ``windows`` equal ones.
     grid_filters : sequence of FilterSpec, optional
         Filters that count for the step size.
+    refine : int, default 0
+        With a sensor interval, halve the step this many times, on the same path of the noise (:func:`scenario_grid`).
 
     Returns
     -------
@@ -300,7 +281,7 @@ def plan_scenario(
     times = window_times(horizon, windows, edges)
     specs = check_filters(model, nu, extra)
     more = check_specs("grid_filters", model, grid_filters or (), allow_empty=True)
-    h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon)
+    h, n, r_min = scenario_grid(model, nu, scenario, [*specs[1:], *more], horizon, refine)
     kb = kalman_bucy(model)
     clair = FilterSpec(
         "clairvoyant", "Kalman filter that knows σ(t) (clairvoyant)", model.alpha, np.zeros(model.m), False
@@ -325,6 +306,7 @@ def plan_scenario(
         learning,
         np.array(kb.delta, dtype=float),
         imm_state(filters, model.m, q, h),
+        refine,
     )
 
 

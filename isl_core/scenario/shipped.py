@@ -242,7 +242,8 @@ def _shipped(grid: ShippedGrid, entry: dict, alpha: float, w: float, target: flo
     span = (
         f"shipped tuning, {label} (grid at m = {entry['m']}: α ∈ {_words(grid.alphas(entry['m']))}, w = 3; "
         f"minimax over {len(grid.rule['presets'])} presets × their periods, seeds 0–{tune_args['seeds'] - 1}, horizon "
-        f"{tune_args['horizon']:g}/r_min)"
+        f"{tune_args['horizon']:g}/r_min"
+        + (f", {tune_args['rate']:g} readings per 1/r_min)" if tune_args.get("rate") is not None else ")")
     )
     return ShippedTuning(
         float(entry["alpha"]),

@@ -40,7 +40,7 @@ from .base import Scenario
 from .cells import CellStats, assumes, beyond_rows, beyond_stats, cell_stats
 from .heldout import HeldOut, held_out
 from .periods import worst_margin
-from .presets import PRESETS
+from .presets import DEFAULT_RATE, PRESETS
 from .tuning import FAMILIES, Tuning, TuningGrids, tune
 
 __all__ = [
@@ -310,6 +310,8 @@ def scenario_table(
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     report_seeds: int | None = None,
+    rate: float | None = DEFAULT_RATE,
+    refine: int = 0,
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
     tuning of :func:`isl_core.tune` with these arguments (cached), the held-out runs on
@@ -330,6 +332,8 @@ def scenario_table(
         As in :func:`isl_core.tune`.
     report_seeds : int, optional
         Held-out seeds the table is read on (:func:`!isl_core.scenario.heldout.held_out`).
+    rate, refine : float or None, int
+        Sensor readings per 1/r_min at σ(0) and the step's halvings, as in :func:`isl_core.tune`.
 
     Returns
     -------
@@ -361,6 +365,8 @@ def scenario_table(
         workers=workers,
         progress=progress,
         cache=cache,
+        rate=rate,
+        refine=refine,
     )
     assert res is not None  # tune computes what is not cached (compute=True)
     report = held_out(res, report_seeds, workers=workers, cache=cache)

@@ -37,7 +37,7 @@ from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
 from .periods import Period, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
-from .presets import PRESETS
+from .presets import DEFAULT_RATE, PRESETS, at_rate, check_rate
 from .run import plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
 from .variants import FAMILIES, TuningGrids, family_filter, grid_variants, paper_nu, variant_name
@@ -66,8 +66,10 @@ class Tuning:
     variant of every family. ``cells`` are (preset index, period); ``y`` (seeds, cells, filters, m) the seeds'
     contributions per coordinate (:func:`!isl_core.scenario.periods.per_seed`); a cell's figure is its worst
     coordinate's. Per preset: ``reading_time`` one reading in units of 1/r_min at σ(0) (W readings are
-    W·reading_time), ``steps`` N, ``h``, and in ``scenarios`` its (σ(0), :class:`Scenario`). ``origin`` says where it
-    came from.
+    W·reading_time), ``steps`` N, ``h``, ``substeps`` q (Euler steps per reading), and in ``scenarios`` its (σ(0),
+    :class:`Scenario`) as run, at the reading ``rate`` (readings per 1/r_min at σ(0); None: a reading every step) with
+    the step halved ``refine`` times below the coarsest that serves every variant (:func:`isl_core.scenario_grid`).
+    ``origin`` says where it came from.
     """
 
     alpha: float
@@ -90,6 +92,9 @@ class Tuning:
     seconds: float
     scenarios: tuple[tuple[float, Scenario], ...] = ()
     origin: str = ""
+    rate: float | None = None
+    refine: int = 0
+    substeps: tuple[int, ...] = ()
     _stats: dict = field(default_factory=dict, repr=False, compare=False)
 
     def stats(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,6 +136,19 @@ class Tuning:
         """The family's tuned variant: the least, over its grid, of its largest ratio over every cell."""
         return self._argmin_max(family, np.arange(len(self.cells)))
 
+    def on_edge(self, family: str) -> dict[str, str]:
+        """The knobs of the family's minimax variant that sit at an end of their grid, knob → "lowest"/"highest" (a
+        minimax on an edge is no bracketed optimum: :ref:`findings-grids`); empty when every knob is inside."""
+        knob, points = self.knobs[self.minimax(family)], self.grids.points(family)
+        out = {}
+        for name, value in knob.items():
+            values = sorted({p[name] for p in points})
+            if len(values) > 1 and value in (values[0], values[-1]):
+                out[name] = "lowest" if value == values[0] else "highest"
+                if name == "memory" and value == values[0]:  # the grid starts at the limit of W: see the grids
+                    out[name] += ": the hard limit W = 1" if value == 1.0 else ": W > 1 is its hard limit"
+        return out
+
     def oracle(self, family: str, preset: int) -> int:
         """The family's best variant for one preset (oracle-tuned): least largest ratio over that preset's cells."""
         return self._argmin_max(family, self.preset_cells(preset))
@@ -153,9 +171,10 @@ class Tuning:
 _MEMORY_CACHE: dict[str, Tuning] = {}
 
 
-def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None):
+def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None, refine=0):
     """The plan of one preset with every variant (or, ``only``, those of these (family, knob) pairs, on the grid of
-    every variant: the same h and so, seed by seed, the same runs) and its periods."""
+    every variant: the same h and so, seed by seed, the same runs) and its periods; the step halved ``refine`` times
+    (:func:`isl_core.scenario_grid`)."""
     model = Model.from_w(alpha, w, sigma0, m)
     periods = scenario_periods(scenario, horizon, burn=burn)
     every = [
@@ -164,9 +183,11 @@ def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None):
     nu, _ = paper_nu(model, alpha, m, w)
     edges = edge_times(periods, horizon)
     if only is None:
-        return plan_scenario(model, nu, scenario, horizon=horizon, extra=every, edges=edges), periods
+        return plan_scenario(model, nu, scenario, horizon=horizon, extra=every, edges=edges, refine=refine), periods
     extra = [replace(family_filter(f, model, knob, grids), name=variant_name(f, knob)) for f, knob in only]
-    plan = plan_scenario(model, nu, scenario, horizon=horizon, extra=extra, edges=edges, grid_filters=every)
+    plan = plan_scenario(
+        model, nu, scenario, horizon=horizon, extra=extra, edges=edges, grid_filters=every, refine=refine
+    )
     return plan, periods
 
 
@@ -193,15 +214,15 @@ def run_cells(plans: list, seeds: tuple[int, ...], workers: int | None, progress
 
 
 def _compute(
-    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress
+    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress, refine
 ) -> tuple[list[np.ndarray], list, list]:
     """Every (preset, seed) run: y per preset, plans, periods."""
-    plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+    plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids, refine=refine) for _, s0, sc in presets.values()]
     out = run_cells(plans, seeds, workers, progress)
     return out, [p for p, _ in plans], [per for _, per in plans]
 
 
-def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, periods, seconds) -> Tuning:
+def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, periods, seconds, rate) -> Tuning:
     cells = tuple((p, per) for p, pers in enumerate(periods) for per in pers)
     plan = plans[0]
     _, paper = paper_nu(plan.model, alpha, m, w)
@@ -226,6 +247,9 @@ def _assemble(alpha, m, w, presets, seeds, horizon, burn, grids, ys, plans, peri
         tuple(pl.h for pl in plans),
         float(seconds),
         tuple((s0, sc) for _, s0, sc in presets.values()),
+        rate=rate,
+        refine=plan.refine,
+        substeps=tuple(pl.q for pl in plans),
     )
 
 
@@ -243,6 +267,8 @@ def tune(
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     compute: bool = True,
+    rate: float | None = DEFAULT_RATE,
+    refine: int = 0,
 ) -> Tuning | None:
     """The tuning of every family over ``presets`` (default the table's, :data:`!isl_core.scenario.presets.PRESETS`) for
     paper A's model with this α (β = w√(2α), A.25): seeds 0 … ``seeds`` − 1, ``horizon`` in 1/r_min at σ(0), the
@@ -262,6 +288,11 @@ def tune(
         The knobs' grids.
     cache, compute : bool
         Read and write the cache; compute what is not cached.
+    rate : float or None, default :data:`!isl_core.scenario.presets.DEFAULT_RATE`
+        Sensor readings per 1/r_min at σ(0), the same for every filter (:ref:`reading-rate`); None: a reading every
+        step of the Euler grid (whose step then sets the rate).
+    refine : int, default 0
+        Halvings of the Euler step below the coarsest that serves every variant (the readings unchanged).
     m, w, horizon, burn, workers, progress
         As described above.
 
@@ -281,24 +312,28 @@ def tune(
     w = check_real("w", w, lo=0.0, lo_open=True)
     seed_ids = tuple(range(check_int("seeds", seeds, lo=2, hi=10_000)))
     horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    presets = dict(PRESETS if presets is None else presets)
+    rate = check_rate(rate)
+    presets = at_rate(PRESETS if presets is None else presets, rate)
     if not presets or not isinstance(grids, TuningGrids):
         raise ValueError(
             "presets must name at least one scenario and grids must be an isl_core.scenario.tuning.TuningGrids"
         )
-    key = cache_key(alpha, m, w, seed_ids, horizon, burn, presets, grids)
+    key = cache_key(alpha, m, w, seed_ids, horizon, burn, presets, grids, refine)
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir() / f"tuning-{digest}.npz"
     span = (
         f"minimax over {len(presets)} presets × their periods of the period statistic (isl scenario --tune), "
-        f"seeds {seed_ids[0]}–{seed_ids[-1]}, horizon {horizon:g}/r_min"
+        f"seeds {seed_ids[0]}–{seed_ids[-1]}, horizon {horizon:g}/r_min, "
+        + (f"{rate:g} readings per 1/r_min" if rate is not None else "a reading every Euler step")
     )
     if cache and digest in _MEMORY_CACHE:
         return _MEMORY_CACHE[digest]
     found = load(path, key) if cache else None
     if found is not None:
         y, seconds = found
-        plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids) for _, s0, sc in presets.values()]
+        plans = [
+            plan_preset(alpha, m, w, s0, sc, horizon, burn, grids, refine=refine) for _, s0, sc in presets.values()
+        ]
         cells = [len(per) for _, per in plans]
         ys = np.split(y, np.cumsum(cells)[:-1], axis=1)
         res = _assemble(
@@ -314,14 +349,15 @@ def tune(
             [p for p, _ in plans],
             [per for _, per in plans],
             seconds,
+            rate,
         )
         return _named(res, f"{span}; read from the cache {path} (computed in {seconds:.0f} s)", digest, cache)
     if not compute:
         return None
     start = time.perf_counter()
-    ys, plan_list, periods = _compute(alpha, m, w, presets, seed_ids, horizon, burn, grids, workers, progress)
+    ys, plan_list, periods = _compute(alpha, m, w, presets, seed_ids, horizon, burn, grids, workers, progress, refine)
     res = _assemble(
-        alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, plan_list, periods, time.perf_counter() - start
+        alpha, m, w, presets, seed_ids, horizon, burn, grids, ys, plan_list, periods, time.perf_counter() - start, rate
     )
     saved = cache and save(path, res.y, res.seconds, key)
     where = f"cached in {path}" if saved else "kept in memory (the cache is not writable)"

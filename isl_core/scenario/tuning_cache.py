@@ -30,11 +30,12 @@ def cache_dir() -> Path:
     return Path(base) / "isl"
 
 
-def cache_key(alpha, m, w, seeds, horizon, burn, presets, grids) -> dict:
-    """What a cached tuning was computed from: the rule's version, its arguments, the grids and the digest of the
-    core's sources."""
+def cache_key(alpha, m, w, seeds, horizon, burn, presets, grids, refine=0) -> dict:
+    """What a cached tuning was computed from: the rule's version, its arguments (the presets at their reading rate,
+    the step's refinement), the grids and the digest of the core's sources."""
     return {
         "rule": RULE_VERSION,
+        "refine": refine,
         "alpha": alpha,
         "m": m,
         "w": w,

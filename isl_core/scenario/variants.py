@@ -28,9 +28,10 @@ FAMILIES = {
     "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
     "imm": ("IMM", ("switch", "modes")),
 }
-#: W in readings: 10 … 3000 in 15 geometric steps, and 2 … 6.7 below them: the minimax of the adaptive, VB and robust
-#: filters sat at 10, the lower end of the earlier grid
-_MEMORY = (2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
+#: W in readings: 10 … 3000 in 15 geometric steps, and 1 … 6.7 below them: the minimax of the adaptive, VB and
+#: robust filters sat at 10, the lower end of an earlier grid, then at 2 and 1.5. W = 1 is the hard limit (λ = 1: the
+#: estimate is the last reading alone); variational Bayes needs W > 1 (ρ = 1 − 1/W > 0), its grid starts at 1.1
+_MEMORY = (1.0, 1.1, 1.25, 1.5, 2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
 
 
 @dataclass(frozen=True)
@@ -48,17 +49,19 @@ class TuningGrids:
 
     isl_ell: tuple[float, ...] = tuple(np.arange(-8.0, 4.01, 0.5).tolist())
     memory: tuple[float, ...] = _MEMORY
-    robust_c: tuple[float, ...] = (1.0, 1.345, 2.0, 3.0)
-    imm_switch: tuple[float, ...] = (1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
-    imm_modes: tuple[int, ...] = (6, 11, 16, 21)
+    robust_c: tuple[float, ...] = (0.5, 0.7, 1.0, 1.345, 2.0, 3.0)
+    imm_switch: tuple[float, ...] = (1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 0.3, 0.6)
+    imm_modes: tuple[int, ...] = (6, 11, 16, 21, 31)
     imm_sigma_range: tuple[float, float] = (1.5, 500.0)
 
     def points(self, family: str) -> list[dict]:
         """The family's grid points, each a dict knob → value."""
         if family in ("isl", "isl_model"):
             return [{"ell": float(x)} for x in self.isl_ell]
-        if family in ("kbf_adaptive", "vb"):
+        if family == "kbf_adaptive":
             return [{"memory": float(w)} for w in self.memory]
+        if family == "vb":  # W > 1: its forgetting factor ρ = 1 − 1/W must be positive
+            return [{"memory": float(w)} for w in self.memory if w > 1.0]
         if family == "kbf_robust":
             return [{"c": float(c), "memory": float(w)} for c in self.robust_c for w in self.memory]
         return [{"switch": float(p), "modes": int(j)} for p in self.imm_switch for j in self.imm_modes]

@@ -90,8 +90,11 @@ def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool,
     pred, svar = np.full(n, np.nan), np.full(n, np.nan)
     ll = kalman_series(z_n, st.index, F, Q, r * r, x0, P0, burn, est, var, pred, svar, store)
     ll -= max(int(series.present.sum()) - burn, 0) * math.log(s)  # each term's −½ log S_k: S_k = s²·S'_k
+    if not store:
+        return ll, est, var, pred, svar
     unit = s / d ** np.arange(m)
-    return ll, est * unit, var * unit**2, pred * s, svar * s * s
+    with np.errstate(over="ignore"):  # X_i's variance in the series' units may pass the float range (inf): dense
+        return ll, est * unit, var * unit**2, pred * s, svar * s * s  # times and large readings, i ≥ 2
 
 
 @ONE_THREAD

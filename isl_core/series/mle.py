@@ -86,7 +86,8 @@ def _se(series: Series, p: ReadingModel, burn: int, alpha_free: bool, grid) -> t
         with np.errstate(all="ignore"):
             return loglik_at(series, ReadingModel(p.m, a, b, s), grid, burn=burn)
 
-    H = _hessian(ll, x)
+    with np.errstate(over="ignore", invalid="ignore"):  # parameters near the float range's end (β of dense times
+        H = _hessian(ll, x)  # and huge readings): the steps' products overflow, and no standard error is given
     with np.errstate(invalid="ignore"):
         try:
             cov = np.linalg.inv(-H)
@@ -139,12 +140,17 @@ def fit(series: Series, m: int, *, alpha: float | None = None, burn: int | None 
         a = a_fix if fixed else max(float(v[0]), 0.0) / dt
         return ReadingModel(m, a, math.exp(v[1]), math.exp(v[2]))
 
+    seen: list = [math.inf, None]  # the best point either optimizer evaluated (one may end at a non-finite one)
+
     def cost(v: np.ndarray) -> float:
         if not np.all(np.isfinite(v)) or abs(v[1]) > 600 or abs(v[2]) > 600:
             return 1e300
         with np.errstate(all="ignore"):  # an exploratory α may overflow the exponential: log L is then not finite
             ll = loglik_at(series, params(v), grid, burn=burn)
-        return -ll if math.isfinite(ll) else 1e300
+        c = -ll if math.isfinite(ll) else 1e300
+        if c < seen[0]:
+            seen[:] = [c, np.array(v, dtype=float)]
+        return c
 
     starts = _starts(series, m, [a_fix * dt] if fixed else [0.0, 0.1, 1.0])
     best = min(starts, key=cost)
@@ -159,7 +165,8 @@ def fit(series: Series, m: int, *, alpha: float | None = None, burn: int | None 
         method="Nelder-Mead",
         options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 300, "initial_simplex": simplex},
     )
-    x = np.array([min(max(res.x[0], bounds[0][0]), bounds[0][1]), res.x[1], res.x[2]])
+    cost(np.array([min(max(res.x[0], bounds[0][0]), bounds[0][1]), res.x[1], res.x[2]]))
+    x = np.array([min(max(seen[1][0], bounds[0][0]), bounds[0][1]), seen[1][1], seen[1][2]])
     p = params(x)
     ll = loglik_at(series, p, grid, burn=burn)
     se = _se(series, p, burn, not fixed, grid)

@@ -10,7 +10,9 @@ the exact transition between readings. Every filter starts at X₁ = the first r
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -193,12 +195,28 @@ def run_filters(
     for tr in run:  # back to the series' units, in place (no second copy of N × filters arrays)
         tr.estimate[...] *= scale
         if tr.variance is not None:
-            tr.variance[...] *= scale**2
+            with np.errstate(over="ignore"):  # as in likelihood._run: X_i's variance, i ≥ 2, may pass the range
+                tr.variance[...] *= scale**2
         tr.prediction[...] *= s
         np.subtract(series.z, tr.prediction, out=tr.innovation)
         tr.innovation_var[...] *= s * s
         tr.log_density[...] -= math.log(s)
-    return SeriesRun(series, params, float(nu), tuple(run))
+    return SeriesRun(series, params, float(nu), tuple(_relabel(tr, params, float(nu), s * d**0.5) for tr in run))
+
+
+def _relabel(track: SeriesTrack, params: ReadingModel, nu: float, k_sigma: float) -> SeriesTrack:
+    """``track``'s label in the series' units (the filters were built in units of the readings' spread and the
+    interval: σ_r, ν and the IMM's σ grid scale back by s, β's factor and s·√d; the memory W and Huber's c do not)."""
+    label = track.label
+    if track.name == "kalman":
+        label = f"Kalman (σ_r = {params.sigma_r:.4g} given)"
+    elif track.name in ("isl", "isl_model"):
+        label = re.sub(r"ν = [^)]*", f"ν = {nu:.4g}", label)
+    elif track.name == "imm":
+        label = re.sub(
+            r"\[([^,\]]+), ([^\]]+)\]", lambda g: f"[{float(g[1]) * k_sigma:.3g}, {float(g[2]) * k_sigma:.3g}]", label
+        )
+    return dataclasses.replace(track, label=label)
 
 
 def _run_units(series: Series, params: ReadingModel, nu: float, names, sr, memory) -> list[SeriesTrack]:

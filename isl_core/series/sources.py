@@ -3,8 +3,9 @@
 Nothing is downloaded: ``nile`` and ``co2`` are statsmodels' own copies (``statsmodels.datasets``), ``long`` is
 generated here from the model with a fixed seed (labelled synthetic). A CSV file is read by pandas, within
 :data:`MAX_BYTES` and :data:`MAX_ROWS`, its time and value columns chosen by name (default: the first two; one
-column alone is read as values at times 0, 1, 2, …). A time column of dates is read as days since its first date. Every
-refusal is a ``ValueError`` that names the column, the row and the fix.
+column alone is read as values at times 0, 1, 2, …); the names may stand on the last ``#`` line before the rows, as
+numpy's ``savetxt`` writes them (the dashboard's downloads). A time column of dates is read as days since its first
+date. Every refusal is a ``ValueError`` that names the column, the row and the fix.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 from .discretize import van_loan
 from .record import Series, series
 
-__all__ = ["DATASETS", "LONG_MODEL", "MAX_BYTES", "MAX_ROWS", "dataset", "read_csv"]
+__all__ = ["DATASETS", "LONG_MODEL", "MAX_BYTES", "MAX_ROWS", "csv_columns", "dataset", "read_csv"]
 
 MAX_BYTES = 20_000_000  #: the largest CSV file read (20 MB)
 MAX_ROWS = 1_000_000  #: the most rows of a CSV file read
@@ -92,6 +93,36 @@ def _text(data: bytes) -> str:
         raise ValueError(f"the file is not UTF-8 text (byte {exc.start + 1}); save it as CSV in UTF-8") from None
 
 
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return not cell.strip()
+    return True
+
+
+def _names_from_comment(text: str) -> str:
+    """``text`` with the column names numpy's ``savetxt`` writes as the last ``#`` line before the rows (its header
+    convention, which ``numpy.genfromtxt(names=True)`` reads) made the header, when the first row holds numbers only
+    and that line names as many columns; else ``text`` as it is."""
+    pos, last = 0, None
+    while pos < len(text):
+        end = text.find("\n", pos)
+        end = len(text) if end < 0 else end
+        line = text[pos:end].strip()
+        if line.startswith("#"):
+            last = line
+        elif line:
+            cells = line.split(",")
+            if last is not None and all(_is_number(c) for c in cells):
+                names = [c.strip() for c in last.lstrip("#").split(",")]
+                if len(names) == len(cells) and all(n and not _is_number(n) for n in names):
+                    return text[:pos] + ",".join(names) + "\n" + text[pos:]
+            return text
+        pos = end + 1
+    return text
+
+
 def _column(frame, name: str | None, default: int, what: str):
     if name is None:
         return frame.columns[default]
@@ -118,6 +149,22 @@ def _numbers(pd, col, what: str, dates: bool) -> np.ndarray:
     return values.to_numpy(float)
 
 
+def csv_columns(data: bytes) -> list[str]:
+    """The column names of a CSV file's header, from its bytes (what :func:`read_csv` would choose among). A file it
+    cannot read — empty, binary, not UTF-8, over :data:`MAX_BYTES`, no header — is refused as :func:`read_csv`
+    refuses it (``ValueError``)."""
+    if len(data) > MAX_BYTES:
+        raise ValueError(f"the file is over {MAX_BYTES // 1_000_000} MB: keep a part of it")
+    pd, text = _pandas(), _text(bytes(data))
+    try:
+        frame = pd.read_csv(
+            io.StringIO(_names_from_comment(text)), comment="#", dtype=str, nrows=0, skipinitialspace=True
+        )
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
+        raise ValueError(f"the file is not a readable CSV table: {str(exc).splitlines()[0][:120]}") from None
+    return [str(c) for c in frame.columns]
+
+
 def read_csv(source, *, time: str | None = None, value: str | None = None, name: str | None = None) -> Series:
     """A :class:`Series` from a CSV file (module docstring): ``source`` a path or the file's bytes; ``time`` and
     ``value`` the columns' names (default the first two). Lines starting with ``#`` are comments."""
@@ -137,7 +184,7 @@ def read_csv(source, *, time: str | None = None, value: str | None = None, name:
     pd = _pandas()
     try:
         frame = pd.read_csv(
-            io.StringIO(_text(data)),
+            io.StringIO(_names_from_comment(_text(data))),
             comment="#",
             dtype=str,
             keep_default_na=False,

@@ -34,8 +34,18 @@ def test_bad_dashboard_arguments_exit_2_with_one_line(argv, capsys, tmp_path, mo
 
 
 def test_console_script_is_declared():
+    """``isl`` is the core's; it takes the dashboard's commands through the ``isl.cli`` entry point."""
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))
-    assert meta["project"]["scripts"]["isl"] == "app.cli:main"
+    assert meta["project"]["scripts"]["isl"] == "isl_core.cli:console"
+    assert meta["project"]["entry-points"]["isl.cli"] == {"app": "app.cli:extension"}
+
+
+def test_the_installed_isl_has_the_dashboards_commands():
+    """Installed with the app extra, the core's console script loads :data:`app.cli.DASHBOARD`."""
+    from app.cli import DASHBOARD
+    from isl_core.cli import installed_extension
+
+    assert installed_extension() is DASHBOARD
 
 
 def test_sweep_writes_csv_json_html_png(tmp_path, capsys):

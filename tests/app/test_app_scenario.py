@@ -67,7 +67,7 @@ def test_the_picture_is_the_cores_average_for_the_same_request(state):
     pic = state.scenarios.picture
     assert pic is not None and "Simulated in" in state.scenarios.note and "4 runs" in state.scenarios.note
     req = pic.request
-    assert req.scenario == Scenario(sigma_knots=((6.0, 2.0),))
+    assert req.scenario == Scenario(sigma_knots=((6.0, 2.0),), sensor_interval=0.01)  # read at the table's rate
     direct = average_scenario(
         req.model,
         state.nu,
@@ -115,6 +115,20 @@ def test_a_preset_sets_the_tables_column(state):
     assert set(PRESETS) >= {label, "Student-t noise, 3 degrees of freedom", "sensor read every 0.1/rₘᵢₙ"}
     state.scenarios.apply_preset("nonsense")
     assert "Unknown scenario preset" in state.message
+
+
+def test_the_picture_reads_the_sensor_at_the_tables_rate_and_says_so(state):
+    """Every filter of the picture takes one reading per 1/100 of 1/r_min (the table's rate), whatever the Euler
+    step; a slower sensor input keeps its own interval."""
+    state.set_inputs({"sc_runs": 2, "sc_horizon": 6.0, "sc_change": "none"})
+    state.scenarios.want()
+    run = state.scenarios.picture.average.run
+    assert run.q * run.h * run.r_min == pytest.approx(0.01, rel=1e-12) and run.q > 1
+    assert "every filter reads the sensor 100 times per 1/rₘᵢₙ at σ(0)" in state.scenarios.note
+    state.set_inputs({"sc_sensor": 0.5})
+    run = state.scenarios.picture.average.run
+    assert run.q * run.h * run.r_min == pytest.approx(0.5, rel=1e-12)
+    assert "reads the sensor 2 times per 1/rₘᵢₙ" in state.scenarios.note
 
 
 def test_the_csv_holds_every_window_and_filter(state):

@@ -238,14 +238,16 @@ def test_csv_holds_the_run_its_parameters_and_its_numbers(state):
         assert needle in head, needle
     columns = next(line for line in lines if line.startswith("# t,"))[2:].split(",")
     assert columns[:4] == ["t", "X1_position", "X2_velocity", "X3_acceleration"]
-    assert columns[-1] == "kbf_adaptive_X3_acceleration" and len(columns) == 1 + 3 * 4
+    assert columns[4] == "reading" and columns[-1] == "kbf_adaptive_X3_acceleration" and len(columns) == 2 + 3 * 4
     data = np.loadtxt(lines, delimiter=",", comments="#")
     view = state.run
     extra, grid = pipeline.extra_filters(state.shown_request, view.model)
-    run = simulate(view.model, view.nu, horizon=state.horizon, seed=view.seed, extra=extra, step_filters=grid)
+    run = simulate(
+        view.model, view.nu, horizon=state.horizon, seed=view.seed, extra=extra, step_filters=grid, readings=True
+    )
     assert data.shape == (view.N + 1, len(columns))  # the same run, every step
-    expected = np.column_stack([run.t, run.X, *(tr.estimate for tr in run.tracks)])
-    np.testing.assert_allclose(data, expected, rtol=1e-8, atol=1e-12 * np.abs(expected).max())
+    expected = np.column_stack([run.t, run.X, run.readings, *(tr.estimate for tr in run.tracks)])
+    np.testing.assert_allclose(data, expected, rtol=1e-8, atol=1e-12 * np.nanmax(np.abs(expected)))
     ratios = next(line for line in lines if line.startswith("# X1_position: s="))
     assert f"kbf {view.ratio_hat[0]:.6g} (1)" in ratios and f"isl {view.ratio_check[0]:.6g}" in ratios
     state.horizon = 1000.0  # ≈ 10⁵ steps: every k-th row only

@@ -116,6 +116,7 @@ TAB_TITLES = [
     "Worst case over σ",
     "Compare σ",
     "Scenarios: σ(t), tails, sensor",
+    "Your data",
 ]
 
 

@@ -236,3 +236,56 @@ def test_each_equation_the_core_uses_is_cited_by_its_number(number):
 
 def test_a_range_does_not_count_as_citing_its_inner_numbers():
     assert not re.search(r"(?<![\w.])B\.5(?![\d])", "B.4–B.7 and B.54")  # the check above is not fooled
+
+
+#: a finder that refuses the UI libraries, as if they were not installed (run first in a subprocess)
+WITHOUT_UI = f"""
+import importlib.abc, sys
+class NotInstalled(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in {UI_MODULES!r}:
+            raise ModuleNotFoundError(f"No module named {{name!r}}", name=name)
+        return None
+sys.meta_path.insert(0, NotInstalled())
+"""
+
+
+def _requirements(extra: str | None) -> set[str]:
+    """The names of the distribution's requirements: those of ``extra``, or (None) those without an extra."""
+    from importlib.metadata import requires
+
+    names = set()
+    for line in requires("isl") or []:
+        marker = re.search(r"""extra\s*==\s*["']([^"']+)["']""", line)
+        if (marker.group(1) if marker else None) == extra:
+            names.add(re.match(r"[A-Za-z0-9_.-]+", line).group().lower())
+    return names
+
+
+def test_the_installed_core_requires_no_ui_library_and_the_app_extra_brings_them():
+    """``pip install .`` gives the core with numpy, scipy and numba; ``isl[app]`` adds the dashboard's libraries."""
+    assert {"numpy", "scipy", "numba"} <= _requirements(None)
+    assert _requirements(None).isdisjoint(UI_MODULES)
+    assert set(UI_MODULES) <= _requirements("app")
+
+
+def test_without_the_ui_libraries_isl_runs_and_serve_says_what_to_install():
+    """With panel, bokeh, param and matplotlib refused on import, ``isl run`` runs to the end and ``isl serve``
+    names the extra to install and exits 2."""
+    code = WITHOUT_UI + (
+        "import contextlib, io, json\n"
+        "from isl_core.cli import console\n"
+        "err = io.StringIO()\n"
+        "with contextlib.redirect_stderr(err):\n"
+        "    serve = console(['serve'])\n"
+        "out = io.StringIO()\n"
+        "with contextlib.redirect_stdout(out):\n"
+        "    run = console(['run', '--horizon', '20', '--json'])\n"
+        f"loaded = [m for m in {UI_MODULES!r} if m in sys.modules]\n"
+        "print(json.dumps([serve, err.getvalue(), run, json.loads(out.getvalue()), loaded]))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    serve, message, run, result, loaded = json.loads(done.stdout.strip().splitlines()[-1])
+    assert (serve, message.strip()) == (2, "isl serve: the dashboard needs the app extra: pip install 'isl[app]'")
+    assert run == 0 and len(result["ratio_hat"]) == result["model"]["m"] and loaded == []

@@ -127,7 +127,7 @@ def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert set(doc["tuned"]) == set(FAMILIES)
     vb = [c for c in doc["curves"] if c["family"] == "vb"]
-    assert next(c["memory"] for c in vb) == 2.0 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
+    assert next(c["memory"] for c in vb) == 1.1 and vb[-1]["memory"] == 3000.0 and sum(c["minimax"] for c in vb) == 1
     assert all(
         c["memory_over_r_min"] == pytest.approx(c["memory"] * doc["meta"]["one_reading_over_r_min"]["constant"])
         for c in vb

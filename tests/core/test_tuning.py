@@ -47,9 +47,10 @@ def test_every_variant_of_every_family_rides_in_the_runs_with_its_knob(tuning):
         ("constant", "settled"),
     ]
     assert tuning.y.shape == (6, 4, len(tuning.names), 3)  # seeds × cells × filters × coordinates
-    # one reading is one step in these presets: W readings are W·h·r_min
+    # one reading lasts 1/R at the default rate R = 100 readings per 1/r_min, q steps of h: W readings are W/R
     r_min = kalman_bucy(Model.from_w(1.0, 3.0, 20.0, 3)).r_min
-    assert tuning.reading_time[1] == pytest.approx(tuning.h[1] * r_min, rel=1e-12)
+    assert tuning.rate == 100.0 and tuning.reading_time[1] == pytest.approx(0.01, rel=1e-12)
+    assert tuning.reading_time[1] == pytest.approx(tuning.substeps[1] * tuning.h[1] * r_min, rel=1e-12)
 
 
 def test_the_minimax_and_the_oracle_knobs_are_the_least_largest_ratios_written_out(tuning):
@@ -63,10 +64,26 @@ def test_the_minimax_and_the_oracle_knobs_are_the_least_largest_ratios_written_o
         assert tuning.oracle(family, 1) == idx[int(np.argmin(ratio[3, idx]))]
 
 
+def test_a_minimax_knob_at_its_grids_end_is_named(tuning):
+    """No bracketed optimum: a knob whose minimax value is its grid's first or last is named, one with a single
+    value never (the IMM's modes here)."""
+    for family in FAMILIES:
+        knob, edges = tuning.knobs[tuning.minimax(family)], tuning.on_edge(family)
+        for name, value in knob.items():
+            values = sorted({p[name] for p in GRIDS.points(family)})
+            if value == values[0] and len(values) > 1:
+                assert edges[name].startswith("lowest")
+            elif value == values[-1] and len(values) > 1:
+                assert edges[name] == "highest"
+            else:
+                assert name not in edges
+    assert "modes" not in tuning.on_edge("imm")
+
+
 def test_a_tuned_filter_run_alone_on_the_same_grid_gives_its_column_of_the_tuning(tuning):
     """Common random numbers: every filter's error depends on the noise and the grid only, not on the filters
     beside it — the tuned IMM and VB filters run alone (on the grid of all the variants) give their columns."""
-    _, sigma0, scenario = PRESETS["drop"]
+    sigma0, scenario = tuning.scenarios[0]  # the drop as the tuning ran it: read at its rate
     model = Model.from_w(1.0, 3.0, sigma0, 3)
     every = tuning.grid_filters(model)
     chosen = [tuning.minimax("imm"), tuning.minimax("vb")]

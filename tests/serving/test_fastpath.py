@@ -8,7 +8,7 @@ import pytest
 from bokeh.document import Document
 from panel.reactive import Reactive
 
-from app.serving import fastpath
+from app.serving import fastpath, session
 
 
 def _changes(widget, **values) -> list[param.parameterized.Event]:
@@ -188,7 +188,7 @@ def test_a_settled_markup_panes_first_update_does_not_re_walk_the_page(monkeypat
     with set_curdoc(settled):
         pane = _page_with_html(settled)
         walks.clear()
-        fastpath.settle_markup_stylesheets(settled)
+        session.settle_markup_stylesheets(settled)
         assert len(walks) <= 1  # every pane settled in one walk
         model = next(iter(pane._models.values()))[0]
         assert model.stylesheets == pane._get_properties(settled)["stylesheets"]

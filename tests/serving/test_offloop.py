@@ -23,6 +23,7 @@ from panel.io.state import set_curdoc, state
 from tornado.ioloop import IOLoop
 
 from app.serving import offloop
+from app.serving import session as serving_session
 from app.serving.memory import QUIET_SESSIONS, MemoryTrimmer, quiet_garbage_collection
 
 
@@ -286,7 +287,7 @@ def test_prebuilt_models_are_the_ones_panel_attaches():
     doc._session_context = lambda: object()  # as in a server session
     try:
         part = pn.Row(pn.pane.Markdown("a part"))
-        offloop.prebuild(part, container)
+        serving_session.prebuild(part, container)
         prebuilt = part._models[root.ref["id"]][0]
         with set_curdoc(doc):  # as Panel applies it on the session's loop
             container.objects = [part]
@@ -326,11 +327,9 @@ def test_full_collections_wait_until_the_class_has_left(monkeypatch):
 
 
 def test_memory_is_trimmed_again_once_the_ended_sessions_release_hooks_have_run(monkeypatch, caplog):
-    from app.serving import hardening
-
     trims = []
     pending = [0]
-    monkeypatch.setattr(hardening, "live_release_hooks", lambda: pending[0])
+    monkeypatch.setattr(serving_session, "live_release_hooks", lambda: pending[0])
     monkeypatch.setattr(gc, "collect", lambda *a: 0)
     server = _Server()
     trimmer = MemoryTrimmer(server)

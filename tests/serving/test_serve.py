@@ -19,7 +19,7 @@ from bokeh.models import Button
 from bokeh.protocol import Protocol
 from panel.command.serve import Serve
 
-from app.serving import hardening, serve
+from app.serving import hardening, serve, session
 
 
 def panel_args(argv: list[str]) -> argparse.Namespace:
@@ -143,7 +143,7 @@ def test_exception_handler_logs_traceback_and_never_raises(caplog):
     except RuntimeError as exc:
         error = exc
     with caplog.at_level(logging.ERROR, logger="isl.app"):
-        hardening.handle_exception(error)
+        session.handle_exception(error)
     record = caplog.records[-1]
     assert re.search(r"incident [0-9a-f]{8}", record.getMessage())
     assert record.exc_info[1] is error  # the traceback goes to the server log
@@ -152,7 +152,7 @@ def test_exception_handler_logs_traceback_and_never_raises(caplog):
 def test_install_is_idempotent():
     hardening.install()
     hardening.install()
-    assert pn.config.exception_handler is hardening.handle_exception
+    assert pn.config.exception_handler is session.handle_exception
     assert pn.config.notifications is True
     assert getattr(Protocol().create("ERROR", "m", "x").__class__.create, "_isl_quiet", False)
 
@@ -237,7 +237,7 @@ def test_drop_payloads_resets_parameters_without_firing_watchers():
     obj = _Payload(run=list(range(10)), traces="big", seed=5)
     fired = []
     obj.param.watch(fired.append, ["run", "traces"])
-    hardening.drop_payloads(obj)
+    session.drop_payloads(obj)
     assert obj.run is None and obj.traces is None and obj.seed == 5 and fired == []
 
 
@@ -249,17 +249,17 @@ def test_release_hooks_run_once_when_the_session_is_destroyed(monkeypatch):
     doc._session_context = lambda: Ctx()
     monkeypatch.setattr(type(pn.state), "curdoc", property(lambda self: doc))
     calls = []
-    hardening.release_on_destroy(lambda: calls.append("callable"))
-    hardening.release_on_destroy(type("R", (), {"release": lambda self: calls.append("release")})())
-    hardening.release_on_destroy(lambda: 1 / 0)  # a failing hook does not stop the others
+    session.release_on_destroy(lambda: calls.append("callable"))
+    session.release_on_destroy(type("R", (), {"release": lambda self: calls.append("release")})())
+    session.release_on_destroy(lambda: 1 / 0)  # a failing hook does not stop the others
     obj = _Payload(run=[1, 2, 3])
-    hardening.release_on_destroy(obj)
+    session.release_on_destroy(obj)
     callbacks = list(doc.session_destroyed_callbacks)
-    assert len(callbacks) == 1 and "session-1" in hardening._releases
+    assert len(callbacks) == 1 and "session-1" in session._releases
     callbacks[0](None)  # Panel discards a warm-up document with None for the session context
     callbacks[0](Ctx())
     assert calls == ["callable", "release"] and obj.run is None
-    assert "session-1" not in hardening._releases
+    assert "session-1" not in session._releases
 
 
 def test_memory_is_trimmed_only_after_sessions_end():

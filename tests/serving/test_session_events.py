@@ -6,6 +6,7 @@ With ``--num-threads`` Panel processes each browser message on its thread pool; 
 
 from __future__ import annotations
 
+import sys
 import threading
 
 import panel as pn
@@ -118,3 +119,48 @@ def test_two_sessions_sliders_released_at_once_both_apply():
     hardening.install()
     assert reactive.edit_readonly is not original
     interleave(reactive.edit_readonly)
+
+
+def test_panels_busy_counter_is_edited_by_one_thread_at_a_time():
+    """Panel counts every browser event as "busy" on its process-wide ``state``, lifting the read-only flag of its
+    ``busy`` parameter for the edit. Two worker threads interleaved there: the first restored the flag while the
+    second was setting ``busy`` ("Read-only parameter 'busy' cannot be modified", a callback error on the page).
+    By hand on one thread with Panel's own ``edit_readonly`` that fails; patched, a second thread's edit waits for
+    the first and both events are counted and uncounted."""
+    state_module = sys.modules["panel.io.state"]  # (the package exports its state object under that name)
+
+    busy = pn.state.param["busy"]
+    original = getattr(state_module.edit_readonly, "_isl_original", state_module.edit_readonly)
+    first, second = original(pn.state), original(pn.state)
+    first.__enter__()
+    with pytest.raises(TypeError, match="Read-only parameter 'busy' cannot be modified"), second:
+        first.__exit__(None, None, None)
+        pn.state.busy = True
+    busy.readonly = True  # what the second's exit lifted for good
+
+    hardening.install()
+    edit = state_module.edit_readonly
+    assert edit is not original
+    inside, release, counted = threading.Event(), threading.Event(), threading.Event()
+
+    def hold() -> None:
+        with edit(pn.state):
+            inside.set()
+            assert release.wait(30)
+
+    def count() -> None:
+        pn.state._add_busy_event("isl-test")
+        pn.state._remove_busy_event("isl-test")
+        counted.set()
+
+    holder = threading.Thread(target=hold, daemon=True)
+    holder.start()
+    assert inside.wait(30)
+    counter = threading.Thread(target=count, daemon=True)
+    counter.start()
+    assert not counted.wait(0.3)  # unserialized, it edited state at once, inside the first edit
+    release.set()
+    assert counted.wait(30)
+    holder.join(30)
+    counter.join(30)
+    assert busy.readonly and not pn.state.busy and "isl-test" not in dict(pn.state._busy_counter)

@@ -4,13 +4,17 @@ the server ends every process and frees the port; long jobs hold one slot for th
 from __future__ import annotations
 
 import asyncio
+import logging
 import multiprocessing
 import os
 import re
 import select
 import signal
 import socket
+import subprocess
+import sys
 import threading
+from pathlib import Path
 
 import pytest
 from _serving import fixture_app, run, served, session_client
@@ -23,6 +27,7 @@ BUILT = re.compile(  # app.serving.offloop's line for each page it builds
     r"isl page: built for session (\S+) in process (\d+)"
 )
 PAGES = 8
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_usable_cores_follow_the_cgroup_quota(tmp_path):
@@ -33,6 +38,22 @@ def test_usable_cores_follow_the_cgroup_quota(tmp_path):
     cpu_max.write_text("50000 100000\n")  # half a core: still one process
     assert workers.usable_cores(cpu_max) == 1
     assert workers.usable_cores(tmp_path / "none") == affinity
+
+
+def listening(pid: int, port: int) -> set[str]:
+    """The sockets (by inode) listening on ``port`` that process ``pid`` holds."""
+    inodes = set()
+    for table in ("tcp", "tcp6"):
+        for line in Path(f"/proc/net/{table}").read_text().splitlines()[1:]:
+            fields = line.split()
+            if int(fields[1].rsplit(":", 1)[1], 16) == port and fields[3] == "0A":  # 0A: LISTEN
+                inodes.add(fields[9])
+    held = {os.readlink(f"/proc/{pid}/fd/{fd}") for fd in os.listdir(f"/proc/{pid}/fd")}
+    return {inode for inode in inodes if f"socket:[{inode}]" in held}
+
+
+def children(pid: int) -> list[int]:
+    return [int(p) for p in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
 
 
 class Stopper:
@@ -72,6 +93,18 @@ def test_pages_built_once_where_their_websocket_lands_and_sigterm_ends_every_pro
     script = fixture_app(tmp_path)
     with served(tmp_path, "--num-procs", "2", "--stats-interval", "0", script=script) as (url, proc, log):
         stopper = Stopper(proc, url)
+        # each worker listens on a socket of its own (SO_REUSEPORT: the kernel spreads connections evenly); the
+        # parent only holds the port
+        own = [listening(pid, stopper.port) for pid in children(proc.pid)]
+        assert not listening(proc.pid, stopper.port)
+        assert len(own) == 2 and all(len(s) == 1 for s in own) and own[0] != own[1], own
+        # a second server on the same port fails as with one process, instead of joining the first one's group
+        second = session_client.start_server(
+            stopper.port, tmp_path / "second.log", ["--num-procs", "2", "--stats-interval", "0"], script=script
+        )
+        assert second.wait(120) == 1
+        assert "already in use" in (tmp_path / "second.log").read_text()
+        assert [listening(pid, stopper.port) for pid in children(proc.pid)] == own  # the first serves on
 
         async def scenario() -> tuple[list[str], int]:
             tokens = [await session_client.page_token(url) for _ in range(PAGES)]
@@ -211,3 +244,66 @@ def test_a_page_is_answered_from_one_of_two_start_up_pages(path, query, present)
         start_line=RequestStartLine("GET", f"{path}{query}", "HTTP/1.1"), headers=HTTPHeaders({"Host": "x"})
     )
     assert page_key(request) == ("/app", present)
+
+
+REFORK = """
+import os, sys
+from app.serving.workers import Supervisor
+Supervisor(1, max_restarts=2).run()  # returns in each worker
+with open(sys.argv[1], "a") as f:
+    f.write(f"{os.getpid()}\\n")
+os._exit(0)  # unasked: the server did not stop
+"""
+
+
+def test_a_worker_that_ends_unasked_is_forked_again(tmp_path):
+    """A worker ending with status 0 while the server was not stopping leaves the class one process short: it is
+    forked again (counted with the restarts; past them the server stops with status 1)."""
+    ran = tmp_path / "workers"
+    done = subprocess.run(
+        [sys.executable, "-c", REFORK, str(ran)], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 1, done.stderr
+    assert len(set(ran.read_text().split())) == 3  # the first worker and its two restarts
+    assert done.stderr.count("ended with status 0: starting it again") == 2, done.stderr
+    assert "workers died 3 times" in done.stderr
+
+
+def test_the_signal_handlers_only_pass_signals_on_and_the_wait_loop_logs(caplog):
+    """No logging inside a signal handler (its locks may be held by the code it interrupted): SIGTERM and the grace
+    period's timer only signal the workers and set flags; the parent's wait loop logs what they did."""
+    supervisor = workers.Supervisor(1, grace_s=3600.0)
+    child = subprocess.Popen(["sleep", "60"])  # a worker that does not stop by itself
+    supervisor.children[child.pid] = 0
+    previous = signal.getsignal(signal.SIGALRM)
+    try:
+        with caplog.at_level(logging.DEBUG, logger="isl.serve"):
+            supervisor._on_signal(signal.SIGTERM, None)
+            supervisor._kill_remaining(signal.SIGALRM, None)
+            assert not caplog.records  # the handlers logged nothing
+            assert child.wait(30) in (-signal.SIGTERM, -signal.SIGKILL)  # the worker was signalled
+            supervisor._report()
+        messages = [record.getMessage() for record in caplog.records]
+        assert messages == [
+            f"stopping 1 worker process(es) (signal {int(signal.SIGTERM)})",
+            f"worker {child.pid} did not stop within 3600 s: killed",
+        ]
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        child.kill()
+
+
+@pytest.mark.parametrize("before", [None, "/elsewhere/slot.lock"])
+def test_the_long_job_slot_gives_its_variable_back_on_close(tmp_path, monkeypatch, before):
+    """Servers started one after another in one process (the tests) must not inherit a removed lock file's name."""
+    if before is None:
+        monkeypatch.delenv(SLOT_ENV, raising=False)
+    else:
+        monkeypatch.setenv(SLOT_ENV, before)
+    slot = workers.LongJobSlot(str(tmp_path))
+    path = slot.path
+    assert path is not None and os.environ[SLOT_ENV] == path and Path(path).exists()
+    slot.close()
+    assert not Path(path).exists()
+    assert os.environ.get(SLOT_ENV) == before

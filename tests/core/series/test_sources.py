@@ -12,7 +12,7 @@ pytest.importorskip("pandas", reason="the data extra: pip install 'isl[data]'")
 pytest.importorskip("statsmodels", reason="the data extra: pip install 'isl[data]'")
 
 from isl_core.series import Series
-from isl_core.series.sources import DATASETS, LONG_MODEL, MAX_BYTES, dataset, read_csv
+from isl_core.series.sources import DATASETS, LONG_MODEL, MAX_BYTES, csv_columns, dataset, read_csv
 
 
 @pytest.mark.parametrize("name", list(DATASETS))
@@ -35,6 +35,23 @@ def test_csv_columns_dates_gaps_and_bom():
     assert s.n == 13 and s.t[1] == 2.0 and np.isnan(s.z[1]) and s.z[-1] == 11.0
     one = read_csv(("v\n" + "\n".join(str(i * 0.5) for i in range(12))).encode())
     assert one.t[-1] == 11.0 and one.z[-1] == 5.5
+
+
+def test_names_on_the_last_comment_line_as_numpy_writes_them():
+    import io
+
+    out = io.StringIO()
+    t = np.arange(12.0)
+    np.savetxt(out, np.column_stack([t, t**2]), delimiter=",", header="written by numpy\nt,square", fmt="%.9g")
+    data = out.getvalue().encode()
+    assert out.getvalue().splitlines()[1] == "# t,square" and csv_columns(data) == ["t", "square"]
+    s = read_csv(data, time="t", value="square")
+    assert np.array_equal(s.z, t**2)
+    # a comment that names fewer columns than the rows hold is a comment, not the header
+    data = b"# one,two,three\n" + b"".join(b"%d,%d\n" % (k, k) for k in range(12))
+    assert csv_columns(data) == ["0", "0.1"]
+    with pytest.raises(ValueError, match="the file is binary"):
+        csv_columns(b"\x00\x01")
 
 
 @pytest.mark.parametrize(
