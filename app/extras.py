@@ -21,8 +21,19 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from isl_core import BASELINES, Model, WorstCaseTable, baseline_filters, theory_ratios, worst_case
-from isl_core.filters.base import SIGMA_RANGE  # the plausible σ range a page opens with
+from isl_core import (
+    BASELINES,
+    BOUNDS,
+    SIGMA_RANGE,  # the plausible σ range a page opens with
+    Candidates,
+    Execution,
+    Model,
+    Sampling,
+    WorstCaseTable,
+    baseline_filters,
+    theory_ratios,
+    worst_case,
+)
 
 __all__ = [
     "ALPHA_BOUNDS",
@@ -37,7 +48,7 @@ __all__ = [
 ]
 
 EXTRA_NAMES = tuple(n for n in BASELINES if n not in ("kbf", "isl"))  #: filters a user can overlay
-SIGMA_BOUNDS = (0.1, 1000.0)
+SIGMA_BOUNDS = BOUNDS.sigma.range  #: the σ inputs of the extra filters and the worst case: the dashboard's σ range
 SIGMA_DESIGN = 20.0
 ALPHA_BOUNDS = (0.001, 100.0)
 log = logging.getLogger(__name__)
@@ -79,12 +90,9 @@ def worst_case_table(
         n_sigma=n_sigma,
         m=m,
         w=w,
-        sigma_design=sigma_design,
-        horizon=horizon,
-        seeds=(seed,),
-        batches=10,
-        workers=WC_WORKERS,
-        progress=progress,
+        candidates=Candidates(sigma_design=sigma_design),
+        sampling=Sampling((seed,), horizon, batches=10),
+        execution=Execution(workers=WC_WORKERS, progress=progress),
     )
 
 

@@ -25,14 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isl_core.validate import read_int, read_real
+from isl_core import NOT_FINITE, read_int, read_real
 
-__all__ = ["MAX_TEXT", "Kind", "TooLong", "clean", "kinds_of", "parse_text", "show"]
+__all__ = ["MAX_TEXT", "Kind", "TooLong", "clean", "clean_declared", "kind_of", "kinds_of", "parse_text", "show"]
 
 MAX_TEXT = 200  #: longest query value read from a URL (the longest good one, a list of five σ, has ~40 characters)
 MAX_ITEMS = 20  #: longest list read from a URL
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,40}", re.ASCII)
-_NOT_FINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
 
 
 class TooLong(float):
@@ -102,7 +101,7 @@ def _problem(value: object, kind: Kind) -> str:
         return "the box is empty"
     if kind.what == "choice":
         return f"{show(value)} is not one of them"
-    if isinstance(value, str) and value.strip().lower() in _NOT_FINITE:
+    if isinstance(value, str) and value.strip().lower() in NOT_FINITE:
         return f"{show(value)} is not a finite number"
     if kind.what in ("number", "whole"):
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
@@ -232,25 +231,32 @@ def _parse_number(t: str, *, whole: bool) -> float | int:
     return read_real(t)  # 2.5 for a whole number: read, then refused by clean() as "not a whole number"
 
 
-def kinds_of(names: Sequence[str], params, item_bounds: dict[str, tuple[float, float]]) -> dict[str, Kind]:
-    """The :class:`Kind` of each input from its declaration (a param.Parameter with bounds); a list of numbers takes
-    the range of its entries from ``item_bounds``."""
+def kind_of(p, item_bounds: tuple[float, float] | None = None) -> Kind:
+    """The :class:`Kind` of an input from its declaration ``p`` (a param.Parameter with bounds); a list of numbers
+    takes the range of its entries from ``item_bounds``."""
     import param  # the inputs are declared with param; this module itself needs only numpy
 
-    out = {}
-    for name in names:
-        p = params[name]
-        if isinstance(p, param.Boolean):
-            out[name] = Kind("switch")
-        elif isinstance(p, param.Integer):
-            out[name] = Kind("whole", *p.bounds)
-        elif isinstance(p, param.Number):
-            out[name] = Kind("number", *p.bounds)
-        elif isinstance(p, param.ListSelector):
-            out[name] = Kind("names", names=tuple(p.objects))
-        elif isinstance(p, param.Selector):
-            out[name] = Kind("choice", names=tuple(p.objects))
-        else:
-            lo, hi = item_bounds[name]
-            out[name] = Kind("numbers", lo, hi, p.bounds[0], p.bounds[1])
-    return out
+    if isinstance(p, param.Boolean):
+        return Kind("switch")
+    if isinstance(p, param.Integer):
+        return Kind("whole", *p.bounds)
+    if isinstance(p, param.Number):
+        return Kind("number", *p.bounds)
+    if isinstance(p, param.ListSelector):
+        return Kind("names", names=tuple(p.objects))
+    if isinstance(p, param.Selector):
+        return Kind("choice", names=tuple(p.objects))
+    if item_bounds is None:
+        raise ValueError(f"the list input {p.name} needs the range of its entries")
+    return Kind("numbers", *item_bounds, p.bounds[0], p.bounds[1])
+
+
+def kinds_of(names: Sequence[str], params, item_bounds: dict[str, tuple[float, float]]) -> dict[str, Kind]:
+    """The :class:`Kind` of each input of ``names`` from its declaration in ``params`` (:func:`kind_of`)."""
+    return {name: kind_of(params[name], item_bounds.get(name)) for name in names}
+
+
+def clean_declared(p, value: object) -> object:
+    """``value`` checked against the declaration ``p`` of its input (a param.Parameter), named by its label: the
+    clean value or a ``ValueError`` in words (:func:`clean`)."""
+    return clean(p.label, value, kind_of(p))

@@ -294,8 +294,8 @@ window.location.href = url.toString();
 def on_first_open(state: AppState, name: str, build: Callable[[], object]):
     """The part shown in tab ``name``: built with the page when the page opens on that tab, else when the tab is first
     opened — on a worker thread, its bokeh models too (:func:`app.serving.session.prebuild`), then swapped in on the
-    session's loop. Meanwhile the tab says what is happening: built by Panel as the tab opened, the part was sent
-    only once it was whole, and a tab stayed blank for 2–3 s."""
+    session's loop. Meanwhile the tab says what is happening (built by Panel as the tab opened, the part would be sent
+    only once whole, the tab blank until then: :ref:`performance-page-building`)."""
     if state.tab == name:
         return deferred(build)
     holder = pn.Column(

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isl_core import DivergenceError, Model, predicted_ratios, run_plan
+from isl_core import BOUNDS, DivergenceError, Model, predicted_ratios, run_plan
 from isl_core.runview import RunView, simulate_view
 
 from . import extras
@@ -43,7 +43,7 @@ log = logging.getLogger("app.state")
 
 APP_MAX_STEPS = 1_000_000  #: steps per displayed run (memory ≈ 72·m bytes a step: 216 MB at m = 3)
 LIVE_MAX_STEPS = 50_000  #: runs up to this size follow a slider while it is dragged; larger ones on release
-HORIZON_BOUNDS = (1.0, 1000.0)  #: of a displayed run, in units of 1/r_min
+HORIZON_BOUNDS = BOUNDS.horizon.range  #: of a displayed run, in units of 1/r_min
 COORDINATES = ("position", "velocity", "acceleration", "jerk", "snap", "crackle")  #: X_1 … X_6
 
 
@@ -118,7 +118,7 @@ def plan(req: Request):
 
 
 def _floor_sig(x: float, digits: int = 3) -> float:
-    """``x`` > 0 rounded DOWN to ``digits`` significant digits (714.28 → 714)."""
+    """``x`` > 0 rounded DOWN to ``digits`` significant digits (714.28 gives 714)."""
     q = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
     return float(f"{math.floor(x / q) * q:.{digits}g}")
 

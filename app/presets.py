@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from types import MappingProxyType
 
-__all__ = ["PRESETS", "Preset"]
+__all__ = ["PAPER_PRESETS", "Preset"]
 
 
 @dataclass(frozen=True)
@@ -25,7 +25,7 @@ class Preset:
 _FIG3 = {"m": 3, "alpha": 0.5, "beta_from_w": True, "w": 3.0, "nu": 3.0, "horizon": 10.0}
 _PAPER_B = {"m": 3, "alpha": 0.0, "beta_from_w": False, "beta": 3.0, "nu": 3.0, "horizon": 10.0}
 
-PRESETS = MappingProxyType(
+PAPER_PRESETS = MappingProxyType(
     {
         "Fig. 3, σ = 20": Preset({**_FIG3, "sigma": 20.0}, "Paper A, Fig. 3 (top): m = 3, α = 0.5, β = ν = 3, σ = 20."),
         "Fig. 3, σ = 200": Preset({**_FIG3, "sigma": 200.0}, "Paper A, Fig. 3 (bottom): the same with σ = 200."),

@@ -62,8 +62,8 @@ __all__ = [
     "tuning_for",
 ]
 
-#: runs × steps of one picture: ≈ 5 µs a step for its ten filters (the IMM's 16 modes the most) on this 2-core
-#: machine, so ≈ 10 s at most
+#: runs × steps of one picture: its ten filters (the IMM's 16 modes the most) then take seconds, not minutes, on a
+#: two-core machine (:ref:`performance-scenario`)
 PICTURE_MAX_STEPS = 2_000_000
 SHORT_PER_WINDOW = 10  #: short windows per rolling window (the rolling window moves by a tenth of its width)
 TUNED_ISL = "isl_tuned"  #: the picture's name of paper A's ISL filter at the tuned ν (its own ISL runs at the page's ν)

@@ -23,16 +23,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from isl_core import Model, baseline_filters, recommend_nu, sweep, theory_ratios
-from isl_core.sweep import BURN
-from isl_core.theory import predicted_ratios_grid
+from isl_core import (
+    SWEEP_BURN,
+    Execution,
+    Model,
+    Sampling,
+    baseline_filters,
+    predicted_ratios_grid,
+    recommend_nu,
+    sweep,
+    theory_ratios,
+)
 
 from .extras import SIGMA_DESIGN, SIGMA_RANGE
 from .text import per_r_min
 
 __all__ = [
     "BATCHES",
-    "BURN",
     "SIM_LEVELS",
     "THEORY_LEVELS",
     "SweepCurves",
@@ -136,11 +143,8 @@ def simulate_points(
         2.0**SIM_LEVELS,
         m=m,
         beta=beta,
-        horizon=horizon,
-        seeds=(seed,),
-        batches=BATCHES,
-        workers=1,
-        progress=progress,
+        sampling=Sampling((seed,), horizon, batches=BATCHES),
+        execution=Execution(workers=1, progress=progress),
     )
     return SweepPoints(
         alpha,
@@ -178,9 +182,8 @@ def recommend(
         sigmas=list(sigmas),
         m=m,
         w=beta / np.sqrt(2.0 * alpha),
-        horizon=horizon,
-        seeds=(seed,),
-        progress=progress,
+        sampling=Sampling((seed,), horizon),
+        execution=Execution(progress=progress),
     )
     sig = ", ".join(f"{s:g}" for s in sigmas)
     text = (
@@ -203,5 +206,5 @@ def points_note(pts: SweepPoints, seconds: float) -> str:
     )
     return (
         f"Simulated in {seconds:.2g} s: each σ's run (seed {pts.seed}) averages over {per_r_min(pts.horizon)} "
-        f"after a burn-in of {per_r_min(BURN)}{longer}; 95 % batch-means intervals."
+        f"after a burn-in of {per_r_min(SWEEP_BURN)}{longer}; 95 % batch-means intervals."
     )

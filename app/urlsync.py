@@ -13,10 +13,8 @@
   session it is written once the inputs have rested :data:`URL_PAUSE` s and the change has been answered (the run it
   started applied, refused or failed) — not with the new plots: the browser applies a patch's changes in order, and
   the URL's came first, so its history update (and the page's report of its new address back to the server) ran
-  ahead of the plots' data and redraw. ``benchmarks/bench_app_latency.py``, one run of 40 changes, the URL in the
-  patch → after the pause: slider → redrawn p50 79.4 → 72.8 ms, p95 91.4 → 87.7 ms at the defaults, p95 171.7 →
-  149.2 ms at horizon 1000 (with the history update taken out of the page altogether, the bound of this change, p50
-  94.0 → 78.1 ms in another run). While a slider is dragged the URL waits until the drag pauses (a write during the
+  ahead of the plots' data and redraw (what it saves: :ref:`performance-latency`). While a slider is dragged the URL
+  waits until the drag pauses (a write during the
   drag would land in the middle of the next update). Outside a served session (tests, scripts) it is written at
   once.
 """

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from isl_core import Model, predicted_ratios, predicted_ratios_grid, sweep
+from isl_core import Execution, Model, Sampling, predicted_ratios, predicted_ratios_grid, sweep
 from isl_core.riccati import _solved as _kb
 from isl_core.sweep import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
 
@@ -58,9 +58,10 @@ def bench_grid(reps: int = 5) -> None:
 
 
 def bench_sweep(horizon: float, workers: int) -> None:
-    sweep([1.0], [20.0], [1.0], horizon=5.0, seeds=(0,))  # compile / load the kernel once
+    sweep([1.0], [20.0], [1.0], sampling=Sampling((0,), 5.0))  # compile / load the kernel once
     t = time.perf_counter()
-    res = sweep(FIG2_ALPHAS, FIG2_SIGMAS, FIG2_NU_OVER_BETA, m=3, w=3.0, horizon=horizon, seeds=(0,), workers=workers)
+    sampling, execution = Sampling((0,), horizon), Execution(workers)
+    res = sweep(FIG2_ALPHAS, FIG2_SIGMAS, FIG2_NU_OVER_BETA, m=3, w=3.0, sampling=sampling, execution=execution)
     wall = time.perf_counter() - t
     steps = int(res.steps.sum())
     config_steps = steps * len(res.nu_over_beta)

@@ -8,6 +8,8 @@ Imports numpy, scipy and numba only — never a UI library.
 
 __version__ = "0.2.0"  #: the project's one version string (pyproject.toml reads it; ``isl --version`` prints it)
 
+from .bounds import BOUNDS, Bound
+from .decimate import DISPLAY_POINTS, minmax_indices
 from .filters import (
     BASELINES,
     AdaptiveGain,
@@ -22,14 +24,23 @@ from .filters import (
     robust_kbf,
     variational_kbf,
 )
+from .filters.base import SIGMA_RANGE
+from .filters.baselines import LABELS as FILTER_LABELS
+from .filters.isl import model_aware_isl
 from .grid import RunPlan, run_plan, settling_rate, step_size
+from .jobs import Cancelled
 from .model import M_MAX, Model
 from .nonlinearity import gamma_abs, isl_exponents, isl_gains, linearization, phi
+from .paper import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS, PAPER_A, PAPER_B, a31_nu_over_beta
 from .recommend import Recommendation, recommend_nu
+from .requests import SWEEP_BURN, Execution, Sampling
 from .riccati import G_matrix, KalmanBucy, care_residual, kalman_bucy, kalman_bucy_alpha0
 from .rmse import RmseResult, simulate_rmse
+from .runview import TUBE_THEORY, RunView, simulate_view
 from .scenario import (
     FAMILIES,
+    MAPS,
+    NOISE_LAWS,
     Clairvoyant,
     Costs,
     Period,
@@ -58,7 +69,14 @@ from .scenario import (
     tune,
     who_wins_map,
 )
+from .scenario.heldout import held_out
+from .scenario.map import AXIS_LABELS, STEP_AT
+from .scenario.presets import DEFAULT_RATE
+from .scenario.table import PRESETS as SCENARIO_PRESETS
+from .scenario.table import beyond_rows, beyond_stats, knob_text
+from .scenario.tuning import paper_nu
 from .series import (
+    SERIES_FILTERS,
     Diagnostics,
     Fit,
     Judgement,
@@ -70,6 +88,9 @@ from .series import (
     run_filters,
     select_order,
 )
+from .series.run import sigma_range as series_sigma_range
+from .series.sources import DATASETS, csv_columns, dataset, read_csv
+from .series.sources import MAX_ROWS as MAX_CSV_ROWS
 from .simulate import DivergenceError, Run, Track, simulate
 from .sweep import SweepResult, sweep
 from .theory import (
@@ -79,17 +100,45 @@ from .theory import (
     predicted_ratios_grid,
     theory_ratios,
 )
-from .worstcase import WorstCaseTable, worst_case
+from .validate import NOT_FINITE, read_int, read_real
+from .worstcase import WORST_CASE_FILTERS, WORST_CASE_LABELS, Candidates, WorstCaseTable, worst_case
 
 __all__ = [
+    "AXIS_LABELS",
     "BASELINES",
+    "BOUNDS",
+    "DATASETS",
+    "DEFAULT_RATE",
+    "DISPLAY_POINTS",
     "FAMILIES",
+    "FIG2_ALPHAS",
+    "FIG2_NU_OVER_BETA",
+    "FIG2_SIGMAS",
+    "FILTER_LABELS",
+    "MAPS",
+    "MAX_CSV_ROWS",
     "M_MAX",
+    "NOISE_LAWS",
+    "NOT_FINITE",
+    "PAPER_A",
+    "PAPER_B",
+    "SCENARIO_PRESETS",
+    "SERIES_FILTERS",
+    "SIGMA_RANGE",
+    "STEP_AT",
+    "SWEEP_BURN",
+    "TUBE_THEORY",
+    "WORST_CASE_FILTERS",
+    "WORST_CASE_LABELS",
     "AdaptiveGain",
+    "Bound",
+    "Cancelled",
+    "Candidates",
     "Clairvoyant",
     "Costs",
     "Diagnostics",
     "DivergenceError",
+    "Execution",
     "FilterSpec",
     "Fit",
     "G_matrix",
@@ -104,6 +153,8 @@ __all__ = [
     "Rolling",
     "Run",
     "RunPlan",
+    "RunView",
+    "Sampling",
     "Scenario",
     "ScenarioAverage",
     "ScenarioPlan",
@@ -120,14 +171,20 @@ __all__ = [
     "WhoWinsMap",
     "WorstCaseTable",
     "__version__",
+    "a31_nu_over_beta",
     "adaptive_kbf",
     "average_scenario",
     "baseline_filters",
+    "beyond_rows",
+    "beyond_stats",
     "care_residual",
     "clairvoyant",
     "clear_caches",
+    "csv_columns",
+    "dataset",
     "filter_costs",
     "gamma_abs",
+    "held_out",
     "imm_kbf",
     "isl_exponents",
     "isl_filter",
@@ -135,18 +192,25 @@ __all__ = [
     "judge",
     "kalman_bucy",
     "kalman_bucy_alpha0",
+    "knob_text",
     "linearization",
     "linearized_matrix",
+    "minmax_indices",
     "mismatched_kbf",
     "mismatched_kbf_ratios",
+    "model_aware_isl",
     "optimal_kbf",
     "paired_margin",
+    "paper_nu",
     "period_ratios",
     "phi",
     "plan_scenario",
     "predicted_covariance",
     "predicted_ratios",
     "predicted_ratios_grid",
+    "read_csv",
+    "read_int",
+    "read_real",
     "recommend_nu",
     "robust_kbf",
     "run_filters",
@@ -155,10 +219,12 @@ __all__ = [
     "scenario_periods",
     "scenario_table",
     "select_order",
+    "series_sigma_range",
     "settling_rate",
     "simulate",
     "simulate_rmse",
     "simulate_scenario",
+    "simulate_view",
     "step_size",
     "sweep",
     "table_from",
@@ -177,8 +243,16 @@ def clear_caches() -> None:
 
     Examples
     --------
+    A solution is computed once and then shared; after ``clear_caches`` it is computed afresh:
+
     >>> import isl_core
+    >>> model = isl_core.Model.from_w(0.5, 3.0, 20.0)
+    >>> solved = isl_core.kalman_bucy(model)
+    >>> isl_core.kalman_bucy(model) is solved
+    True
     >>> isl_core.clear_caches()
+    >>> isl_core.kalman_bucy(model) is solved
+    False
     """
     from . import nonlinearity, riccati
     from .filters import adaptive

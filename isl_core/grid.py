@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .bounds import BOUNDS
 from .filters.base import FilterSpec, linearized_matrix
 from .filters.isl import isl_filter
 from .filters.kalman import optimal_kbf
@@ -176,7 +177,7 @@ def grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: fl
 def check_filters(model: Model, nu, extra) -> list[FilterSpec]:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
-    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    nu = BOUNDS.nu.real(nu)
     extra = check_specs("extra", model, extra, allow_empty=True)
     return [isl_filter(model, nu), *extra]
 
@@ -254,7 +255,7 @@ def run_plan(
     """
     filters = check_filters(model, nu, extra)
     grid_only = check_specs("step_filters", model, step_filters, allow_empty=True)
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
+    horizon = BOUNDS.horizon.real(horizon)
     kb = kalman_bucy(model)
     filters.insert(0, optimal_kbf(model, kb))
     stretch = 1.0 if T is not None else kb.r_min / settling_rate(model, kb, filters[1:2])

@@ -4,8 +4,9 @@ The sweep (:func:`isl_core.sweep`), the worst case (:func:`isl_core.worst_case`)
 (:func:`isl_core.recommend_nu`) cut their work into :class:`Task` s — one long run of several filters on common
 noise — and hand them to :func:`run`:
 
-* ``executor=None``: a local pool of ``workers`` threads (the kernel releases the GIL); a ``concurrent.futures``
-  executor, or a ``dask.distributed.Client`` (optional extra ``isl[dask]``): tasks go out in chunks of ``chunk``.
+* where, the job's :class:`isl_core.Execution` says: ``executor=None``, a local pool of ``workers`` threads (the
+  kernel releases the GIL); a ``concurrent.futures`` executor, or a ``dask.distributed.Client`` (optional extra
+  ``isl[dask]``): tasks go out in chunks of ``chunk``.
   A task's result depends only on the task, never on the executor, the workers or the chunking.
 * ``progress(fraction)``: the overall fraction done, weighted by each task's cost (steps × filters), called one
   call at a time from worker threads. An exception raised from it cancels: queued tasks are dropped and running
@@ -17,7 +18,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import functools
-import os
 import threading
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
@@ -27,11 +27,11 @@ import numpy as np
 
 from .filters.base import FilterSpec
 from .model import Model
+from .requests import Execution
 from .rmse import simulate_rmse
 from .simulate import DivergenceError
-from .validate import check_int, check_ints, check_real, short
 
-__all__ = ["Cancelled", "Progress", "Task", "TaskResult", "check_execution", "check_sampling", "run", "run_task"]
+__all__ = ["Cancelled", "Progress", "Task", "TaskResult", "run", "run_task"]
 
 
 @dataclass(frozen=True)
@@ -165,32 +165,10 @@ def _remote(tasks: Sequence[Task], executor, chunk: int, prog: Progress) -> list
     return out
 
 
-def run(
-    tasks: Sequence[Task],
-    *,
-    executor=None,
-    workers: int = 1,
-    chunk: int = 1,
-    progress: Callable[[float], None] | None = None,
-) -> list[TaskResult]:
-    """Every task's result (in no particular order), on local threads or ``executor`` (module docstring)."""
-    prog = Progress({t.key: t.cost for t in tasks}, progress)
-    return _local(tasks, workers, prog) if executor is None else _remote(tasks, executor, chunk, prog)
-
-
-def check_sampling(horizon, seeds, batches, level) -> tuple[float, tuple[int, ...], int, float]:
-    """``horizon``, ``seeds``, ``batches`` and ``level`` of a simulated grid, checked (sweep, worst case)."""
-    horizon = check_real("horizon", horizon, lo=0.0, lo_open=True)
-    seeds = check_ints("seeds", seeds, lo=0)
-    batches = check_int("batches", batches, lo=2 if len(seeds) == 1 else 1, hi=1000)
-    level = check_real("level", level, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
-    return horizon, seeds, batches, level
-
-
-def check_execution(chunk, workers, progress) -> tuple[int, int]:
-    """``chunk`` and ``workers`` (None: the CPU count) checked, and ``progress`` a callable or None."""
-    chunk = check_int("chunk", chunk, lo=1)
-    workers = check_int("workers", (os.cpu_count() or 2) if workers is None else workers, lo=1, hi=256)
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None, got {short(progress)}")
-    return chunk, workers
+def run(tasks: Sequence[Task], execution: Execution) -> list[TaskResult]:
+    """Every task's result (in no particular order), on local threads or ``execution.executor`` (module
+    docstring)."""
+    prog = Progress({t.key: t.cost for t in tasks}, execution.progress)
+    if execution.executor is None:
+        return _local(tasks, execution.n_workers, prog)
+    return _remote(tasks, execution.executor, execution.chunk, prog)

@@ -17,12 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .validate import check_int, check_real
+from .bounds import BOUNDS, M_MAX
 
 __all__ = ["M_MAX", "Model", "shift_matrix"]
-
-#: Largest state dimension supported (the UI and the kernels are sized for it).
-M_MAX = 6
 
 
 def shift_matrix(m: int) -> np.ndarray:
@@ -34,8 +31,8 @@ def shift_matrix(m: int) -> np.ndarray:
 class Model:
     """Model (A.19): ``dX = A X dt + β E dv``, ``dY = C X dt + σ dε``.
 
-    Parameters are validated at construction: ``alpha`` finite ≥ 0, ``beta`` and ``sigma`` finite > 0,
-    ``m`` an integer 1..6.
+    Parameters are validated at construction against their domains in :data:`!isl_core.bounds.BOUNDS`: ``alpha``
+    finite ≥ 0, ``beta`` and ``sigma`` finite > 0, ``m`` an integer 1 … :data:`M_MAX`.
 
     Parameters
     ----------
@@ -65,21 +62,20 @@ class Model:
     m: int = 3
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "alpha", check_real("alpha", self.alpha, lo=0.0))
-        object.__setattr__(self, "beta", check_real("beta", self.beta, lo=0.0, lo_open=True))
-        object.__setattr__(self, "sigma", check_real("sigma", self.sigma, lo=0.0, lo_open=True))
-        object.__setattr__(self, "m", check_int("m", self.m, lo=1, hi=M_MAX))
+        for name in ("alpha", "beta", "sigma"):
+            object.__setattr__(self, name, BOUNDS[name].real(getattr(self, name)))
+        object.__setattr__(self, "m", BOUNDS.m.whole(self.m))
 
     @classmethod
     def from_w(cls, alpha: float, w: float, sigma: float, m: int = 3) -> Model:
         """Paper A's parametrization (A.25): stationary std ``w`` of X_m, so ``β = w·√(2α)``; needs α > 0."""
-        a = check_real("alpha", alpha, lo=0.0)
+        a = BOUNDS.alpha.real(alpha)
         if a == 0.0:
             raise ValueError(
                 "alpha must be a finite number > 0 in the parametrization β = w·√(2α) (A.25), got 0; "
                 "build the α = 0 model as Model(0, beta, sigma, m)"
             )
-        w = check_real("w", w, lo=0.0, lo_open=True)
+        w = BOUNDS.w.real(w)
         return cls(a, w * math.sqrt(2.0 * a), sigma, m)
 
     @property

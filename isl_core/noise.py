@@ -5,7 +5,7 @@ compiled loops draw them (:mod:`isl_core.kernels.draws`).
 with d > 2 degrees of freedom scaled to unit variance; :data:`LAW_OUTLIERS` N(0, 1), times k with probability p.
 From the caller's ``numpy.random.Generator``, per ε_k: one normal (Gaussian); one uniform, rarely more (Student-t,
 below); one normal (outliers), and one uniform per outlier (the steps between two outliers are geometric: one
-uniform a step, deciding each step, cost 5 ns a step in the scenario loop).
+uniform a step, deciding each step, would cost the scenario loop a draw at every step: :ref:`performance-scenario`).
 
 Student's t is drawn by a ziggurat (G. Marsaglia & W. W. Tsang, "The ziggurat method for generating random
 variables", J. Stat. Softw. 5(8), 2000) built for d by :func:`student_table`: 256 layers of equal area under
@@ -13,13 +13,11 @@ f(x) = (1 + x²/d)^{−(d+1)/2} (the base layer with the tail beyond r), so that
 for the sign, 44 for the position in the layer — gives T_d in ≈ 98 % of draws. The rest fall in a layer's wedge
 (accepted when a second uniform under the layer's height is under f) or, below 0.2 %, in the tail beyond r, drawn
 from a Pareto envelope tangent to f in log–log coordinates (log f is concave in log x: the tangent is above it),
-accepted with f/envelope. Exact but for the 2⁻⁴⁴ grid of positions in a layer; tables for d from 2 + 10⁻⁹ to
-10⁶ build in 10–20 ms. Measured, d = 3 (``benchmarks/bench_scenario.py``, fastest of 4 × 3): 5.0 ns a draw, a normal
-3.7 ns, NumPy's ``standard_t`` 33 ns (a normal over the root of a gamma draw); in an earlier run, Bailey's polar
-method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms in the disc, a log and an exp a draw) 29 ns against
-``standard_t``'s 42. The scenario run at the Fig. 3 defaults (10⁶ steps, the same benchmark, before its filters ran
-in lanes): Student-t noise 45.4 ns a step, Gaussian 43.7, outliers 44.5 (before the draws were loops of their own per
-law and the outliers geometric: 49.7, 45.9, 48.4); with the lanes, 37.1, 35.2 and 35.4.
+accepted with f/envelope. Exact but for the 2⁻⁴⁴ grid of positions in a layer, for every d from 2 + 10⁻⁹ to 10⁶.
+Why a ziggurat: one uniform a draw costs about what a normal costs, several times less than NumPy's ``standard_t`` (a
+normal over the root of a gamma draw) or Bailey's polar method (R. W. Bailey, Math. Comp. 62, 1994: pairs of uniforms
+in the disc, a log and an exp a draw), so heavy-tailed noise costs a scenario run hardly more than Gaussian noise
+(the figures: :ref:`performance-scenario`).
 """
 
 from __future__ import annotations
@@ -40,10 +38,10 @@ def _f(x: float, d: float) -> float:
     return math.exp(-(d + 1.0) / 2.0 * math.log1p(x * x / d))
 
 
-def _climb(r: float, d: float):
+def _climb(r: float, d: float) -> tuple[float | None, float, list[float], list[float]]:
     """The layers' edges X (decreasing from r) and heights Y = f(X) for a base edge r, and how far the last layer's
     top overshoots f(0) = 1 (> 0: r is too small; None when a layer already passed 1)."""
-    from scipy import special, stats  # here, not at import: only a Student-t run needs it (≈ 0.9 s to load)
+    from scipy import special, stats  # here, not at import: only a Student-t run needs them (slow to import)
 
     y0 = _f(r, d)
     if y0 == 0.0:

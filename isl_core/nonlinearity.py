@@ -22,11 +22,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from .model import M_MAX
+from .bounds import BOUNDS
 from .riccati import G_matrix
-from .validate import check_int, check_real
+from .validate import check_real
 
-__all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "linearization", "phi"]
+__all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "linearization", "linearization_at", "phi"]
 
 
 def gamma_abs(p: float) -> float:
@@ -50,7 +50,8 @@ def gamma_abs(p: float) -> float:
     (1.0, True)
     """
     p = check_real("p", p, lo=-1.0, lo_open=True)
-    return 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+    moment: float = 2.0 ** (p / 2.0) * math.gamma((p + 1.0) / 2.0) / math.sqrt(math.pi)
+    return moment
 
 
 def isl_exponents(m: int) -> np.ndarray:
@@ -72,7 +73,7 @@ def isl_exponents(m: int) -> np.ndarray:
     >>> isl_exponents(2).tolist()
     [0.5, 0.0]
     """
-    m = check_int("m", m, lo=1, hi=M_MAX)
+    m = BOUNDS.m.whole(m)
     return 1.0 - np.arange(1, m + 1) / m
 
 
@@ -99,13 +100,14 @@ def isl_gains(m: int, nu: float) -> np.ndarray:
     >>> c.shape, bool(np.all(c > 0))
     ((3,), True)
     """
-    m = check_int("m", m, lo=1, hi=M_MAX)
-    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    m = BOUNDS.m.whole(m)
+    nu = BOUNDS.nu.real(nu)
     g1 = G_matrix(m)[:, 0]
     q = isl_exponents(m)
     i = np.arange(1, m + 1)
     gam = np.array([gamma_abs(2.0 * qi) for qi in q])
-    return g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+    coef: np.ndarray = g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)
+    return coef
 
 
 def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -134,7 +136,8 @@ def phi(x: np.ndarray | float, coef: np.ndarray, q: np.ndarray) -> np.ndarray:
     ((3, 3), True, True)
     """
     x = np.asarray(x, dtype=float)[..., None]
-    return coef * np.sign(x) * np.abs(x) ** q
+    values: np.ndarray = coef * np.sign(x) * np.abs(x) ** q
+    return values
 
 
 def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -163,7 +166,12 @@ def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.nda
     >>> bool(np.allclose(L, 9.0 * c) and np.allclose(Phi, 9.0 * np.outer(c, c)))
     True
     """
-    sigma = check_real("sigma", sigma, lo=0.0, lo_open=True)
+    return linearization_at(coef, q, BOUNDS.sigma.real(sigma))
+
+
+def linearization_at(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`isl_core.linearization` at a σ already checked (a :class:`isl_core.Model`'s): the core's own filters
+    linearize at their model's σ once per filter and per grid, and need not check it again each time."""
     coef = np.asarray(coef, dtype=float)
     q = np.asarray(q, dtype=float)
     g1, g2 = gamma_moments(tuple(float(x) for x in q))
@@ -176,7 +184,7 @@ def linearization(coef: np.ndarray, q: np.ndarray, sigma: float) -> tuple[np.nda
 @lru_cache(maxsize=64)
 def gamma_moments(q: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
     """``γ_{1+q_i}`` (m,) and ``γ_{q_i+q_j}`` (m, m) for the exponents ``q`` (read-only; cached: a dashboard run
-    linearizes eight filters, 0.5 ms of Γ function calls uncached). ``isl_core.clear_caches`` empties the cache."""
+    linearizes eight filters with the same exponents). ``isl_core.clear_caches`` empties the cache."""
     g1 = np.array([gamma_abs(1.0 + qi) for qi in q])
     g2 = np.array([[gamma_abs(qi + qj) for qj in q] for qi in q])
     g1.flags.writeable = g2.flags.writeable = False

@@ -13,16 +13,18 @@ Kalman–Bucy filter (designed for one σ̄ ∈ [min σ, max σ], :ref:`mismatch
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from .model import M_MAX, Model
+from .bounds import BOUNDS
+from .model import Model
 from .paper import FIG2_SIGMAS
-from .sweep import sweep
+from .requests import Execution, Sampling
+from .sweep import check_requests, sweep
 from .theory import mismatched_kbf_ratios, predicted_ratios_grid
-from .validate import check_int, check_real, check_reals, short
+from .validate import check_real, check_reals, short
 
 __all__ = ["Recommendation", "WorstCase", "best_fixed_kbf", "recommend_nu", "worst_case_theory"]
 
@@ -53,8 +55,8 @@ class Recommendation:
     ``kbf_worst``/``kbf_sigma_design``: the best fixed-gain Kalman–Bucy filter's predicted worst case;
     ``compared``: the worst cases of the ``compare`` values of ν/β, simulated on the same noise;
     ``model_aware``: the recommendation is for the ISL filter that propagates with A. The simulation's averaging
-    window per σ (``sigmas`` order): a burn-in of ``BURN·stretch[j]/r_min``, then ``horizon·stretch[j]/r_min``
-    (:func:`!isl_core.sweep.group_length`); ``stretch`` is empty when not verified.
+    window per σ (``sigmas`` order): a burn-in of ``burn·stretch[j]/r_min`` (the sampling's burn-in), then
+    ``horizon·stretch[j]/r_min`` (:func:`!isl_core.sweep.group_length`); ``stretch`` is empty when not verified.
     """
 
     alpha: float
@@ -129,21 +131,16 @@ def recommend_nu(
     w: float = 3.0,
     verify: bool = True,
     compare: Sequence[float] = (),
-    horizon: float = 1000.0,
-    seeds: Sequence[int] = (0, 1),
-    batches: int = 10,
-    level: float = 0.95,
-    executor=None,
-    progress: Callable[[float], None] | None = None,
     model_aware: bool = False,
+    sampling: Sampling | None = None,
+    execution: Execution | None = None,
 ) -> Recommendation:
     """The ν minimising the predicted worst-case ratio over ``sigmas`` and coordinates, verified by simulation.
 
     β = w√(2α) (A.25). ``verify=False`` skips the simulation (simulated fields nan). ``compare``: other values
     of ν/β (e.g. a published table) whose worst cases are computed alongside, on the same noise.
-    ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``progress`` go to
-    :func:`isl_core.sweep`. ``model_aware``: recommend ν for the ISL filter that propagates with A
-    (:func:`!isl_core.filters.isl.model_aware_isl`) instead of paper A's (A0).
+    ``sampling`` and ``execution`` go to :func:`isl_core.sweep`. ``model_aware``: recommend ν for the ISL filter
+    that propagates with A (:func:`!isl_core.filters.isl.model_aware_isl`) instead of paper A's (A0).
 
     Parameters
     ----------
@@ -159,10 +156,10 @@ def recommend_nu(
         Also simulate the recommendation (and ``compare``).
     compare : sequence of float
         Other values of ν/β whose worst cases are computed alongside.
-    horizon, seeds, batches, level, executor, progress : float, sequence of int, int, float, Executor, callable
-        As in :func:`isl_core.sweep`.
     model_aware : bool, default False
         Recommend ν for the ISL filter that propagates with A.
+    sampling, execution : Sampling, Execution, optional
+        As in :func:`isl_core.sweep`.
 
     Returns
     -------
@@ -177,13 +174,14 @@ def recommend_nu(
     >>> bool(rec.nu > 0 and rec.theory_worst >= 1.0), math.isnan(rec.simulated_worst)
     (True, True)
     """
-    alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)
-    sig = list(check_reals("sigmas", sigmas, lo=0.0, lo_open=True))
-    m = check_int("m", m, lo=1, hi=M_MAX)
-    w = check_real("w", w, lo=0.0, lo_open=True)
+    alpha = check_real("alpha", alpha, lo=0.0, lo_open=True)  # β = w·√(2α) needs α > 0
+    sig = list(BOUNDS.sigma.reals(sigmas, "sigmas"))
+    m = BOUNDS.m.whole(m)
+    w = BOUNDS.w.real(w)
     compare = list(check_reals("compare", compare, lo=0.0, lo_open=True, allow_empty=True))
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
+    sampling, execution = check_requests(sampling, execution)
     beta = w * math.sqrt(2.0 * alpha)
     ell = _search(alpha, sig, m, w, model_aware)
     nob = 2.0**ell
@@ -195,15 +193,7 @@ def recommend_nu(
         m,
         w,
         verify,
-        dict(
-            horizon=horizon,
-            seeds=seeds,
-            batches=batches,
-            level=level,
-            executor=executor,
-            progress=progress,
-            model_aware=model_aware,
-        ),
+        dict(sampling=sampling, execution=execution, model_aware=model_aware),
     )
     c = cases[0]
     return Recommendation(
@@ -224,7 +214,7 @@ def recommend_nu(
         kbf_design,
         tuple(cases[1:]),
         model_aware,
-        float(horizon) if verify else math.nan,
+        sampling.horizon if verify else math.nan,
         stretch,
     )
 

@@ -35,8 +35,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from .model import M_MAX, Model, shift_matrix
-from .validate import check_int
+from .bounds import BOUNDS
+from .model import Model, shift_matrix
 
 __all__ = ["A_MAX", "G_matrix", "KalmanBucy", "care_residual", "kalman_bucy", "kalman_bucy_alpha0", "normalized_care"]
 
@@ -64,16 +64,17 @@ def _hamiltonian_care(a1: np.ndarray) -> np.ndarray:
     w, v = np.linalg.eig(h)
     stable = np.argsort(w.real)[:m]
     d = np.linalg.solve(v[:m, stable].T, v[m:, stable].T).T.real
-    return 0.5 * (d + d.T)
+    sym: np.ndarray = 0.5 * (d + d.T)
+    return sym
 
 
 @lru_cache(maxsize=4096)
 def normalized_care(m: int, a: float) -> np.ndarray:
     """Solution Δ' of ``A'Δ' + Δ'A'ᵀ + EEᵀ − Δ'CᵀCΔ' = 0`` with ``A' = A0 − a EEᵀ`` (A.10 when a = 0).
 
-    The normalized CARE is well conditioned, so the eigenvectors of its 2m×2m Hamiltonian give Δ'
-    (≈ 0.05 ms); if their residual or definiteness is off by more than ``1e3·m²·eps``, scipy's Schur
-    solver (≈ 10 ms) takes over. Cached: the result is read-only.
+    The normalized CARE is well conditioned, so the eigenvectors of its 2m×2m Hamiltonian give Δ' (far cheaper
+    than a Schur decomposition: :ref:`performance-choices`); if their residual or definiteness is off by more than
+    ``1e3·m²·eps``, scipy's Schur solver takes over. Cached: the result is read-only.
     """
     a1 = shift_matrix(m)
     a1[-1, -1] = -a
@@ -115,7 +116,7 @@ def G_matrix(m: int) -> np.ndarray:
     >>> bool(np.allclose(G, G.T) and np.all(np.linalg.eigvalsh(G) > 0))
     True
     """
-    return _G(check_int("m", m, lo=1, hi=M_MAX)).copy()
+    return _G(BOUNDS.m.whole(m)).copy()
 
 
 @dataclass(frozen=True)
@@ -164,7 +165,7 @@ def kalman_bucy(model: Model) -> KalmanBucy:
     """Solve the CARE (A.23) for ``model`` and return gain, Δ, s_i and r_min (A.24).
 
     Cached per (frozen, hashable) model — its arrays are read-only: one dashboard run asks for it four times (the
-    grid, the run, the theory, the filters), each solve ≈ 0.15 ms. ``isl_core.clear_caches`` empties the cache.
+    grid, the run, the theory, the filters). ``isl_core.clear_caches`` empties the cache.
 
     Parameters
     ----------
@@ -269,4 +270,5 @@ def care_residual(model: Model, delta: np.ndarray) -> np.ndarray:
     True
     """
     A, E, C = model.A, model.E, model.C
-    return A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2
+    res: np.ndarray = A @ delta + delta @ A.T + model.beta**2 * (E @ E.T) - delta @ C.T @ C @ delta / model.sigma**2
+    return res

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._engine import check_progress, check_start, run_chunks
+from .bounds import BOUNDS
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .grid import MAX_STEPS, check_specs, grid
 from .kernels.bundles import Trajectory
@@ -46,11 +47,13 @@ class RmseResult:
 
     def ratios(self) -> np.ndarray:
         """Whole-run ratios ``š_i/s_i`` (nf, m), (A.30)."""
-        return np.sqrt(self.sq.sum(axis=0) / self.counts.sum()) / self.s
+        ratios: np.ndarray = np.sqrt(self.sq.sum(axis=0) / self.counts.sum()) / self.s
+        return ratios
 
     def batch_ratios(self) -> np.ndarray:
         """Per-batch ratios (batches, nf, m), for batch-means confidence intervals."""
-        return np.sqrt(self.sq / self.counts[:, None, None]) / self.s
+        ratios: np.ndarray = np.sqrt(self.sq / self.counts[:, None, None]) / self.s
+        return ratios
 
 
 def simulate_rmse(
@@ -111,7 +114,7 @@ def simulate_rmse(
     filters = check_specs("filters", model, filters, allow_empty=False)
     grid_only = check_specs("step_filters", model, step_filters, allow_empty=True)
     check_progress(progress)
-    seed = check_int("seed", seed, lo=0)
+    seed = BOUNDS.seed.whole(seed)
     batches = check_int("batches", batches, lo=1, hi=10_000)
     start = check_start(start)
     kb = kalman_bucy(model)

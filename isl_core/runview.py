@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._engine import Tracked, check_progress, check_start, freeze, run_chunks
+from .bounds import BOUNDS
 from .decimate import DISPLAY_POINTS, MinMax
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
@@ -124,7 +125,7 @@ def simulate_view(
     """:func:`isl_core.simulate` (same arguments, same run bit for bit) decimated to ``points`` samples per trace
     on the fly (module docstring). Raises what ``simulate`` raises."""
     plan = run_plan(model, nu, horizon=horizon, T=T, h=h, extra=extra, step_filters=step_filters)
-    seed = check_int("seed", seed, lo=0)
+    seed = BOUNDS.seed.whole(seed)
     points = check_int("points", points, lo=4, hi=10**6)
     start = check_start(start)
     check_progress(progress)

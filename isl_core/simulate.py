@@ -33,12 +33,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._engine import CHUNK, DivergenceError, Tracked, check_progress, check_start, draw_start, freeze, run_chunks
+from .bounds import BOUNDS
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .filters.kalman import optimal_kbf
 from .grid import check_filters, run_plan
 from .kernels.bundles import Trajectory
 from .model import Model
-from .riccati import kalman_bucy
+from .riccati import KalmanBucy, kalman_bucy
 from .validate import check_int
 
 __all__ = ["DivergenceError", "Run", "Track", "simulate"]
@@ -172,7 +173,7 @@ def simulate(
     True
     """
     plan = run_plan(model, nu, horizon=horizon, T=T, h=h, extra=extra, step_filters=step_filters)
-    seed = check_int("seed", seed, lo=0)
+    seed = BOUNDS.seed.whole(seed)
     every = check_int("every", every, lo=1)
     start = check_start(start)
     check_progress(progress)
@@ -191,7 +192,18 @@ def simulate(
     return Run(model, float(nu), seed, t, X, tracks, s, kb.r_min, h, T, stretch, start, every, z)
 
 
-def _trajectories(model, kb, filters, h, n, seed, start, every, progress, observed=None):
+def _trajectories(
+    model: Model,
+    kb: KalmanBucy,
+    filters: Sequence[FilterSpec],
+    h: float,
+    n: int,
+    seed: int,
+    start: str,
+    every: int,
+    progress: Callable[[float], None] | None,
+    observed: _Readings | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One run of ``filters``: squared-error sums ``sq``, truth ``X``, errors ``E``, adaptive σ̂ ``S`` at the kept
     steps ``kept`` (every ``every``-th; all of them at once, or thinned chunk by chunk)."""
     na = sum(spec.kind == KIND_ADAPTIVE for spec in filters)
@@ -225,7 +237,15 @@ def _trajectories(model, kb, filters, h, n, seed, start, every, progress, observ
     return sq, keep.X, keep.E, keep.S, keep.index
 
 
-def _tracks(filters, sq, n, E, S, X, s) -> tuple[Track, ...]:
+def _tracks(
+    filters: Sequence[FilterSpec],
+    sq: np.ndarray,
+    n: int,
+    E: np.ndarray,
+    S: np.ndarray,
+    X: np.ndarray,
+    s: np.ndarray,
+) -> tuple[Track, ...]:
     """Each filter's :class:`Track`: its errors, RMSE (A.30) and ratios, and σ̂ for an adaptive one."""
     tracks = []
     sigma_hat = iter(S)
@@ -239,7 +259,7 @@ def _tracks(filters, sq, n, E, S, X, s) -> tuple[Track, ...]:
 class _Stride:
     """Keeps the samples k = 0, every, 2·every, … of the chunks :func:`run_chunks` hands over."""
 
-    def __init__(self, every: int, n: int, m: int, nf: int, na: int, observed=None) -> None:
+    def __init__(self, every: int, n: int, m: int, nf: int, na: int, observed: _Readings | None = None) -> None:
         self.every, self.seen, self.observed = every, 0, observed
         self.index = np.arange(0, n + 1, every)
         self.X, self.E, self.S = (
@@ -262,7 +282,7 @@ class _Readings:
     """Sums ΔY = X_1·h + σ√h·ε_k (B.34) of the steps between kept times, ε_k replayed from the seed (module
     docstring); called with the truth at consecutive samples, from sample 0 on (step k starts at sample k)."""
 
-    def __init__(self, model: Model, kb, seed: int, start: str, n: int, h: float, every: int) -> None:
+    def __init__(self, model: Model, kb: KalmanBucy, seed: int, start: str, n: int, h: float, every: int) -> None:
         self.rng = np.random.default_rng(seed)
         draw_start(model, kb, self.rng, start)  # the start's draws come first in the stream
         self.sigma_sqh, self.h, self.n, self.every, self.seen = model.sigma * math.sqrt(h), h, n, every, 0

@@ -10,9 +10,9 @@ kernel releases the GIL), on any ``concurrent.futures.Executor`` or on a ``dask.
 Conventions, all documented choices:
 
 * step h of a group: the :ref:`step-size` rule over all filters of the group (:func:`isl_core.step_size`), so one
-  grid serves every ν. Length: ``horizon`` and a burn-in of BURN = 10 are counted in units of the settling time
-  of the group's slowest filter (:func:`isl_core.grid.settling_rate`, B.46) — 1/r_min unless a filter settles
-  more than 10 % slower (an ISL filter at small ν: up to ≈ 6× at m = 3); then the group's run is lengthened by
+  grid serves every ν. Length: ``horizon`` and a burn-in (default SWEEP_BURN = 10) are counted in units of the
+  settling time of the group's slowest filter (:func:`isl_core.grid.settling_rate`, B.46) — 1/r_min unless a filter
+  settles more than 10 % slower (an ISL filter at small ν: up to ≈ 6× at m = 3); then the group's run is lengthened by
   ``stretch = r_min / rate`` so that every filter has forgotten its start (by e^{-10}) and averages over the same
   number of its own settling times. ``stretch`` is reported per group.
 * seed of a group: derived from ``(seed, α, σ, w, m)`` by ``numpy.random.SeedSequence`` — it does not depend
@@ -26,27 +26,35 @@ Conventions, all documented choices:
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._engine import freeze
+from .bounds import BOUNDS
 from .filters.isl import isl_filter, model_aware_isl
 from .filters.kalman import optimal_kbf
 from .grid import MAX_STEPS, settling_rate, step_size
-from .jobs import Task, check_execution, check_sampling, run
-from .model import M_MAX, Model
+from .jobs import Task, run
+from .model import Model
 from .paper import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
+from .requests import SWEEP_BURN, Execution, Sampling
 from .riccati import kalman_bucy
 from .theory import predicted_ratios_grid
-from .validate import check_int, check_real, check_reals, short
+from .validate import check_reals, short
 
-__all__ = ["BURN", "SweepResult", "group_length", "group_seed", "pooled_ratios", "ratio_interval", "sweep"]
-
-BURN = 10.0  #: burn-in left out of every average, in units of 1/r_min
+__all__ = [
+    "SWEEP_BURN",
+    "SweepResult",
+    "check_requests",
+    "group_length",
+    "group_seed",
+    "pooled_ratios",
+    "ratio_interval",
+    "sweep",
+]
 
 
 def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int, *, beta: float | None = None) -> int:
@@ -107,9 +115,9 @@ class SweepResult:
     filter's own measured ratio (≈ 1) with ``kbf_low``, ``kbf_high``. ``theory`` (nα, nσ, nν, m) the
     statistical-linearization prediction (B.48, :ref:`linearized-covariance`). ``s`` (nα, nσ, m) optimal RMSE;
     ``r_min``, ``h``, ``steps`` (nα, nσ) per group and seed; ``stretch`` (nα, nσ) the group's lengthening: burn-in
-    ``BURN·stretch/r_min`` then an average over ``horizon·stretch/r_min``. ``model_aware``: the ISL filter
-    propagated with A instead of A0. ``beta``: the one β of every α (a sweep of any model), else None and β follows
-    from ``w`` (A.25; ``w`` is nan in a fixed-β sweep).
+    ``burn·stretch/r_min`` then an average over ``horizon·stretch/r_min`` (``burn``: the sampling's burn-in).
+    ``model_aware``: the ISL filter propagated with A instead of A0. ``beta``: the one β of every α (a sweep of any
+    model), else None and β follows from ``w`` (A.25; ``w`` is nan in a fixed-β sweep).
     """
 
     alphas: np.ndarray
@@ -135,6 +143,7 @@ class SweepResult:
     stretch: np.ndarray = field(repr=False)
     model_aware: bool = False
     beta: float | None = None
+    burn: float = SWEEP_BURN
 
     @property
     def betas(self) -> np.ndarray:
@@ -173,15 +182,28 @@ class SweepResult:
                                 "s": float(self.s[a, b, i]),
                                 "r_min": float(self.r_min[a, b]),
                                 "h": float(self.h[a, b]),
-                                "burn_in_over_r_min": BURN * float(self.stretch[a, b]),
+                                "burn_in_over_r_min": self.burn * float(self.stretch[a, b]),
                                 "window_over_r_min": self.horizon * float(self.stretch[a, b]),
                             }
                         )
         return rows
 
 
-def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False, beta=None):
-    """Every group's task (most expensive first), plus per-(α, σ) s, r_min, h and the theory grid."""
+@dataclass(frozen=True)
+class _Plan:
+    """A sweep's tasks (most expensive first) and, per (α, σ), what the results are measured against."""
+
+    tasks: list[Task]
+    s: np.ndarray  # (nα, nσ, m) the optimal RMSEs
+    r_min: np.ndarray
+    h: np.ndarray
+    steps: np.ndarray
+    stretch: np.ndarray
+    theory: np.ndarray  # (nα, nσ, nν, m)
+
+
+def _plan(alphas, sigmas, nob, m, w, sampling: Sampling, model_aware=False, beta=None) -> _Plan:
+    """Every group's task and per-(α, σ) s, r_min, h, steps, stretch and the theory grid."""
     shape = (len(alphas), len(sigmas))
     s, r_min, h, steps = np.empty((*shape, m)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
     stretch = np.empty(shape)
@@ -193,33 +215,23 @@ def _tasks(alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware=False
             kb = kalman_bucy(model)
             isl = model_aware_isl if model_aware else isl_filter
             filters = (optimal_kbf(model, kb), *(isl(model, model.beta * x) for x in nob))
-            T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
+            T, n, stretch[a, b] = group_length(model, kb, filters, sampling.horizon, sampling.burn)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
             theory[a, b] = predicted_ratios_grid(model, model.beta * nob, damp=model.alpha if model_aware else None)
-            for k, seed in enumerate(seeds):
-                tasks.append(
-                    Task(
-                        (a, b, k),
-                        model,
-                        filters,
-                        T,
-                        T / n,
-                        BURN * stretch[a, b] / kb.r_min,
-                        batches,
-                        group_seed(seed, alpha, sigma, w, m, beta=beta),
-                        n,
-                    )
-                )
+            burn = sampling.burn * stretch[a, b] / kb.r_min
+            for k, seed in enumerate(sampling.seeds):
+                key = group_seed(seed, alpha, sigma, w, m, beta=beta)
+                tasks.append(Task((a, b, k), model, filters, T, T / n, burn, sampling.batches, key, n))
     tasks.sort(key=lambda t: -t.cost)
-    return tasks, s, r_min, h, steps, theory, stretch
+    return _Plan(tasks, s, r_min, h, steps, stretch, theory)
 
 
-def group_length(model: Model, kb, filters, horizon: float) -> tuple[float, int, float]:
-    """``(T, N, stretch)`` of one group: burn-in plus ``horizon``, both in units of the slowest filter's settling
+def group_length(model: Model, kb, filters, horizon: float, burn: float = SWEEP_BURN) -> tuple[float, int, float]:
+    """``(T, N, stretch)`` of one group: ``burn`` plus ``horizon``, both in units of the slowest filter's settling
     time ``stretch/r_min`` (module docstring), on the step of :func:`isl_core.step_size`; ``ValueError`` past the
     step cap naming the group and the setting to lower."""
     stretch = kb.r_min / settling_rate(model, kb, filters)
-    T = (BURN + horizon) * stretch / kb.r_min
+    T = (burn + horizon) * stretch / kb.r_min
     steps = T / step_size(model, kb, filters)
     if not steps <= MAX_STEPS:
         raise ValueError(
@@ -237,23 +249,17 @@ def sweep(
     *,
     m: int = 3,
     w: float = 3.0,
-    horizon: float = 1000.0,
-    seeds: Sequence[int] = (0, 1),
-    batches: int = 10,
-    level: float = 0.95,
-    executor=None,
-    chunk: int = 1,
-    workers: int | None = None,
-    progress: Callable[[float], None] | None = None,
-    model_aware: bool = False,
     beta: float | None = None,
+    model_aware: bool = False,
+    sampling: Sampling | None = None,
+    execution: Execution | None = None,
 ) -> SweepResult:
     """Simulate š_i/s_i on the grid ``alphas × sigmas × nu_over_beta`` (paper A's Fig. 2 by default).
 
-    β = w·√(2α) (A.25); ``horizon`` in units of 1/r_min per seed, after a burn-in of BURN/r_min.
-    ``executor``: None (a local pool of ``workers`` threads, default the CPU count), a
-    ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; work goes out in chunks of ``chunk``
-    groups. Results do not depend on executor, workers or chunking. ``progress(fraction)`` is called as work
+    β = w·√(2α) (A.25). ``sampling`` (:class:`isl_core.Sampling`): the seeds, and per seed a burn-in then an average
+    over ``horizon``, both in units of the group's settling time, cut into batches for the intervals at ``level``.
+    ``execution`` (:class:`isl_core.Execution`): a local pool of threads, a ``concurrent.futures.Executor`` or a
+    ``dask.distributed.Client``; results do not depend on it. Its ``progress(fraction)`` is called as work
     completes (from worker threads, one call at a time); an exception raised from it cancels the sweep and
     propagates. ``model_aware``: sweep the model-aware ISL filter (propagation with A, :ref:`model-aware-isl`)
     instead of paper A's (A0); its theory is :ref:`linearized-covariance` with A. ``beta``: sweep any model — the same β
@@ -267,12 +273,12 @@ def sweep(
         The ISL tunings ν/β.
     m, w : int, float
         State dimension; stationary std of X_m (β = w√(2α)).
-    horizon : float, default 1000.0
-        Averaging window in units of the group's settling time.
-    seeds, batches, level : sequence of int, int, float
-        Independent noises, batches per seed, confidence level of the intervals.
-    executor, chunk, workers, progress, model_aware, beta
+    beta, model_aware : float or None, bool
         As described above.
+    sampling : Sampling, optional
+        Default ``Sampling()``: seeds (0, 1), horizon 1000, burn-in SWEEP_BURN, 10 batches per seed, level 0.95.
+    execution : Execution, optional
+        Default ``Execution()``: local threads, one per CPU.
 
     Returns
     -------
@@ -282,56 +288,66 @@ def sweep(
 
     Examples
     --------
-    >>> from isl_core import sweep
-    >>> res = sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2, workers=1)
+    >>> from isl_core import Execution, Sampling, sweep
+    >>> res = sweep([1.0], [20.0], [1.0], sampling=Sampling((0,), 20.0, batches=2), execution=Execution(workers=1))
     >>> res.ratio.shape, res.kbf_ratio.shape, res.theory.shape
     ((1, 1, 1, 3), (1, 1, 3), (1, 1, 1, 3))
     """
     if beta is None:
-        alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
-        w = check_real("w", w, lo=0.0, lo_open=True)
+        alphas = BOUNDS.alpha.reals(alphas, "alphas")
+        if not np.all(alphas > 0.0):
+            raise ValueError(
+                f"alphas must be a non-empty sequence of numbers (a finite number > 0), got {short(alphas)}"
+            )
+        w = BOUNDS.w.real(w)
     else:
-        alphas = check_reals("alphas", alphas, lo=0.0)
-        beta = check_real("beta", beta, lo=0.0, lo_open=True)
+        alphas = BOUNDS.alpha.reals(alphas, "alphas")
+        beta = BOUNDS.beta.real(beta)
         w = math.nan
-    sigmas = check_reals("sigmas", sigmas, lo=0.0, lo_open=True)
+    sigmas = BOUNDS.sigma.reals(sigmas, "sigmas")
     nob = check_reals("nu_over_beta", nu_over_beta, lo=0.0, lo_open=True)
-    m = check_int("m", m, lo=1, hi=M_MAX)
-    horizon, seeds, batches, level = check_sampling(horizon, seeds, batches, level)
-    chunk, workers = check_execution(chunk, workers, progress)
-
+    m = BOUNDS.m.whole(m)
+    sampling, execution = check_requests(sampling, execution)
     if not isinstance(model_aware, bool):
         raise ValueError(f"model_aware must be True or False, got {short(model_aware)}")
-    tasks, s, r_min, h, steps, theory, stretch = _tasks(
-        alphas, sigmas, nob, m, w, horizon, seeds, batches, model_aware, beta
-    )
-    out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
-    res = _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory, stretch)
-    return dataclasses.replace(res, model_aware=model_aware, beta=beta)
-
-
-def _assemble(out, alphas, sigmas, nob, m, w, horizon, seeds, batches, level, s, r_min, h, steps, theory, stretch):
-    ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(nob) + 1)
+    plan = _plan(alphas, sigmas, nob, m, w, sampling, model_aware, beta)
+    out = run(plan.tasks, execution)
+    ratio, low, high = pooled_ratios(out, plan.s, sampling.level, sampling.n_seeds, sampling.batches, len(nob) + 1)
     return SweepResult(
         freeze(alphas),
         freeze(sigmas),
         freeze(nob),
         m,
         w,
-        horizon,
-        seeds,
-        batches,
-        level,
+        sampling.horizon,
+        sampling.seeds,
+        sampling.batches,
+        sampling.level,
         freeze(ratio[:, :, 1:]),
         freeze(low[:, :, 1:]),
         freeze(high[:, :, 1:]),
         freeze(ratio[:, :, 0]),
         freeze(low[:, :, 0]),
         freeze(high[:, :, 0]),
-        freeze(theory),
-        freeze(s),
-        freeze(r_min),
-        freeze(h),
-        freeze(steps, np.int64),
-        freeze(stretch),
+        freeze(plan.theory),
+        freeze(plan.s),
+        freeze(plan.r_min),
+        freeze(plan.h),
+        freeze(plan.steps, np.int64),
+        freeze(plan.stretch),
+        model_aware,
+        beta,
+        sampling.burn,
     )
+
+
+def check_requests(sampling: object, execution: object) -> tuple[Sampling, Execution]:
+    """``sampling`` and ``execution`` (None: the defaults), or ``ValueError`` unless they are a
+    :class:`isl_core.Sampling` and an :class:`isl_core.Execution` (each checked its own fields when it was made)."""
+    sampling = Sampling() if sampling is None else sampling
+    execution = Execution() if execution is None else execution
+    if not isinstance(sampling, Sampling):
+        raise ValueError(f"sampling must be an isl_core.Sampling, got {short(sampling)}")
+    if not isinstance(execution, Execution):
+        raise ValueError(f"execution must be an isl_core.Execution, got {short(execution)}")
+    return sampling, execution

@@ -40,6 +40,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .bounds import BOUNDS
 from .filters.base import FilterSpec
 from .filters.isl import isl_filter
 from .filters.kalman import mismatched_kbf
@@ -178,7 +179,7 @@ def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = No
 
 
 def _isl_spec(model: Model, nu: float, damp: float | None) -> FilterSpec:
-    nu = check_real("nu", nu, lo=0.0, lo_open=True)
+    nu = BOUNDS.nu.real(nu)
     spec = isl_filter(model, nu)
     if damp is not None:
         spec = dataclasses.replace(spec, damp=check_real("damp", damp, lo=0.0))
@@ -216,7 +217,8 @@ def predicted_ratios(model: Model, nu: float, *, damp: float | None = None) -> n
     """
     spec = _isl_spec(model, nu, damp)
     s = _optimal_s(model)
-    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / s
+    ratios: np.ndarray = np.sqrt(np.diagonal(predicted_covariance(model, spec))) / s
+    return ratios
 
 
 def predicted_ratios_grid(model: Model, nus: Sequence[float] | np.ndarray, *, damp: float | None = None) -> np.ndarray:
@@ -252,7 +254,8 @@ def predicted_ratios_grid(model: Model, nus: Sequence[float] | np.ndarray, *, da
     i = np.arange(1, m + 1)
     coef = base.coef * np.asarray(nus)[:, None] ** (i / m)  # c_i ∝ ν^{i/m}   (A.17)
     P = _stationary(model, float(base.damp), coef, base.exponents())
-    return np.sqrt(np.diagonal(P, axis1=-2, axis2=-1)) / _optimal_s(model)
+    ratios: np.ndarray = np.sqrt(np.diagonal(P, axis1=-2, axis2=-1)) / _optimal_s(model)
+    return ratios
 
 
 def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
@@ -286,7 +289,8 @@ def mismatched_kbf_ratios(model: Model, sigma_design: float) -> np.ndarray:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     spec = mismatched_kbf(model, sigma_design)
-    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
+    ratios: np.ndarray = np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
+    return ratios
 
 
 def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
@@ -316,4 +320,5 @@ def theory_ratios(model: Model, spec: FilterSpec) -> np.ndarray:
     >>> bool(np.allclose(theory_ratios(model, optimal_kbf(model, kalman_bucy(model))), 1.0))  # the oracle
     True
     """
-    return np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
+    ratios: np.ndarray = np.sqrt(np.diagonal(predicted_covariance(model, spec))) / _optimal_s(model)
+    return ratios

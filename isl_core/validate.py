@@ -20,6 +20,7 @@ import reprlib
 import numpy as np
 
 __all__ = [
+    "NOT_FINITE",
     "check_int",
     "check_ints",
     "check_real",
@@ -33,7 +34,8 @@ __all__ = [
 _REAL = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,4})?", re.ASCII)
 _INT = re.compile(r"[+-]?\d{1,15}", re.ASCII)
 _SPACE = " \t\n\r\f\v"  #: the ASCII white space around a number that is ignored (str.strip would take more)
-_NOT_FINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+#: the spellings of nan and ±inf that Python's ``float`` reads (lower case): refused as "not a finite number"
+NOT_FINITE = frozenset({"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"})
 
 
 def _quoted(text: str) -> str:
@@ -47,7 +49,7 @@ def read_real(text: str) -> float:
     t = text.strip(_SPACE)
     if not t:
         raise ValueError("the value is empty")
-    if t.lower() in _NOT_FINITE:
+    if t.lower() in NOT_FINITE:
         raise ValueError(f"{_quoted(t)} is not a finite number")
     if not _REAL.fullmatch(t):
         raise ValueError(f"{_quoted(t)} is not a number (write it in ASCII digits, e.g. 20, 0.5 or 2e1)")

@@ -15,9 +15,9 @@ random numbers). Choices, all documented:
 * mismatched KBF: σ̄ = √(σ_min σ_max) unless ``sigma_design`` is given; minimax KBF: σ̄ = σ_max;
   adaptive KBF: its table and start from the same range, memory ``memory`` (readings = steps here).
 * simulation: the sweep machinery of :mod:`isl_core.sweep` — one group per (α, σ, seed) with the step h of
-  the :ref:`step-size` rule over all its filters, burn-in BURN and ``horizon`` in units of the settling time of the
-  group's slowest filter (:func:`isl_core.sweep.group_length`: 1/r_min, or ``stretch``/r_min where a fixed gain
-  far from its design σ or an ISL filter settles slower), the group's seed from
+  the :ref:`step-size` rule over all its filters, a burn-in (default SWEEP_BURN) and ``horizon`` in units of the
+  settling time of the group's slowest filter (:func:`isl_core.sweep.group_length`: 1/r_min, or ``stretch``/r_min
+  where a fixed gain far from its design σ or an ISL filter settles slower), the group's seed from
   :func:`isl_core.sweep.group_seed` (independent of chunking and executor), batch-means intervals.
 * the interval of a worst case is ``[max over (σ, i) of the lower bounds, max of the upper bounds]`` (as in
   :mod:`isl_core.recommend`); theory is the same max over the predictions (nan for the adaptive filter).
@@ -27,34 +27,36 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ._engine import freeze
+from .bounds import BOUNDS
 from .filters.adaptive import MEMORY
 from .filters.base import SIGMA_RANGE
 from .filters.baselines import BASELINES, baseline_filters, check_names
-from .filters.baselines import LABELS as BASE_LABELS
+from .filters.baselines import LABELS as FILTER_LABELS
 from .filters.isl import isl_filter
 from .filters.kalman import design_sigma
-from .jobs import Task, check_execution, check_sampling, run
-from .model import M_MAX, Model
+from .jobs import Task, run
+from .model import Model
 from .paper import FIG2_ALPHAS, a31_nu_over_beta
 from .recommend import recommend_nu
+from .requests import SWEEP_BURN, Execution, Sampling
 from .riccati import kalman_bucy
-from .sweep import BURN, group_length, group_seed, pooled_ratios
+from .sweep import check_requests, group_length, group_seed, pooled_ratios
 from .theory import theory_ratios
 from .validate import check_int, check_real, check_reals, check_sigma_range, short
 
-__all__ = ["FILTERS", "LABELS", "WorstCaseTable", "worst_case"]
+__all__ = ["WORST_CASE_FILTERS", "WORST_CASE_LABELS", "Candidates", "WorstCaseTable", "worst_case"]
 
 #: the filters of the table: the baselines, with paper A's filter twice — at the minimax ν and at table A.31's
-FILTERS = (*BASELINES[:2], "isl_a31", *BASELINES[2:])
-#: column labels: each filter AND where its tuning comes from
-LABELS = {
-    **BASE_LABELS,
+WORST_CASE_FILTERS = (*BASELINES[:2], "isl_a31", *BASELINES[2:])
+#: the table's column labels: each filter AND where its tuning comes from
+WORST_CASE_LABELS = {
+    **FILTER_LABELS,
     "isl": "ISL, minimax ν",
     "isl_a31": "ISL, ν from table A.31",
     "isl_model": "ISL model-aware, minimax ν",
@@ -71,7 +73,7 @@ class WorstCaseTable:
     Parameters per α and filter (nα, nf): ``nu`` of the ISL filters and ``sigma_design`` of the fixed-gain
     Kalman–Bucy filters (nan elsewhere). ``best_fixed_worst``/``best_fixed_sigma`` (nα,): the best fixed-gain
     Kalman–Bucy design over the range and its predicted worst case (:func:`!isl_core.recommend.best_fixed_kbf`).
-    ``r_min``, ``h``, ``steps``, ``stretch`` (nα, nσ) per group and seed: burn-in ``BURN·stretch/r_min``, then an
+    ``r_min``, ``h``, ``steps``, ``stretch`` (nα, nσ) per group and seed: burn-in ``burn·stretch/r_min``, then an
     average over ``horizon·stretch/r_min``.
     """
 
@@ -96,11 +98,12 @@ class WorstCaseTable:
     h: np.ndarray
     steps: np.ndarray
     stretch: np.ndarray
+    burn: float = SWEEP_BURN
 
     @property
     def labels(self) -> tuple[str, ...]:
-        """Short human labels of ``names``, with the origin of each filter's tuning (:data:`!LABELS`)."""
-        return tuple(LABELS[n] for n in self.names)
+        """Short human labels of ``names``, with the origin of each filter's tuning (:data:`!WORST_CASE_LABELS`)."""
+        return tuple(WORST_CASE_LABELS[n] for n in self.names)
 
     @property
     def sigma_range(self) -> tuple[float, float]:
@@ -150,7 +153,7 @@ class WorstCaseTable:
                         "alpha": float(alpha),
                         "beta": float(self.w * math.sqrt(2.0 * alpha)),
                         "filter": name,
-                        "label": LABELS[name],
+                        "label": WORST_CASE_LABELS[name],
                         "worst": float(worst[a, f]),
                         "worst_low": float(lo[a, f]),
                         "worst_high": float(hi[a, f]),
@@ -159,7 +162,7 @@ class WorstCaseTable:
                         "theory_worst": float(th[a, f]),
                         "nu": float(self.nu[a, f]),
                         "sigma_design": float(self.sigma_design[a, f]),
-                        "burn_in_over_r_min": BURN * float(self.stretch[a, at[a, f]]),
+                        "burn_in_over_r_min": self.burn * float(self.stretch[a, at[a, f]]),
                         "window_over_r_min": self.horizon * float(self.stretch[a, at[a, f]]),
                     }
                 )
@@ -171,8 +174,26 @@ def _max_over(x: np.ndarray) -> np.ndarray:
     return x.max(axis=(1, 3))
 
 
-def _plan(alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, batches):
-    """Per-α tunings, every group's task (most expensive first), and per-(α, σ) theory, s, r_min, h, steps."""
+@dataclass(frozen=True)
+class _Plan:
+    """A worst-case table's tunings per α and filter, its tasks (most expensive first) and, per (α, σ), what the
+    results are measured against; ``cols[a]``: where the filters simulated at α number ``a`` go among the names."""
+
+    nu: np.ndarray
+    design: np.ndarray
+    best: np.ndarray
+    theory: np.ndarray
+    tasks: list[Task]
+    s: np.ndarray
+    r_min: np.ndarray
+    h: np.ndarray
+    steps: np.ndarray
+    stretch: np.ndarray
+    cols: list[tuple[int, ...]]
+
+
+def _plan(alphas, sigmas, names, m, w, sigma_design, memory, sampling: Sampling) -> _Plan:
+    """Per-α tunings, every group's task, and per-(α, σ) theory, s, r_min, h, steps."""
     na, ns, nf = len(alphas), len(sigmas), len(names)
     lo, hi = float(sigmas[0]), float(sigmas[-1])
     nu, design = np.full((na, nf), np.nan), np.full((na, nf), np.nan)
@@ -209,49 +230,50 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, bat
             filters = tuple(_filter(model, name, nu_a31, kw) for name in present)
             theory[a, b] = np.nan
             theory[a, b, list(cols[a])] = [theory_ratios(model, spec) for spec in filters]
-            T, n, stretch[a, b] = group_length(model, kb, filters, horizon)
+            T, n, stretch[a, b] = group_length(model, kb, filters, sampling.horizon, sampling.burn)
             s[a, b], r_min[a, b], h[a, b], steps[a, b] = kb.s, kb.r_min, T / n, n
-            for k, seed in enumerate(seeds):
-                tasks.append(
-                    Task(
-                        (a, b, k),
-                        model,
-                        filters,
-                        T,
-                        T / n,
-                        BURN * stretch[a, b] / kb.r_min,
-                        batches,
-                        group_seed(seed, alpha, sigma, w, m),
-                        n,
-                    )
-                )
+            burn = sampling.burn * stretch[a, b] / kb.r_min
+            for k, seed in enumerate(sampling.seeds):
+                key = group_seed(seed, alpha, sigma, w, m)
+                tasks.append(Task((a, b, k), model, filters, T, T / n, burn, sampling.batches, key, n))
     tasks.sort(key=lambda t: -t.cost)
-    return nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols
+    return _Plan(nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols)
 
 
 def _filter(model: Model, name: str, nu_a31: float, kw: dict):
-    """Filter ``name`` of :data:`!FILTERS` for ``model``: a baseline, or paper A's ISL filter at table A.31's ν."""
+    """Filter ``name`` of :data:`!WORST_CASE_FILTERS` for ``model``: a baseline, or paper A's ISL filter at table
+    A.31's ν."""
     if name == "isl_a31":
         spec = isl_filter(model, nu_a31)
         return dataclasses.replace(spec, name="isl_a31", label=f"ISL, ν from table A.31 (ν = {nu_a31:.4g})")
     return baseline_filters(model, names=(name,), **kw)[0]
 
 
-def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level):
-    alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)
+def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, memory):
+    alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)  # β = w·√(2α) needs α > 0
     lo, hi = check_sigma_range(sigma_range)
     if not hi > lo:
         raise ValueError(f"sigma_range must have sigma_max > sigma_min, got {short(sigma_range)}")
     n_sigma = check_int("n_sigma", n_sigma, lo=2, hi=101)
-    m = check_int("m", m, lo=1, hi=M_MAX)
-    w = check_real("w", w, lo=0.0, lo_open=True)
+    m = BOUNDS.m.whole(m)
+    w = BOUNDS.w.real(w)
     if sigma_design is not None:
-        sigma_design = check_real("sigma_design", sigma_design, lo=0.0, lo_open=True)
+        sigma_design = BOUNDS.sigma.real(sigma_design, "sigma_design")
     memory = check_real("memory (W, in readings)", memory, lo=1.0)
-    horizon, seeds, batches, level = check_sampling(horizon, seeds, batches, level)
     sigmas = np.geomspace(lo, hi, n_sigma)
     sigmas[0], sigmas[-1] = lo, hi  # exact ends
-    return alphas, sigmas, m, w, sigma_design, memory, horizon, seeds, batches, level
+    return alphas, sigmas, m, w, sigma_design, memory
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """The filters a worst-case table compares and how the fixed ones are set: ``names`` from
+    :data:`!WORST_CASE_FILTERS` (default all of them), ``sigma_design`` the σ̄ of the mismatched Kalman–Bucy filter
+    (None: √(σ_min σ_max)), ``memory`` the adaptive filter's W in readings (a reading is a step in these runs)."""
+
+    names: tuple[str, ...] = WORST_CASE_FILTERS
+    sigma_design: float | None = None
+    memory: float = MEMORY
 
 
 def worst_case(
@@ -261,26 +283,16 @@ def worst_case(
     n_sigma: int = 5,
     m: int = 3,
     w: float = 3.0,
-    filters: Sequence[str] = FILTERS,
-    sigma_design: float | None = None,
-    memory: float = MEMORY,
-    horizon: float = 1000.0,
-    seeds: Sequence[int] = (0, 1),
-    batches: int = 10,
-    level: float = 0.95,
-    executor=None,
-    chunk: int = 1,
-    workers: int | None = None,
-    progress: Callable[[float], None] | None = None,
+    candidates: Candidates | None = None,
+    sampling: Sampling | None = None,
+    execution: Execution | None = None,
 ) -> WorstCaseTable:
     """Each filter's worst-case RMSE ratio over ``sigma_range`` (``n_sigma`` log-spaced σ) per α > 0.
 
-    ``filters``: names from :data:`!FILTERS` (default all): the baselines of :ref:`baselines` and
-    ``isl_a31``, paper A's filter at table A.31's ν (for the α of that table; nan elsewhere). ``sigma_design``: σ̄ of the
-    mismatched Kalman–Bucy filter (default √(σ_min σ_max)); ``memory``: the adaptive filter's W in readings (a
-    reading is a step in these runs).
-    ``horizon`` (in 1/r_min), ``seeds``, ``batches``, ``level``, ``executor``, ``chunk``, ``workers`` and
-    ``progress`` as in :func:`isl_core.sweep`: results do not depend on the executor or on chunking.
+    ``candidates`` (:class:`isl_core.Candidates`): the filters, names from :data:`!WORST_CASE_FILTERS` (default all):
+    the baselines of :ref:`baselines` and ``isl_a31``, paper A's filter at table A.31's ν (for the α of that table;
+    nan elsewhere); the mismatched Kalman–Bucy filter's σ̄ (default √(σ_min σ_max)) and the adaptive filter's memory.
+    ``sampling`` and ``execution`` as in :func:`isl_core.sweep`: results do not depend on the execution.
 
     Parameters
     ----------
@@ -290,11 +302,9 @@ def worst_case(
         The σ range (default (2, 200)) and its number of log-spaced values.
     m, w : int, float
         State dimension; stationary std of X_m (β = w√(2α)).
-    filters : sequence of str
-        The filters compared (default :data:`!FILTERS`).
-    sigma_design, memory : float
-        σ̄ of the mismatched filter; the adaptive filter's W in readings.
-    horizon, seeds, batches, level, executor, chunk, workers, progress
+    candidates : Candidates, optional
+        The filters compared and their settings (default ``Candidates()``: every filter of :data:`!WORST_CASE_FILTERS`).
+    sampling, execution : Sampling, Execution, optional
         As in :func:`isl_core.sweep`.
 
     Returns
@@ -304,42 +314,46 @@ def worst_case(
 
     Examples
     --------
-    >>> from isl_core import worst_case
-    >>> table = worst_case([1.0], sigma_range=(2.0, 20.0), n_sigma=2, filters=["kbf", "isl"], horizon=20.0,
-    ...                    seeds=(0,), batches=2, workers=1)
+    >>> from isl_core import Candidates, Execution, Sampling, worst_case
+    >>> table = worst_case([1.0], sigma_range=(2.0, 20.0), n_sigma=2, candidates=Candidates(("kbf", "isl")),
+    ...                    sampling=Sampling((0,), 20.0, batches=2), execution=Execution(workers=1))
     >>> table.names, table.ratio.shape
     (('kbf', 'isl'), (1, 2, 2, 3))
     """
-    alphas, sigmas, m, w, sigma_design, memory, horizon, seeds, batches, level = _check(
-        alphas, sigma_range, n_sigma, m, w, sigma_design, memory, horizon, seeds, batches, level
+    cand = Candidates() if candidates is None else candidates
+    if not isinstance(cand, Candidates):
+        raise ValueError(f"candidates must be an isl_core.Candidates, got {short(cand)}")
+    alphas, sigmas, m, w, sigma_design, memory = _check(
+        alphas, sigma_range, n_sigma, m, w, cand.sigma_design, cand.memory
     )
-    names = check_names(filters, "filters", FILTERS)
-    chunk, workers = check_execution(chunk, workers, progress)
-    nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols = _plan(
-        alphas, sigmas, names, m, w, sigma_design, memory, horizon, seeds, batches
+    names = check_names(cand.names, "filters", WORST_CASE_FILTERS)
+    sampling, execution = check_requests(sampling, execution)
+    plan = _plan(alphas, sigmas, names, m, w, sigma_design, memory, sampling)
+    out = run(plan.tasks, execution)
+    ratio, low, high = pooled_ratios(
+        out, plan.s, sampling.level, sampling.n_seeds, sampling.batches, len(names), plan.cols
     )
-    out = run(tasks, executor=executor, workers=workers, chunk=chunk, progress=progress)
-    ratio, low, high = pooled_ratios(out, s, level, len(seeds), batches, len(names), cols)
     return WorstCaseTable(
         freeze(alphas),
         freeze(sigmas),
         names,
         m,
         w,
-        horizon,
-        tuple(seeds),
-        batches,
-        level,
+        sampling.horizon,
+        sampling.seeds,
+        sampling.batches,
+        sampling.level,
         freeze(ratio),
         freeze(low),
         freeze(high),
-        freeze(theory),
-        freeze(nu),
-        freeze(design),
-        freeze(best[0]),
-        freeze(best[1]),
-        freeze(r_min),
-        freeze(h),
-        freeze(steps, np.int64),
-        freeze(stretch),
+        freeze(plan.theory),
+        freeze(plan.nu),
+        freeze(plan.design),
+        freeze(plan.best[0]),
+        freeze(plan.best[1]),
+        freeze(plan.r_min),
+        freeze(plan.h),
+        freeze(plan.steps, np.int64),
+        freeze(plan.stretch),
+        sampling.burn,
     )

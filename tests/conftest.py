@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:  # the shared helpers, whichever folder a test module sits in
@@ -23,6 +24,11 @@ if str(HERE) not in sys.path:  # the shared helpers, whichever folder a test mod
 from _browser import ROOT, free_port, wait_http  # noqa: E402  (after the path above)
 
 LAYERS = ("core", "app", "serving", "browser", "deploy")  #: test folders, each a marker of the same name
+
+#: every property test draws the same examples on every run (a failure is seen again, never by luck) and has no
+#: deadline (the machine's load is not the code's speed); a test's own ``@settings`` add to these
+settings.register_profile("isl", derandomize=True, deadline=None)
+settings.load_profile("isl")
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -4,9 +4,9 @@ Long jobs take seconds to minutes of one core each. They run one at a time (``wo
 first served, at a lower CPU priority than the slider runs and the event loop, so that a classroom's long jobs never
 hold up its slider updates and the machine keeps a core for them. With ``processes=True`` (the server's queue) each
 job runs in a child process (:func:`in_process`): a thread's CPU priority does not extend to the interpreter lock,
-and a long job's Python between its numba kernels, holding that lock, slowed every callback of the event loop
-(measured: a 10 ms loop callback took p95 22 ms, max 33 ms beside two worst-case threads; 11 / 13 ms beside two
-worst-case processes); a child's memory goes back to the system when it ends, and cancelling it ends it at once.
+and a long job's Python between its numba kernels, holding that lock, would slow every callback of the event loop
+(:ref:`performance-threads`); a child's memory goes back to the system when it ends, and cancelling it ends it at
+once.
 The rules, as data that a test can check without a browser:
 
 * each session has at most one long job, waiting or running (a second one is refused with a message);

@@ -14,12 +14,10 @@ thread, and again on the event loop for each updated pane. :func:`skip_unused_de
 with ``include_defaults=False``) reads the value of every property — computing the default of each one never set —
 and then keeps only those set, themed or with a per-instance default ("TODO: this should happen before get_value()",
 its source says). Serializing new models is most of what a page's parts cost the event loop when they are swapped in
-after the page connects: 30–120 ms a part, four parts a page. :func:`serialize_set_properties_only` reads only the
+after the page connects (four parts a page). :func:`serialize_set_properties_only` reads only the
 values it keeps; for the others it still reads a value that may be unset (no default), so a model with a required
-property left unset is refused as before. A test compares both methods on every model of a fully built page. Six
-default pages opened one after another, two runs each, before → after: loop time in the callbacks over 20 ms (the
-parts swapped in) 2269 and 2071 → 1508 and 1182 ms; ``/liveness`` probed every 10 ms meanwhile, answers over 100 ms
-16 and 11 → 5 and 2.
+property left unset is refused as before. A test compares both methods on every model of a fully built page. What
+it saves the event loop: :ref:`performance-serving`.
 
 **References of the models the browser has.** Every ``PATCH-DOC`` message starts with a ``Serializer`` told which
 models the browser already has, so that it names them by id: bokeh 3.9 builds ``{id(model): model.ref}`` for every

@@ -33,8 +33,8 @@ event, and while the loop holds the document (it does so around every outcome it
 the hold; the loop's ``unhold`` takes that queue and leaves a fresh one, in two steps that a worker thread can fall
 between, and then the registration went into a queue nobody reads: the callback never ran. For a job's outcome
 that meant the session's run stayed "in flight" for good, every later slider change waited behind it, and the page
-stopped following its sliders (CI's load run: one session of 20 got no plot update within 30 s; a stress run of
-the same steps lost 1 registration in 20 000). :func:`install` makes ``execute`` hand such a callback to the
+stopped following its sliders (how rare, and how it was found: :ref:`performance-page-building`). :func:`install` makes
+``execute`` hand such a callback to the
 session's loop first (tornado's thread-safe ``add_callback``), which registers it there.
 
 :func:`install` is idempotent; :func:`app.serving.patches.install` calls it at the server's start-up, and the server

@@ -11,10 +11,10 @@ option                          environment              default
 ``--allow-websocket-origin``    ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
 ``--num-procs``                 ``ISL_NUM_PROCS``        0: one process per usable core (:ref:`serving-many`)
 ``--num-threads``               ``ISL_NUM_THREADS``      4 threads run the callbacks (the kernel is nogil)
-``--unused-session-lifetime``   —                        10000 ms after the last connection closes
-``--check-unused-sessions``     —                        2000 ms between sweeps for unused sessions
-``--stats-interval``            —                        60000 ms between ``isl stats`` log lines
-``--trim-interval``             —                        5000 ms between looks for ended sessions' memory
+``--unused-session-lifetime``   —                        10 s after the last connection closes
+``--check-unused-sessions``     —                        2 s between sweeps for unused sessions
+``--stats-interval``            —                        60 s between ``isl stats`` log lines
+``--trim-interval``             —                        5 s between looks for ended sessions' memory
 ==============================  =======================  ====================================================
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`!app.serving.webguard`, with the
@@ -324,8 +324,8 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
         log.warning("ignoring %s; set %s instead", BOKEH_ORIGIN_ENV, ENV["origins"])
     check_allocator()
     # The event loop's thread releases the interpreter lock at every file-system call of Panel's page building
-    # (several a component) and, beside compute threads running Python, waited up to the switch interval (5 ms by
-    # default) to get it back each time: a page's build stalled the loop for seconds. 0.5 ms bounds that wait
+    # (several a component) and, beside compute threads running Python, waits up to the switch interval to get it
+    # back each time: a short SWITCH_INTERVAL_S bounds that wait, so a page's build does not stall the loop
     # (:ref:`performance-warm-up`).
     sys.setswitchinterval(SWITCH_INTERVAL_S)
     warm_core()  # before the fork: the kernels compiled once, their memory shared by the processes

@@ -15,7 +15,7 @@ Panel's ``customize_server`` hook):
 * **Compression**: text, JavaScript, JSON and CSS answers are gzip-compressed for clients that accept it (the page's
   2 MB of scripts travel as ≈ 0.5 MB).
 * ``GET /liveness``: 200 with ``{"alive": true}`` as long as the event loop answers — nothing else is done: Panel's
-  own handler builds a whole session when asked with ``?endpoint=/app`` (1.2–1.8 s on the loop).
+  own handler builds a whole session when asked with ``?endpoint=/app`` (seconds of the event loop).
 """
 
 from __future__ import annotations
@@ -106,10 +106,8 @@ def _no_delay(handler: type) -> type:
 
     bokeh sends each message as several websocket frames (header, metadata, content, buffers), each its own small
     write. With Nagle's algorithm on — tornado's default — a frame that follows an unacknowledged one waits for the
-    client's acknowledgement, which a client's TCP may delay by up to 40 ms. Measured with the scripted client
-    (``scripts/session_client.py``, which also turns it off on its side): a slider's new data 83-90 → 44 ms when
-    both sides send at once. In chromium no difference was measured (``benchmarks/bench_app_latency.py``: data
-    arrived p50 67.5 → 69.6 ms); it is for clients that acknowledge late, such as scripts and some proxies."""
+    client's acknowledgement, which a client's TCP may delay (delayed acknowledgements). It is for clients that
+    acknowledge late, such as scripts and some proxies; chromium acknowledges at once (:ref:`performance-choices`)."""
 
     class NoDelay(handler):
         def open(self, *args, **kwargs):

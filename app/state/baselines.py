@@ -12,7 +12,7 @@ import param
 
 from isl_core.filters.baselines import LABELS
 
-from ..extras import EXTRA_NAMES, SIGMA_BOUNDS, SIGMA_DESIGN, SIGMA_RANGE, check_order
+from ..extras import EXTRA_NAMES, SIGMA_BOUNDS, SIGMA_DESIGN, SIGMA_RANGE
 from .room import Room
 
 __all__ = ["BaselinesRoom"]
@@ -57,9 +57,3 @@ class BaselinesRoom(Room):
     def sigma_range(self) -> tuple[float, float]:
         """[σ min, σ max]."""
         return self.sigma_min, self.sigma_max
-
-    def check(self, key: str, value: float, pending: dict) -> None:
-        """A new end of the σ range (``key``, with the other inputs of ``pending`` about to be set with it) must keep
-        it a range: ``ValueError`` in words otherwise."""
-        ends = {"sigma_min": self.sigma_min, "sigma_max": self.sigma_max, **pending, key: value}
-        check_order(ends["sigma_min"], ends["sigma_max"])

@@ -23,7 +23,7 @@ from typing import ClassVar
 
 import param
 
-from isl_core import Scenario, WhoWinsMap, who_wins_map
+from isl_core import BOUNDS, Scenario, WhoWinsMap, who_wins_map
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario.map import MAPS
@@ -121,7 +121,7 @@ class ScenarioRoom(Room):
         doc=(f"When σ has changed: the step's time, or the end of the drift, in units of 1/{R_MIN} at σ(0)."),
     )
     sigma_after = param.Number(
-        2.0, bounds=(0.1, 1000.0), label="σ after", doc=("σ after the change (σ before it is the σ input).")
+        2.0, bounds=BOUNDS.sigma.range, label="σ after", doc=("σ after the change (σ before it is the σ input).")
     )
     noise = param.Selector(
         objects=list(NOISE_LAWS),

@@ -26,9 +26,10 @@ from isl_core.runview import RunView
 
 from .. import inputs
 from ..export import run_csv, run_png
+from ..extras import check_order
 from ..jobs import Jobs, Outcome
 from ..pipeline import LIVE_MAX_STEPS, Request, Result, Traces, compute, describe
-from ..presets import PRESETS
+from ..presets import PAPER_PRESETS
 from .baselines import BaselinesRoom
 from .data import DataRoom
 from .refused_run import RUN_KEYS, refuse_run, run_refusal_shown
@@ -50,7 +51,6 @@ __all__ = [
     "AppState",
     "input_label",
 ]
-
 
 #: the session's rooms: attribute → class (built in this order: a room may watch the ones before it)
 ROOMS: dict[str, type[Room]] = {
@@ -181,10 +181,9 @@ class AppState(SessionInputs):
         ``pending``: other inputs about to be set with it (the σ range is checked against its new other end).
         """
         value = inputs.clean(input_label(name, link), value, KINDS[name])
-        if name in ("sigma_min", "sigma_max"):
-            self.baselines.check(
-                name, value, {k: v for k, v in (pending or {}).items() if k in ("sigma_min", "sigma_max")}
-            )
+        if name in ("sigma_min", "sigma_max"):  # the σ range stays a range, with its other end as it will be
+            ends, room = {**(pending or {}), name: value}, self.baselines
+            check_order(ends.get("sigma_min", room.sigma_min), ends.get("sigma_max", room.sigma_max))
         return value
 
     def set_inputs(self, values: dict, problems: dict[str, str] | None = None, *, link: bool = False) -> list[str]:
@@ -364,11 +363,11 @@ class AppState(SessionInputs):
 
     def apply_preset(self, name: str) -> None:
         """Set the inputs of preset ``name`` (see :mod:`app.presets`) in one batch: one new run."""
-        if name not in PRESETS:
-            self.say(f"Unknown preset {name!r}; choose one of {', '.join(PRESETS)}.", "danger")
+        if name not in PAPER_PRESETS:
+            self.say(f"Unknown preset {name!r}; choose one of {', '.join(PAPER_PRESETS)}.", "danger")
             return
         self._clear()
-        self.set_inputs(PRESETS[name].values)
+        self.set_inputs(PAPER_PRESETS[name].values)
 
     def csv(self) -> io.StringIO:
         """The run on screen as CSV (:func:`app.export.run_csv`), for the download button."""
@@ -396,7 +395,6 @@ class AppState(SessionInputs):
 
 #: every input's declaration (a param.Parameter: label, doc, bounds), by key
 PARAMS = {key: (AppState if attr is None else ROOMS[attr]).param[name] for key, (attr, name) in OWNERS.items()}
+_ITEMS = {k: v for cls in ROOMS.values() for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()}  # of list inputs
 #: kind and range of every input (:mod:`app.inputs`), from the declarations above
-KINDS = inputs.kinds_of(
-    ALL_INPUTS, PARAMS, {k: v for cls in ROOMS.values() for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()}
-)
+KINDS = inputs.kinds_of(ALL_INPUTS, PARAMS, _ITEMS)

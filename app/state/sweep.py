@@ -13,6 +13,8 @@ from typing import ClassVar
 
 import param
 
+from isl_core import BOUNDS
+
 from .. import sweeps
 from ..jobs import LongTask, Outcome
 from ..text import R_MIN
@@ -20,7 +22,8 @@ from .room import Room
 
 __all__ = ["SWEEP_SIGMA_BOUNDS", "SweepRoom"]
 
-SWEEP_SIGMA_BOUNDS = (0.1, 1000.0)
+SWEEP_SIGMA_BOUNDS = BOUNDS.sigma.range  #: each σ of the sweep: the dashboard's σ range
+_LO, _HI = SWEEP_SIGMA_BOUNDS
 #: the model's inputs that change the sweep's context (its curves and which points are still valid)
 CONTEXT = ("alpha", "beta_from_w", "w", "beta", "m")
 
@@ -37,7 +40,7 @@ class SweepRoom(Room):
         item_type=float,
         bounds=(1, 5),
         label="σ values",
-        doc=("σ of the sweep's curves (1 to 5 values in [0.1, 1000]); paper A, Fig. 2: 2, 20, 200."),
+        doc=(f"σ of the sweep's curves (1 to 5 values in [{_LO:g}, {_HI:g}]); paper A, Fig. 2: 2, 20, 200."),
     )
     horizon = param.Number(
         200.0,

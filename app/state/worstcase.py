@@ -11,9 +11,7 @@ from typing import ClassVar
 
 import param
 
-from isl_core import WorstCaseTable
-from isl_core.sweep import BURN
-from isl_core.worstcase import FILTERS
+from isl_core import SWEEP_BURN, WORST_CASE_FILTERS, WorstCaseTable
 
 from ..extras import ALPHA_BOUNDS, worst_case_table
 from ..jobs import LongTask
@@ -79,7 +77,7 @@ class WorstCaseRoom(Room):
         self._task.start(
             fn,
             self._apply,
-            (f"Simulating {len(self.alphas)} α × {self.n_sigma} σ, {len(FILTERS)} filters on each run …"),
+            (f"Simulating {len(self.alphas)} α × {self.n_sigma} σ, {len(WORST_CASE_FILTERS)} filters on each run …"),
         )
 
     def cancel(self) -> None:
@@ -103,7 +101,7 @@ class WorstCaseRoom(Room):
             note=(
                 f"Simulated in {outcome.seconds:.1f} s: σ ∈ [{lo:g}, {hi:g}] ({len(t.sigmas)} values), m = {t.m}, "
                 f"w = {t.w:g}, seed {t.seeds[0]}. Each run averages over {per_r_min(t.horizon)} after a burn-in of "
-                f"{per_r_min(BURN)}{longer}; 95 % batch-means intervals."
+                f"{per_r_min(SWEEP_BURN)}{longer}; 95 % batch-means intervals."
             ),
         )
 

@@ -18,8 +18,9 @@ import panel as pn
 import param
 from panel.viewable import Viewer
 
+from isl_core import BOUNDS
+
 from .. import inputs
-from ..inputs import Kind
 from ..pipeline import COORDINATES, Request, compute
 from ..state import AppState
 from ..text import R_MIN, per_r_min
@@ -73,7 +74,7 @@ class CompareView(Viewer):
     """The run on screen beside the same run at another σ (a tab of its own, built when first opened)."""
 
     state = param.ClassSelector(class_=AppState)
-    sigma_b = param.Number(200.0, bounds=(0.1, 1000.0), label="σ of the second run")
+    sigma_b = param.Number(200.0, bounds=BOUNDS.sigma.range, label="σ of the second run")
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
@@ -83,7 +84,7 @@ class CompareView(Viewer):
         self._note = pn.pane.Markdown("", margin=(0, 10))
         # a box without a range (BokehJS drops a value outside it silently), checked here and refused in words
         self._input = NumberInput(label=self.param.sigma_b.label, value=self.sigma_b, width=px(self.state, 180))
-        self._input._refuse = self._take
+        self._input.refuse_with(self._take)
         self._input.param.watch(self._typed, "value")
         self._refusal = pn.pane.HTML("", visible=False, stylesheets=[REFUSAL_CSS], margin=(0, 10, 6, 10))
         self._button = pn.widgets.Button(
@@ -101,7 +102,7 @@ class CompareView(Viewer):
     def _take(self, value) -> None:
         """σ of the second run from the box, or its refusal beside the box (the previous σ is kept)."""
         try:
-            self.sigma_b = inputs.clean(self.param.sigma_b.label, value, Kind("number", *self.param.sigma_b.bounds))
+            self.sigma_b = inputs.clean_declared(self.param.sigma_b, value)
             self._refusal.param.update(object="", visible=False)
         except ValueError as exc:
             text = html.escape(f"Refused: {exc}. The comparison keeps σ = {self.sigma_b:g}.")

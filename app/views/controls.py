@@ -15,7 +15,7 @@ import param
 from bokeh.models import CustomJSTickFormatter
 from panel.viewable import Viewer
 
-from ..presets import PRESETS
+from ..presets import PAPER_PRESETS
 from ..state import PARAMS, AppState
 from ..text import num
 from .fields import field, refusal
@@ -33,6 +33,7 @@ __all__ = [
     "with_help",
 ]
 
+ALPHA_SLIDER_LOW = 0.01  #: the α slider's low end (its scale is log α; α = 0 is the box below it)
 _LOG_FORMAT = "const v = Math.pow(10, tick); return Number(v.toPrecision(3)).toString();"
 
 
@@ -52,7 +53,7 @@ class _Binding:
         events = ["value", "value_throttled"] if live and "value_throttled" in widget.param else ["value"]
         widget.param.watch(self._from_widget, events)
         if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-            widget._refuse = self._refuse
+            widget.refuse_with(self._refuse)
         state.watch(self._from_state, [name])
         self._from_state()
 
@@ -95,10 +96,11 @@ class _Binding:
             self._quiet = False
 
 
-def log_slider(state: AppState, name: str, lo: float, hi: float, *, step: float = 0.01) -> pn.widgets.FloatSlider:
-    """A slider over log10 of input ``name`` between ``lo`` and ``hi`` (within the input's bounds)."""
+def log_slider(state: AppState, name: str, *, lo: float | None = None, step: float = 0.01) -> pn.widgets.FloatSlider:
+    """A slider over log10 of input ``name`` across the input's bounds (from ``lo`` when its lower bound is 0, which
+    a log scale cannot reach)."""
     p = PARAMS[name]
-    a, b = math.log10(lo), math.log10(hi)
+    a, b = math.log10(p.bounds[0] if lo is None else lo), math.log10(p.bounds[1])
     widget = Slider(
         label=p.label,
         start=a,
@@ -142,21 +144,24 @@ class ControlsView(Viewer):
     def __init__(self, **params) -> None:
         super().__init__(**params)
         s = self.state
-        self._alpha = log_slider(s, "alpha", 0.01, 100.0)
+        self._alpha = log_slider(s, "alpha", lo=ALPHA_SLIDER_LOW)
         self._alpha_zero = pn.widgets.Checkbox(label="α = 0 (white-noise derivative, paper B)")
         self._alpha_zero.param.watch(self._on_alpha_zero, "value")
         s.param.watch(self._sync_alpha_zero, ["alpha"])
         self._from_w = _plain(s, "beta_from_w", pn.widgets.Checkbox(label="β from w: β = w·√(2α) (paper A)"))
-        self._w = log_slider(s, "w", 0.01, 100.0)
-        self._beta = log_slider(s, "beta", 0.01, 1000.0)
-        self._sigma = log_slider(s, "sigma", 0.1, 1000.0)
-        self._nu = log_slider(s, "nu", 0.001, 10000.0)
-        self._m = _plain(s, "m", IntSlider(label="m (state dimension)", start=1, end=6, sizing_mode="stretch_width"))
+        self._w = log_slider(s, "w")
+        self._beta = log_slider(s, "beta")
+        self._sigma = log_slider(s, "sigma")
+        self._nu = log_slider(s, "nu")
+        m_lo, m_hi = s.param.m.bounds
+        self._m = _plain(
+            s, "m", IntSlider(label="m (state dimension)", start=m_lo, end=m_hi, sizing_mode="stretch_width")
+        )
         # no range on the box: BokehJS's box drops a value outside it silently; the state refuses it in words
         self._seed = _plain(
             s, "seed", WholeInput(label="seed", width=120, description=s.param.seed.doc, value=float(s.seed))
         )
-        self._horizon = log_slider(s, "horizon", 1.0, 1000.0)
+        self._horizon = log_slider(s, "horizon")
         self._sync_alpha_zero()
         self._derived = pn.pane.Markdown(self._derived_text, margin=(0, 10))
         self._status = pn.pane.Alert(
@@ -209,7 +214,7 @@ class ControlsView(Viewer):
 
     def _preset_buttons(self) -> pn.Column:
         buttons = []
-        for name, preset in PRESETS.items():
+        for name, preset in PAPER_PRESETS.items():
             b = pn.widgets.Button(
                 label=name,
                 description=preset.description,
@@ -225,7 +230,7 @@ class ControlsView(Viewer):
     def __panel__(self):
         s = self.state
         new_seed = pn.widgets.Button(label="new noise", width=110, margin=(22, 10, 5, 5))
-        new_seed.on_click(lambda event: setattr(s, "seed", (s.seed + 1) % (2**31)))
+        new_seed.on_click(lambda event: setattr(s, "seed", (s.seed + 1) % (s.param.seed.bounds[1] + 1)))
         download = pn.widgets.FileDownload(
             callback=s.csv,
             filename="isl_run.csv",

@@ -50,7 +50,7 @@ def bind(state: AppState, name: str, widget):
 
     widget.param.watch(from_widget, "value")
     if isinstance(widget, Guarded):  # a value the widget cannot take: the state refuses it, in words
-        widget._refuse = refuse
+        widget.refuse_with(refuse)
     state.watch(from_state, [name])
     from_state()
     return widget

@@ -34,7 +34,7 @@ def follow(key: GlyphRenderer) -> list:
 
     A legend redraws whenever any model it references, however indirectly, changes; a browser-side link from
     the key to the plotted lines would make it reference every line, source and view of the plots, and redraw on
-    every run (26 ms of each update, measured). So the link runs on the server: a click on the entry changes the
+    every run. So the link runs on the server: a click on the entry changes the
     key's ``visible``, and this callback hides or shows the followers (one round trip, on a click only).
     """
     followers: list = []
@@ -111,7 +111,7 @@ class Overlay:
         doc = self._keys[EXTRA_NAMES[0]].document
         building = any(n not in sources for n in names for sources in self._sources)
         # lines built here (a filter ticked on a live page): the page's models are re-walked once, not once a line;
-        # only then: leaving a freeze re-walks them even if nothing was added (≈ 30 ms of the loop a run)
+        # only then: leaving a freeze re-walks them even if nothing was added (the event loop's time, at every run)
         with doc.models.freeze() if doc is not None and building else contextlib.nullcontext():
             for n, item in zip(EXTRA_NAMES, self.items, strict=True):
                 item.visible = n in names

@@ -4,12 +4,10 @@ paint, even when its text is the same.
 Every renderer of a plot (lines, band, grids, axes, title) replaces the text of its own ``<style>`` element with its
 position at each paint (BokehJS 3.9, ``RendererView.update_position`` → ``InlineStyleSheet._update``). Each
 replacement invalidates the page's style; the next visual of the paint reads its colour through
-``getComputedStyle`` (canvas theming by CSS variables), and that read recalculates the style of the page: 19 times
-per redraw of the three Fig. 3 plots, 10–13 ms a slider change (Chromium trace; bokeh/bokeh#15286 describes the
-same reads). A rewrite with the text the element already holds changes nothing, so :data:`SKIP_SAME_STYLESHEET`
-leaves it out. Measured with the page of ``benchmarks/bench_app_latency.py``, three rounds of 21 changes each, the
-same server: forced style recalculations 21 → 4 per change; the browser's part p50 38.3 → 30.7 ms, p95 52.8 →
-39.8 ms.
+``getComputedStyle`` (canvas theming by CSS variables), and that read recalculates the style of the page, many
+times per redraw of the three Fig. 3 plots (bokeh/bokeh#15286 describes the same reads). A rewrite with the text the
+element already holds changes nothing, so :data:`SKIP_SAME_STYLESHEET` leaves it out (what it saves:
+:ref:`performance-latency`).
 
 BokehJS also looks up a CSS variable (``--bk-line-color``, ``--bk-major-label-text-color``, …) for every visual
 property it paints (``VisualProperties._get_css_value``: ``getComputedStyle(el).getPropertyValue``), so that a page can

@@ -33,7 +33,7 @@ __all__ = [
     "text_scale",
 ]
 
-#: every filter of isl_core.worstcase.FILTERS (the ISL filter at table A.31's ν: a lighter blue)
+#: every filter of isl_core.WORST_CASE_FILTERS (the ISL filter at table A.31's ν: a lighter blue)
 #: dash pattern of each baseline's line over the trajectories: where two estimates coincide (the adaptive filter on
 #: the optimal one, the mismatched one at σ̄ = σ) the one below still shows between the dashes
 EXTRA_DASHES = {"kbf_mismatched": "dashed", "kbf_minimax": "dotdash", "kbf_adaptive": [6, 3], "isl_model": [2, 2]}

@@ -210,7 +210,7 @@ class SweepView(Viewer):
     def _controls(self) -> pn.Column:
         s = self.state
         sigmas = list_box(s, "sweep_sigmas", pn.widgets.TextInput(label="σ values (comma separated)", width=px(s, 220)))
-        horizon = log_slider(s, "sweep_horizon", 20.0, 2000.0)
+        horizon = log_slider(s, "sweep_horizon")
         horizon.width = 260
         run, cancel, progress = job_buttons(
             s.sweep.param.busy,

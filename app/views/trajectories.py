@@ -187,7 +187,7 @@ class TrajectoriesView(Viewer):
         self._update()
 
     def _ensure(self, m: int) -> None:
-        """Plots for coordinates 1..m (each costs ≈ 45 ms of Python to build: only those shown are built)."""
+        """Plots for coordinates 1..m (each costs Python time to build: only those shown are built)."""
         while len(self._figures) < min(m, M_MAX):
             fig = self._figure(len(self._figures))
             self._figures.append(fig)
@@ -311,8 +311,8 @@ class TrajectoriesView(Viewer):
         """The column holds the progress indicator, the reason, and the mode, the legend and the plots of the m
         coordinates (a plot not shown would still be laid out); which are visible depends on whether there is a run.
 
-        Changing a column's children re-walks every model of the page on the event loop (≈ 30 ms, 140 ms under a
-        class's load); switching visibility does not. So the children change only when m does: the first run
+        Changing a column's children re-walks every model of the page on the event loop; switching visibility does
+        not. So the children change only when m does: the first run
         shows its plots by visibility, in the page as it was built."""
         m = m or min(self.state.m, M_MAX)
         self._ensure(m)

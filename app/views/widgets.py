@@ -31,8 +31,12 @@ class Guarded:
     and its range. A value :meth:`fits` refuses goes to the binding's ``refuse`` (the state refuses it), not to Panel.
     """
 
-    #: set where the widget is bound to the state (a value it refuses goes there); unset on a widget without a binding
-    _refuse: Callable[[Any], None]
+    _refuse: Callable[[Any], None] | None = None  # where a value the widget cannot take goes (refuse_with)
+
+    def refuse_with(self, refuse: Callable[[Any], None]) -> None:
+        """Hand every value the browser sends that Panel cannot take to ``refuse`` (the binding to the state, which
+        refuses it in words); without it, such a value goes to Panel as before."""
+        self._refuse = refuse
 
     def fits(self, value) -> bool:
         """Whether Panel can take ``value`` for this widget."""
@@ -45,7 +49,7 @@ class Guarded:
         return value
 
     def _process_events(self, events: dict) -> None:
-        refuse = getattr(self, "_refuse", None)
+        refuse = self._refuse
         bad = [v for k, v in events.items() if k in ("value", "value_throttled") and not self.fits(v)]
         if bad and refuse is not None:
             events = {k: v for k, v in events.items() if k not in ("value", "value_throttled")}
@@ -82,7 +86,7 @@ class WholeInput(NumberInput):
 class Slider(Guarded, pn.widgets.FloatSlider):
     """A FloatSlider whose changes reach the server at once, at the least server cost.
 
-    Panel holds browser → server changes back 50 ms (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
+    Panel holds browser → server changes back a moment (``_debounce``) to merge bursts; :class:`app.jobs.Jobs`
     already keeps only the newest request, so the delay would only add latency to every update. Panel also
     counts each change as a "busy" event for a global busy indicator that this page does not show (the state's
     own ``busy`` drives the spinner); slider values are left out of that bookkeeping, which costs the server's loop

@@ -20,8 +20,7 @@ from bokeh.models import ColumnDataSource, FixedTicker, Legend, LegendItem, Rang
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
-from isl_core import WorstCaseTable
-from isl_core.worstcase import FILTERS, LABELS
+from isl_core import WORST_CASE_FILTERS, WORST_CASE_LABELS, WorstCaseTable
 
 from ..state import AppState
 from .fields import field, list_box
@@ -65,7 +64,7 @@ def worst_case_html(table: WorstCaseTable | None) -> str:
         return "<p>No table yet: press <b>Compute</b>.</p>"
     recs = table.records()
     nf = len(table.names)
-    head = "".join(f"<th>{html.escape(LABELS[n])}<span class='ci'>measured</span></th>" for n in table.names)
+    head = "".join(f"<th>{html.escape(WORST_CASE_LABELS[n])}<span class='ci'>measured</span></th>" for n in table.names)
     rows = []
     for a, alpha in enumerate(table.alphas):
         part = recs[a * nf : (a + 1) * nf]
@@ -84,7 +83,8 @@ class WorstCaseView(Viewer):
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._sources = {
-            n: ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"worst-{n}") for n in FILTERS
+            n: ColumnDataSource({"x": [], "y": [], "lower": [], "upper": []}, name=f"worst-{n}")
+            for n in WORST_CASE_FILTERS
         }
         self._figure = self._chart()
         self._table = pn.pane.HTML(worst_case_html(self.state.worstcase.table), stylesheets=[_CSS], margin=(0, 10))
@@ -124,7 +124,7 @@ class WorstCaseView(Viewer):
                     line_width=1.5,
                 )
             )
-            items.append(LegendItem(label=value(LABELS[name]), renderers=[dots]))
+            items.append(LegendItem(label=value(WORST_CASE_LABELS[name]), renderers=[dots]))
         fig.add_layout(
             Legend(items=items, location="top_left", label_text_font_size=f"{11 * scale:.3g}pt", click_policy="hide"),
             "right",

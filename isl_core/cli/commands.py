@@ -11,6 +11,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 __all__ = [
     "UsageError",
@@ -136,7 +137,7 @@ def cmd_run(args) -> int:
     return 0
 
 
-def nan_to_none(obj):
+def nan_to_none(obj: Any) -> Any:
     """JSON has no nan/inf: map them to null, recursively."""
     if isinstance(obj, dict):
         return {k: nan_to_none(v) for k, v in obj.items()}
@@ -148,7 +149,7 @@ def nan_to_none(obj):
 def cmd_sweep(args) -> int:
     """Paper A's Fig. 2 grid by default; writes fig2.csv and fig2.json into --out (and the figures an extension of
     ``isl`` adds, see :class:`isl_core.cli.Extension`)."""
-    from isl_core import sweep
+    from isl_core import Execution, Sampling, sweep
 
     if args.ell_min > args.ell_max:
         raise UsageError("isl sweep: error: --ell-min must be <= --ell-max")
@@ -162,12 +163,8 @@ def cmd_sweep(args) -> int:
             m=args.m,
             w=args.w,
             beta=args.beta,
-            horizon=args.horizon,
-            seeds=args.seeds,
-            batches=args.batches,
-            executor=client,
-            workers=args.workers,
-            progress=progress_bar("sweep", not args.quiet),
+            sampling=Sampling(args.seeds, args.horizon, batches=args.batches),
+            execution=Execution(args.workers, client, progress=progress_bar("sweep", not args.quiet)),
         )
     finally:
         if client is not None:
@@ -176,14 +173,12 @@ def cmd_sweep(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     rows = nan_to_none(res.records())
     write_csv(out / "fig2.csv", rows)
-    from isl_core.sweep import BURN
-
     meta = {
         "m": res.m,
         "w": None if res.beta is not None else res.w,
         "beta": res.beta,
         "horizon_over_r_min": res.horizon,
-        "burn_in_over_r_min": BURN,
+        "burn_in_over_r_min": res.burn,
         "lengthened_by": res.stretch.tolist(),
         "seeds": list(res.seeds),
         "batches": res.batches,
@@ -214,7 +209,7 @@ def _fmt(values) -> str:
 
 def cmd_recommend(args) -> int:
     """Recommended ν per α (min over ν of the worst case over σ and i), beside paper A's table (A.31)."""
-    from isl_core import recommend_nu
+    from isl_core import Execution, Sampling, recommend_nu
     from isl_core.paper import a31_nu_over_beta
 
     recs = []
@@ -230,10 +225,8 @@ def cmd_recommend(args) -> int:
                 w=args.w,
                 verify=not args.no_verify,
                 compare=[] if paper is None else [paper],
-                horizon=args.horizon,
-                seeds=args.seeds,
-                batches=args.batches,
-                progress=sub,
+                sampling=Sampling(args.seeds, args.horizon, batches=args.batches),
+                execution=Execution(progress=sub),
             )
         )
     if args.json:
@@ -279,12 +272,12 @@ def cmd_recommend(args) -> int:
 
 def _window_line(horizon: float, stretch, seeds) -> str:
     """Where a simulated table averages: the burn-in and the window, in 1/r_min, lengthened for the slowest filter."""
-    from isl_core.sweep import BURN
+    from isl_core import SWEEP_BURN
 
     lo, hi = (min(stretch), max(stretch)) if len(stretch) else (1.0, 1.0)
     span = f"×{lo:.3g}" if lo == hi else f"×{lo:.3g} to ×{hi:.3g}"
     return (
-        f"averaging window of each simulated run: a burn-in of {BURN:g}/r_min, then {horizon:g}/r_min, both "
+        f"averaging window of each simulated run: a burn-in of {SWEEP_BURN:g}/r_min, then {horizon:g}/r_min, both "
         f"lengthened {span} where a filter settles slower than the optimal one (B.46); seeds {list(seeds)}; "
         f"filters start at X(0) - e0, e0 ~ N(0, Delta)"
     )
@@ -297,8 +290,9 @@ def flat(values) -> list:
 
 def cmd_worstcase(args) -> int:
     """Worst-case RMSE ratio over a σ range per α (rows) and filter (columns): simulated, with theory beside it."""
-    from isl_core.worstcase import worst_case
+    from isl_core import Candidates, Execution, Sampling, worst_case
 
+    bar = progress_bar("worstcase", not (args.quiet or args.json))
     client = _client(args.dask)
     try:
         res = worst_case(
@@ -307,27 +301,19 @@ def cmd_worstcase(args) -> int:
             n_sigma=args.n_sigma,
             m=args.m,
             w=args.w,
-            filters=flat(args.filters),
-            sigma_design=args.sigma_design,
-            memory=args.memory,
-            horizon=args.horizon,
-            seeds=flat(args.seeds),
-            batches=args.batches,
-            executor=client,
-            workers=args.workers,
-            progress=progress_bar("worstcase", not (args.quiet or args.json)),
+            candidates=Candidates(tuple(flat(args.filters)), args.sigma_design, args.memory),
+            sampling=Sampling(tuple(flat(args.seeds)), args.horizon, batches=args.batches),
+            execution=Execution(args.workers, client, progress=bar),
         )
     finally:
         if client is not None:
             client.close()
     if args.json:
-        from isl_core.sweep import BURN
-
         meta = {
             "m": res.m,
             "w": res.w,
             "horizon_over_r_min": res.horizon,
-            "burn_in_over_r_min": BURN,
+            "burn_in_over_r_min": res.burn,
             "lengthened_by": res.stretch.tolist(),
             "seeds": list(res.seeds),
             "batches": res.batches,

@@ -189,8 +189,8 @@ def _add_recommend(sub) -> argparse.ArgumentParser:
 
 def _add_worstcase(sub) -> argparse.ArgumentParser:
     """``isl worstcase``: each filter's worst case over a σ range."""
+    from isl_core import WORST_CASE_FILTERS
     from isl_core.sweep import FIG2_ALPHAS
-    from isl_core.worstcase import FILTERS
 
     p = sub.add_parser("worstcase", help="each filter's worst-case ratio over a sigma range, per alpha")
     p.add_argument(
@@ -207,8 +207,8 @@ def _add_worstcase(sub) -> argparse.ArgumentParser:
         "--filters",
         type=_comma(str),
         nargs="+",
-        default=[list(FILTERS)],
-        help=f"filters to compare (default {','.join(FILTERS)})",
+        default=[list(WORST_CASE_FILTERS)],
+        help=f"filters to compare (default {','.join(WORST_CASE_FILTERS)})",
     )
     p.add_argument(
         "--sigma-design",

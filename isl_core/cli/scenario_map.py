@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 
@@ -11,7 +12,7 @@ from .commands import UsageError, flat, nan_to_none, progress_bar, write_csv
 __all__ = ["scenario_map"]
 
 
-def scenario_map(args) -> int:
+def scenario_map(args: argparse.Namespace) -> int:
     """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin —
     with the table's tuning (computed if not cached; ``--untuned``: the constructors' defaults)."""
     from ..scenario.map import AXIS_LABELS, STEP_AT, who_wins_map

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import Model
-from ..nonlinearity import isl_exponents, linearization
+from ..nonlinearity import isl_exponents, linearization_at
 
 __all__ = [
     "KIND_ADAPTIVE",
@@ -180,7 +180,7 @@ def linearized_matrix(model: Model, spec: FilterSpec) -> np.ndarray:
     >>> lam.shape, bool(np.all(np.linalg.eigvals(lam).real < 0))
     ((3, 3), True)
     """
-    L, _ = linearization(spec.coef, spec.exponents(), model.sigma)
+    L, _ = linearization_at(spec.coef, spec.exponents(), model.sigma)  # the model's σ: checked when it was made
     lam = model.A0
     lam[-1, -1] -= spec.damp
     lam[:, 0] -= L / model.sigma**2  # (B.46)

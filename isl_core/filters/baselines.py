@@ -117,7 +117,7 @@ def baseline_filters(
     return [makers[name]() for name in names]
 
 
-def check_names(names, param: str = "names", allowed: Sequence[str] = BASELINES) -> tuple[str, ...]:
+def check_names(names: object, param: str = "names", allowed: Sequence[str] = BASELINES) -> tuple[str, ...]:
     """``names`` as a non-empty tuple of distinct names of ``allowed``, or a ``ValueError`` naming ``param``."""
     what = f"{param} must be a non-empty sequence of distinct names from {list(allowed)}"
     if not isinstance(names, list | tuple):

@@ -47,9 +47,9 @@ from ..validate import check_int, check_real, check_sigma_range
 from .adaptive import sigma_limit
 from .base import FilterSpec, IMMBank
 
-__all__ = ["MODES", "SIGMA_RANGE", "SWITCH", "imm_kbf"]
+__all__ = ["IMM_GRID_RANGE", "MODES", "SWITCH", "imm_kbf"]
 
-SIGMA_RANGE = (1.5, 500.0)  #: the default grid's ends: wider than the presets' σ, none of its points equal to one
+IMM_GRID_RANGE = (1.5, 500.0)  #: the default σ grid's ends: wider than the presets' σ, none of its points equal to one
 MODES = 11  #: default number of modes (grid density: ×1.79 apart over the default range)
 SWITCH = 1e-2  #: default switch probability per reading
 MODES_MAX = 64
@@ -57,7 +57,7 @@ SWITCH_MIN = 1e-12  #: keeps every prior weight c̄_j ≥ p/(J − 1) far from t
 
 
 def imm_kbf(
-    model: Model, *, sigma_range: tuple[float, float] = SIGMA_RANGE, modes: int = MODES, switch: float = SWITCH
+    model: Model, *, sigma_range: tuple[float, float] = IMM_GRID_RANGE, modes: int = MODES, switch: float = SWITCH
 ) -> FilterSpec:
     """The IMM filter (module docstring) for ``model``'s α, β, m (σ is not used): ``modes`` σ_j log-spaced over
     ``sigma_range`` (its ends included), switch probability ``switch`` per reading (10⁻¹² ≤ p < 1).

@@ -9,7 +9,8 @@ set of sources keeps its directory: a few MB each.) A container may allow no wri
 group 0, a read-only root file system): numba would then refuse to load the kernels' modules ("cannot cache function
 …: no locator available"). :func:`_cache_flag` checks that first; if the place is not writable it points numba at a
 directory under the system's temporary directory (``/tmp``, a tmpfs in such containers), and if even that fails it
-compiles without a cache (each process then compiles once, ≈ 10 s). Either fallback is said in one log line (logger
+compiles without a cache (each process then compiles once: :ref:`performance-choices`). Either fallback is said in
+one log line (logger
 ``isl_core``).
 
 ``fastmath={"contract"}`` only lets LLVM fuse ``a*b + c`` into one FMA (one rounding instead of two); it
@@ -39,7 +40,7 @@ def _probe() -> None:  # a function of this file, to ask numba whether it can ca
     pass
 
 
-def sources_digest(folder: str | os.PathLike | None = None) -> str:
+def sources_digest(folder: str | os.PathLike[str] | None = None) -> str:
     """A digest of every ``*.py`` file under ``folder`` (default: the ``isl_core`` package, subpackages included):
     their paths relative to ``folder`` and their contents."""
     root = Path(folder) if folder is not None else PACKAGE

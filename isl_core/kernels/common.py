@@ -47,7 +47,8 @@ def fast_cbrt(a):
     """Cube root of a ≥ 0 without a division (a few ulp from ``np.cbrt``).
 
     y ≈ a^{-1/3} from the bit pattern, then two steps of ``y ← y·(1 − e)^{-1/3}``, e = 1 − a·y³, by its
-    series ``1 + e/3 + 2e²/9 + 14e³/81 + 35e⁴/243`` (error ∝ e⁵, then e³): 0.11 → 5e-6 → 1e-16.
+    series ``1 + e/3 + 2e²/9 + 14e³/81 + 35e⁴/243`` (error ∝ e⁵): |e| ≤ 0.11 from the bit pattern, then about 5e-6,
+    then about 1e-16.
     Finally a^{1/3} = a·y². Zero, subnormal, huge, inf and nan arguments go to libm.
     """
     if not 1e-300 < a < 1e300:

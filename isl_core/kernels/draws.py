@@ -1,9 +1,9 @@
 """The noise laws of :mod:`isl_core.noise`, drawn in compiled loops from the caller's ``numpy.random.Generator``.
 
 The scenario loop draws its noise :data:`DRAWS` steps ahead, in a tight loop of its own (:func:`draw_ahead`), in the
-stream's order v_0, ε_0, v_1, ε_1, … (and the outliers' uniforms where they fall) — the order in which it used to
-draw them at each step, so its runs with Gaussian and Student-t noise are the same bit for bit — and its time loop
-is 4–5 ns a step faster (Gaussian noise: 50.5 → 46.1 ns, fastest of 60).
+stream's order v_0, ε_0, v_1, ε_1, … (and the outliers' uniforms where they fall) — the order of one draw at each
+step, so a run is the same bit for bit however far ahead it draws — and its time loop is left with the filters'
+arithmetic (:ref:`performance-scenario`).
 
 :func:`fill` draws ε_k alone (:meth:`isl_core.scenario.Scenario.draw_noise`), with the same arithmetic.
 
@@ -80,8 +80,8 @@ def _draw(rng, law, vs, eps, count, with_v):
 
     A Student-t draw: one uniform gives the layer (8 bits), the sign (1) and the position in the layer; inside the
     layer's inner part (≈ 98 % of draws) that is T_d, the rest goes to :func:`_student_retry`, out of line. One loop
-    per law, written out: the same draws through an inlined draw function with the retry loop in it cost 10.5–11.5 ns
-    a draw against 5–7 ns (loops of 5·10⁶)."""
+    per law, written out: an inlined draw function with the retry loop in it would keep the common case out of
+    registers (about twice the time a draw: :ref:`performance-scenario`)."""
     code, dof, tab, p_out, k_out, _ = law
     if code == LAW_STUDENT:
         scale = math.sqrt((dof - 2.0) / dof)  # unit variance
@@ -98,8 +98,8 @@ def _draw(rng, law, vs, eps, count, with_v):
                 x = -x
             eps[j] = scale * x
         return
-    # outliers: the steps between two are geometric, drawn once an outlier (a uniform a step cost 5 ns a step in the
-    # scenario loop); from this call's first step on, afresh: the steps are independent, so the law is the same
+    # outliers: the steps between two are geometric, drawn once an outlier (not a uniform at every step); from this
+    # call's first step on, afresh: the steps are independent, so the law is the same
     nxt = _gap(rng, p_out, count) if code == LAW_OUTLIERS else count
     for j in range(count):
         if with_v:

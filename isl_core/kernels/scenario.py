@@ -34,8 +34,7 @@ Every update above is e_f,i += G_f,i·p_f·r_f^(m−i) for i = m … 1 with a ga
 reading (:func:`reading_pair`): r_f = |u|^{1/m} and p_f = sign u for the power law, r_f = 1 and p_f = u (√h·a_f for
 the clairvoyant filter, ψ(u) for the robust one) for the others. So the filters run in lanes of :data:`LANES` side
 by side, the same arithmetic in the same order for each filter (runs equal those of the loop over the filters bit
-for bit): at the Fig. 3 defaults the clairvoyant, Kalman–Bucy and ISL filters cost 34.5 ns a step against 42.4
-(``benchmarks/bench_scenario.py``).
+for bit), and the processor overlaps the lanes' independent chains of arithmetic (:ref:`performance-scenario`).
 
 Draws per step from the caller's generator: v_k, then ε_k of the law (:mod:`isl_core.noise`), drawn
 :data:`isl_core.noise.DRAWS` steps ahead; on a grid refined ``obs.level`` times, per base step, split into its fine
@@ -230,8 +229,8 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
         noise = s_k * ebuf[b]
         c_noise = h * (s_k * s_k) * nv
         # settled while σ_k stays (clairvoyant_step): with a reading every step, nothing to do; with q > 1 the
-        # variance follows the sensor cycle, and is read back here at this step's phase (a call per step, with its
-        # arrays' reference counts, cost 20-30 ns a step)
+        # variance follows the sensor cycle, and is read back here at this step's phase (in line: a call per step
+        # would pass its arrays' reference counts every step)
         if cst[1] != 0.0 and c_noise == cst[2]:
             if q > 1:
                 if same > 0:
@@ -276,9 +275,8 @@ def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windo
                     lim[f] = vb_par[f, 0] * ad[f, AD_SIGMA]
         total = 0.0
         # four lanes side by side, written out lane by lane: four independent chains of arithmetic in registers,
-        # which the processor overlaps (one filter after another, with the branches and reloads of a loop over the
-        # filters, cost 10 ns a step more; the same code in an inlined function 25 ns more, and a loop over
-        # range(0, nl, LANES) instead of over the groups 6 ns more: benchmarks/bench_scenario.py)
+        # which the processor overlaps — faster than one filter after another (the branches and reloads of a loop
+        # over the filters), an inlined function or a loop over range(0, nl, LANES) (:ref:`performance-scenario`)
         for g in range(nl // LANES):
             l0 = LANES * g
             l1, l2, l3 = l0 + 1, l0 + 2, l0 + 3

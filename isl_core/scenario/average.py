@@ -14,7 +14,7 @@ upwards**: a maximum over noisy coordinates lies above their mean, so even the c
 1 (by its coordinates' sampling spread, a few per cent with 32 seeds and windows of 1/r_min); it is a picture of
 where in time a filter loses, and :meth:`ScenarioAverage.periods` is the statistic that reads 1 for the reference.
 
-:func:`!worst_ratio` is the earlier table's summary, kept for the dashboard's picture: the largest ratio over windows
+:func:`!worst_ratio` is the dashboard picture's summary: the largest ratio over windows
 and coordinates, with the basic bootstrap interval over seeds — biased above 1 for the reference (1.10–1.35 at 32–64
 seeds) and its interval can exclude its own estimate; the table and the maps now use the period statistic
 (:mod:`isl_core.scenario.periods`). :func:`margin_low` says whether the lowest of them is told apart from the next one.

@@ -19,7 +19,7 @@ from .base import Scenario
 
 __all__ = ["MAX_REFINE", "MAX_SCENARIO_STEPS", "scenario_grid"]
 
-MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; time ≈ 0.1–0.3 µs a step: seconds)
+MAX_SCENARIO_STEPS = 20_000_000  #: steps of one run (memory is per window; its time: :ref:`performance-scenario`)
 MAX_REFINE = 6  #: halvings of a sensor grid's step (2^6 = 64 steps per base step: :func:`scenario_grid`)
 
 

@@ -28,8 +28,8 @@ FAMILIES = {
     "kbf_robust": ("Kalman–Bucy, adaptive σ̂, Huber", ("c", "memory")),
     "imm": ("IMM", ("switch", "modes")),
 }
-#: W in readings: 10 … 3000 in 15 geometric steps, and 1 … 6.7 below them: the minimax of the adaptive, VB and
-#: robust filters sat at 10, the lower end of an earlier grid, then at 2 and 1.5. W = 1 is the hard limit (λ = 1: the
+#: W in readings: 10 … 3000 in 15 geometric steps, and 1 … 6.7 below them, so that the minimax of the adaptive, VB
+#: and robust filters (at small W) lies inside the grid, not at its edge. W = 1 is the hard limit (λ = 1: the
 #: estimate is the last reading alone); variational Bayes needs W > 1 (ρ = 1 − 1/W > 0), its grid starts at 1.1
 _MEMORY = (1.0, 1.1, 1.25, 1.5, 2.0, 3.0, 4.5, 6.7, *(float(f"{w:.2g}") for w in np.geomspace(10.0, 3000.0, 15)))
 

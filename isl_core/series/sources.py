@@ -52,7 +52,7 @@ def _long() -> Series:
 
 
 def dataset(name: str) -> Series:
-    """The shipped data set ``name`` (one of :data:`DATASETS`).
+    """The shipped data set ``name`` (one of :data:`!DATASETS`).
 
     Examples
     --------

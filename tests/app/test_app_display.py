@@ -106,7 +106,7 @@ def test_a_value_a_widget_cannot_take_is_refused_by_the_state_without_an_error(s
     converting it, and the page showed an error notification instead of the refusal that names the input."""
     from app.views.controls import _plain
 
-    sigma = log_slider(state, "sigma", 0.1, 1000.0)
+    sigma = log_slider(state, "sigma")
     m = _plain(state, "m", IntSlider(label="m", start=1, end=6, value=3))
     seed = _plain(state, "seed", WholeInput(label="seed", value=1))
     run = state.run

@@ -16,10 +16,10 @@ from app.jobs import Jobs, LongJobQueue
 from app.state import PARAMS, AppState
 from app.views.numbers import numbers_html
 from app.views.worstcase import WorstCaseView, worst_case_html
+from isl_core import WORST_CASE_FILTERS as FILTERS
 from isl_core import Model, baseline_filters, simulate, theory_ratios
 from isl_core.decimate import minmax_indices
 from isl_core.filters.baselines import LABELS
-from isl_core.worstcase import FILTERS
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from _loop import ManualLoop
 from app import pipeline
 from app.jobs import Jobs, LongJobQueue
 from app.pipeline import APP_MAX_STEPS
-from app.presets import PRESETS
+from app.presets import PAPER_PRESETS
 from app.state import INPUTS, AppState
 from app.state import session as state_module
 from isl_core import DivergenceError, Model, kalman_bucy, recommend_nu
@@ -347,7 +347,7 @@ def test_close_drops_the_run(state):
 
 
 def test_every_preset_is_valid(state):
-    for name in PRESETS:
+    for name in PAPER_PRESETS:
         state.apply_preset(name)
         assert state.message in ("",) or state.message_kind == "info", (name, state.message)
 

@@ -232,7 +232,7 @@ QUERIES = st.one_of(
 )
 
 
-@settings(max_examples=1200, deadline=None, derandomize=True)
+@settings(max_examples=1200)
 @given(search=QUERIES)
 def test_any_query_is_read_without_an_exception_and_every_problem_is_named(search):
     values, problems = read_query(search)
@@ -242,7 +242,7 @@ def test_any_query_is_read_without_an_exception_and_every_problem_is_named(searc
         assert len(text) < 400
 
 
-@settings(max_examples=200, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, suppress_health_check=[HealthCheck.too_slow])
 @given(search=QUERIES)
 def test_any_link_opens_a_run_or_says_why_and_leaves_a_clean_url(search):
     state, location = linked(search)

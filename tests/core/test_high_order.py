@@ -16,8 +16,8 @@ import math
 import numpy as np
 import pytest
 
-from isl_core import Model, isl_filter, kalman_bucy, optimal_kbf, predicted_ratios, simulate_rmse
-from isl_core.sweep import BURN, group_length, ratio_interval
+from isl_core import SWEEP_BURN, Model, isl_filter, kalman_bucy, optimal_kbf, predicted_ratios, simulate_rmse
+from isl_core.sweep import group_length, ratio_interval
 
 HORIZON = 2000.0  #: the dashboard's longest (its sweep horizon's upper bound)
 BATCHES = 10
@@ -36,7 +36,7 @@ def test_long_high_order_runs_measure_the_optimal_filter_at_one(m, alpha, sigma)
     kb = kalman_bucy(model)
     filters = [optimal_kbf(model, kb), isl_filter(model, model.beta)]
     T, n, stretch = group_length(model, kb, filters, HORIZON)
-    res = simulate_rmse(model, filters, T=T, h=T / n, burn=BURN * stretch / kb.r_min, batches=BATCHES, seed=12)
+    res = simulate_rmse(model, filters, T=T, h=T / n, burn=SWEEP_BURN * stretch / kb.r_min, batches=BATCHES, seed=12)
     ratio, low, high = ratio_interval(res.sq, res.counts, res.s, 0.95)
     kbf_in_interval = (low[0] <= 1.0) & (high[0] >= 1.0)
     assert np.all(kbf_in_interval | (np.abs(ratio[0] - 1.0) <= 0.03)), (ratio[0], low[0], high[0])

@@ -99,7 +99,7 @@ def test_after_the_drop_the_filter_for_sigma0_is_far_off_and_the_learner_recover
     assert stat.ratio[adaptive, 2] < stat.ratio[adaptive, 0]  # σ̂ has come down in the settled period
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(
     arrays(
         np.float64,

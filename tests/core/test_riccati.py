@@ -82,7 +82,7 @@ def test_m1_closed_form():
     assert kb.delta[0, 0] == pytest.approx(d, rel=16 * EPS)
 
 
-@settings(max_examples=150, deadline=None, derandomize=True)
+@settings(max_examples=150)
 @given(
     m=st.integers(1, M_MAX),
     alpha=st.one_of(st.just(0.0), st.floats(1e-3, 100.0)),

@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from isl_core import Scenario
+from isl_core import Scenario, scenario_table
 from isl_core.cli import main
+from isl_core.scenario.heldout import held_out
 from isl_core.scenario.map import who_wins_map
 from isl_core.scenario.table import PRESETS, table_from
 from isl_core.scenario.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune
@@ -181,3 +182,19 @@ def test_the_one_dimensional_maps_and_the_command(capsys):
 
 def test_the_presets_are_the_issues_scenarios():
     assert list(PRESETS) == ["sigma_drop", "sigma_rise", "student3", "outliers", "sensor", "constant"]
+
+
+def test_scenario_table_is_the_tuning_read_on_held_out_seeds():
+    """``scenario_table`` = ``table_from`` of ``tune`` with its arguments, read on the report seeds after the
+    tuning's (four times as many by default); a bad level is refused by name."""
+    args = dict(m=3, w=3.0, seeds=2, horizon=3.0, grids=GRIDS, workers=1)
+    got = scenario_table(1.0, scenarios={"drop": SMALL["drop"]}, level=0.9, **args)
+    res = tune(1.0, presets={"drop": SMALL["drop"]}, **args)  # from the cache the call above filled
+    want = table_from(res, 0.9, held_out(res, None, workers=1, cache=True))
+    np.testing.assert_array_equal(got.ratio, want.ratio)
+    np.testing.assert_array_equal(got.low, want.low)
+    assert [r.name for r in got.rows] == [r.name for r in want.rows] and got.level == 0.9
+    tuned = next(i for i, r in enumerate(got.rows) if r.role == "tuned")
+    assert got.seeds[tuned] == tuple(range(2, 2 + 4 * 2))
+    with pytest.raises(ValueError, match=r"^level must"):
+        scenario_table(1.0, scenarios={"drop": SMALL["drop"]}, level=1.0, **args)

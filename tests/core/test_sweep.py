@@ -12,7 +12,17 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_lyapunov
 
-from isl_core import FilterSpec, Model, isl_filter, kalman_bucy, optimal_kbf, predicted_ratios_grid, simulate_rmse
+from isl_core import (
+    Execution,
+    FilterSpec,
+    Model,
+    Sampling,
+    isl_filter,
+    kalman_bucy,
+    optimal_kbf,
+    predicted_ratios_grid,
+    simulate_rmse,
+)
 from isl_core.grid import H_RATE
 from isl_core.jobs import Task, run_task
 from isl_core.sweep import group_seed, sweep
@@ -20,7 +30,8 @@ from isl_core.sweep import group_seed, sweep
 ALPHAS = (0.04, 1.0, 25.0)
 SIGMAS = (2.0, 200.0)
 NOB = (2.0**-6, 2.0**-2, 1.0)
-SMALL = dict(m=3, w=3.0, horizon=40.0, seeds=(3, 4), batches=8)
+SAMPLING = Sampling(seeds=(3, 4), horizon=40.0, batches=8)
+SMALL = dict(m=3, w=3.0, sampling=SAMPLING)
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +82,8 @@ def test_kbf_ratio_within_its_interval():
     discrete Lyapunov equation) is itself checked to be under H_RATE = h × fastest rate (2 %).
     """
     k = len(ALPHAS) * len(SIGMAS) * 3
-    res = sweep(ALPHAS, SIGMAS, [1.0], **{**SMALL, "horizon": 300.0}, level=1.0 - 0.01 / k)
+    sampling = dataclasses.replace(SAMPLING, horizon=300.0, level=1.0 - 0.01 / k)
+    res = sweep(ALPHAS, SIGMAS, [1.0], m=3, w=3.0, sampling=sampling)
     for a, alpha in enumerate(ALPHAS):
         for b, sigma in enumerate(SIGMAS):
             expected = _euler_kbf_ratio(Model.from_w(alpha, 3.0, sigma, 3), res.h[a, b])
@@ -81,9 +93,9 @@ def test_kbf_ratio_within_its_interval():
 
 
 def test_independent_of_workers_and_chunking(local):
-    _assert_identical(local, sweep(ALPHAS, SIGMAS, NOB, **SMALL, workers=1))
+    _assert_identical(local, sweep(ALPHAS, SIGMAS, NOB, **SMALL, execution=Execution(workers=1)))
     with cf.ThreadPoolExecutor(max_workers=2) as pool:
-        _assert_identical(local, sweep(ALPHAS, SIGMAS, NOB, **SMALL, executor=pool, chunk=4))
+        _assert_identical(local, sweep(ALPHAS, SIGMAS, NOB, **SMALL, execution=Execution(executor=pool, chunk=4)))
 
 
 def test_group_seed_does_not_depend_on_the_grid(local):
@@ -101,13 +113,13 @@ def test_dask_local_cluster_gives_identical_results(local):
         distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cl,
         distributed.Client(cl) as client,
     ):
-        remote = sweep(ALPHAS, SIGMAS, NOB, **SMALL, executor=client, chunk=2)
+        remote = sweep(ALPHAS, SIGMAS, NOB, **SMALL, execution=Execution(executor=client, chunk=2))
     _assert_identical(local, remote)
 
 
 def test_progress_is_monotone_and_cancels():
     seen = []
-    sweep([1.0], [20.0], [0.5, 1.0], **SMALL, progress=seen.append)
+    sweep([1.0], [20.0], [0.5, 1.0], **SMALL, execution=Execution(progress=seen.append))
     assert seen and seen[-1] == pytest.approx(1.0) and all(b >= a for a, b in itertools.pairwise(seen))
 
     class Stop(Exception):
@@ -121,7 +133,8 @@ def test_progress_is_monotone_and_cancels():
 
     # 4 groups of ~10⁷ steps (~80 kernel chunks each): the first report cancels all of them at once
     with pytest.raises(Stop):
-        sweep([25.0], [200.0], [1.0], horizon=400.0, seeds=(0, 1, 2, 3), workers=2, progress=stop)
+        sampling = Sampling(seeds=(0, 1, 2, 3), horizon=400.0)
+        sweep([25.0], [200.0], [1.0], sampling=sampling, execution=Execution(workers=2, progress=stop))
     assert len(calls) == 1
 
 
@@ -160,9 +173,13 @@ def test_diverged_filter_is_nan_and_others_unchanged():
     ],
 )
 def test_bad_arguments_name_the_parameter(kw, name):
+    """Each argument, of the sweep or of its requests, refused by name (a request when it is made)."""
     args = dict(alphas=[1.0], sigmas=[20.0], nu_over_beta=[1.0], horizon=10.0) | kw
+    sampling = {k: args.pop(k) for k in ("seeds", "horizon", "batches", "level") if k in args}
+    execution = {k: args.pop(k) for k in ("workers", "chunk", "progress") if k in args}
     with pytest.raises(ValueError, match=name):
-        sweep(args.pop("alphas"), args.pop("sigmas"), args.pop("nu_over_beta"), **args)
+        requests = dict(sampling=Sampling(**sampling), execution=Execution(**execution))
+        sweep(args.pop("alphas"), args.pop("sigmas"), args.pop("nu_over_beta"), **args, **requests)
 
 
 def test_a_failing_task_stops_the_others_and_its_own_error_propagates():
@@ -180,7 +197,7 @@ def test_a_failing_task_stops_the_others_and_its_own_error_propagates():
         raise KeyboardInterrupt("the user pressed Cancel")
 
     with pytest.raises(KeyboardInterrupt, match="pressed Cancel"):
-        run(tasks, workers=2, progress=progress)
+        run(tasks, Execution(workers=2, progress=progress))
     assert len(calls) == 1  # no report reaches the callback after it raised
-    results = run(tasks, workers=2)
+    results = run(tasks, Execution(workers=2))
     assert sorted(r.key for r in results) == [0, 1, 2, 3] and all(r.sq.shape == (2, 1, 2) for r in results)

@@ -17,6 +17,7 @@ import re
 
 import numpy as np
 import pytest
+from _requests import requests
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -167,47 +168,47 @@ CASES = {
     "adaptive_kbf.sigma_range": (lambda v: core.adaptive_kbf(M, sigma_range=v), "sigma_range", _range_pair),
     "baseline_filters.names": (lambda v: core.baseline_filters(M, nu=3.0, names=v), "names", lambda v: False),
     "sweep.alphas": (
-        lambda v: core.sweep(v, [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2),
+        lambda v: core.sweep(v, [20.0], [1.0], **requests(horizon=20.0, seeds=(0,), batches=2)),
         "alphas",
         _many(lambda v: _real(v, 0.0, 1e3, lo_open=True)),
     ),
     "sweep.sigmas": (
-        lambda v: core.sweep([1.0], v, [1.0], horizon=20.0, seeds=(0,), batches=2),
+        lambda v: core.sweep([1.0], v, [1.0], **requests(horizon=20.0, seeds=(0,), batches=2)),
         "sigmas",
         _many(lambda v: _real(v, 0.0, 1e3, lo_open=True)),
     ),
     "sweep.horizon": (
-        lambda v: core.sweep([1.0], [20.0], [1.0], horizon=v, seeds=(0,), batches=2),
+        lambda v: core.sweep([1.0], [20.0], [1.0], **requests(horizon=v, seeds=(0,), batches=2)),
         "horizon",
         lambda v: _real(v, 0.0, 50.0),
     ),
     "sweep.seeds": (
-        lambda v: core.sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=v, batches=2),
+        lambda v: core.sweep([1.0], [20.0], [1.0], **requests(horizon=20.0, seeds=v, batches=2)),
         "seeds",
         _many(_seed),
     ),
     "sweep.m": (
-        lambda v: core.sweep([1.0], [20.0], [1.0], m=v, horizon=20.0, seeds=(0,), batches=2),
+        lambda v: core.sweep([1.0], [20.0], [1.0], m=v, **requests(horizon=20.0, seeds=(0,), batches=2)),
         "m",
         lambda v: _whole(v, 1, 6),
     ),
     "sweep.level": (
-        lambda v: core.sweep([1.0], [20.0], [1.0], horizon=20.0, seeds=(0,), batches=2, level=v),
+        lambda v: core.sweep([1.0], [20.0], [1.0], **requests(horizon=20.0, seeds=(0,), batches=2, level=v)),
         "level",
         lambda v: _real(v, 0.0, 1.0, lo_open=True) and float(v) < 1.0,
     ),
     "worst_case.sigma_range": (
-        lambda v: core.worst_case([1.0], sigma_range=v, horizon=20.0, seeds=(0,)),
+        lambda v: core.worst_case([1.0], sigma_range=v, **requests(horizon=20.0, seeds=(0,))),
         "sigma_range",
         _range_pair,
     ),
     "worst_case.n_sigma": (
-        lambda v: core.worst_case([1.0], n_sigma=v, horizon=20.0, seeds=(0,)),
+        lambda v: core.worst_case([1.0], n_sigma=v, **requests(horizon=20.0, seeds=(0,))),
         "n_sigma",
         lambda v: _whole(v, 2, 3),
     ),
     "worst_case.filters": (
-        lambda v: core.worst_case([1.0], filters=v, horizon=20.0, seeds=(0,)),
+        lambda v: core.worst_case([1.0], **requests(True, filters=v, horizon=20.0, seeds=(0,))),
         "filters",
         lambda v: False,
     ),
@@ -233,8 +234,6 @@ def test_every_public_entry_point_refuses_hostile_values_by_name(case):
 
     @settings(
         max_examples=30,
-        deadline=None,
-        derandomize=True,
         database=None,
         suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow],
     )
@@ -256,7 +255,7 @@ def test_every_public_entry_point_refuses_hostile_values_by_name(case):
     assert len(tried) >= HOSTILE_PER_ARGUMENT
 
 
-@settings(max_examples=1500, deadline=None, derandomize=True)
+@settings(max_examples=1500)
 @given(
     text=st.text(max_size=60)
     | st.sampled_from(["٣", "１２", "NaN", "-Infinity", "1e999", "9" * 5000, "[" * 3000, "0x1f", "1_000", "½"])

@@ -12,11 +12,14 @@ import math
 
 import numpy as np
 import pytest
+from _requests import requests
 
 from isl_core import Model, kalman_bucy, optimal_kbf, recommend_nu
 from isl_core.paper import A31_NU_OVER_BETA
 from isl_core.theory import predicted_covariance
-from isl_core.worstcase import FILTERS, LABELS, worst_case
+from isl_core.worstcase import WORST_CASE_FILTERS as FILTERS
+from isl_core.worstcase import WORST_CASE_LABELS as LABELS
+from isl_core.worstcase import worst_case
 
 ALPHAS = (0.04, 0.2, 1.0, 5.0, 25.0)
 N_SIGMA = 3
@@ -26,9 +29,8 @@ LEVEL = 1.0 - 0.05 / (len(ALPHAS) * N_SIGMA * M)
 
 @pytest.fixture(scope="module")
 def table():
-    return worst_case(
-        ALPHAS, sigma_range=(2.0, 200.0), n_sigma=N_SIGMA, m=M, w=3.0, horizon=60.0, seeds=(3,), batches=6, level=LEVEL
-    )
+    sampling = requests(horizon=60.0, seeds=(3,), batches=6, level=LEVEL)
+    return worst_case(ALPHAS, sigma_range=(2.0, 200.0), n_sigma=N_SIGMA, m=M, w=3.0, **sampling)
 
 
 def test_layout(table):
@@ -108,10 +110,7 @@ def test_paper_tuning_beside_the_minimax_tuning(table):
         [0.5],
         sigma_range=(2.0, 200.0),
         n_sigma=2,
-        horizon=20.0,
-        seeds=(1,),
-        batches=2,
-        filters=("kbf", "isl", "isl_a31"),
+        **requests(True, horizon=20.0, seeds=(1,), batches=2, filters=("kbf", "isl", "isl_a31")),
     )
     assert np.isnan(other.worst[0, 2]) and np.isnan(other.nu[0, 2]) and np.all(np.isfinite(other.worst[0, :2]))
 
@@ -125,9 +124,9 @@ def test_same_result_on_another_executor_and_chunking():
         "batches": 2,
         "filters": ("kbf_adaptive", "isl"),
     }
-    local = worst_case([1.0], workers=1, **kw)
+    local = worst_case([1.0], **requests(True, workers=1, **kw))
     with cf.ThreadPoolExecutor(2) as pool:
-        other = worst_case([1.0], executor=pool, chunk=3, **kw)
+        other = worst_case([1.0], **requests(True, executor=pool, chunk=3, **kw))
     assert local.names == ("kbf_adaptive", "isl")
     for name in ("ratio", "low", "high", "theory", "nu"):
         np.testing.assert_array_equal(getattr(local, name), getattr(other, name))
@@ -139,11 +138,7 @@ def test_progress_reaches_one_and_can_cancel():
         [1.0],
         sigma_range=(5.0, 50.0),
         n_sigma=2,
-        horizon=10.0,
-        seeds=(0,),
-        batches=2,
-        filters=("kbf",),
-        progress=seen.append,
+        **requests(True, horizon=10.0, seeds=(0,), batches=2, filters=("kbf",), progress=seen.append),
     )
     assert seen and seen[-1] == pytest.approx(1.0)
 
@@ -154,7 +149,9 @@ def test_progress_reaches_one_and_can_cancel():
         raise Stop
 
     with pytest.raises(Stop):
-        worst_case([1.0], sigma_range=(5.0, 50.0), n_sigma=2, horizon=10.0, seeds=(0,), batches=2, progress=stop)
+        worst_case(
+            [1.0], sigma_range=(5.0, 50.0), n_sigma=2, **requests(horizon=10.0, seeds=(0,), batches=2, progress=stop)
+        )
 
 
 @pytest.mark.parametrize(
@@ -177,7 +174,7 @@ def test_progress_reaches_one_and_can_cancel():
 def test_bad_arguments_name_the_parameter(kwargs, pattern):
     kwargs = {"alphas": [1.0], "horizon": 5.0, **kwargs}
     with pytest.raises(ValueError, match=pattern):
-        worst_case(kwargs.pop("alphas"), **kwargs)
+        worst_case(kwargs.pop("alphas"), **requests(True, **kwargs))
 
 
 def test_model_aware_option_of_sweep_and_recommend():
@@ -185,16 +182,17 @@ def test_model_aware_option_of_sweep_and_recommend():
     from isl_core import sweep
     from isl_core.theory import predicted_ratios_grid
 
-    res = sweep([1.0], [20.0], [0.125, 0.5], horizon=20.0, seeds=(0,), batches=2, model_aware=True)
+    short = requests(horizon=20.0, seeds=(0,), batches=2)
+    res = sweep([1.0], [20.0], [0.125, 0.5], model_aware=True, **short)
     model = Model.from_w(1.0, 3.0, 20.0, 3)
     assert res.model_aware
     np.testing.assert_array_equal(
         res.theory[0, 0], predicted_ratios_grid(model, model.beta * np.array([0.125, 0.5]), damp=1.0)
     )
-    plain = sweep([1.0], [20.0], [0.125, 0.5], horizon=20.0, seeds=(0,), batches=2)
+    plain = sweep([1.0], [20.0], [0.125, 0.5], **short)
     assert not plain.model_aware and not np.array_equal(plain.theory, res.theory)
     assert np.all(np.isfinite(res.ratio)) and np.all(np.isfinite(res.kbf_ratio))
-    rec = recommend_nu(1.0, sigmas=(2.0, 200.0), horizon=20.0, seeds=(0,), batches=2, model_aware=True)
+    rec = recommend_nu(1.0, sigmas=(2.0, 200.0), model_aware=True, **short)
     assert rec.model_aware and rec.simulated_low <= rec.simulated_worst <= rec.simulated_high
     assert rec.theory_worst < recommend_nu(1.0, sigmas=(2.0, 200.0), verify=False).theory_worst
     with pytest.raises(ValueError, match=r"^model_aware must be True or False"):

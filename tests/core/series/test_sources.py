@@ -88,7 +88,7 @@ _text = st.lists(_row, min_size=0, max_size=40).map("\n".join).map(str.encode)
 _hostile = st.one_of(_text, st.binary(max_size=200), _text.map(lambda b: b"\xef\xbb\xbf" + b))
 
 
-@settings(derandomize=True, max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, suppress_health_check=[HealthCheck.too_slow])
 @given(_hostile)
 def test_hostile_bytes_give_a_series_or_a_reason(data):
     try:
