@@ -12,7 +12,7 @@ after it) and returns, beside the runs:
   the adaptive, variational-Bayes, robust and IMM filters, and paper A's ISL filter at its tuned ν — take the knobs
   of :func:`isl_core.scenario.tuning.tune` for the page's α, m and w when that tuning is cached (the minimax of the
   period statistic over the scenario table's presets, the same rule for every family), else those of the shipped
-  tuning nearest the model (:func:`isl_core.scenario.shipped.nearest`, labelled as such), and run on the tuning's grid
+  tuning nearest the model (:func:`isl_core.shipped_tuning`, labelled as such), and run on the tuning's grid
   so that a memory of W readings spans what it spanned there. Without either (α = 0, an m the shipped grid lacks) they
   run at their constructors' defaults, and say "untuned". The page's own ISL filter runs at the ν input, as
   everywhere on the page.
@@ -33,10 +33,13 @@ from isl_core import (
     Rolling,
     Scenario,
     ScenarioAverage,
+    ShippedTuning,
     adaptive_kbf,
     average_scenario,
     robust_kbf,
+    shipped_tuning,
     variational_kbf,
+    why_not_shipped,
 )
 from isl_core.filters import FilterSpec
 from isl_core.filters.imm import imm_kbf
@@ -44,7 +47,6 @@ from isl_core.filters.isl import model_aware_isl
 from isl_core.scenario.cost import filter_costs
 from isl_core.scenario.periods import PeriodRatios
 from isl_core.scenario.run import scenario_grid
-from isl_core.scenario.shipped import ShippedTuning, missing, nearest
 from isl_core.scenario.table import knob_text
 from isl_core.scenario.tuning import FAMILIES, Tuning, tune
 
@@ -115,7 +117,7 @@ def tuning_for(req: ScenarioRequest) -> Tuning | ShippedTuning | None:
         return None
     w = req.beta / math.sqrt(2.0 * req.alpha)
     cached = tune(req.alpha, m=req.m, w=w, compute=False)
-    return cached if cached is not None else nearest(req.alpha, req.m, w)
+    return cached if cached is not None else shipped_tuning(req.alpha, req.m, w)
 
 
 def _tuned(req: ScenarioRequest, tuning: Tuning | ShippedTuning) -> tuple[list, dict[str, str]]:
@@ -184,7 +186,8 @@ def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
         f"{tuning.origin.replace('r_min', R_MIN)}; this picture's runs are seeds {first}–{first + req.runs - 1}, "
         "held out from the tuning's"
         if tuning is not None
-        else f"untuned: {missing(req.alpha, req.m)}; the filters that learn σ run at their constructors' defaults"
+        else f"untuned: {why_not_shipped(req.alpha, req.m)}; the filters that learn σ run at their constructors' "
+        "defaults"
     )
     exact = tuning if isinstance(tuning, Tuning) else None
     shipped = tuning if isinstance(tuning, ShippedTuning) else None

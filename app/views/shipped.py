@@ -1,12 +1,12 @@
 """What the tuning part of the Scenario tab says when the picture's knobs come from a shipped tuning
-(:func:`isl_core.scenario.shipped.nearest`): the grid point, how near the page's model it is, each family's knob and
+(:func:`isl_core.shipped_tuning`): the grid point, how near the page's model it is, each family's knob and
 its minimax figure on the tuning's seeds — no curves, which only a tuning computed for the model has."""
 
 from __future__ import annotations
 
 import html
 
-from isl_core.scenario.shipped import ShippedTuning
+from isl_core import ShippedTuning
 from isl_core.scenario.table import knob_text
 from isl_core.scenario.tuning import FAMILIES
 

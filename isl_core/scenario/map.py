@@ -43,7 +43,7 @@ from .average import average_scenario
 from .base import Scenario
 from .periods import Period, edge_times, per_seed, worst_from, worst_margin
 from .presets import DEFAULT_RATE, read_at
-from .shipped import ShippedTuning, nearest
+from .shipped import ShippedTuning, shipped_tuning
 from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
@@ -114,7 +114,7 @@ def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | N
     tuning's: held out."""
     found: Tuning | ShippedTuning | None = tuning
     if found is None and not untuned:
-        found = tune(alpha, m=m, w=w, compute=False) or nearest(alpha, m, w)
+        found = tune(alpha, m=m, w=w, compute=False) or shipped_tuning(alpha, m, w)
     if found is not None:
         specs = found.tuned_filters(model)
         nu = model.beta * 2.0 ** found.knobs[found.minimax("isl")]["ell"]

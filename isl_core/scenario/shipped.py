@@ -14,7 +14,7 @@ c, the IMM's switch per reading). With β = w√(2α) (A.25) the tuning of (α, 
 3): :func:`equivalent_alpha`. One axis of α at w = 3 covers every β. A test checks the invariance on the tuning's
 statistic.
 
-Between grid points :func:`nearest` takes the nearest in log α (at w = 3), with m exact, and says so in its
+Between grid points :func:`shipped_tuning` takes the nearest in log α (at w = 3), with m exact, and says so in its
 ``origin``.
 """
 
@@ -44,16 +44,16 @@ __all__ = [
     "W_GRID",
     "ShippedGrid",
     "ShippedTuning",
-    "describe",
     "entry_from",
     "equivalent_alpha",
     "load_shipped",
-    "missing",
-    "nearest",
     "probe_record",
     "probe_tuning",
     "rule",
+    "shipped_json",
+    "shipped_tuning",
     "stale",
+    "why_not_shipped",
 ]
 
 SHIPPED = Path(__file__).resolve().parent / "data" / "tunings.json"  #: the shipped grid
@@ -96,8 +96,8 @@ def equivalent_alpha(alpha: float, m: int, w: float) -> float:
 
 @dataclass(frozen=True)
 class ShippedTuning:
-    """One grid point's tuning, read for a model: the point (``alpha``, ``m``, w = :data:`W_GRID`), the model asked
-    for (``asked``: α, w), per family (:data:`isl_core.scenario.tuning.FAMILIES` order) its ``knobs`` and its minimax
+    """One grid point's tuning, read for a model: the point (``alpha``, ``m``, w = :data:`!W_GRID`), the model asked
+    for (``asked``: α, w), per family (:data:`!isl_core.scenario.tuning.FAMILIES` order) its ``knobs`` and its minimax
     ``figures`` (ratio, low, high at 95 %, the cell) on the tuning's ``seeds``; ``origin`` says all of it in words.
     Answers as a :class:`isl_core.Tuning` does for the filters: :meth:`minimax` indexes ``knobs``."""
 
@@ -117,7 +117,7 @@ class ShippedTuning:
         return list(FAMILIES).index(family)
 
     def tuned_filters(self, model: Model) -> list:
-        """Every family's filter at its shipped knob for ``model``, in :data:`FAMILIES` order."""
+        """Every family's filter at its shipped knob for ``model``, in :data:`!FAMILIES` order."""
         return [family_filter(f, model, k, self.grids) for f, k in zip(FAMILIES, self.knobs, strict=True)]
 
     def grid_filters(self, model: Model) -> list:
@@ -176,10 +176,10 @@ def _words(alphas) -> str:
     return "{" + ", ".join(f"{a:g}" for a in alphas) + "}"
 
 
-def nearest(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None) -> ShippedTuning | None:
+def shipped_tuning(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None) -> ShippedTuning | None:
     """The shipped tuning for paper A's model (α, m, w): the grid point of this m nearest in log of
-    :func:`equivalent_alpha`; None when α = 0 (no tuning), no point has this m, or the file is missing or
-    :func:`stale`."""
+    :func:`!equivalent_alpha`; None when α = 0 (no tuning), no point has this m, or the file is missing or
+    :func:`!stale`."""
     alpha = check_real("alpha", alpha, lo=0.0)
     m = check_int("m", m, lo=1, hi=6)
     w = check_real("w", w, lo=0.0, lo_open=True)
@@ -194,8 +194,8 @@ def nearest(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None)
     return _shipped(grid, entry, alpha, w, target)
 
 
-def missing(alpha: float, m: int, *, path: str | None = None) -> str:
-    """Why :func:`nearest` has no tuning for (α, m), in words ("" when it has one)."""
+def why_not_shipped(alpha: float, m: int, *, path: str | None = None) -> str:
+    """Why :func:`shipped_tuning` has no tuning for (α, m), in words ("" when it has one)."""
     grid = load_shipped(path)
     if alpha <= 0.0:
         return "α = 0 (paper B's model) has no tuning: the rule tunes paper A's model, β = w√(2α)"
@@ -208,12 +208,12 @@ def missing(alpha: float, m: int, *, path: str | None = None) -> str:
     return ""
 
 
-def describe(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None) -> dict:
-    """The shipped tuning :func:`nearest` gives (α, m, w), as JSON: its label (nearest grid point or exact), the point
-    and each family's knob and minimax figure — or why there is none."""
-    found = nearest(alpha, m, w, path=path)
+def shipped_json(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None) -> dict:
+    """The shipped tuning :func:`shipped_tuning` gives (α, m, w), as JSON: its label (nearest grid point or exact),
+    the point and each family's knob and minimax figure — or why there is none."""
+    found = shipped_tuning(alpha, m, w, path=path)
     if found is None:
-        return {"label": None, "why_none": missing(alpha, m, path=path)}
+        return {"label": None, "why_none": why_not_shipped(alpha, m, path=path)}
     return {
         "label": found.label,
         "grid_point": {"alpha": found.alpha, "m": found.m, "w": W_GRID},

@@ -17,8 +17,7 @@ from app.state.scenarios import PRESETS
 from app.urlsync import query_string, read_query
 from app.views.scenario import ScenarioView
 from app.views.scenario_tables import SCENARIO_COLORS, map_html, periods_html
-from isl_core import Scenario, average_scenario, plan_scenario, who_wins_map
-from isl_core.scenario.shipped import nearest
+from isl_core import Scenario, average_scenario, plan_scenario, shipped_tuning, who_wins_map
 from isl_core.scenario.table import PRESETS as TABLE_PRESETS
 
 
@@ -171,7 +170,7 @@ def test_the_default_pages_scenarios_tab_shows_no_untuned_row(state, monkeypatch
     state.set_inputs({"sc_runs": 2, "sc_horizon": 12.0})  # the default model, a short scenario
     view = ScenarioView(state=state)
     pic = state.scenarios.picture
-    ship = nearest(state.alpha, state.m, state.w)
+    ship = shipped_tuning(state.alpha, state.m, state.w)
     assert pic.shipped == ship and ship.exact and pic.tuned is None and state.scenarios.tuning is None
     assert pic.average.seeds[0] == state.seed + len(ship.seeds)  # held out from the tuning's seeds
     table = view._periods.object

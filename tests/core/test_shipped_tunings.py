@@ -12,7 +12,7 @@ import pytest
 from isl_core import Model, TuningGrids, tune
 from isl_core.scenario import PRESETS, shipped
 from isl_core.scenario.map import map_filters
-from isl_core.scenario.shipped import COMMAND, describe, equivalent_alpha, missing, nearest
+from isl_core.scenario.shipped import COMMAND, equivalent_alpha, shipped_json, shipped_tuning, why_not_shipped
 from isl_core.scenario.tuning import FAMILIES
 from isl_core.scenario.variants import family_filter
 
@@ -60,14 +60,16 @@ def small_file(tmp_path):
 
 
 def test_between_grid_points_the_nearest_in_log_alpha_is_taken_and_labelled(small_file):
-    near = nearest(0.4, 2, path=str(small_file))  # |log 2| < |log 2.5|: 0.2
+    near = shipped_tuning(0.4, 2, path=str(small_file))  # |log 2| < |log 2.5|: 0.2
     assert near is not None and (near.alpha, near.m, near.exact) == (0.2, 2, False)
     assert near.label == "tuned at α = 0.2, m = 2; your α = 0.4: nearest grid point"
     assert "Tune computes your model's own" in near.origin and "α ∈ {0.2, 1}" in near.origin
-    assert nearest(0.5, 2, path=str(small_file)).alpha == 1.0  # |log 2.5| > |log 2|
-    exact = nearest(1.0, 2, path=str(small_file))
+    assert shipped_tuning(0.5, 2, path=str(small_file)).alpha == 1.0  # |log 2.5| > |log 2|
+    exact = shipped_tuning(1.0, 2, path=str(small_file))
     assert exact.exact and exact.label == "tuned at α = 1, m = 2"
-    rounded = nearest(17.0, 2, 3.0 * math.sqrt(34.0) / math.sqrt(34.0), path=str(small_file))  # w = 3 to rounding
+    rounded = shipped_tuning(
+        17.0, 2, 3.0 * math.sqrt(34.0) / math.sqrt(34.0), path=str(small_file)
+    )  # w = 3 to rounding
     assert rounded.label == "tuned at α = 1, m = 2; your α = 17: nearest grid point"
     model = Model.from_w(0.4, 3.0, 20.0, 2)  # its filters: the knobs on the page's model
     specs = near.tuned_filters(model)
@@ -78,7 +80,7 @@ def test_between_grid_points_the_nearest_in_log_alpha_is_taken_and_labelled(smal
 def test_a_model_given_by_beta_maps_onto_the_grid_by_its_equivalent_alpha(small_file):
     w = 3.0 * 0.2**-1.5  # α = 1 with this w is α = 0.2 at w = 3 (m = 2)
     assert equivalent_alpha(1.0, 2, w) == pytest.approx(0.2, rel=1e-12)
-    found = nearest(1.0, 2, w, path=str(small_file))
+    found = shipped_tuning(1.0, 2, w, path=str(small_file))
     assert (
         found.alpha == 0.2
         and found.exact
@@ -87,11 +89,14 @@ def test_a_model_given_by_beta_maps_onto_the_grid_by_its_equivalent_alpha(small_
 
 
 def test_the_json_of_isl_scenario_names_the_shipped_tuning_and_its_point(small_file):
-    said = describe(0.4, 2, path=str(small_file))
+    said = shipped_json(0.4, 2, path=str(small_file))
     assert said["label"] == "tuned at α = 0.2, m = 2; your α = 0.4: nearest grid point" and not said["exact"]
     assert said["grid_point"] == {"alpha": 0.2, "m": 2, "w": 3.0} and set(said["knobs"]) == set(FAMILIES)
     assert said["figures"]["vb"] == {"ratio": 1.1, "low95": 1.0, "high95": 1.2, "cell": "sigma_drop:first1"}
-    assert describe(0.4, 5, path=str(small_file)) == {"label": None, "why_none": missing(0.4, 5, path=str(small_file))}
+    assert shipped_json(0.4, 5, path=str(small_file)) == {
+        "label": None,
+        "why_none": why_not_shipped(0.4, 5, path=str(small_file)),
+    }
     json.dumps(said, allow_nan=False)
 
 
@@ -99,7 +104,7 @@ def test_a_map_without_a_computed_tuning_takes_the_shipped_one(grid, monkeypatch
     monkeypatch.setenv("ISL_CACHE_DIR", str(tmp_path))  # nothing computed: the shipped tuning nearest α = 0.7
     model = Model.from_w(0.7, 3.0, 20.0, 3)
     nu, label, extra, origin, first = map_filters(model, 0.7, 3, 3.0, None)
-    near = nearest(0.7, 3)
+    near = shipped_tuning(0.7, 3)
     assert origin.startswith(f"tuned: {near.origin}") and first == len(near.seeds)
     assert nu == model.beta * 2.0 ** near.knobs[0]["ell"] and label == near.tuned_filters(model)[0].label
     assert [e.name for e in extra] == list(FAMILIES)[1:]
@@ -107,16 +112,20 @@ def test_a_map_without_a_computed_tuning_takes_the_shipped_one(grid, monkeypatch
 
 def test_no_shipped_tuning_is_said_why(small_file, tmp_path):
     path = str(small_file)
-    assert nearest(0.5, 3, path=path) is None and "no point with m = 3 (m ∈ {2})" in missing(0.5, 3, path=path)
-    assert nearest(0.0, 2, path=path) is None and "α = 0" in missing(0.0, 2, path=path)
+    assert shipped_tuning(0.5, 3, path=path) is None and "no point with m = 3 (m ∈ {2})" in why_not_shipped(
+        0.5, 3, path=path
+    )
+    assert shipped_tuning(0.0, 2, path=path) is None and "α = 0" in why_not_shipped(0.0, 2, path=path)
     data = json.loads(small_file.read_text(encoding="utf-8"))
     data["rule"]["tune"]["seeds"] += 1  # made by another rule: refused, never used silently
     stale = tmp_path / "stale.json"
     stale.write_text(json.dumps(data), encoding="utf-8")
-    assert nearest(0.2, 2, path=str(stale)) is None
-    assert "differs in: tune" in missing(0.2, 2, path=str(stale)) and COMMAND in missing(0.2, 2, path=str(stale))
+    assert shipped_tuning(0.2, 2, path=str(stale)) is None
+    assert "differs in: tune" in why_not_shipped(0.2, 2, path=str(stale)) and COMMAND in why_not_shipped(
+        0.2, 2, path=str(stale)
+    )
     with pytest.raises(ValueError, match="alpha must be"):
-        nearest(-1.0, 2, path=path)
+        shipped_tuning(-1.0, 2, path=path)
 
 
 def test_a_tuning_depends_on_alpha_and_w_only_through_the_equivalent_alpha():
