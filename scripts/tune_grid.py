@@ -60,6 +60,7 @@ def _write(path: Path, record: dict) -> None:
     with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".json", delete=False, encoding="utf-8") as tmp:
         json.dump(record, tmp, indent=1, ensure_ascii=False)
         tmp.write("\n")
+    os.chmod(tmp.name, 0o644)  # readable by the server's user, as any file of the package (a temporary file is 0600)
     os.replace(tmp.name, path)
 
 

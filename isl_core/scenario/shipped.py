@@ -148,7 +148,7 @@ def load_shipped(path: str | None = None) -> ShippedGrid | None:
     where = Path(path) if path is not None else SHIPPED
     try:
         data = json.loads(where.read_text(encoding="utf-8"))
-    except FileNotFoundError:
+    except OSError:  # missing or unreadable: as if not installed (said by why_not_shipped)
         return None
     entries = tuple(data["entries"])
     return ShippedGrid(
