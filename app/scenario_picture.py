@@ -11,9 +11,11 @@ after it) and returns, beside the runs:
 * each filter's **tuning** and where it came from. The filters that do not know σ(t) — the model-aware ISL filter,
   the adaptive, variational-Bayes, robust and IMM filters, and paper A's ISL filter at its tuned ν — take the knobs
   of :func:`isl_core.scenario.tuning.tune` for the page's α, m and w when that tuning is cached (the minimax of the
-  period statistic over the scenario table's presets, the same rule for every family), and run on the tuning's grid so
-  that a memory of W readings spans what it spanned there. Without it they run at their constructors' defaults, and say
-  "untuned". The page's own ISL filter runs at the ν input, as everywhere on the page.
+  period statistic over the scenario table's presets, the same rule for every family), else those of the shipped
+  tuning nearest the model (:func:`isl_core.shipped_tuning`, labelled as such), and run on the tuning's grid
+  so that a memory of W readings spans what it spanned there. Without either (α = 0, an m the shipped grid lacks) they
+  run at their constructors' defaults, and say "untuned". The page's own ISL filter runs at the ν input, as
+  everywhere on the page.
 
 Costs (:func:`costs`) are measured once per server and set of filters: nanoseconds a step of each filter beside the
 loop's own three, on this server's CPU.
@@ -31,10 +33,13 @@ from isl_core import (
     Rolling,
     Scenario,
     ScenarioAverage,
+    ShippedTuning,
     adaptive_kbf,
     average_scenario,
     robust_kbf,
+    shipped_tuning,
     variational_kbf,
+    why_not_shipped,
 )
 from isl_core.filters import FilterSpec
 from isl_core.filters.imm import imm_kbf
@@ -99,26 +104,32 @@ class Picture:
     tuning: dict[str, str]
     origin: str
     filters: tuple[FilterSpec, ...] = ()  #: the filters beyond the loop's own three (the costs are theirs)
-    tuned: Tuning | None = None  #: the tuning the filters took their knobs from (None: untuned)
+    tuned: Tuning | None = None  #: the tuning the filters took their knobs from (None: untuned or shipped)
     costs: dict[str, float] | None = None  #: ns a step of each filter (:func:`costs`)
+    shipped: ShippedTuning | None = None  #: the shipped tuning the filters took their knobs from, if one did
 
 
-def tuning_for(req: ScenarioRequest) -> Tuning | None:
-    """The cached tuning of paper A's model with the page's α, m and w = β/√(2α) (A.25), or None (α = 0, or not
-    tuned yet: :func:`isl_core.scenario.tuning.tune` computes it, ≈ 2 min on two cores)."""
+def tuning_for(req: ScenarioRequest) -> Tuning | ShippedTuning | None:
+    """The cached tuning of paper A's model with the page's α, m and w = β/√(2α) (A.25), else the shipped one nearest
+    it, or None (α = 0, or an m without shipped tunings: :func:`isl_core.scenario.tuning.tune` computes it, minutes
+    on two cores)."""
     if req.alpha <= 0.0:
         return None
-    return tune(req.alpha, m=req.m, w=req.beta / math.sqrt(2.0 * req.alpha), compute=False)
+    w = req.beta / math.sqrt(2.0 * req.alpha)
+    cached = tune(req.alpha, m=req.m, w=w, compute=False)
+    return cached if cached is not None else shipped_tuning(req.alpha, req.m, w)
 
 
-def _tuned(req: ScenarioRequest, tuning: Tuning) -> tuple[list, dict[str, str]]:
+def _tuned(req: ScenarioRequest, tuning: Tuning | ShippedTuning) -> tuple[list, dict[str, str]]:
     model, specs, words = req.model, [], {}
+    near = isinstance(tuning, ShippedTuning) and not tuning.exact
+    how = f"tuned at α = {tuning.alpha:g}, m = {tuning.m} (nearest grid point)" if near else "tuned"
     for family, spec in zip(FAMILIES, tuning.tuned_filters(model), strict=True):
         text = powers(knob_text(tuning.knobs[tuning.minimax(family)]))
         if family == "isl":
             spec = dataclasses.replace(spec, name=TUNED_ISL, label=f"ISL (paper A), tuned {text}")
         specs.append(dataclasses.replace(spec, label=powers(spec.label)))
-        words[spec.name] = f"tuned: {text}"
+        words[spec.name] = f"{how}: {text}"
     return specs, words
 
 
@@ -135,7 +146,9 @@ def _untuned(req: ScenarioRequest) -> tuple[list, dict[str, str]]:
     return specs, {s.name: "untuned: the constructor's default" for s in specs}
 
 
-def picture_filters(req: ScenarioRequest, tuning: Tuning | None) -> tuple[list[FilterSpec], dict[str, str]]:
+def picture_filters(
+    req: ScenarioRequest, tuning: Tuning | ShippedTuning | None
+) -> tuple[list[FilterSpec], dict[str, str]]:
     """The picture's filters beyond the loop's own three, at the knobs of ``tuning`` (None: the constructors'
     defaults), and each one's tuning in words."""
     return _tuned(req, tuning) if tuning is not None else _untuned(req)
@@ -173,9 +186,12 @@ def scenario_picture(req: ScenarioRequest, progress=None) -> Picture:
         f"{tuning.origin.replace('r_min', R_MIN)}; this picture's runs are seeds {first}–{first + req.runs - 1}, "
         "held out from the tuning's"
         if tuning is not None
-        else ("not tuned yet for this α, m and w: the filters that learn σ run at their constructors' defaults")
+        else f"untuned: {why_not_shipped(req.alpha, req.m)}; the filters that learn σ run at their constructors' "
+        "defaults"
     )
-    pic = Picture(req, avg, avg.rolling(req.window), periods, words, origin, tuple(extra), tuning)
+    exact = tuning if isinstance(tuning, Tuning) else None
+    shipped = tuning if isinstance(tuning, ShippedTuning) else None
+    pic = Picture(req, avg, avg.rolling(req.window), periods, words, origin, tuple(extra), exact, shipped=shipped)
     return dataclasses.replace(pic, costs=costs(pic))
 
 

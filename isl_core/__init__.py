@@ -72,6 +72,7 @@ from .scenario import (
 from .scenario.heldout import held_out
 from .scenario.map import AXIS_LABELS, STEP_AT
 from .scenario.presets import DEFAULT_RATE
+from .scenario.shipped import ShippedTuning, shipped_json, shipped_tuning, why_not_shipped
 from .scenario.table import PRESETS as SCENARIO_PRESETS
 from .scenario.table import beyond_rows, beyond_stats, knob_text
 from .scenario.tuning import paper_nu
@@ -163,6 +164,7 @@ __all__ = [
     "Series",
     "SeriesRun",
     "SeriesTrack",
+    "ShippedTuning",
     "SweepResult",
     "TableRow",
     "Track",
@@ -221,6 +223,8 @@ __all__ = [
     "select_order",
     "series_sigma_range",
     "settling_rate",
+    "shipped_json",
+    "shipped_tuning",
     "simulate",
     "simulate_rmse",
     "simulate_scenario",
@@ -232,6 +236,7 @@ __all__ = [
     "tune",
     "variational_kbf",
     "who_wins_map",
+    "why_not_shipped",
     "worst_case",
 ]
 

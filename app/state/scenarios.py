@@ -329,7 +329,8 @@ class ScenarioRoom(Room):
     def find_tuning(self) -> None:
         """The cached tuning of the page's model into ``tuning`` (None if there is none)."""
         try:
-            self.tuning = tuning_for(self.request())
+            found = tuning_for(self.request())
+            self.tuning = found if isinstance(found, Tuning) else None  # a shipped one has no curves to draw
         except ValueError:
             self.tuning = None
 

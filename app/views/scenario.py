@@ -276,8 +276,9 @@ class ScenarioView(Viewer):
             "noise, a **coarse sensor**. Every filter runs on the same noise and is compared with the *clairvoyant* "
             "Kalman filter, which knows σ(t), the noise's variance and the sensor. The filters that do not know σ(t) "
             "— the ISL filters, the adaptive, variational-Bayes, robust (Huber) and IMM filters — each take the knob "
-            "one rule gives them (below: **tuning curves**), when this model has been tuned; the page's own ISL "
-            "filter runs at the ν input.",
+            "one rule gives them (below: **tuning curves**): tuned for this model once **Tune** has run, else at the "
+            "nearest point of the tunings shipped with the package (the table's caption says which); the page's own "
+            "ISL filter runs at the ν input.",
             margin=(0, 10),
             styles={"font-size": TEXT_FONT},
         )

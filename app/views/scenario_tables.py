@@ -132,7 +132,7 @@ def periods_html(pic, costs: dict[str, float] | None = None) -> str:
         f"{pic.average.seeds[0]}–{pic.average.seeds[-1]}), with Student's 95 % interval over them: the clairvoyant "
         "row reads 1 up to that interval and the maximum over the coordinates' noise. Under it, the worst run's own "
         "ratio and how many runs read above 2×. Bold: the lowest ratio in a period among the filters that do not "
-        "know σ.</p>"
+        f"know σ. Knobs: {html.escape(pic.origin)}.</p>"
     )
 
 

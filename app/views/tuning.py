@@ -29,6 +29,7 @@ from isl_core.scenario.tuning import FAMILIES
 
 from ..state import AppState
 from ..text import R_MIN, powers
+from .shipped import shipped_note
 from .style import SIGMA_COLORS, TEXT_FONT, job_buttons, px, ratio_axis, styled, text_scale
 
 __all__ = ["AXIS", "TuningView", "curves"]
@@ -80,7 +81,7 @@ class TuningView(Viewer):
         self._figure = self._chart()
         self._note = pn.pane.Markdown("", margin=(0, 10), styles={"font-size": TEXT_FONT})
         self._family.param.watch(lambda event: self._update(), "value")
-        self.state.scenarios.param.watch(lambda event: self._update(), ["tuning"])
+        self.state.scenarios.param.watch(lambda event: self._update(), ["tuning", "picture"])
         self._update()
 
     def _chart(self) -> figure:
@@ -127,10 +128,15 @@ class TuningView(Viewer):
     def _update(self) -> None:
         t, family = self.state.scenarios.tuning, self._family.value
         if t is None:
+            shipped = getattr(self.state.scenarios.picture, "shipped", None)
             self._note.object = (
-                "No tuning for this α, m and w yet: **Tune** computes it (a few minutes on two cores, then "
-                "kept) — until then the Scenario picture runs the filters at their constructors' "
-                "defaults, labelled *untuned*."
+                shipped_note(shipped)
+                if shipped is not None
+                else (
+                    "No tuning for this α, m and w yet: **Tune** computes it (a few minutes on two cores, then "
+                    "kept) — until then the Scenario picture runs the filters at their constructors' "
+                    "defaults, labelled *untuned*."
+                )
             )
             for src in (*self._sources, self._all):
                 src.data = {"x": [], "y": []}

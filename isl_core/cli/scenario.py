@@ -66,6 +66,7 @@ def cmd_scenario(args: argparse.Namespace) -> int:
 
 
 def _meta(res: Tuning) -> dict[str, Any]:
+    from .. import shipped_json
     from ..scenario.tuning import FAMILIES
 
     return {
@@ -87,6 +88,7 @@ def _meta(res: Tuning) -> dict[str, Any]:
         "h": dict(zip(res.presets, res.h, strict=True)),
         "steps_per_reading": dict(zip(res.presets, res.substeps, strict=True)),
         "minimax_on_grid_edge": {f: res.on_edge(f) for f in FAMILIES if res.on_edge(f)},
+        "shipped_tuning": shipped_json(res.alpha, res.m, res.w),  # what the dashboard uses without a computed tuning
     }
 
 

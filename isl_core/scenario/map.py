@@ -3,12 +3,12 @@
 :func:`who_wins_map` sweeps one parameter of a scenario (paper A's model with this α, σ(0) = 20, ``seeds``
 independent noises per cell) with the table's filters (:mod:`isl_core.scenario.table`): the clairvoyant reference,
 the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.scenario.tuning.FAMILIES` at its tuned knob — the
-``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else (said in each label and in
-``origin``) the constructors' defaults. Per cell it reports every filter's period statistic
-(:mod:`isl_core.scenario.periods`: the worst coordinate's RMSE, pooled over the seeds, over the clairvoyant variance;
-with a tuning, on the seeds after the tuning's: held out), the filter with the lowest one (the clairvoyant filter
-aside) and its margin over the runner-up, paired over the seeds, with a tie where the margin's lower 95 % bound is
-≤ 1:
+``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else the shipped one nearest them
+(:mod:`isl_core.scenario.shipped`), else (said in each label and in ``origin``) the constructors' defaults. Per
+cell it reports every filter's period statistic (:mod:`isl_core.scenario.periods`: the worst coordinate's RMSE,
+pooled over the seeds, over the clairvoyant variance; with a tuning, on the seeds after the tuning's: held out), the
+filter with the lowest one (the clairvoyant filter aside) and its margin over the runner-up, paired over the seeds,
+with a tie where the margin's lower 95 % bound is ≤ 1:
 
 * ``"sigma_step"`` — σ(0) = 20 steps to 20·r at 10/r_min, for each ratio r of ``values`` (default 0.025 … 100:
   σ from 0.5 to 2000, beyond the ranges the learners assume): a
@@ -45,6 +45,7 @@ from .average import average_scenario
 from .base import Scenario
 from .periods import Period, edge_times, per_seed, worst_from, worst_margin
 from .presets import DEFAULT_RATE, read_at
+from .shipped import ShippedTuning, shipped_tuning
 from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
@@ -112,15 +113,17 @@ def map_filters(
     model: Model, alpha: float, m: int, w: float, tuning: Tuning | None, untuned: bool = False
 ) -> tuple[float, str, list[FilterSpec], str, int]:
     """(ν, the ISL filter's label, the other families' filters, origin, first seed) for a map: every family at the
-    knob of ``tuning`` (else the cached one for α, m, w at the table's defaults; else, or with ``untuned``, the
-    constructors' defaults, said). With a tuning the map's seeds start after the tuning's: held out."""
-    if tuning is None and not untuned:
-        tuning = tune(alpha, m=m, w=w, compute=False)
-    if tuning is not None:
-        specs = tuning.tuned_filters(model)
-        nu = model.beta * 2.0 ** tuning.knobs[tuning.minimax("isl")]["ell"]
-        first = max(tuning.seeds) + 1
-        return nu, specs[0].label, specs[1:], f"tuned: {tuning.origin}; the map's seeds from {first} on", first
+    knob of ``tuning`` (else the cached one for α, m, w at the table's defaults, else the shipped one nearest them;
+    else, or with ``untuned``, the constructors' defaults, said). With a tuning the map's seeds start after the
+    tuning's: held out."""
+    found: Tuning | ShippedTuning | None = tuning
+    if found is None and not untuned:
+        found = tune(alpha, m=m, w=w, compute=False) or shipped_tuning(alpha, m, w)
+    if found is not None:
+        specs = found.tuned_filters(model)
+        nu = model.beta * 2.0 ** found.knobs[found.minimax("isl")]["ell"]
+        first = max(found.seeds) + 1
+        return nu, specs[0].label, specs[1:], f"tuned: {found.origin}; the map's seeds from {first} on", first
     nu, label = paper_nu(model, alpha, m, w)
     guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
     extra = [

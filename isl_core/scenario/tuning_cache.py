@@ -13,7 +13,12 @@ import numpy as np
 
 from ..kernels.cache import sources_digest
 
-__all__ = ["cache_dir", "cache_key", "load", "save"]
+__all__ = ["RULE_VERSION", "cache_dir", "cache_key", "load", "save"]
+
+#: The tuning rule's version: raised when what a tuning means changes while its arguments do not (what a cell is, how
+#: the minimax reads it). A stored tuning is keyed by it, and shipped tunings made under another one are refused
+#: (:mod:`isl_core.scenario.shipped`).
+RULE_VERSION = 1
 
 
 def cache_dir() -> Path:
@@ -26,9 +31,10 @@ def cache_dir() -> Path:
 
 
 def cache_key(alpha, m, w, seeds, horizon, burn, presets, grids, refine=0) -> dict:
-    """What a cached tuning was computed from: its arguments (the presets at their reading rate, the step's
-    refinement), the grids and the digest of the core's sources."""
+    """What a cached tuning was computed from: the rule's version, its arguments (the presets at their reading rate,
+    the step's refinement), the grids and the digest of the core's sources."""
     return {
+        "rule": RULE_VERSION,
         "refine": refine,
         "alpha": alpha,
         "m": m,

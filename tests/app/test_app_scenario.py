@@ -17,7 +17,7 @@ from app.state.scenarios import PRESETS
 from app.urlsync import query_string, read_query
 from app.views.scenario import ScenarioView
 from app.views.scenario_tables import SCENARIO_COLORS, map_html, periods_html
-from isl_core import Scenario, average_scenario, plan_scenario, who_wins_map
+from isl_core import Scenario, average_scenario, plan_scenario, shipped_tuning, who_wins_map
 from isl_core.scenario.table import PRESETS as TABLE_PRESETS
 
 
@@ -60,7 +60,8 @@ def test_the_link_carries_the_scenario_and_reports_bad_values(state):
 
 
 def test_the_picture_is_the_cores_average_for_the_same_request(state):
-    state.set_inputs({"sc_runs": 4, "sc_horizon": 14.0, "sc_change_at": 6.0})
+    # α = 0, paper B's model: no tuning, the filters at their constructors' defaults
+    state.set_inputs({"sc_runs": 4, "sc_horizon": 14.0, "sc_change_at": 6.0, "alpha": 0.0, "beta_from_w": False})
     state.scenarios.want()  # outside a server the job runs inline
     pic = state.scenarios.picture
     assert pic is not None and "Simulated in" in state.scenarios.note and "4 runs" in state.scenarios.note
@@ -89,6 +90,7 @@ def test_the_picture_is_the_cores_average_for_the_same_request(state):
         "imm",
     )
     assert pic.tuned is None and set(pic.tuning.values()) >= {"untuned: the constructor's default"}
+    assert pic.origin.startswith("untuned: α = 0 (paper B's model) has no tuning")
     # an input change recomputes it (the tab is open)
     state.scenarios.noise = "outliers"
     assert state.scenarios.picture.request.scenario.noise == "outliers"
@@ -149,7 +151,7 @@ def test_the_view_draws_the_picture_and_the_period_table(state):
     pic = state.scenarios.picture
     table = periods_html(pic, pic.costs)
     assert table.count("<tr>") == 1 + len(pic.average.run.names) and "class='best'" in table
-    assert "first 1/rₘᵢₙ after the change" in table and "untuned" in table
+    assert "first 1/rₘᵢₙ after the change" in table and "untuned" not in table
     pr = pic.periods  # each cell at its worst coordinate, with the worst run's own ratio
     assert f"X{pr.coordinate[2, 0] + 1} · worst run {pr.worst_seed[2, 0]:.3g}" in table
     np.testing.assert_array_equal(pr.ratio, pr.coordinates.max(axis=2))
@@ -158,6 +160,29 @@ def test_the_view_draws_the_picture_and_the_period_table(state):
     assert table.count("the 3 together") == 1 and table.count("rowspan='3'") == 1  # the loop's three share one cost
     state.scenarios.runs = 1  # one run: no interval, no period statistic, said so
     assert "No period statistic from one run" in periods_html(state.scenarios.picture)
+
+
+def test_the_default_pages_scenarios_tab_shows_no_untuned_row(state, monkeypatch, tmp_path):
+    """Without a tuning computed for the page's model, the shipped one at its grid point (the default page's model
+    is one) gives every filter its knob, on its grid and held-out seeds; a model between grid points takes the
+    nearest, and the table's caption, the rows and the tuning part say so."""
+    monkeypatch.setenv("ISL_CACHE_DIR", str(tmp_path))  # no tuning computed here: the shipped one
+    state.set_inputs({"sc_runs": 2, "sc_horizon": 12.0})  # the default model, a short scenario
+    view = ScenarioView(state=state)
+    pic = state.scenarios.picture
+    ship = shipped_tuning(state.alpha, state.m, state.w)
+    assert pic.shipped == ship and ship.exact and pic.tuned is None and state.scenarios.tuning is None
+    assert pic.average.seeds[0] == state.seed + len(ship.seeds)  # held out from the tuning's seeds
+    table = view._periods.object
+    assert "untuned" not in table and "Knobs: shipped tuning, tuned at α = 0.5, m = 3 (grid at m = 3: α ∈" in table
+    vb = ship.knobs[ship.minimax("vb")]
+    assert pic.tuning["vb"] == f"tuned: W = {vb['memory']:g} readings"
+    assert all(pic.tuning[n].startswith("tuned") for n in pic.average.run.names[3:])
+    assert "tuned at α = 0.5, m = 3" in view._tuning._note.object and "**Tune** computes" in view._tuning._note.object
+    state.set_inputs({"alpha": 0.7})  # between grid points: the nearest in log α, labelled
+    pic = state.scenarios.picture
+    assert pic.shipped.alpha == 0.5 and "your α = 0.7: nearest grid point" in view._periods.object
+    assert pic.tuning["vb"].startswith("tuned at α = 0.5, m = 3 (nearest grid point): W = ")
 
 
 def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(state, monkeypatch, tmp_path):

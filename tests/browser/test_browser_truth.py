@@ -303,6 +303,13 @@ def test_the_scenario_plots_hold_their_bands_and_tell_filters_apart_in_presenter
     ) as page:
         page.wait_for_function(f"() => ({SCENARIO_PLOTS})().every(p => p[7] > 0)", timeout=20_000)  # laid out
         plots = page.evaluate(SCENARIO_PLOTS)
+        page.wait_for_function(f"() => ({DEEP})('p.isl-key') !== null", timeout=20_000)  # the period table's caption
+        table, caption = page.evaluate(
+            f"() => [({DEEP})('table.isl-scn').textContent, ({DEEP})('p.isl-key').textContent]"
+        )
+    # the default model's filters at the shipped tuning's knobs, no row untuned
+    assert "untuned" not in table and "tuned: W = " in table, table
+    assert "Knobs: shipped tuning, tuned at α = 0.5, m = 3 (grid at m = 3" in caption, caption
     (_, start, end, lo, hi, _, top, height, *_), sigma = plots
     assert start <= lo and end >= hi, (start, end, lo, hi)  # the lines and their bands, all in view
     assert top + height / 2 <= 720, (top, height)  # at least half the ratio plot on the first screen

@@ -108,6 +108,7 @@ def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenar
     assert "[2, 200]" in beyond["rows"]["kbf_adaptive"]["assumes"] and "oracle:vb" not in beyond["rows"]
     assert set(meta["clairvoyant_reads_1_within_its_interval"]) == {"sensor:settled", "constant:settled"}
     assert meta["one_reading_over_r_min"]["sensor"] == pytest.approx(0.1, rel=0.1)
+    assert meta["shipped_tuning"]["label"] == "tuned at α = 1, m = 3"  # what the dashboard uses without a tuning
     with open(out) as fh:
         lines = list(csv.DictReader(fh))
     assert len(lines) == 2 * len(rows) and lines[0]["filter"] == "clairvoyant"
