@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Generic, Protocol, TypeVar, cast
 
 import numpy as np
+import numpy.typing as npt
 
 from .filters.base import KIND_ADAPTIVE, FilterSpec
 from .kernels.bundles import Batches, FilterBank, Grid, Trajectory
@@ -45,27 +47,40 @@ class DivergenceError(ArithmeticError):
     """A filter (or the simulated truth) left the finite numbers; the message says which, when, and a likely fix."""
 
 
-def freeze(a, dtype=None) -> np.ndarray:
+def freeze(a: npt.ArrayLike, dtype: npt.DTypeLike | None = None) -> np.ndarray:
     """``a`` as a read-only array (``dtype`` if given; no copy when it already is one): the arrays of a result."""
-    a = np.asarray(a) if dtype is None else np.asarray(a, dtype=dtype)
-    a.flags.writeable = False
-    return a
+    arr = np.asarray(a) if dtype is None else np.asarray(a, dtype=dtype)
+    arr.flags.writeable = False
+    return arr
 
 
-class Tracked:
+class _Track(Protocol):
+    """What :class:`Tracked` reads of a track: its filter's name and ratios."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def ratio(self) -> np.ndarray: ...
+
+
+_T = TypeVar("_T", bound=_Track)
+
+
+class Tracked(Generic[_T]):
     """What a run with ``tracks`` (Kalman–Bucy, ISL, extras), ``T`` and ``r_min`` answers, full or decimated
     (:class:`Run`, :class:`isl_core.runview.RunView`)."""
 
     T: float
     r_min: float
-    tracks: tuple
+    tracks: tuple[_T, ...]
 
     @property
     def horizon(self) -> float:
         """T in units of 1/r_min (A.24)."""
         return self.T * self.r_min
 
-    def track(self, name: str):
+    def track(self, name: str) -> _T:
         for tr in self.tracks:
             if tr.name == name:
                 return tr
@@ -96,10 +111,10 @@ def _cholesky(delta: np.ndarray) -> np.ndarray:
     s = np.sqrt(np.diagonal(delta))
     corr = delta / np.outer(s, s)
     try:
-        return s[:, None] * np.linalg.cholesky(corr)
+        return cast("np.ndarray", s[:, None] * np.linalg.cholesky(corr))
     except np.linalg.LinAlgError:  # numerically semidefinite: clip the spectrum at 0
         w, v = np.linalg.eigh(corr)
-        return s[:, None] * (v * np.sqrt(np.clip(w, 0.0, None)))
+        return cast("np.ndarray", s[:, None] * (v * np.sqrt(np.clip(w, 0.0, None))))
 
 
 def initial_error(kb: KalmanBucy, rng: np.random.Generator) -> np.ndarray:
@@ -115,13 +130,13 @@ def draw_start(model: Model, kb: KalmanBucy, rng: np.random.Generator, start: st
     return x, e
 
 
-def check_start(start) -> str:
+def check_start(start: object) -> str:
     if not isinstance(start, str) or start not in STARTS:
         raise ValueError(f"start must be one of {list(STARTS)}, got {short(start)}")
     return start
 
 
-def check_progress(progress) -> None:
+def check_progress(progress: object) -> None:
     if progress is not None and not callable(progress):
         raise ValueError(f"progress must be a callable or None, got {short(progress)}")
 
@@ -214,7 +229,9 @@ def run_chunks(
     return sums.sq, sums.sig_sum, bank.ad[adaptive, AD_SIGMA]
 
 
-def divergence(model: Model, filters, x, e, k: int, n: int, h: float) -> DivergenceError:
+def divergence(
+    model: Model, filters: Sequence[FilterSpec], x: np.ndarray, e: np.ndarray, k: int, n: int, h: float
+) -> DivergenceError:
     """The error for a run that left the finite numbers at step ``k``: who diverged, when, and why."""
     bad = [f"filter {f.label}" for f, row in zip(filters, e, strict=False) if not np.all(np.isfinite(row))]
     if not np.all(np.isfinite(x)):

@@ -151,7 +151,16 @@ def settling_rate(model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec]) -
     return rate
 
 
-def grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: float | None = None):
+def grid(
+    model: Model,
+    kb: KalmanBucy,
+    filters: Sequence[FilterSpec],
+    T: float | None,
+    h: float | None,
+    cap: int,
+    *,
+    default_T: float | None = None,
+) -> tuple[float, float, int]:
     """``(T, h, N)`` with ``N·h = T``: ``T`` (default ``default_T``, else 10/r_min), ``h`` by :func:`step_size`."""
     if T is not None:
         T = check_real("T", T, lo=0.0, lo_open=True)
@@ -174,7 +183,7 @@ def grid(model: Model, kb: KalmanBucy, filters, T, h, cap: int, *, default_T: fl
     return T, T / n, n
 
 
-def check_filters(model: Model, nu, extra) -> list[FilterSpec]:
+def check_filters(model: Model, nu: float, extra: object) -> list[FilterSpec]:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
     nu = BOUNDS.nu.real(nu)
@@ -182,7 +191,7 @@ def check_filters(model: Model, nu, extra) -> list[FilterSpec]:
     return [isl_filter(model, nu), *extra]
 
 
-def check_specs(name: str, model: Model, specs, *, allow_empty: bool) -> list[FilterSpec]:
+def check_specs(name: str, model: Model, specs: object, *, allow_empty: bool) -> list[FilterSpec]:
     """``specs`` as a list of :class:`FilterSpec` of the model's size, or a ``ValueError`` naming ``name``."""
     what = f"{name} must be a {'' if allow_empty else 'non-empty '}sequence of FilterSpec of size m = {model.m}"
     if not isinstance(specs, list | tuple | range):

@@ -96,14 +96,14 @@ def _run_chunk(tasks: Sequence[Task]) -> list[TaskResult]:
 class Progress:
     """Thread-safe aggregation of per-task fractions into one overall fraction; also the cancel switch."""
 
-    def __init__(self, weights: dict, callback: Callable[[float], None] | None):
+    def __init__(self, weights: dict[Hashable, float], callback: Callable[[float], None] | None):
         self.weights, self.callback = weights, callback
         self.total = float(sum(weights.values()))
         self.done = dict.fromkeys(weights, 0.0)
         self.lock = threading.Lock()
         self.cancelled = threading.Event()
 
-    def update(self, key, fraction: float) -> None:
+    def update(self, key: Hashable, fraction: float) -> None:
         with self.lock:
             if self.cancelled.is_set():
                 raise Cancelled("cancelled")
@@ -116,7 +116,7 @@ class Progress:
                     self.cancelled.set()  # no further report reaches the callback
                     raise
 
-    def stop(self, futures) -> None:
+    def stop(self, futures: Sequence[cf.Future[Any]]) -> None:
         """Cancel queued tasks; running ones raise at their next progress report."""
         self.cancelled.set()
         for f in futures:
@@ -141,7 +141,7 @@ def _local(tasks: Sequence[Task], workers: int, prog: Progress) -> list[TaskResu
         return [f.result() for f in futures]
 
 
-def _remote(tasks: Sequence[Task], executor, chunk: int, prog: Progress) -> list[TaskResult]:
+def _remote(tasks: Sequence[Task], executor: Any, chunk: int, prog: Progress) -> list[TaskResult]:
     chunks = [tasks[i : i + chunk] for i in range(0, len(tasks), chunk)]
     if isinstance(executor, cf.Executor):
         futures = [executor.submit(_run_chunk, c) for c in chunks]
@@ -150,7 +150,7 @@ def _remote(tasks: Sequence[Task], executor, chunk: int, prog: Progress) -> list
         from distributed import as_completed  # optional extra isl[dask]
 
         futures = [executor.submit(_run_chunk, c, pure=False) for c in chunks]
-        completed = as_completed(futures)
+        completed = as_completed(futures)  # type: ignore[no-untyped-call]  # distributed is untyped
     out: list[TaskResult] = []
     try:
         for fut in completed:

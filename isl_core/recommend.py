@@ -15,8 +15,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .bounds import BOUNDS
 from .model import Model
@@ -81,7 +83,13 @@ class Recommendation:
 
 
 def worst_case_theory(
-    alpha: float, nu_over_beta, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0, model_aware: bool = False
+    alpha: float,
+    nu_over_beta: npt.ArrayLike,
+    *,
+    sigmas: Sequence[float] = FIG2_SIGMAS,
+    m: int = 3,
+    w: float = 3.0,
+    model_aware: bool = False,
 ) -> np.ndarray:
     """Predicted ``max_{σ, i} š_i/s_i`` for each ν/β (same shape as ``nu_over_beta``), β = w√(2α) (A.25).
 
@@ -96,11 +104,11 @@ def worst_case_theory(
     return worst.reshape(x.shape)
 
 
-def _search(alpha: float, sigmas, m: int, w: float, model_aware: bool = False) -> float:
+def _search(alpha: float, sigmas: Sequence[float], m: int, w: float, model_aware: bool = False) -> float:
     """log₂(ν*/β) minimising the predicted worst case: grid, then bounded Brent around the grid's best."""
     from scipy.optimize import minimize_scalar  # lazy: scipy.optimize is slow to import
 
-    kw = {"sigmas": sigmas, "m": m, "w": w, "model_aware": model_aware}
+    kw: dict[str, Any] = {"sigmas": sigmas, "m": m, "w": w, "model_aware": model_aware}
     grid = np.arange(LOG2_RANGE[0], LOG2_RANGE[1] + GRID_STEP / 2, GRID_STEP)
     worst = worst_case_theory(alpha, 2.0**grid, **kw)
     k = int(np.argmin(worst))
@@ -114,7 +122,9 @@ def _search(alpha: float, sigmas, m: int, w: float, model_aware: bool = False) -
     return float(res.x) if res.fun <= worst[k] else float(grid[k])
 
 
-def best_fixed_kbf(alpha: float, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3.0, n: int = 49):
+def best_fixed_kbf(
+    alpha: float, *, sigmas: Sequence[float] = FIG2_SIGMAS, m: int = 3, w: float = 3.0, n: int = 49
+) -> tuple[float, float]:
     """Best design σ̄ (log grid of ``n`` points in [min σ, max σ]) of a fixed-gain Kalman–Bucy filter and its
     predicted worst case ``max_{σ, i}`` ratio (:ref:`minimax-kbf`). Returns ``(worst, sigma_design)``."""
     designs = np.geomspace(min(sigmas), max(sigmas), n)
@@ -126,7 +136,7 @@ def best_fixed_kbf(alpha: float, *, sigmas=FIG2_SIGMAS, m: int = 3, w: float = 3
 def recommend_nu(
     alpha: float,
     *,
-    sigmas: Sequence[float] = FIG2_SIGMAS,
+    sigmas: Sequence[float] | np.ndarray = FIG2_SIGMAS,
     m: int = 3,
     w: float = 3.0,
     verify: bool = True,
@@ -219,7 +229,15 @@ def recommend_nu(
     )
 
 
-def _worst_cases(nobs, alpha, sigmas, m, w, verify, kw) -> tuple[list[WorstCase], tuple[float, ...]]:
+def _worst_cases(
+    nobs: Sequence[float],
+    alpha: float,
+    sigmas: list[float],
+    m: int,
+    w: float,
+    verify: bool,
+    kw: dict[str, Any],
+) -> tuple[list[WorstCase], tuple[float, ...]]:
     """Worst case over σ, i of every ν/β in ``nobs`` — simulated in one sweep (same noise) when ``verify`` — and
     that sweep's lengthening per σ (empty when not verified)."""
     cases = []

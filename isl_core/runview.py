@@ -63,7 +63,7 @@ class TrackView:
 
 
 @dataclass(frozen=True)
-class RunView(Tracked):
+class RunView(Tracked[TrackView]):
     """A simulated run, decimated for display: ``truth`` (per coordinate), ``tracks`` (Kalman–Bucy, ISL, extras).
 
     The same fields as :class:`isl_core.Run` where they are numbers (``s``, ``r_min``, ``h``, ``T``, ``N``,

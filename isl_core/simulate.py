@@ -68,7 +68,7 @@ class Track:
 
 
 @dataclass(frozen=True)
-class Run(Tracked):
+class Run(Tracked[Track]):
     """One simulated trajectory with the optimal and the ISL filter (and any extra filters).
 
     ``t`` (K,), ``X`` truth (K, m) at the kept steps — every ``every``-th of the N + 1 (all of them by default) —,

@@ -29,19 +29,21 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 import numpy as np
 
 from ._engine import freeze
 from .bounds import BOUNDS
+from .filters.base import FilterSpec
 from .filters.isl import isl_filter, model_aware_isl
 from .filters.kalman import optimal_kbf
 from .grid import MAX_STEPS, settling_rate, step_size
-from .jobs import Task, run
+from .jobs import Task, TaskResult, run
 from .model import Model
 from .paper import FIG2_ALPHAS, FIG2_NU_OVER_BETA, FIG2_SIGMAS
 from .requests import SWEEP_BURN, Execution, Sampling
-from .riccati import kalman_bucy
+from .riccati import KalmanBucy, kalman_bucy
 from .theory import predicted_ratios_grid
 from .validate import check_reals, short
 
@@ -65,7 +67,15 @@ def group_seed(seed: int, alpha: float, sigma: float, w: float, m: int, *, beta:
     return int(np.random.SeedSequence([seed, *bits, m, *tag]).generate_state(1, np.uint64)[0])
 
 
-def pooled_ratios(out, s: np.ndarray, level: float, n_runs: int, batches: int, nf: int, columns=None):
+def pooled_ratios(
+    out: Sequence[TaskResult],
+    s: np.ndarray,
+    level: float,
+    n_runs: int,
+    batches: int,
+    nf: int,
+    columns: Sequence[Sequence[int]] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every group's pooled ratios and intervals, ``(ratio, low, high)`` of shape (α, σ, filter, i), from the
     records of :func:`isl_core.jobs.run` keyed ``(a, b, k)`` (α, σ, seed index) with ``batches`` batches each.
 
@@ -76,7 +86,7 @@ def pooled_ratios(out, s: np.ndarray, level: float, n_runs: int, batches: int, n
     sq = np.full((na, ns, n_runs * batches, nf, m), np.nan)
     counts = np.empty((na, ns, n_runs * batches))
     for r in out:
-        a, b, k = r.key
+        a, b, k = cast("tuple[int, int, int]", r.key)
         rows = slice(k * batches, (k + 1) * batches)
         if columns is None:
             sq[a, b, rows] = r.sq
@@ -90,7 +100,9 @@ def pooled_ratios(out, s: np.ndarray, level: float, n_runs: int, batches: int, n
     return ratio, low, high
 
 
-def ratio_interval(sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: float):
+def ratio_interval(
+    sq: np.ndarray, counts: np.ndarray, s: np.ndarray, level: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pooled ratio √(Σsq/Σn)/s and its batch-means interval at ``level`` (module docstring).
 
     ``sq`` (n_b, ..., m) squared-error sums per batch, ``counts`` (n_b,) steps per batch, ``s`` (m,).
@@ -155,9 +167,9 @@ class SweepResult:
     @property
     def nus(self) -> np.ndarray:
         """ν (nα, nν) = (ν/β)·β."""
-        return self.betas[:, None] * self.nu_over_beta[None, :]
+        return cast("np.ndarray", self.betas[:, None] * self.nu_over_beta[None, :])
 
-    def records(self) -> list[dict]:
+    def records(self) -> list[dict[str, Any]]:
         """One flat row per (α, σ, ν, i) — for CSV/JSON export."""
         rows = []
         for a, alpha in enumerate(self.alphas):
@@ -202,7 +214,16 @@ class _Plan:
     theory: np.ndarray  # (nα, nσ, nν, m)
 
 
-def _plan(alphas, sigmas, nob, m, w, sampling: Sampling, model_aware=False, beta=None) -> _Plan:
+def _plan(
+    alphas: np.ndarray,
+    sigmas: np.ndarray,
+    nob: np.ndarray,
+    m: int,
+    w: float,
+    sampling: Sampling,
+    model_aware: bool = False,
+    beta: float | None = None,
+) -> _Plan:
     """Every group's task and per-(α, σ) s, r_min, h, steps, stretch and the theory grid."""
     shape = (len(alphas), len(sigmas))
     s, r_min, h, steps = np.empty((*shape, m)), np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.int64)
@@ -226,7 +247,9 @@ def _plan(alphas, sigmas, nob, m, w, sampling: Sampling, model_aware=False, beta
     return _Plan(tasks, s, r_min, h, steps, stretch, theory)
 
 
-def group_length(model: Model, kb, filters, horizon: float, burn: float = SWEEP_BURN) -> tuple[float, int, float]:
+def group_length(
+    model: Model, kb: KalmanBucy, filters: Sequence[FilterSpec], horizon: float, burn: float = SWEEP_BURN
+) -> tuple[float, int, float]:
     """``(T, N, stretch)`` of one group: ``burn`` plus ``horizon``, both in units of the slowest filter's settling
     time ``stretch/r_min`` (module docstring), on the step of :func:`isl_core.step_size`; ``ValueError`` past the
     step cap naming the group and the setting to lower."""

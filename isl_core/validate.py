@@ -16,6 +16,7 @@ import math
 import numbers
 import re
 import reprlib
+from typing import Any
 
 import numpy as np
 
@@ -118,7 +119,7 @@ def check_real(
 def _digits(n: int) -> int:
     """Decimal digits of ``n`` without ``str(n)`` (which Python refuses past 4300 digits)."""
     d = max(1, int(abs(n).bit_length() * 0.30102999566398120))
-    return d + (abs(n) >= 10**d)
+    return d + int(abs(n) >= 10**d)
 
 
 _REPR = reprlib.Repr()  # keyword arguments need Python 3.12
@@ -152,7 +153,7 @@ def _not_a_number(value: object) -> str:
     return f"got {short(value)}, a {type(value).__name__}, not a number"
 
 
-def _flat(name: str, values, what: str, allow_empty: bool) -> list:
+def _flat(name: str, values: object, what: str, allow_empty: bool) -> list[Any]:
     """``values`` (a number or a flat sequence: list, tuple, range, 1-D array) as a list, or ``ValueError``."""
     if isinstance(values, numbers.Number) and not isinstance(values, bool | np.bool_):
         return [values]
@@ -171,7 +172,7 @@ def _flat(name: str, values, what: str, allow_empty: bool) -> list:
 
 def check_reals(
     name: str,
-    values,
+    values: object,
     *,
     lo: float | None = None,
     hi: float | None = None,
@@ -187,7 +188,7 @@ def check_reals(
     )
 
 
-def check_ints(name: str, values, *, lo: int, hi: int | None = None) -> tuple[int, ...]:
+def check_ints(name: str, values: object, *, lo: int, hi: int | None = None) -> tuple[int, ...]:
     """A whole number or a flat non-empty sequence of them, each in range — or ``ValueError`` naming ``name``."""
     what = f"a non-empty sequence of integers >= {lo}" + (f" and <= {hi}" if hi is not None else "")
     return tuple(check_int(name, v, lo=lo, hi=hi) for v in _flat(name, values, what, False))
@@ -216,7 +217,7 @@ def check_int(name: str, value: object, *, lo: int, hi: int | None = None) -> in
     return n
 
 
-def check_sigma_range(sigma_range) -> tuple[float, float]:
+def check_sigma_range(sigma_range: object) -> tuple[float, float]:
     """``(σ_min, σ_max)`` with 0 < σ_min ≤ σ_max finite, or a ``ValueError`` naming ``sigma_range``."""
     if not (isinstance(sigma_range, list | tuple | np.ndarray) and len(sigma_range) == 2):
         raise ValueError(f"sigma_range must be a pair (sigma_min, sigma_max) of numbers > 0, got {short(sigma_range)}")

@@ -29,13 +29,14 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 
 from ._engine import freeze
 from .bounds import BOUNDS
 from .filters.adaptive import MEMORY
-from .filters.base import SIGMA_RANGE
+from .filters.base import SIGMA_RANGE, FilterSpec
 from .filters.baselines import BASELINES, baseline_filters, check_names
 from .filters.baselines import LABELS as FILTER_LABELS
 from .filters.isl import isl_filter
@@ -129,7 +130,7 @@ class WorstCaseTable:
 
     @property
     def worst_sigma(self) -> np.ndarray:
-        return self.sigmas[self._argworst()[0]]
+        return cast("np.ndarray", self.sigmas[self._argworst()[0]])
 
     @property
     def worst_i(self) -> np.ndarray:
@@ -140,7 +141,7 @@ class WorstCaseTable:
         """``max_{σ, i}`` predicted ratio (nα, nf); nan where no theory exists."""
         return _max_over(self.theory)
 
-    def records(self) -> list[dict]:
+    def records(self) -> list[dict[str, Any]]:
         """One row per (α, filter) with the worst case, its interval, where it sits, theory and parameters."""
         rows = []
         worst, lo, hi, th = self.worst, self.worst_low, self.worst_high, self.theory_worst
@@ -171,7 +172,7 @@ class WorstCaseTable:
 
 def _max_over(x: np.ndarray) -> np.ndarray:
     """Max over σ (axis 1) and i (axis 3); nan if any entry is nan (a diverged filter has no finite worst case)."""
-    return x.max(axis=(1, 3))
+    return cast("np.ndarray", x.max(axis=(1, 3)))
 
 
 @dataclass(frozen=True)
@@ -192,7 +193,16 @@ class _Plan:
     cols: list[tuple[int, ...]]
 
 
-def _plan(alphas, sigmas, names, m, w, sigma_design, memory, sampling: Sampling) -> _Plan:
+def _plan(
+    alphas: np.ndarray,
+    sigmas: np.ndarray,
+    names: Sequence[str],
+    m: int,
+    w: float,
+    sigma_design: float | None,
+    memory: float,
+    sampling: Sampling,
+) -> _Plan:
     """Per-α tunings, every group's task, and per-(α, σ) theory, s, r_min, h, steps."""
     na, ns, nf = len(alphas), len(sigmas), len(names)
     lo, hi = float(sigmas[0]), float(sigmas[-1])
@@ -240,7 +250,7 @@ def _plan(alphas, sigmas, names, m, w, sigma_design, memory, sampling: Sampling)
     return _Plan(nu, design, best, theory, tasks, s, r_min, h, steps, stretch, cols)
 
 
-def _filter(model: Model, name: str, nu_a31: float, kw: dict):
+def _filter(model: Model, name: str, nu_a31: float, kw: dict[str, Any]) -> FilterSpec:
     """Filter ``name`` of :data:`!WORST_CASE_FILTERS` for ``model``: a baseline, or paper A's ISL filter at table
     A.31's ν."""
     if name == "isl_a31":
@@ -249,7 +259,15 @@ def _filter(model: Model, name: str, nu_a31: float, kw: dict):
     return baseline_filters(model, names=(name,), **kw)[0]
 
 
-def _check(alphas, sigma_range, n_sigma, m, w, sigma_design, memory):
+def _check(
+    alphas: object,
+    sigma_range: object,
+    n_sigma: object,
+    m: object,
+    w: object,
+    sigma_design: object,
+    memory: object,
+) -> tuple[np.ndarray, np.ndarray, int, float, float | None, float]:
     alphas = check_reals("alphas", alphas, lo=0.0, lo_open=True)  # β = w·√(2α) needs α > 0
     lo, hi = check_sigma_range(sigma_range)
     if not hi > lo:
@@ -277,7 +295,7 @@ class Candidates:
 
 
 def worst_case(
-    alphas: Sequence[float] = FIG2_ALPHAS,
+    alphas: Sequence[float] | np.ndarray = FIG2_ALPHAS,
     *,
     sigma_range: tuple[float, float] = SIGMA_RANGE,
     n_sigma: int = 5,

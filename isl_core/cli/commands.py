@@ -5,13 +5,21 @@ itself (arguments, exit codes) is :mod:`isl_core.cli.parser`.
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
 import math
 import sys
 import time
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    from isl_core.model import Model
+    from isl_core.worstcase import WorstCaseTable
+
+_V = TypeVar("_V")
 
 __all__ = [
     "UsageError",
@@ -30,7 +38,7 @@ class UsageError(Exception):
     """Bad command-line arguments: reported in one line, exit code 2."""
 
 
-def write_csv(path, rows: list[dict]) -> None:
+def write_csv(path: str | Path, rows: list[dict[str, Any]]) -> None:
     """``rows`` (dicts with the same keys) as a UTF-8 CSV file with a header row."""
     with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -38,7 +46,7 @@ def write_csv(path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
-def progress_bar(label: str, enabled: bool):
+def progress_bar(label: str, enabled: bool) -> Callable[[float], None] | None:
     """A text progress bar on stderr (callback for :func:`isl_core.sweep`); None when disabled."""
     if not enabled:
         return None
@@ -58,17 +66,17 @@ def progress_bar(label: str, enabled: bool):
     return update
 
 
-def _client(address: str | None):
+def _client(address: str | None) -> Any:  # a dask.distributed Client (untyped)
     if address is None:
         return None
     try:
         from distributed import Client
     except ModuleNotFoundError:
         raise UsageError("isl sweep: error: --dask needs the optional extra: pip install 'isl[dask]'") from None
-    return Client(address)
+    return Client(address)  # type: ignore[no-untyped-call]  # distributed is untyped
 
 
-def _model(args):
+def _model(args: argparse.Namespace) -> Model:
     from isl_core import Model
 
     if args.beta is not None:
@@ -78,7 +86,7 @@ def _model(args):
     return Model.from_w(args.alpha, args.w, args.sigma, args.m)
 
 
-def cmd_run(args) -> int:
+def cmd_run(args: argparse.Namespace) -> int:
     """One trajectory: s (theory), ŝ and š (measured), ratios and the predicted ratio, r_min, h, T."""
     from isl_core import predicted_ratios, simulate
 
@@ -146,7 +154,7 @@ def nan_to_none(obj: Any) -> Any:
     return None if isinstance(obj, float) and not math.isfinite(obj) else obj
 
 
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
     """Paper A's Fig. 2 grid by default; writes fig2.csv and fig2.json into --out (and the figures an extension of
     ``isl`` adds, see :class:`isl_core.cli.Extension`)."""
     from isl_core import Execution, Sampling, sweep
@@ -203,11 +211,11 @@ def cmd_sweep(args) -> int:
     return 0
 
 
-def _fmt(values) -> str:
+def _fmt(values: Iterable[float]) -> str:
     return "[" + ", ".join(f"{v:.3f}" for v in values) + "]"
 
 
-def cmd_recommend(args) -> int:
+def cmd_recommend(args: argparse.Namespace) -> int:
     """Recommended ν per α (min over ν of the worst case over σ and i), beside paper A's table (A.31)."""
     from isl_core import Execution, Sampling, recommend_nu
     from isl_core.paper import a31_nu_over_beta
@@ -270,7 +278,7 @@ def cmd_recommend(args) -> int:
     return 0
 
 
-def _window_line(horizon: float, stretch, seeds) -> str:
+def _window_line(horizon: float, stretch: Sequence[float], seeds: Iterable[int]) -> str:
     """Where a simulated table averages: the burn-in and the window, in 1/r_min, lengthened for the slowest filter."""
     from isl_core import SWEEP_BURN
 
@@ -283,12 +291,12 @@ def _window_line(horizon: float, stretch, seeds) -> str:
     )
 
 
-def flat(values) -> list:
+def flat(values: Iterable[Iterable[_V]]) -> list[_V]:
     """``nargs="+"`` of comma-separated lists → one flat list."""
     return [x for group in values for x in group]
 
 
-def cmd_worstcase(args) -> int:
+def cmd_worstcase(args: argparse.Namespace) -> int:
     """Worst-case RMSE ratio over a σ range per α (rows) and filter (columns): simulated, with theory beside it."""
     from isl_core import Candidates, Execution, Sampling, worst_case
 
@@ -336,7 +344,7 @@ def _ratio(x: float) -> str:
     return f"{x:.3f}" if x < 10 else f"{x:.2f}" if x < 100 else f"{x:.4g}"
 
 
-def _print_worstcase(res) -> None:
+def _print_worstcase(res: WorstCaseTable) -> None:
     worst, low, high, theory = res.worst, res.worst_low, res.worst_high, res.theory_worst
     width = [max(len(label), 20) for label in res.labels]
     head = f"{'alpha':>6} | " + " | ".join(f"{label:>{w}}" for label, w in zip(res.labels, width, strict=False))

@@ -13,15 +13,28 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from .commands import UsageError, nan_to_none
+
+if TYPE_CHECKING:
+    from isl_core.series.diagnostics import Judgement
+    from isl_core.series.record import Series
 
 __all__ = ["add_data", "cmd_data", "summary"]
 
 
-def add_data(sub, positive, nonneg, whole) -> argparse.ArgumentParser:
+def add_data(
+    sub: argparse._SubParsersAction[Any],
+    positive: Callable[[str], float],
+    nonneg: Callable[[str], float],
+    whole: Callable[[str], int],
+) -> argparse.ArgumentParser:
     """Add ``isl data`` to argparse's sub-parsers ``sub``, with the parser's number types."""
-    p = sub.add_parser("data", help="a recorded series: the model fitted, every filter run and judged")
+    p: argparse.ArgumentParser = sub.add_parser(
+        "data", help="a recorded series: the model fitted, every filter run and judged"
+    )
     p.add_argument("source", metavar="SOURCE", help="a shipped data set (nile, co2, long) or a CSV file")
     p.add_argument("--m", type=whole, default=None, help="the model's order 1..6 (default: chosen by BIC)")
     p.add_argument("--alpha", type=nonneg, default=None, help="α fixed (default: fitted)")
@@ -34,7 +47,7 @@ def add_data(sub, positive, nonneg, whole) -> argparse.ArgumentParser:
     return p
 
 
-def _load(args):
+def _load(args: argparse.Namespace) -> Series:
     from isl_core.series.sources import DATASETS, dataset, read_csv
 
     if args.source in DATASETS:
@@ -44,7 +57,7 @@ def _load(args):
     return read_csv(args.source, time=args.time, value=args.value)
 
 
-def _table(out: dict) -> str:
+def _table(out: dict[str, Any]) -> str:
     f = out["fit"]
     lines = [
         f"{out['source']}: {out['readings']} readings, fit on the first {out['split']} times, judged on the rest",
@@ -62,7 +75,7 @@ def _table(out: dict) -> str:
     return "\n".join(lines).replace("nan", "—")
 
 
-def summary(series, judgement) -> dict:
+def summary(series: Series, judgement: Judgement) -> dict[str, Any]:
     """What ``isl data --json`` prints for ``judgement`` (:func:`isl_core.series.judge`) of ``series``: the source,
     the readings, the split, ``fit``, ``orders``, ``nu`` and ``diagnostics`` (NaN where a number does not exist)."""
     j = judgement
@@ -77,7 +90,7 @@ def summary(series, judgement) -> dict:
     }
 
 
-def cmd_data(args) -> int:
+def cmd_data(args: argparse.Namespace) -> int:
     """Fit, run and judge (module docstring); print the result."""
     try:
         from isl_core.series.diagnostics import judge

@@ -21,11 +21,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
+from typing import TYPE_CHECKING, NoReturn, TypeVar, cast
 
 from isl_core import __version__
 from isl_core.cli.commands import UsageError, cmd_recommend, cmd_run, cmd_sweep, cmd_worstcase
 from isl_core.cli.data import add_data
 from isl_core.cli.scenario import cmd_scenario
+
+_V = TypeVar("_V")
 
 __all__ = [
     "APP_COMMANDS",
@@ -61,8 +64,12 @@ class Extension:
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # argparse would print the usage and exit; we want one line and a code
+    def error(self, message: str) -> NoReturn:  # argparse would print the usage and exit; we want one line and a code
         raise UsageError(f"{self.prog}: error: {message}")
+
+
+if TYPE_CHECKING:  # generic to the type checker only
+    _Sub = argparse._SubParsersAction[_Parser]  # what add_subparsers returns
 
 
 def _number(text: str, *, zero: bool) -> float:
@@ -105,10 +112,10 @@ def seed_number(text: str) -> int:
     return k
 
 
-def _comma(kind):
+def _comma(kind: Callable[[str], _V]) -> Callable[[str], list[_V]]:
     """argparse type: a comma-separated list of ``kind`` (``"0.04,0.2,1"``)."""
 
-    def parse(text: str) -> list:
+    def parse(text: str) -> list[_V]:
         return [kind(part) for part in text.split(",") if part.strip()] or [kind(text)]
 
     return parse
@@ -128,7 +135,7 @@ def _common(p: argparse.ArgumentParser, *, horizon: float) -> None:
     p.add_argument("--horizon", type=positive, default=horizon, help=f"in units of 1/r_min (default {horizon:g})")
 
 
-def _add_run(sub) -> argparse.ArgumentParser:
+def _add_run(sub: _Sub) -> argparse.ArgumentParser:
     """``isl run``: one trajectory."""
     p = sub.add_parser("run", help="one trajectory: s, measured RMSEs and ratios, r_min, h, T")
     p.add_argument("--alpha", type=_nonneg, default=0.5, help="OU rate α >= 0 (default 0.5)")
@@ -142,9 +149,9 @@ def _add_run(sub) -> argparse.ArgumentParser:
     return p
 
 
-def _add_sweep(sub) -> argparse.ArgumentParser:
+def _add_sweep(sub: _Sub) -> argparse.ArgumentParser:
     """``isl sweep``: paper A's Fig. 2 grid."""
-    from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
+    from isl_core.paper import FIG2_ALPHAS, FIG2_SIGMAS
 
     p = sub.add_parser(
         "sweep", help="paper A's Fig. 2 grid (or any model's): CSV and JSON (the dashboard's isl adds HTML and PNG)"
@@ -170,9 +177,9 @@ def _add_sweep(sub) -> argparse.ArgumentParser:
     return p
 
 
-def _add_recommend(sub) -> argparse.ArgumentParser:
+def _add_recommend(sub: _Sub) -> argparse.ArgumentParser:
     """``isl recommend``: ν per α."""
-    from isl_core.sweep import FIG2_ALPHAS, FIG2_SIGMAS
+    from isl_core.paper import FIG2_ALPHAS, FIG2_SIGMAS
 
     p = sub.add_parser("recommend", help="recommended ν per α beside paper A's table (A.31)")
     p.add_argument("--alphas", type=positive, nargs="+", default=list(FIG2_ALPHAS))
@@ -187,10 +194,10 @@ def _add_recommend(sub) -> argparse.ArgumentParser:
     return p
 
 
-def _add_worstcase(sub) -> argparse.ArgumentParser:
+def _add_worstcase(sub: _Sub) -> argparse.ArgumentParser:
     """``isl worstcase``: each filter's worst case over a σ range."""
     from isl_core import WORST_CASE_FILTERS
-    from isl_core.sweep import FIG2_ALPHAS
+    from isl_core.paper import FIG2_ALPHAS
 
     p = sub.add_parser("worstcase", help="each filter's worst-case ratio over a sigma range, per alpha")
     p.add_argument(
@@ -231,7 +238,7 @@ def _add_worstcase(sub) -> argparse.ArgumentParser:
     return p
 
 
-def _add_scenario(sub) -> argparse.ArgumentParser:
+def _add_scenario(sub: _Sub) -> argparse.ArgumentParser:
     """``isl scenario``: the fair table, the tuning curves, the who-wins maps."""
     from isl_core.scenario.table import PRESETS
 
@@ -343,7 +350,7 @@ def installed_extension() -> Extension | None:
 
     for point in entry_points(group=EXTENSIONS):
         try:
-            return point.load()()
+            return cast("Extension", point.load()())
         except ImportError:
             continue
     return None
@@ -373,7 +380,7 @@ def main(argv: list[str] | None = None, extension: Extension | None = None) -> i
         return int(passthrough[argv[0]](argv[1:]) or 0)
     try:
         args = build_parser(extension).parse_args(argv)
-        return args.func(args)
+        return cast("int", args.func(args))
     except SystemExit as exc:  # --help / --version
         return exc.code if isinstance(exc.code, int) else 0
     except UsageError as exc:

@@ -7,12 +7,19 @@ as CSV/JSON.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from .commands import UsageError, flat, nan_to_none, progress_bar, write_csv
+
+if TYPE_CHECKING:
+    from ..scenario.table import ScenarioTable
+    from ..scenario.tuning import Tuning
 
 __all__ = ["cmd_scenario"]
 
@@ -21,7 +28,7 @@ def _ratio(x: float) -> str:
     return "—" if x is None or not math.isfinite(x) else f"{x:.3f}" if x < 10 else f"{x:.2f}" if x < 100 else f"{x:.4g}"
 
 
-def _tuning(args, *, quiet: bool):
+def _tuning(args: argparse.Namespace, *, quiet: bool) -> Tuning:
     from ..scenario.table import PRESETS
     from ..scenario.tuning import tune
 
@@ -29,23 +36,26 @@ def _tuning(args, *, quiet: bool):
     unknown = [n for n in names if n not in PRESETS]
     if unknown:
         raise UsageError(f"isl scenario: unknown scenario {unknown[0]!r}; choose from {', '.join(PRESETS)}")
-    return tune(
-        args.alpha,
-        m=args.m,
-        w=args.w,
-        presets={n: PRESETS[n] for n in names},
-        seeds=32 if args.seeds is None else args.seeds,
-        horizon=args.horizon,
-        burn=args.burn,
-        workers=args.workers,
-        cache=not args.no_cache,
-        progress=progress_bar("tuning", not quiet),
-        rate=args.rate,
-        refine=args.refine,
+    return cast(  # computed, or read from the cache: never None
+        "Tuning",
+        tune(
+            args.alpha,
+            m=args.m,
+            w=args.w,
+            presets={n: PRESETS[n] for n in names},
+            seeds=32 if args.seeds is None else args.seeds,
+            horizon=args.horizon,
+            burn=args.burn,
+            workers=args.workers,
+            cache=not args.no_cache,
+            progress=progress_bar("tuning", not quiet),
+            rate=args.rate,
+            refine=args.refine,
+        ),
     )
 
 
-def cmd_scenario(args) -> int:
+def cmd_scenario(args: argparse.Namespace) -> int:
     """The table, the tuning curves or a map (module docstring)."""
     if args.map is not None:
         from .scenario_map import scenario_map
@@ -55,7 +65,7 @@ def cmd_scenario(args) -> int:
     return _tune_out(args, res) if args.tune else _table_out(args, res)
 
 
-def _meta(res) -> dict:
+def _meta(res: Tuning) -> dict[str, Any]:
     from .. import shipped_json
     from ..scenario.tuning import FAMILIES
 
@@ -82,12 +92,12 @@ def _meta(res) -> dict:
     }
 
 
-def _cell_key(res, c: int) -> str:
+def _cell_key(res: Tuning, c: int) -> str:
     p, period = res.cells[c]
     return f"{res.presets[p]}:{period.name}"
 
 
-def _costs(res, tab, args) -> tuple[dict, dict]:
+def _costs(res: Tuning, tab: ScenarioTable, args: argparse.Namespace) -> tuple[dict[str, float], dict[str, Any]]:
     """ns per step of each row's filter (the tuned ones, the σ(0) Kalman–Bucy, the paper's ISL), measured."""
     if args.no_cost:
         return {}, {}
@@ -109,7 +119,7 @@ def _costs(res, tab, args) -> tuple[dict, dict]:
     return costs.ns_per_step, meta
 
 
-def _table_out(args, res) -> int:
+def _table_out(args: argparse.Namespace, res: Tuning) -> int:
     from ..scenario.heldout import held_out
     from ..scenario.table import table_from
     from .scenario_rows import beyond_data, table_rows
@@ -191,7 +201,7 @@ def _table_out(args, res) -> int:
     return 0
 
 
-def _print_head(res, tab) -> None:
+def _print_head(res: Tuning, tab: ScenarioTable) -> None:
     """The table's first lines: what a cell is, the seeds, the model, the reading rate, the tuning, knobs at an end."""
     from ..scenario.tuning import FAMILIES
 
@@ -216,7 +226,14 @@ def _print_head(res, tab) -> None:
         )
 
 
-def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
+def _print_table(
+    res: Tuning,
+    tab: ScenarioTable,
+    keys: Sequence[str],
+    ns: Mapping[str, float],
+    cost_meta: Mapping[str, Any],
+    check: Mapping[str, bool],
+) -> None:
     from ..scenario.table import knob_text
 
     _print_head(res, tab)
@@ -228,7 +245,11 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
         )
         print(f"  {'filter':64}" + "".join(f" | {res.cells[c][1].label[:26]:>26}" for c in cells))
         for r, row in enumerate(tab.rows):
-            label = row.label if row.role != "oracle" else f"{row.name}: {knob_text(row.tuning[p])}"
+            label = (
+                row.label
+                if row.role != "oracle"
+                else f"{row.name}: {knob_text(cast('tuple[dict[str, Any], ...]', row.tuning)[p])}"
+            )
             print(
                 f"  {label[:64]:64}"
                 + "".join(
@@ -281,7 +302,7 @@ def _print_table(res, tab, keys, ns, cost_meta, check) -> None:
         )
 
 
-def _tune_out(args, res) -> int:
+def _tune_out(args: argparse.Namespace, res: Tuning) -> int:
     from ..scenario.table import knob_text
     from ..scenario.tuning import FAMILIES
 

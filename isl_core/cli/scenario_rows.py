@@ -3,14 +3,19 @@ held-out figures — and the rows through the presets beyond every assumed σ ra
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..scenario.table import ScenarioTable
+    from ..scenario.tuning import Tuning
 
 __all__ = ["beyond_data", "print_beyond", "table_rows"]
 
 
-def _cell(st, r: int, c: int) -> dict[str, Any]:
+def _cell(st: Any, r: int, c: int) -> dict[str, Any]:
     """Row ``r``'s cell ``c`` of a table or of its cell statistics (the worst coordinate's ratio and interval, that
     coordinate 1-based, every coordinate's ratio, the worst seed, the seeds above 2× and those that diverged)."""
     return {
@@ -26,7 +31,7 @@ def _cell(st, r: int, c: int) -> dict[str, Any]:
     }
 
 
-def table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
+def table_rows(res: Tuning, tab: ScenarioTable, keys: Sequence[str], ns: Mapping[str, float]) -> list[dict[str, Any]]:
     """The fair table's rows as data: each filter's tuning, origin, assumed σ range and cost, its cells (the worst
     coordinate's ratio, every coordinate's, the worst seed, the seeds above 2×), its worst per preset, and its
     tuning-seed and held-out figures."""
@@ -65,14 +70,13 @@ def table_rows(res, tab, keys, ns) -> list[dict[str, Any]]:
     return rows
 
 
-def beyond_data(tab) -> dict[str, Any]:
+def beyond_data(tab: ScenarioTable) -> dict[str, Any]:
     """The rows (but the oracle ones) through the presets beyond every assumed σ range, as data."""
     from ..scenario.table import beyond_rows, beyond_stats
 
-    st = beyond_stats(tab)
-    if st is None:
+    st, held = beyond_stats(tab), tab.held
+    if st is None or held is None:  # (beyond_stats is None without held)
         return {}
-    held = tab.held
     names = list(held.beyond)
     keys = [f"{names[b]}:{per.name}" for b, per in held.beyond_cells]
     out: dict[str, Any] = {"scenarios": held.beyond, "seeds": [held.seeds[0], held.seeds[-1]], "rows": {}}
@@ -84,15 +88,14 @@ def beyond_data(tab) -> dict[str, Any]:
     return out
 
 
-def print_beyond(tab, fmt) -> None:
+def print_beyond(tab: ScenarioTable, fmt: Callable[[float], str]) -> None:
     """The rows (but the oracle ones) through the presets beyond every assumed σ range, as text (``fmt`` formats a
     ratio)."""
     from ..scenario.table import beyond_rows, beyond_stats
 
-    st = beyond_stats(tab)
-    if st is None:
+    st, held = beyond_stats(tab), tab.held
+    if st is None or held is None:  # (beyond_stats is None without held)
         return
-    held = tab.held
     names = list(held.beyond)
     print("\nbeyond every assumed sigma range (not tuned over; report seeds), worst coordinate [interval] Xi:")
     for b, name in enumerate(names):

@@ -43,8 +43,10 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import cast
 
 import numpy as np
+import numpy.typing as npt
 
 from ..model import Model
 from ..riccati import A_MAX, normalized_care
@@ -81,15 +83,17 @@ def _table(alpha: float, beta: float, m: int, log_sigma0: float, step: float, n:
     i = np.arange(1, m + 1)
     table = i * log_rho[:, None] + np.log(k1)  # log K_i = i·log ϱ + log Δ'_{i1}
     table.flags.writeable = False
-    return table
+    return cast("np.ndarray", table)
 
 
-def gain_table(model: Model, sigmas) -> np.ndarray:
+def gain_table(model: Model, sigmas: npt.ArrayLike) -> np.ndarray:
     """Stationary Kalman–Bucy gains K(σ) (len(sigmas), m) of ``model``'s α, β, m at each σ (A.21–A.23)."""
     sig = np.atleast_1d(np.asarray(sigmas, dtype=float))
     log_rho = (math.log(model.beta) - np.log(sig)) / model.m
-    return np.exp(np.arange(1, model.m + 1) * log_rho[:, None]) * normalized_gains(
-        model.m, model.alpha * np.exp(-log_rho)
+    return cast(
+        "np.ndarray",
+        np.exp(np.arange(1, model.m + 1) * log_rho[:, None])
+        * normalized_gains(model.m, model.alpha * np.exp(-log_rho)),
     )
 
 

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -112,7 +113,7 @@ class AdaptiveGain:
     @property
     def sigmas(self) -> np.ndarray:
         """The grid σ_j (n,)."""
-        return np.exp(self.log_sigma0 + self.step * np.arange(len(self.log_gain)))
+        return cast("np.ndarray", np.exp(self.log_sigma0 + self.step * np.arange(len(self.log_gain))))
 
     def gain(self, sigma: float) -> np.ndarray:
         """K(σ) (m,) interpolated from the table: log K linear in log σ, held constant beyond the ends."""

@@ -24,12 +24,22 @@ import hashlib
 import logging
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar, cast
 
 import numba
-from numba import njit
 
-__all__ = ["CACHE", "FASTMATH", "PACKAGE", "sources_digest"]
+__all__ = ["CACHE", "FASTMATH", "PACKAGE", "njit", "sources_digest"]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def njit(**options: Any) -> Callable[[_F], _F]:
+    """:func:`numba.njit` with the options given, seen by the type checker as keeping the decorated function's
+    signature (numba's decorators are untyped): the kernels are checked, and called, as the functions they compile."""
+    return cast("Callable[[_F], _F]", numba.njit(**options))
+
 
 PACKAGE = Path(__file__).resolve().parents[1]  #: the ``isl_core`` folder, whose sources name the cache
 #: FMA contraction only: no reassociation, nan/inf kept (see the module docstring)

@@ -9,10 +9,9 @@ and over a whole noise path (:func:`riccati_path`). :func:`clairvoyant_state` is
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .bundles import ClairvoyantState
-from .cache import CACHE
+from .cache import CACHE, njit
 from .common import predict_cov
 
 __all__ = ["CYCLE_MAX", "SETTLED", "clairvoyant_state", "clairvoyant_step", "riccati_path"]
@@ -22,7 +21,9 @@ CYCLE_MAX = 4096  #: longest sensor cycle (steps) whose settled covariance is ke
 
 
 @njit(cache=CACHE, nogil=True)
-def clairvoyant_step(state, h, decay, beta2, noise, k, q, phase):
+def clairvoyant_step(
+    state: ClairvoyantState, h: float, decay: float, beta2: float, noise: float, k: int, q: int, phase: int
+) -> bool:
     """Step k → k+1 of the clairvoyant recursion on the state (X, S), in place; returns whether step k is a reading.
     ``phase`` = k mod q (counted by the caller: no division per step), a reading when it is q − 1.
 
@@ -120,7 +121,16 @@ def clairvoyant_state(P0: np.ndarray, q: int = 1) -> ClairvoyantState:
 
 
 @njit(cache=CACHE, nogil=True)
-def riccati_path(state, h, alpha, beta2, noise, q, gain, var):
+def riccati_path(
+    state: ClairvoyantState,
+    h: float,
+    alpha: float,
+    beta2: float,
+    noise: np.ndarray,
+    q: int,
+    gain: np.ndarray,
+    var: np.ndarray,
+) -> None:
     """:func:`clairvoyant_step` from ``state`` over ``noise`` (n,): the gains of the readings (zero between) into
     ``gain`` (n, m) and diag P_k into ``var`` (n + 1, m)."""
     cg, cvar = state.gain, state.var

@@ -11,9 +11,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
-from .cache import CACHE, FASTMATH
+from .cache import CACHE, FASTMATH, njit
 
 __all__ = [
     "AD_INV_MEMORY",
@@ -43,7 +42,7 @@ _RCBRT_MAGIC = np.uint64(0x553EE978D4FDF3B7)
 
 
 @njit(cache=CACHE, nogil=True, inline="always", fastmath=FASTMATH)
-def fast_cbrt(a):
+def fast_cbrt(a: float) -> float:
     """Cube root of a ≥ 0 without a division (a few ulp from ``np.cbrt``).
 
     y ≈ a^{-1/3} from the bit pattern, then two steps of ``y ← y·(1 − e)^{-1/3}``, e = 1 − a·y³, by its
@@ -52,7 +51,7 @@ def fast_cbrt(a):
     Finally a^{1/3} = a·y². Zero, subnormal, huge, inf and nan arguments go to libm.
     """
     if not 1e-300 < a < 1e300:
-        return np.cbrt(a)
+        return float(np.cbrt(a))
     y = np.uint64(_RCBRT_MAGIC - np.float64(a).view(np.uint64) // np.uint64(3)).view(np.float64)
     e = 1.0 - (a * y) * (y * y)
     y = y * (1.0 + e * (1.0 / 3.0 + e * (2.0 / 9.0 + e * (14.0 / 81.0 + e * (35.0 / 243.0)))))
@@ -62,7 +61,7 @@ def fast_cbrt(a):
 
 
 @njit(cache=CACHE, nogil=True, inline="always", fastmath=FASTMATH)
-def root(a, m):
+def root(a: float, m: int) -> float:
     """``a^{1/m}`` for a ≥ 0 by the cheapest route for each m."""
     if m == 3:
         return fast_cbrt(a)
@@ -74,11 +73,11 @@ def root(a, m):
         return math.sqrt(math.sqrt(a))
     if m == 6:
         return math.sqrt(fast_cbrt(a))
-    return a ** (1.0 / m)
+    return float(a ** (1.0 / m))
 
 
 @njit(cache=CACHE, nogil=True, inline="always", fastmath=FASTMATH)
-def table_gain(table, ad, f, gain, sqh):
+def table_gain(table: np.ndarray, ad: np.ndarray, f: int, gain: np.ndarray, sqh: float) -> None:
     """``gain[f] = √h·K(σ̂)`` with log K linear in log σ̂ on the table of filter f, held at its ends."""
     nt = table.shape[1]
     t = (math.log(ad[f, AD_SIGMA]) - ad[f, AD_LOG_SIGMA0]) * ad[f, AD_INV_STEP]
@@ -96,7 +95,7 @@ def table_gain(table, ad, f, gain, sqh):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def predict_cov(P, h, decay, q_var):
+def predict_cov(P: np.ndarray, h: float, decay: float, q_var: float) -> None:
     """P ← F_a P F_aᵀ + q_var·E Eᵀ on (X, S) in place (one mode's P): X_i += h X_{i+1}, X_m ·= decay, S += h X_1
     (the clairvoyant recursion's prediction, :func:`isl_core.kernels.clairvoyant.clairvoyant_step`, and each IMM
     mode's)."""

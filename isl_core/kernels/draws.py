@@ -20,11 +20,15 @@ outlier noise the base step's increment keeps its law and its sum; the bridge in
 from __future__ import annotations
 
 import math
-
-from numba import njit
+from typing import TYPE_CHECKING
 
 from ..noise import LAW_OUTLIERS, LAW_STUDENT, LAYERS
-from .cache import CACHE
+from .cache import CACHE, njit
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from .bundles import NoiseLaw
 
 __all__ = ["DRAWS", "draw_ahead", "fill", "split_ahead"]
 
@@ -32,7 +36,7 @@ DRAWS = 256  #: steps whose noise the scenario loop draws at once
 
 
 @njit(cache=CACHE, nogil=True)
-def _student_slow(rng, tab, d, i, x):
+def _student_slow(rng: np.random.Generator, tab: np.ndarray, d: float, i: int, x: float) -> float:
     """T_d outside a layer's inner part: a draw from the tail beyond r (layer 0), or ``x`` if its wedge test passes
     (−1 if not)."""
     p = -(d + 1.0) / 2.0
@@ -49,7 +53,7 @@ def _student_slow(rng, tab, d, i, x):
 
 
 @njit(cache=CACHE, nogil=True)
-def _student_retry(rng, tab, d, i, x, bits):
+def _student_retry(rng: np.random.Generator, tab: np.ndarray, d: float, i: int, x: float, bits: int) -> float:
     """T_d after a draw ``x`` of layer ``i`` fell outside its inner part: the slow path, then new draws until one is
     accepted (each as in :func:`_draw`)."""
     while True:
@@ -65,7 +69,7 @@ def _student_retry(rng, tab, d, i, x, bits):
 
 
 @njit(cache=CACHE, nogil=True)
-def _gap(rng, p, cap):
+def _gap(rng: np.random.Generator, p: float, cap: int) -> int:
     """Steps before the next outlier, P(G ≥ g) = (1 − p)^g: ⌊log U / log(1 − p)⌋ with U uniform on (0, 1]; at most
     ``cap`` (p = 0: ``cap``)."""
     if not p > 0.0:
@@ -74,7 +78,7 @@ def _gap(rng, p, cap):
 
 
 @njit(cache=CACHE, nogil=True)
-def _draw(rng, law, vs, eps, count, with_v):
+def _draw(rng: np.random.Generator, law: NoiseLaw, vs: np.ndarray, eps: np.ndarray, count: int, with_v: bool) -> None:
     """The next ``count`` ε_k of ``law`` (:class:`~isl_core.kernels.bundles.NoiseLaw`) into ``eps``; if ``with_v``,
     each after a normal v_k into ``vs``.
 
@@ -112,21 +116,32 @@ def _draw(rng, law, vs, eps, count, with_v):
 
 
 @njit(cache=CACHE, nogil=True)
-def draw_ahead(rng, law, vs, eps, count):
+def draw_ahead(rng: np.random.Generator, law: NoiseLaw, vs: np.ndarray, eps: np.ndarray, count: int) -> None:
     """The next ``count`` steps' v_k (a normal) and ε_k of ``law`` (:class:`~isl_core.kernels.bundles.NoiseLaw`) into
     ``vs`` and ``eps``, drawn v_0, ε_0, v_1, ε_1, …"""
     _draw(rng, law, vs, eps, count, True)
 
 
 @njit(cache=CACHE, nogil=True)
-def fill(rng, law, eps):
+def fill(rng: np.random.Generator, law: NoiseLaw, eps: np.ndarray) -> None:
     """``eps`` filled with ε_k of ``law`` (:class:`~isl_core.kernels.bundles.NoiseLaw`) alone
     (:meth:`isl_core.scenario.Scenario.draw_noise`)."""
     _draw(rng, law, eps, eps, eps.shape[0], False)
 
 
 @njit(cache=CACHE, nogil=True)
-def split_ahead(rng, law, vbase, ebase, bridge, first, count, level, vs, eps):
+def split_ahead(
+    rng: np.random.Generator,
+    law: NoiseLaw,
+    vbase: np.ndarray,
+    ebase: np.ndarray,
+    bridge: np.ndarray,
+    first: int,
+    count: int,
+    level: int,
+    vs: np.ndarray,
+    eps: np.ndarray,
+) -> None:
     """The next ``count`` base steps' v_K and ε_K (:func:`draw_ahead`, into ``vbase``, ``ebase``) split into 2^``level``
     fine steps each (module docstring) into ``vs`` and ``eps``; ``bridge`` (base steps, 2^level − 1, 2) the bridge's
     normals, level ℓ's 2^(ℓ−1) of a base step at 2^(ℓ−1) − 1 … 2^ℓ − 2, for v (0) and ε (1); ``first`` the row of

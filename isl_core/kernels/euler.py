@@ -38,13 +38,16 @@ loop (:mod:`isl_core.kernels.common`); how the kernels are compiled and cached: 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 
 from ..filters.base import KIND_ADAPTIVE, KIND_POWER
-from .cache import CACHE, FASTMATH
+from .cache import CACHE, FASTMATH, njit
 from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
+
+if TYPE_CHECKING:
+    from .bundles import Batches, Buckets, FilterBank, Grid, Trajectory, Tube
 
 __all__ = ["TRACE_ERROR", "TRACE_ESTIMATE", "TRACE_SIGMA", "TRACE_TRUTH", "advance", "minmax_block"]
 
@@ -53,7 +56,9 @@ TRACE_TRUTH, TRACE_ESTIMATE, TRACE_ERROR, TRACE_SIGMA = range(4)
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
-def _flush(acc, sacc, sq, sig_sum, b, slot, kind):
+def _flush(
+    acc: np.ndarray, sacc: np.ndarray, sq: np.ndarray, sig_sum: np.ndarray, b: int, slot: np.ndarray, kind: np.ndarray
+) -> None:
     """Add the accumulated squared errors (and σ̂ sums) into batch ``b`` and zero the accumulators."""
     nf, m = acc.shape
     for f in range(nf):
@@ -66,7 +71,18 @@ def _flush(acc, sacc, sq, sig_sum, b, slot, kind):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def advance(x, e, rng, n, k0, grid, sigma, bank, batches, out):
+def advance(
+    x: np.ndarray,
+    e: np.ndarray,
+    rng: np.random.Generator,
+    n: int,
+    k0: int,
+    grid: Grid,
+    sigma: float,
+    bank: FilterBank,
+    batches: Batches,
+    out: Trajectory,
+) -> int:
     """Advance truth ``x`` (m,) and the filters' errors ``e`` (nf, m) in place by ``n`` steps k0 → k0 + n on the
     :class:`~isl_core.kernels.bundles.Grid` ``grid``, with the observation noise σ·ε_k, noise from ``rng``.
 
@@ -179,7 +195,7 @@ def advance(x, e, rng, n, k0, grid, sigma, bank, batches, out):
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
-def _source(c, m, nf):
+def _source(c: int, m: int, nf: int) -> tuple[int, int, int]:
     """What trace (column) ``c`` is: (kind, f, i), kind one of ``TRACE_*``."""
     if c < m:
         return TRACE_TRUTH, 0, c
@@ -193,19 +209,19 @@ def _source(c, m, nf):
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
-def _sample(X, E, S, kind, f, i, r):
+def _sample(X: np.ndarray, E: np.ndarray, S: np.ndarray, kind: int, f: int, i: int, r: int) -> float:
     """Value at row r of the trace (kind, f, i) of :func:`_source`."""
     if kind == TRACE_TRUTH:
-        return X[r, i]
+        return float(X[r, i])
     if kind == TRACE_ESTIMATE:
-        return X[r, i] + E[f, r, i]
+        return float(X[r, i] + E[f, r, i])
     if kind == TRACE_ERROR:
-        return E[f, r, i]
-    return S[f, r]
+        return float(E[f, r, i])
+    return float(S[f, r])
 
 
 @njit(cache=CACHE, nogil=True)
-def minmax_block(X, E, S, k0, n, buckets, tube):
+def minmax_block(X: np.ndarray, E: np.ndarray, S: np.ndarray, k0: int, n: int, buckets: Buckets, tube: Tube) -> None:
     """Fold one chunk of a display run into its min/max buckets (:class:`isl_core.decimate.MinMax`), without the GIL.
 
     Rows r of ``X`` (rows, m), ``E`` (nf, rows, m), ``S`` (na, rows) are the samples k = k0 + r of n in all. The

@@ -11,11 +11,10 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 
 from ..filters.base import FilterSpec
 from .bundles import IMMState
-from .cache import CACHE, FASTMATH
+from .cache import CACHE, FASTMATH, njit
 from .common import predict_cov
 
 __all__ = ["imm_mix", "imm_state", "imm_step"]
@@ -62,7 +61,7 @@ def imm_state(filters: Sequence[FilterSpec], m: int, q: int, h: float) -> IMMSta
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def _update(P, e, r, s):
+def _update(P: np.ndarray, e: np.ndarray, r: float, s: float) -> None:
     """One mode's reading in place: e += P C_aᵀ r / s, P ← P − P C_aᵀ C_a P / s, then S restarts at 0 (known)."""
     a = P.shape[0]
     m = a - 1
@@ -77,7 +76,7 @@ def _update(P, e, r, s):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def imm_mix(bank, b, p, J):
+def imm_mix(bank: IMMState, b: int, p: float, J: int) -> None:
     """Mixing (module docstring) of bank ``b`` of ``bank`` (:class:`~isl_core.kernels.bundles.IMMState`) in place:
     μ ← c̄, e_j ← e0_j, P_j ← P0_j on the X block (S is 0 after a reading), with its scratch ``mean``, ``W``, ``V``
     and ``out``.
@@ -126,7 +125,20 @@ def imm_mix(bank, b, p, J):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def imm_step(bank, b, el, f, noise, sqh, h, decay, q_var, shock, reading, corr):
+def imm_step(
+    bank: IMMState,
+    b: int,
+    el: np.ndarray,
+    f: int,
+    noise: float,
+    sqh: float,
+    h: float,
+    decay: float,
+    q_var: float,
+    shock: float,
+    reading: bool,
+    corr: np.ndarray,
+) -> float:
     """Step k → k+1 of bank ``b`` of ``bank`` (module docstring), in place; returns σ̂ = Σ μ_j σ_j after a reading,
     else −1.
 

@@ -45,9 +45,9 @@ Squared errors at t_{k+1} are summed into window w for the steps k in [``edges[w
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 
 from ..filters.base import (
     KIND_ADAPTIVE,
@@ -58,12 +58,15 @@ from ..filters.base import (
     KIND_ROBUST,
     KIND_VB,
 )
-from .cache import CACHE, FASTMATH
+from .cache import CACHE, FASTMATH, njit
 from .clairvoyant import clairvoyant_step
 from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, FLUSH, root, table_gain
 from .draws import DRAWS, draw_ahead, split_ahead
 from .imm import imm_step
 from .variational import predict_cov, vb_update
+
+if TYPE_CHECKING:
+    from .bundles import ClairvoyantState, FilterBank, FilterState, Grid, IMMState, Observation, Windows
 
 __all__ = ["advance_scenario", "reading_pair"]
 
@@ -72,7 +75,7 @@ IDLE = -1  #: the kind of a lane without a filter, or whose filter died
 
 
 @njit(cache=CACHE, nogil=True)
-def _pour(wref, w, cvar, s_cur, same):
+def _pour(wref: np.ndarray, w: int, cvar: np.ndarray, s_cur: float, same: int) -> None:
     """Add ``same`` steps of clairvoyant variance ``cvar`` and σ_k = ``s_cur`` to window ``w``."""
     m = cvar.shape[0]
     for i in range(m):
@@ -81,7 +84,7 @@ def _pour(wref, w, cvar, s_cur, same):
 
 
 @njit(cache=CACHE, nogil=True)
-def _flush(wsq, w, sq):
+def _flush(wsq: np.ndarray, w: int, sq: np.ndarray) -> None:
     """Add the squared errors summed since the last flush, ``sq`` (m, lanes), to window ``w`` of each filter and
     restart the sums (the padding lanes' are dropped)."""
     for f in range(wsq.shape[1]):
@@ -91,7 +94,7 @@ def _flush(wsq, w, sq):
 
 
 @njit(cache=CACHE, nogil=True)
-def _bury(e, died, lane, k):
+def _bury(e: np.ndarray, died: np.ndarray, lane: np.ndarray, k: int) -> None:
     """Mark every live filter whose error (a column of ``e``, (m, lanes)) is no longer finite as dead at step ``k``:
     its lane goes idle (no update) from a zero error, which nothing reads (its windows from then on are inf)."""
     for f in range(died.shape[0]):
@@ -106,7 +109,7 @@ def _bury(e, died, lane, k):
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
-def reading_pair(kind, u, raw, sqh, own, lim, m):
+def reading_pair(kind: int, u: float, raw: float, sqh: float, own: float, lim: float, m: int) -> tuple[float, float]:
     """(p, r) of a lane's update at a reading, e_i += G_i·p·r^(m−i) for i = m … 1 (module docstring); ``raw`` the
     innovation before its normalization by √q, ``own`` the learning filters' u (taken before the lanes' pass)."""
     if kind == KIND_POWER:
@@ -123,7 +126,20 @@ def reading_pair(kind, u, raw, sqh, own, lim, m):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def advance_scenario(x, e, rng, n, k0, grid, obs, bank, state, clair, imm, windows):
+def advance_scenario(
+    x: np.ndarray,
+    e: np.ndarray,
+    rng: np.random.Generator,
+    n: int,
+    k0: int,
+    grid: Grid,
+    obs: Observation,
+    bank: FilterBank,
+    state: FilterState,
+    clair: ClairvoyantState,
+    imm: IMMState,
+    windows: Windows,
+) -> int:
     """Advance X_m (``x``, m,) and the errors ``e`` (nf, m) by ``n`` steps (global steps k0 … k0 + n − 1).
 
     The arguments are bundles (:mod:`isl_core.kernels.bundles`): ``grid`` the truth's Euler grid; ``obs`` this

@@ -18,16 +18,19 @@ states none) and diag of the stated covariance ``var`` (N, m) where the filter h
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 
 from ..filters.base import KIND_ADAPTIVE, KIND_ROBUST
-from .cache import CACHE, FASTMATH
+from .cache import CACHE, FASTMATH, njit
 from .common import AD_INV_MEMORY, AD_SIGMA, AD_VAR, table_gain
 from .imm import imm_mix
 from .scenario import reading_pair
 from .variational import vb_update
+
+if TYPE_CHECKING:
+    from .bundles import IMMState
 
 __all__ = ["imm_series", "kalman_series", "kalman_update", "predict", "spec_series", "vb_series"]
 
@@ -35,7 +38,7 @@ LOG_2PI = math.log(2.0 * math.pi)
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def predict(x, P, F, Q, tmp):
+def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray, tmp: np.ndarray) -> None:
     """x ← F x, P ← F P Fᵀ + Q in place (``tmp`` (m, m) scratch; P's leading m×m block)."""
     m = x.shape[0]
     for i in range(m):
@@ -61,7 +64,7 @@ def predict(x, P, F, Q, tmp):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH, inline="always")
-def kalman_update(x, P, v, s):
+def kalman_update(x: np.ndarray, P: np.ndarray, v: float, s: float) -> None:
     """A reading of innovation v and variance s = P₁₁ + R: x += P Cᵀ v/s, P ← P − P Cᵀ C P/s, in place."""
     m = x.shape[0]
     for i in range(m):
@@ -74,7 +77,21 @@ def kalman_update(x, P, v, s):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def kalman_series(z, index, F, Q, R, x, P, burn, est, var, pred, svar, store):
+def kalman_series(
+    z: np.ndarray,
+    index: np.ndarray,
+    F: np.ndarray,
+    Q: np.ndarray,
+    R: float,
+    x: np.ndarray,
+    P: np.ndarray,
+    burn: int,
+    est: np.ndarray,
+    var: np.ndarray,
+    pred: np.ndarray,
+    svar: np.ndarray,
+    store: bool,
+) -> float:
     """The Kalman filter of reading variance ``R`` over the series from (``x``, ``P``) at the first time; returns the
     log-likelihood of the readings after the first ``burn`` present ones (those add −½ log 2π each: the diffuse
     start's convention, :ref:`data-fit`). Writes the outputs (module docstring) when ``store``."""
@@ -102,7 +119,21 @@ def kalman_series(z, index, F, Q, R, x, P, burn, est, var, pred, svar, store):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def spec_series(z, index, sqd, F, kind, coef, table, ad, par, k0, est, pred, svar):
+def spec_series(
+    z: np.ndarray,
+    index: np.ndarray,
+    sqd: np.ndarray,
+    F: np.ndarray,
+    kind: int,
+    coef: np.ndarray,
+    table: np.ndarray,
+    ad: np.ndarray,
+    par: np.ndarray,
+    k0: int,
+    est: np.ndarray,
+    pred: np.ndarray,
+    svar: np.ndarray,
+) -> None:
     """One filter of the fused kernel's kinds — linear, power law, adaptive, robust (``kind``) — over the series
     from its start ``est[k0]`` at time k0 (the rows after it written); ``ad`` (1, AD_WIDTH) its σ-learner's state,
     ``par`` = (c, κ(c)) for the robust one."""
@@ -147,7 +178,21 @@ def spec_series(z, index, sqd, F, kind, coef, table, ad, par, k0, est, pred, sva
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def vb_series(z, index, sqd, F, Q, P, ab, par, k0, est, var, pred, svar):
+def vb_series(
+    z: np.ndarray,
+    index: np.ndarray,
+    sqd: np.ndarray,
+    F: np.ndarray,
+    Q: np.ndarray,
+    P: np.ndarray,
+    ab: np.ndarray,
+    par: np.ndarray,
+    k0: int,
+    est: np.ndarray,
+    var: np.ndarray,
+    pred: np.ndarray,
+    svar: np.ndarray,
+) -> None:
     """The variational-Bayes filter (``P`` its covariance, ``ab`` its inverse-gamma (a, b), ``par`` (ρ, iterations))
     over the series from its start ``est[k0]``; its reading is :func:`isl_core.kernels.variational.vb_update` on the
     normalized innovation, with no Euler step after it (h = 0)."""
@@ -173,7 +218,20 @@ def vb_series(z, index, sqd, F, Q, P, ab, par, k0, est, var, pred, svar):
 
 
 @njit(cache=CACHE, nogil=True, fastmath=FASTMATH)
-def imm_series(z, index, sqd, F, Q, bank, k0, est, var, pred, svar, lpd):
+def imm_series(
+    z: np.ndarray,
+    index: np.ndarray,
+    sqd: np.ndarray,
+    F: np.ndarray,
+    Q: np.ndarray,
+    bank: IMMState,
+    k0: int,
+    est: np.ndarray,
+    var: np.ndarray,
+    pred: np.ndarray,
+    svar: np.ndarray,
+    lpd: np.ndarray,
+) -> None:
     """The IMM filter (``bank``: :func:`isl_core.kernels.imm.imm_state`'s, one bank, ``e`` its modes' states) over the
     series from time k0: each mode an exact Kalman filter of reading variance σ_j²/Δ_k, weighted by its likelihood,
     then mixed (:func:`isl_core.kernels.imm.imm_mix`). ``lpd`` (N,) the predictive log-density of each reading (the

@@ -6,15 +6,14 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from .cache import CACHE
+from .cache import CACHE, njit
 
 __all__ = ["predict_cov", "vb_update"]
 
 
 @njit(cache=CACHE, nogil=True)
-def predict_cov(P, h, a, q_var):
+def predict_cov(P: np.ndarray, h: float, a: float, q_var: float) -> None:
     """P ← F P Fᵀ + q_var·E Eᵀ, F = I + h·(A0 − a·E Eᵀ), in place (F is bidiagonal: O(m²))."""
     m = P.shape[0]
     for j in range(m):  # rows: F P
@@ -29,7 +28,9 @@ def predict_cov(P, h, a, q_var):
 
 
 @njit(cache=CACHE, nogil=True)
-def vb_update(P, ab, par, u, H, h, a_f, gvec):
+def vb_update(
+    P: np.ndarray, ab: np.ndarray, par: np.ndarray, u: float, H: float, h: float, a_f: float, gvec: np.ndarray
+) -> float:
     """One reading of the variational-Bayes filter: updates P and (a, b) in place, writes F·K into ``gvec``;
     returns σ̂ = √(b/a)."""
     m = P.shape[0]
@@ -53,4 +54,4 @@ def vb_update(P, ab, par, u, H, h, a_f, gvec):
         gvec[i] += h * gvec[i + 1]
     gvec[m - 1] *= 1.0 - h * a_f
     ab[0], ab[1] = a, b
-    return np.sqrt(b / a)
+    return float(np.sqrt(b / a))

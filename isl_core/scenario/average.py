@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from statistics import NormalDist
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -35,13 +36,18 @@ from ..validate import check_int, check_real
 from .base import Scenario
 from .run import ScenarioRun, plan_scenario
 
+if TYPE_CHECKING:
+    from .periods import Period, PeriodRatios
+
 __all__ = ["Rolling", "ScenarioAverage", "average_scenario", "margin_low", "resampled", "worst_ratio"]
 
 BOOTSTRAP = 400  #: resamples of the basic bootstrap interval of :func:`!worst_ratio`
 BOOT_SEED = 20261202  #: the bootstrap's resampling seed (tables, maps and worst cases are reproducible)
 
 
-def resampled(statistic: Callable[[np.ndarray], np.ndarray], mse: np.ndarray, rng: np.random.Generator):
+def resampled(
+    statistic: Callable[[np.ndarray], np.ndarray], mse: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     """``statistic(mse)`` and its :data:`BOOTSTRAP` resamples (stacked on a new first axis): each resample draws
     the seeds (``mse``'s first axis) with replacement, the same seeds for every filter."""
     seeds = mse.shape[0]
@@ -56,17 +62,19 @@ def margin_low(point: np.ndarray, boot: np.ndarray, level: float = 0.95) -> np.n
     ≤ 1 means the seeds cannot tell the winner from the runner-up: a tie."""
     ranked = np.argsort(point[..., 1:], axis=-1)[..., :2] + 1
     pair = np.take_along_axis(boot, np.broadcast_to(ranked, (*boot.shape[:-1], 2)), axis=-1)
-    return np.quantile(pair[..., 1] / pair[..., 0], (1 - level) / 2, axis=0)
+    return cast("np.ndarray", np.quantile(pair[..., 1] / pair[..., 0], (1 - level) / 2, axis=0))
 
 
-def worst_ratio(mse: np.ndarray, ref: np.ndarray, level: float, rng: np.random.Generator, *, margin: bool = False):
+def worst_ratio(
+    mse: np.ndarray, ref: np.ndarray, level: float, rng: np.random.Generator, *, margin: bool = False
+) -> tuple[np.ndarray, ...]:
     """Per filter: max over windows and coordinates of √(mean over seeds of ``mse`` / ``ref``), and its basic
     bootstrap interval over the seeds at ``level``. ``mse`` (seeds, windows, filters, m); ``ref`` (windows, m).
     With ``margin``, also :func:`margin_low` of the lowest worst case but the reference's, from the same resamples."""
     ref = ref[:, None, :]
 
     def statistic(sample: np.ndarray) -> np.ndarray:
-        return np.sqrt(sample.mean(axis=0) / ref).max(axis=(0, 2))
+        return cast("np.ndarray", np.sqrt(sample.mean(axis=0) / ref).max(axis=(0, 2)))
 
     point, boot = resampled(statistic, mse, rng)
     low = 2.0 * point - np.quantile(boot, (1 + level) / 2, axis=0)
@@ -111,7 +119,7 @@ class ScenarioAverage:
         shape = [1] * a.ndim
         shape[axis] = -1
         weighted = a * self.run.steps.astype(float).reshape(shape)
-        return sliding_window_view(weighted, k, axis=axis).sum(axis=-1)
+        return cast("np.ndarray", sliding_window_view(weighted, k, axis=axis).sum(axis=-1))
 
     def _span(self, width: float) -> tuple[int, np.ndarray]:
         """Short windows per sliding window of ``width``/r_min, and each sliding window's steps."""
@@ -120,7 +128,7 @@ class ScenarioAverage:
         k = min(len(run.steps), max(1, round(width / short)))
         return k, sliding_window_view(run.steps.astype(float), k).sum(axis=-1)
 
-    def _pooled(self, width: float):
+    def _pooled(self, width: float) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
         """k, each sliding window's steps, and per sliding window every seed's mean squared error (S, n, f, m) and the
         clairvoyant variance (n, m), pooled over its k short windows by steps."""
         k, total = self._span(width)
@@ -159,7 +167,9 @@ class ScenarioAverage:
             float(edges[k] - edges[0]),
         )
 
-    def periods(self, periods=None, *, burn: float = 2.0, level: float = 0.95):
+    def periods(
+        self, periods: Sequence[Period] | None = None, *, burn: float = 2.0, level: float = 0.95
+    ) -> PeriodRatios:
         """The period statistic (:func:`isl_core.period_ratios`): every filter's normalized RMSE ratio
         over ``periods`` (default :func:`isl_core.scenario_periods` of the run's scenario after
         ``burn``), pooled over the seeds, with Student's interval over them. Periods should start and end at window
@@ -172,7 +182,9 @@ class ScenarioAverage:
             periods = scenario_periods(run.scenario, float(run.t[-1] * run.r_min), burn=burn)
         return period_ratios(self.mse, run, tuple(periods), level=level)
 
-    def worst(self, *, width: float = 1.0, burn: float = 2.0, level: float = 0.95, rng_seed: int = BOOT_SEED):
+    def worst(
+        self, *, width: float = 1.0, burn: float = 2.0, level: float = 0.95, rng_seed: int = BOOT_SEED
+    ) -> tuple[np.ndarray, ...]:
         """Per filter, :func:`!worst_ratio` over the sliding windows of ``width`` that start at or after ``burn``
         (1/r_min): (point, low, high). Needs 2 seeds or more. Biased upwards: a maximum over noisy windows (the
         clairvoyant filter reads 1.1–1.35 on it); the table's statistic is :meth:`periods`."""

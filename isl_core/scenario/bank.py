@@ -3,9 +3,12 @@ robust and IMM filters begin from (:ref:`variational-kbf`, :ref:`robust-kbf`, :r
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import cast
+
 import numpy as np
 
-from ..filters.base import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB
+from ..filters.base import KIND_ADAPTIVE, KIND_IMM, KIND_ROBUST, KIND_VB, FilterSpec
 from ..filters.robust import huber_kappa
 from ..kernels.common import AD_SIGMA
 from ..model import Model
@@ -16,10 +19,12 @@ __all__ = ["learning_state", "learns_sigma"]
 
 def learns_sigma(kind: np.ndarray) -> np.ndarray:
     """Which filters learn σ (and have a σ̂ column): the adaptive, variational, robust and IMM filters."""
-    return (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM)
+    return cast("np.ndarray", (kind == KIND_ADAPTIVE) | (kind == KIND_VB) | (kind == KIND_ROBUST) | (kind == KIND_IMM))
 
 
-def learning_state(model: Model, filters, ad: np.ndarray):
+def learning_state(
+    model: Model, filters: Sequence[FilterSpec], ad: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The variational-Bayes filters' start: covariance Δ at their guess σ̂, IG(a₀, a₀σ̂²), (ρ, iterations); the
     robust filters' (c, κ(c)); the adaptive and robust filters' stated σ range (σ_min, σ_max), inside which the loop
     holds their σ̂ (:mod:`isl_core.kernels.scenario`), in the inverse-gamma pair's place."""

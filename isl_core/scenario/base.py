@@ -40,6 +40,7 @@ Kalman–Bucy Δ of (A.23): it is then today's optimal filter.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -155,7 +156,7 @@ class Scenario:
         values = np.array([float(sigma0)] + [k[1] for k in self.sigma_knots])
         if self.sigma_shape == "steps":  # the values themselves, not exp(log(σ)): a step is σ_j exactly
             return values[np.searchsorted(times, t, side="right") - 1]
-        return np.exp(np.interp(t, times, np.log(values)))
+        return cast("np.ndarray", np.exp(np.interp(t, times, np.log(values))))
 
     def sigma_constant_on(self, t0: float, t1: float) -> bool:
         """Whether σ(t) is one value for all t in [t0, t1] (units of 1/r_min)."""

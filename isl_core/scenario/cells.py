@@ -4,8 +4,9 @@ through the presets beyond every assumed range (:data:`isl_core.scenario.presets
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -13,10 +14,36 @@ from ..filters.base import SIGMA_RANGE
 from .periods import seed_ratios, worst_from
 from .variants import TuningGrids
 
+if TYPE_CHECKING:
+    from .heldout import HeldOut
+
+
+class _Row(Protocol):
+    @property
+    def role(self) -> str: ...
+
+    @property
+    def columns(self) -> tuple[int, ...]: ...
+
+
+class _Table(Protocol):
+    """What the rows beyond every assumed range read of a table (:class:`~isl_core.scenario.table.ScenarioTable`,
+    which imports this module)."""
+
+    @property
+    def held(self) -> HeldOut | None: ...
+
+    @property
+    def rows(self) -> Sequence[_Row]: ...
+
+    @property
+    def level(self) -> float: ...
+
+
 __all__ = ["CellStats", "assumes", "beyond_rows", "beyond_stats", "cell_stats"]
 
 
-def assumes(family: str, knob: Mapping, grids: TuningGrids) -> str:
+def assumes(family: str, knob: Mapping[str, float], grids: TuningGrids) -> str:
     """The σ range a family's filter assumes, in words (:data:`isl_core.filters.base.SIGMA_RANGE` for the learners
     with a gain table, the IMM's grid; none for the ISL filters and variational Bayes)."""
     lo, hi = SIGMA_RANGE
@@ -67,7 +94,7 @@ def cell_stats(ys: list[np.ndarray], seeds: list[tuple[int, ...]], level: float)
     return CellStats(ratio, low, high, coordinate, coordinates, worst_seed, worst_id, above2, diverged)
 
 
-def beyond_stats(table) -> CellStats | None:
+def beyond_stats(table: _Table) -> CellStats | None:
     """The table's reference, tuned and paper rows (in that order: :func:`beyond_rows`) over the held-out run's
     presets beyond every assumed range, or None without them."""
     held = table.held
@@ -78,6 +105,6 @@ def beyond_stats(table) -> CellStats | None:
     return cell_stats(ys, [held.seeds] * len(rows), table.level)
 
 
-def beyond_rows(table) -> list[int]:
+def beyond_rows(table: _Table) -> list[int]:
     """The rows run through the presets beyond every assumed range: all but the oracle rows."""
     return [r for r, row in enumerate(table.rows) if row.role != "oracle"]

@@ -22,7 +22,7 @@ from ..filters.base import FilterSpec
 from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
-from .run import plan_scenario
+from .run import ScenarioPlan, plan_scenario
 
 __all__ = ["Costs", "filter_costs"]
 
@@ -32,7 +32,7 @@ class Costs:
     """``ns_per_step`` per filter name (a copy's share), ``base`` the loop with its three filters alone, the grid's
     ``steps`` N, the ``copies`` and ``repeats`` of the measurement and its description ``how``."""
 
-    ns_per_step: dict
+    ns_per_step: dict[str, float]
     base: float
     steps: int
     copies: int
@@ -40,7 +40,7 @@ class Costs:
     how: str
 
 
-def _best(plan, repeats: int) -> float:
+def _best(plan: ScenarioPlan, repeats: int) -> float:
     plan.run(0)  # compiled and warm
     best = float("inf")
     for _ in range(repeats):
@@ -112,6 +112,12 @@ def filter_costs(
     )
 
 
-def _narrowed(model, scenario, horizon, extra, grid=None):
+def _narrowed(
+    model: Model,
+    scenario: Scenario,
+    horizon: float,
+    extra: Sequence[FilterSpec],
+    grid: Sequence[FilterSpec] | None = None,
+) -> ScenarioPlan:
     """A plan with ``extra`` on the grid set by ``grid`` (default ``extra``): the same h and N for every one."""
     return plan_scenario(model, model.beta, scenario, horizon=horizon, windows=1, extra=extra, grid_filters=grid)

@@ -25,7 +25,7 @@ MAX_REFINE = 6  #: halvings of a sensor grid's step (2^6 = 64 steps per base ste
 
 def scenario_grid(
     model: Model, nu: float, scenario: Scenario, extra: Sequence[FilterSpec], horizon: float, refine: int = 0
-):
+) -> tuple[float, int, float]:
     """(h, N, r_min) of a run of ``scenario``: h the smallest step over σ(0) and the extremes of σ(t) on [0, T]
     (:mod:`!isl_core.scenario.run`), N the steps over ``horizon``/r_min; a ``ValueError`` when N is over the limit.
     With a sensor interval Δ > 0, h is Δ/q₀ exactly, q₀ the fewest steps per reading that are no longer than that

@@ -28,10 +28,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 
 from ..filters.adaptive import adaptive_kbf
+from ..filters.base import FilterSpec
 from ..filters.imm import imm_kbf
 from ..filters.isl import model_aware_isl
 from ..filters.robust import robust_kbf
@@ -91,12 +93,12 @@ class WhoWinsMap:
 
     @property
     def winner(self) -> np.ndarray:
-        return 1 + np.argmin(self.ratio[:, :, 1:], axis=2)
+        return cast("np.ndarray", 1 + np.argmin(self.ratio[:, :, 1:], axis=2))
 
     @property
     def margin(self) -> np.ndarray:
         ranked = np.sort(self.ratio[:, :, 1:], axis=2)
-        return ranked[:, :, 1] / ranked[:, :, 0]
+        return cast("np.ndarray", ranked[:, :, 1] / ranked[:, :, 0])
 
 
 def _scenario(kind: str, value: float) -> Scenario:
@@ -107,7 +109,9 @@ def _scenario(kind: str, value: float) -> Scenario:
     return Scenario(sensor_interval=value)
 
 
-def map_filters(model: Model, alpha: float, m: int, w: float, tuning: Tuning | None, untuned: bool = False):
+def map_filters(
+    model: Model, alpha: float, m: int, w: float, tuning: Tuning | None, untuned: bool = False
+) -> tuple[float, str, list[FilterSpec], str, int]:
     """(ν, the ISL filter's label, the other families' filters, origin, first seed) for a map: every family at the
     knob of ``tuning`` (else the cached one for α, m, w at the table's defaults, else the shipped one nearest them;
     else, or with ``untuned``, the constructors' defaults, said). With a tuning the map's seeds start after the

@@ -34,7 +34,9 @@ margin too — conservative. A lower bound ≤ 1 is a tie: the seeds cannot tell
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from scipy.stats import t as student
@@ -161,7 +163,7 @@ def per_seed(mse: np.ndarray, run: ScenarioRun, periods: tuple[Period, ...]) -> 
 
 def seed_ratios(y: np.ndarray) -> np.ndarray:
     """Each seed's own worst-coordinate ratio √(max_i y_i(s)), from ``y`` (seeds, ..., m): (seeds, ...)."""
-    return np.sqrt(np.max(y, axis=-1))
+    return cast("np.ndarray", np.sqrt(np.max(y, axis=-1)))
 
 
 def _half(y: np.ndarray, level: float, axis: int = 0) -> np.ndarray:
@@ -171,17 +173,21 @@ def _half(y: np.ndarray, level: float, axis: int = 0) -> np.ndarray:
         return np.full(np.delete(y.shape, axis), np.nan)
     with np.errstate(invalid="ignore"):
         sd = y.std(axis=axis, ddof=1)
-    return student.ppf((1 + level) / 2, seeds - 1) * sd / math.sqrt(seeds)
+    return cast("np.ndarray", student.ppf((1 + level) / 2, seeds - 1) * sd / math.sqrt(seeds))
 
 
-def worst_from(y: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+#: (ratio, low, high, coordinate) of :func:`worst_from`
+Worst = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def worst_from(y: np.ndarray, level: float) -> Worst:
     """(ratio, low, high, coordinate) of the worst coordinate from the seeds' contributions ``y`` (seeds, cells,
     filters, m), each (filters, cells): per cell and filter the coordinate with the largest pooled ratio, that ratio
     and its Student interval (module docstring). A diverged filter reads inf."""
     mean = y.mean(axis=0)  # (cells, filters, m)
     half = _half(y, level)
     coordinate = np.argmax(np.where(np.isnan(mean), np.inf, mean), axis=-1)
-    pick = lambda a: np.take_along_axis(a, coordinate[..., None], axis=-1)[..., 0]  # noqa: E731
+    pick: Callable[[np.ndarray], np.ndarray] = lambda a: np.take_along_axis(a, coordinate[..., None], axis=-1)[..., 0]  # noqa: E731
     m, hw = pick(mean), pick(half)
     with np.errstate(invalid="ignore"):
         low, high = np.sqrt(np.maximum(m - hw, 0.0)), np.sqrt(m + hw)
@@ -218,16 +224,16 @@ class PeriodRatios:
     @property
     def coordinates(self) -> np.ndarray:
         """Every coordinate's ratio (filters, periods, m)."""
-        return np.sqrt(self.y.mean(axis=0)).transpose(1, 0, 2)
+        return cast("np.ndarray", np.sqrt(self.y.mean(axis=0)).transpose(1, 0, 2))
 
     @property
     def worst_seed(self) -> np.ndarray:
         """Per filter and period, the largest of the seeds' own worst-coordinate ratios (filters, periods)."""
-        return seed_ratios(self.y).max(axis=0).T
+        return cast("np.ndarray", seed_ratios(self.y).max(axis=0).T)
 
     def above(self, factor: float = 2.0) -> np.ndarray:
         """Per filter and period, how many seeds' own ratio exceeds ``factor`` (filters, periods)."""
-        return (seed_ratios(self.y) > factor).sum(axis=0).T
+        return cast("np.ndarray", (seed_ratios(self.y) > factor).sum(axis=0).T)
 
     def margin(self, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
         """Per period, filter b's ratio over filter a's and its lower bound (:func:`!worst_margin`)."""

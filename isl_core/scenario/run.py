@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -33,7 +34,7 @@ from ..filters.base import KIND_CLAIRVOYANT, FilterSpec
 from ..filters.isl import isl_filter
 from ..filters.kalman import optimal_kbf
 from ..grid import check_filters, check_specs
-from ..kernels.bundles import FilterBank, FilterState, Grid, IMMState, Observation, Windows
+from ..kernels.bundles import ClairvoyantState, FilterBank, FilterState, Grid, IMMState, Observation, Windows
 from ..kernels.clairvoyant import clairvoyant_state
 from ..kernels.imm import imm_state
 from ..kernels.scenario import advance_scenario
@@ -97,7 +98,7 @@ class ScenarioRun:
 
     def ratios(self) -> np.ndarray:
         """√(mse / ref_var) per window, filter and coordinate (nw, nf, m)."""
-        return np.sqrt(self.mse / self.ref_var[:, None, :])
+        return cast("np.ndarray", np.sqrt(self.mse / self.ref_var[:, None, :]))
 
     def overall(self, burn: float = 0.0) -> np.ndarray:
         """The ratio over the windows that start at or after ``burn`` (units of 1/r_min at σ(0)), per filter and
@@ -108,7 +109,7 @@ class ScenarioRun:
         w = self.steps[keep].astype(float)
         mse = np.tensordot(w, self.mse[keep], axes=1) / w.sum()
         ref = np.tensordot(w, self.ref_var[keep], axes=1) / w.sum()
-        return np.sqrt(mse / ref[None, :])
+        return cast("np.ndarray", np.sqrt(mse / ref[None, :]))
 
 
 @dataclass(frozen=True)
@@ -159,7 +160,19 @@ class ScenarioPlan:
         self._advance(x, e, rng, bank, state, clair, imm, windows, progress, bridges)
         return self._result(seed, windows, state.died, learning)
 
-    def _advance(self, x, e, rng, bank, state, clair, imm, windows, progress, bridges=()) -> None:
+    def _advance(
+        self,
+        x: np.ndarray,
+        e: np.ndarray,
+        rng: np.random.Generator,
+        bank: FilterBank,
+        state: FilterState,
+        clair: ClairvoyantState,
+        imm: IMMState,
+        windows: Windows,
+        progress: Callable[[float], None] | None,
+        bridges: Sequence[np.random.Generator] = (),
+    ) -> None:
         """The scenario loop over the whole run, chunk by chunk, σ_k of each chunk from the scenario; on a refined
         grid each chunk's bridge normals from ``bridges`` (level ℓ's stream, base step after base step, so that the
         runs refined L and L + 1 times share levels 1 … L)."""

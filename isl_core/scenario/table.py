@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import astuple, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -67,7 +68,7 @@ class TableRow:
     label: str
     role: str
     knows: str
-    tuning: dict | tuple[dict, ...]
+    tuning: dict[str, Any] | tuple[dict[str, Any], ...]
     origin: str
     columns: tuple[int, ...]
     assumes: str = ""
@@ -130,7 +131,7 @@ KNOB_TEXT = {
 }
 
 
-def knob_text(knob: Mapping) -> str:
+def knob_text(knob: Mapping[str, float]) -> str:
     """A knob in words: ``ν/β = 2^-2 = 0.25``, ``W = 30 readings``, ``c = 2, W = 10 readings``."""
     return ", ".join(KNOB_TEXT[k](v) if k in KNOB_TEXT else f"{k} = {v}" for k, v in knob.items())
 
@@ -204,7 +205,7 @@ def _rows(tuning: Tuning) -> list[TableRow]:
     return rows
 
 
-def _row_y(y: np.ndarray, cols: np.ndarray, index) -> np.ndarray:
+def _row_y(y: np.ndarray, cols: np.ndarray, index: Callable[[int], int]) -> np.ndarray:
     """One row's contributions (seeds, cells, m) from ``y`` (seeds, cells, filters, m), its filter per cell ``cols``
     mapped to ``y``'s filter axis by ``index``."""
     return np.stack([y[:, c, index(int(j))] for c, j in enumerate(cols)], axis=1)
@@ -255,7 +256,7 @@ def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None)
     )
     t_ratio, t_low, t_high = tuning.stats(level)
     worst_cell = np.array([int(np.argmax(np.nan_to_num(t_ratio[col[r], cells], nan=np.inf))) for r in range(len(rows))])
-    pick = lambda a: np.array([a[col[r, c], c] for r, c in enumerate(worst_cell)])  # noqa: E731
+    pick: Callable[[np.ndarray], np.ndarray] = lambda a: np.array([a[col[r, c], c] for r, c in enumerate(worst_cell)])  # noqa: E731
     tuned_figure, tuned_low, tuned_high = pick(t_ratio), pick(t_low), pick(t_high)
     held_figure = np.where(np.isnan(ratio), np.inf, ratio).max(axis=1)
     competes = np.array([row.role in ("tuned", "paper") for row in rows])

@@ -26,9 +26,10 @@ import hashlib
 import json
 import os
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -36,9 +37,9 @@ from ..filters.base import SIGMA_RANGE, FilterSpec
 from ..model import Model
 from ..validate import check_int, check_real
 from .base import Scenario
-from .periods import Period, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
+from .periods import Period, Worst, edge_times, per_seed, scenario_periods, seed_ratios, worst_from
 from .presets import DEFAULT_RATE, PRESETS, at_rate, check_rate
-from .run import plan_scenario
+from .run import ScenarioPlan, plan_scenario
 from .tuning_cache import cache_dir, cache_key, load, save
 from .variants import FAMILIES, TuningGrids, family_filter, grid_variants, paper_nu, variant_name
 
@@ -84,7 +85,7 @@ class Tuning:
     cells: tuple[tuple[int, Period], ...]
     names: tuple[str, ...]
     family: tuple[str, ...]
-    knobs: tuple[dict, ...]
+    knobs: tuple[dict[str, Any], ...]  # numbers, but the paper row's ν label
     y: np.ndarray
     reading_time: tuple[float, ...]
     steps: tuple[int, ...]
@@ -95,7 +96,7 @@ class Tuning:
     rate: float | None = None
     refine: int = 0
     substeps: tuple[int, ...] = ()
-    _stats: dict = field(default_factory=dict, repr=False, compare=False)
+    _stats: dict[float, Worst] = field(default_factory=dict, repr=False, compare=False)
 
     def stats(self, level: float = 0.95) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(ratio, low, high), each (filters, cells): the period statistic at the worst coordinate and its interval
@@ -171,7 +172,18 @@ class Tuning:
 _MEMORY_CACHE: dict[str, Tuning] = {}
 
 
-def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None, refine=0):
+def plan_preset(
+    alpha: float,
+    m: int,
+    w: float,
+    sigma0: float,
+    scenario: Scenario,
+    horizon: float,
+    burn: float,
+    grids: TuningGrids,
+    only: Sequence[tuple[str, Mapping[str, float]]] | None = None,
+    refine: int = 0,
+) -> tuple[ScenarioPlan, tuple[Period, ...]]:
     """The plan of one preset with every variant (or, ``only``, those of these (family, knob) pairs, on the grid of
     every variant: the same h and so, seed by seed, the same runs) and its periods; the step halved ``refine`` times
     (:func:`isl_core.scenario_grid`)."""
@@ -191,14 +203,19 @@ def plan_preset(alpha, m, w, sigma0, scenario, horizon, burn, grids, only=None, 
     return plan, periods
 
 
-def run_cells(plans: list, seeds: tuple[int, ...], workers: int | None, progress) -> list[np.ndarray]:
+def run_cells(
+    plans: list[tuple[ScenarioPlan, tuple[Period, ...]]],
+    seeds: tuple[int, ...],
+    workers: int | None,
+    progress: Callable[[float], None] | None,
+) -> list[np.ndarray]:
     """Every (plan, seed) run on ``workers`` threads (the kernels release the GIL): per plan (with its periods, a pair
     of ``plans``) the seeds' contributions y (seeds, periods, filters, m) of :func:`per_seed`."""
     tasks = [(p, s) for p in range(len(plans)) for s in range(len(seeds))]
     cost = np.array([plans[p][0].N for p, _ in tasks], dtype=float)
     out = [np.empty((len(seeds), len(periods), len(plan.filters), plan.model.m)) for plan, periods in plans]
 
-    def one(task):
+    def one(task: tuple[int, int]) -> None:
         p, s = task
         plan, periods = plans[p]
         run = plan.run(seeds[s])
@@ -214,8 +231,18 @@ def run_cells(plans: list, seeds: tuple[int, ...], workers: int | None, progress
 
 
 def _compute(
-    alpha, m, w, presets, seeds, horizon, burn, grids, workers, progress, refine
-) -> tuple[list[np.ndarray], list, list]:
+    alpha: float,
+    m: int,
+    w: float,
+    presets: Mapping[str, tuple[str, float, Scenario]],
+    seeds: tuple[int, ...],
+    horizon: float,
+    burn: float,
+    grids: TuningGrids,
+    workers: int | None,
+    progress: Callable[[float], None] | None,
+    refine: int,
+) -> tuple[list[np.ndarray], list[ScenarioPlan], list[tuple[Period, ...]]]:
     """Every (preset, seed) run: y per preset, plans, periods."""
     plans = [plan_preset(alpha, m, w, s0, sc, horizon, burn, grids, refine=refine) for _, s0, sc in presets.values()]
     out = run_cells(plans, seeds, workers, progress)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -54,7 +55,7 @@ class TuningGrids:
     imm_modes: tuple[int, ...] = (6, 11, 16, 21, 31)
     imm_sigma_range: tuple[float, float] = (1.5, 500.0)
 
-    def points(self, family: str) -> list[dict]:
+    def points(self, family: str) -> list[dict[str, float]]:
         """The family's grid points, each a dict knob → value."""
         if family in ("isl", "isl_model"):
             return [{"ell": float(x)} for x in self.isl_ell]
@@ -67,7 +68,9 @@ class TuningGrids:
         return [{"switch": float(p), "modes": int(j)} for p in self.imm_switch for j in self.imm_modes]
 
 
-def family_filter(family: str, model: Model, knob: Mapping, grids: TuningGrids = TuningGrids()) -> FilterSpec:
+def family_filter(
+    family: str, model: Model, knob: Mapping[str, float], grids: TuningGrids = TuningGrids()
+) -> FilterSpec:
     """The filter of ``family`` at ``knob`` for ``model``'s α, β, m (σ is not used; the σ-learners over
     :data:`SIGMA_RANGE` from its geometric middle), named ``family`` and labelled with its knob."""
     guess = math.sqrt(SIGMA_RANGE[0] * SIGMA_RANGE[1])
@@ -83,16 +86,16 @@ def family_filter(family: str, model: Model, knob: Mapping, grids: TuningGrids =
     if family == "kbf_robust":
         return robust_kbf(model, c=knob["c"], sigma_range=SIGMA_RANGE, memory=knob["memory"], sigma_init=guess)
     if family == "imm":
-        return imm_kbf(model, sigma_range=grids.imm_sigma_range, modes=knob["modes"], switch=knob["switch"])
+        return imm_kbf(model, sigma_range=grids.imm_sigma_range, modes=cast(int, knob["modes"]), switch=knob["switch"])
     raise ValueError(f"family must be one of {', '.join(FAMILIES)}; got {family!r}")
 
 
-def grid_variants(grids: TuningGrids) -> list[tuple[str, dict]]:
+def grid_variants(grids: TuningGrids) -> list[tuple[str, dict[str, float]]]:
     """Every (family, knob) of the grids, in :data:`FAMILIES` order: the variants a tuning runs."""
     return [(f, knob) for f in FAMILIES for knob in grids.points(f)]
 
 
-def variant_name(family: str, knob: Mapping) -> str:
+def variant_name(family: str, knob: Mapping[str, float]) -> str:
     """A variant's stable name: ``vb@memory=30``, ``imm@switch=0.01,modes=11``."""
     return f"{family}@" + ",".join(f"{k}={v:g}" for k, v in knob.items())
 

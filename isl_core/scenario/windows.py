@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -18,7 +19,7 @@ def memory_time(memory: float, q: int, h: float, r_min: float) -> float:
     return memory * q * h * r_min
 
 
-def window_times(horizon: float, windows: int, edges) -> np.ndarray:
+def window_times(horizon: float, windows: int, edges: Sequence[float] | None) -> np.ndarray:
     """The windows' edge times: ``windows`` equal windows, or ``edges`` checked (from 0 to ``horizon``, increasing)."""
     if edges is None:
         return np.linspace(0.0, horizon, windows + 1)  # more windows than steps: one a step (window_edges)

@@ -12,16 +12,22 @@ Automatic Control 23(3):395–404, 1978): ``expm([[−A, β²EEᵀ], [0, Aᵀ]] 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
 import numpy as np
 from scipy.linalg import expm
 from threadpoolctl import threadpool_limits
 
 from ..model import shift_matrix
 
+_F = TypeVar("_F", bound=Callable[..., Any])
+
 __all__ = ["ONE_THREAD", "Steps", "steps", "van_loan"]
 
 #: a decorator: the function runs with BLAS on one thread (:func:`_expm_each`)
-ONE_THREAD = threadpool_limits.wrap(limits=1, user_api="blas")
+#: (threadpoolctl is untyped: the decorator is declared to keep the signature of the function it wraps)
+ONE_THREAD = cast("Callable[[_F], _F]", threadpool_limits.wrap(limits=1, user_api="blas"))
 
 
 def _drift(m: int, a: float) -> np.ndarray:
@@ -30,7 +36,7 @@ def _drift(m: int, a: float) -> np.ndarray:
     return A
 
 
-def _expm_each(M: np.ndarray, dt) -> np.ndarray:
+def _expm_each(M: np.ndarray, dt: np.ndarray) -> np.ndarray:
     """expm(M·Δ) (n, k, k) for each Δ of ``dt``, one matrix at a time (scipy's stacked expm costs more). The callers
     that repeat it (:func:`isl_core.series.fit`, :func:`isl_core.series.run_filters`) hold BLAS to one thread
     (:data:`ONE_THREAD`): a small matrix gains nothing from more, and on a busy machine their waits cost ms a call

@@ -16,6 +16,7 @@ step by O(h).)
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from ..model import Model
 from ..riccati import kalman_bucy
@@ -24,7 +25,7 @@ from .record import Series
 __all__ = ["euler_kalman_bucy"]
 
 
-def euler_kalman_bucy(series: Series, model: Model, start, h: float | None = None) -> np.ndarray:
+def euler_kalman_bucy(series: Series, model: Model, start: npt.ArrayLike, h: float | None = None) -> np.ndarray:
     """The Euler-grid Kalman–Bucy filter of ``model`` (its σ included) over ``series`` from X̂(t_1) = ``start``
     (module docstring): the estimates (N, m) at the series' times.
 

@@ -21,12 +21,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from ..kernels.series import kalman_series
 from ..model import M_MAX, Model
 from ..validate import check_int, check_real
 from .discretize import ONE_THREAD, Steps, steps, van_loan
 from .record import Series
+
+#: a known start: x₀ (m,) and P₀ (m, m)
+Start = tuple[npt.ArrayLike, npt.ArrayLike]
+#: (log L, estimates (N, m), diag P (N, m), predictions (N,), innovation variances (N,))
+Track = tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 __all__ = ["KAPPA", "ReadingModel", "diffuse_start", "kalman_track", "loglik", "loglik_at"]
 
@@ -64,7 +70,14 @@ def diffuse_start(series: Series, m: int) -> tuple[np.ndarray, np.ndarray]:
     return x0, P0
 
 
-def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool, st: Steps | None = None):
+def _run(
+    series: Series,
+    rm: ReadingModel,
+    start: Start | None,
+    burn: int | None,
+    store: bool,
+    st: Steps | None = None,
+) -> Track:
     """The filter; with the diffuse start on the readings in units of their spread s and the times in units of the
     typical interval d (X_i in units of s/d^(i−1): α·d, β·d^(m−½)/s, σ_r/s), mapped back after — the filter is
     linear, so this changes rounding only, and keeps the diffuse start's κ·s² within the float range whatever the
@@ -98,7 +111,7 @@ def _run(series: Series, rm: ReadingModel, start, burn: int | None, store: bool,
 
 
 @ONE_THREAD
-def loglik(series: Series, rm: ReadingModel, *, start=None, burn: int | None = None) -> float:
+def loglik(series: Series, rm: ReadingModel, *, start: Start | None = None, burn: int | None = None) -> float:
     """The log-likelihood of ``series`` under ``rm`` (module docstring).
 
     Parameters
@@ -135,7 +148,7 @@ def loglik_at(series: Series, rm: ReadingModel, st: Steps, *, burn: int | None =
 
 
 @ONE_THREAD
-def kalman_track(series: Series, rm: ReadingModel, *, start=None, burn: int | None = None):
+def kalman_track(series: Series, rm: ReadingModel, *, start: Start | None = None, burn: int | None = None) -> Track:
     """The Kalman filter at ``rm``'s σ_r over ``series``: (log L, estimates (N, m), diag P (N, m), predictions (N,),
     innovation variances (N,)) — the filter of :func:`loglik`, every output kept."""
     return _run(series, rm, start, burn, store=True)

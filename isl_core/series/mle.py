@@ -13,13 +13,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
 
 from ..model import M_MAX
 from ..validate import check_int, check_real
-from .discretize import ONE_THREAD, steps
+from .discretize import ONE_THREAD, Steps, steps
 from .likelihood import ReadingModel, loglik_at
 from .record import Series, sigma_of_reading
 
@@ -75,7 +76,7 @@ def _hessian(f: Callable[[np.ndarray], float], x: np.ndarray) -> np.ndarray:
     return np.atleast_2d(approx_hess3(x, f))
 
 
-def _se(series: Series, p: ReadingModel, burn: int, alpha_free: bool, grid) -> tuple[float, float, float]:
+def _se(series: Series, p: ReadingModel, burn: int, alpha_free: bool, grid: Steps) -> tuple[float, float, float]:
     free_alpha = alpha_free and p.alpha > 1e-6 / series.spacing
     x = np.array([p.alpha, p.beta, p.sigma_r] if free_alpha else [p.beta, p.sigma_r])
 
@@ -140,7 +141,7 @@ def fit(series: Series, m: int, *, alpha: float | None = None, burn: int | None 
         a = a_fix if fixed else max(float(v[0]), 0.0) / dt
         return ReadingModel(m, a, math.exp(v[1]), math.exp(v[2]))
 
-    seen: list = [math.inf, None]  # the best point either optimizer evaluated (one may end at a non-finite one)
+    seen: list[Any] = [math.inf, None]  # the best point either optimizer evaluated (one may end at a non-finite one)
 
     def cost(v: np.ndarray) -> float:
         if not np.all(np.isfinite(v)) or abs(v[1]) > 600 or abs(v[2]) > 600:

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
+import numpy.typing as npt
 
 __all__ = ["MAX_READINGS", "MIN_READINGS", "Series", "series", "sigma_of_reading"]
 
@@ -44,7 +46,7 @@ class Series:
     @property
     def present(self) -> np.ndarray:
         """Mask (N,) of the times with a reading."""
-        return np.isfinite(self.z)
+        return cast("np.ndarray", np.isfinite(self.z))
 
     @property
     def spacing(self) -> float:
@@ -66,7 +68,7 @@ def _first_bad(mask: np.ndarray) -> int:
     return int(np.flatnonzero(mask)[0])
 
 
-def series(t, z, *, name: str = "series", unit: str = "") -> Series:
+def series(t: npt.ArrayLike, z: npt.ArrayLike, *, name: str = "series", unit: str = "") -> Series:
     """Validate times and readings into a :class:`Series` (module docstring).
 
     Rows are counted from 1 as in a spreadsheet, without the header. Refused, with the first offending row and the
@@ -131,7 +133,7 @@ def series(t, z, *, name: str = "series", unit: str = "") -> Series:
     return Series(t_arr, z_arr, str(name), str(unit))
 
 
-def _as_reals(what: str, values) -> np.ndarray:
+def _as_reals(what: str, values: npt.ArrayLike) -> np.ndarray:
     try:
         arr = np.array(values, dtype=float)
     except (TypeError, ValueError, OverflowError):

@@ -24,6 +24,7 @@ from ..filters.adaptive import MEMORY, sigma_limit
 from ..filters.base import FilterSpec
 from ..kernels.imm import imm_state
 from ..kernels.series import imm_series, spec_series, vb_series
+from ..model import Model
 from ..scenario.bank import learning_state
 from ..validate import check_real, short
 from .discretize import ONE_THREAD, Steps, steps, van_loan
@@ -81,7 +82,16 @@ def sigma_range(series: Series) -> tuple[float, float]:
     return s / 1000.0, 10.0 * s
 
 
-def _track(spec_name, label, z, est, var, pred, svar, lpd=None) -> SeriesTrack:
+def _track(
+    spec_name: str,
+    label: str,
+    z: np.ndarray,
+    est: np.ndarray,
+    var: np.ndarray | None,
+    pred: np.ndarray,
+    svar: np.ndarray,
+    lpd: np.ndarray | None = None,
+) -> SeriesTrack:
     innov = z - pred
     if lpd is None:
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -89,7 +99,7 @@ def _track(spec_name, label, z, est, var, pred, svar, lpd=None) -> SeriesTrack:
     return SeriesTrack(spec_name, label, est, var, pred, innov, svar, lpd)
 
 
-def _spec_track(series: Series, st: Steps, model, spec: FilterSpec) -> SeriesTrack:
+def _spec_track(series: Series, st: Steps, model: Model, spec: FilterSpec) -> SeriesTrack:
     n, m = series.n, model.m
     bank = pack(model, [spec], scenario=True)
     vb_P, vb_ab, vb_par = learning_state(model, [spec], bank.ad)
@@ -118,7 +128,9 @@ def _spec_track(series: Series, st: Steps, model, spec: FilterSpec) -> SeriesTra
     return _track(spec.name, spec.label, series.z, est, var, pred, svar)
 
 
-def series_specs(model, nu: float, sr: tuple[float, float], memory: float, names) -> dict[str, FilterSpec]:
+def series_specs(
+    model: Model, nu: float, sr: tuple[float, float], memory: float, names: Sequence[str]
+) -> dict[str, FilterSpec]:
     """The σ-free filters of ``names`` for ``model`` (its m, α, β): the ISL filters at ``nu``, the σ-learners over the
     σ range ``sr`` (its top held below the Riccati equation's domain) with memory ``memory``, starting at σ̂ = sr[1]/10.
     """
@@ -219,7 +231,9 @@ def _relabel(track: SeriesTrack, params: ReadingModel, nu: float, k_sigma: float
     return dataclasses.replace(track, label=label)
 
 
-def _run_units(series: Series, params: ReadingModel, nu: float, names, sr, memory) -> list[SeriesTrack]:
+def _run_units(
+    series: Series, params: ReadingModel, nu: float, names: Sequence[str], sr: tuple[float, float], memory: float
+) -> list[SeriesTrack]:
     model = params.model(series.spacing)
     st = steps(series.t)
     specs = series_specs(model, nu, sr, memory, names)

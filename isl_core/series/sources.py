@@ -11,7 +11,10 @@ date. Every refusal is a ``ValueError`` that names the column, the row and the f
 from __future__ import annotations
 
 import io
+import os
 from pathlib import Path
+from types import ModuleType
+from typing import Any, cast
 
 import numpy as np
 
@@ -31,7 +34,7 @@ DATASETS = {
 LONG_MODEL = (2, 0.05, 0.02, 1.0, 200_000)  #: m, α, β, σ_r and N of the ``long`` data set
 
 
-def _statsmodels_datasets():
+def _statsmodels_datasets() -> Any:  # statsmodels is untyped
     try:
         from statsmodels import datasets
     except ImportError as exc:
@@ -74,7 +77,7 @@ def dataset(name: str) -> Series:
     raise ValueError(f"the data set must be one of {list(DATASETS)}, got {str(name)[:40]!r}")
 
 
-def _pandas():
+def _pandas() -> Any:  # pandas is untyped
     try:
         import pandas as pd
     except ImportError as exc:
@@ -123,7 +126,7 @@ def _names_from_comment(text: str) -> str:
     return text
 
 
-def _column(frame, name: str | None, default: int, what: str):
+def _column(frame: Any, name: str | None, default: int, what: str) -> Any:  # pandas is untyped
     if name is None:
         return frame.columns[default]
     if name not in frame.columns:
@@ -132,21 +135,21 @@ def _column(frame, name: str | None, default: int, what: str):
     return name
 
 
-def _numbers(pd, col, what: str, dates: bool) -> np.ndarray:
+def _numbers(pd: ModuleType, col: Any, what: str, dates: bool) -> np.ndarray:
     raw = col.astype(str).str.strip()
     values = pd.to_numeric(raw.where(raw != "", None), errors="coerce")
     bad = values.isna() & (raw != "") & (raw.str.lower() != "nan")
     if dates and bad.all():
         stamps = pd.to_datetime(raw, errors="coerce", format="mixed")
         if not stamps.isna().any():
-            return ((stamps - stamps.iloc[0]).dt.total_seconds() / 86400.0).to_numpy(float)
+            return cast("np.ndarray", ((stamps - stamps.iloc[0]).dt.total_seconds() / 86400.0).to_numpy(float))
     if bad.any():
         row = int(np.flatnonzero(bad.to_numpy())[0])
         raise ValueError(
             f"{what} column {str(col.name)[:40]!r} must hold numbers: row {row + 1} has {raw.iloc[row][:40]!r}"
             " (fix the cell, or leave a reading empty where it is missing)"
         )
-    return values.to_numpy(float)
+    return cast("np.ndarray", values.to_numpy(float))
 
 
 def csv_columns(data: bytes) -> list[str]:
@@ -165,7 +168,13 @@ def csv_columns(data: bytes) -> list[str]:
     return [str(c) for c in frame.columns]
 
 
-def read_csv(source, *, time: str | None = None, value: str | None = None, name: str | None = None) -> Series:
+def read_csv(
+    source: str | os.PathLike[str] | bytes,
+    *,
+    time: str | None = None,
+    value: str | None = None,
+    name: str | None = None,
+) -> Series:
     """A :class:`Series` from a CSV file (module docstring): ``source`` a path or the file's bytes; ``time`` and
     ``value`` the columns' names (default the first two). Lines starting with ``#`` are comments."""
     if isinstance(source, bytes | bytearray):
