@@ -25,11 +25,14 @@ import hashlib
 import inspect
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..filters.base import FilterSpec
 from ..model import Model
 from ..validate import check_int, check_real
 from .presets import PRESETS
@@ -61,7 +64,7 @@ COMMAND = "python scripts/tune_grid.py"  #: regenerates :data:`SHIPPED` under to
 W_GRID = 3.0  #: every grid point's w (paper A's); other w map onto it (:func:`equivalent_alpha`)
 #: the probe: one small tuning under the rule — its presets, every family, the grid's fastest ISL variant (ℓ = 4,
 #: which sets h), two seeds — recomputed bit for bit by a test
-PROBE: dict = {
+PROBE: dict[str, Any] = {
     "alpha": 100.0,
     "m": 1,
     "seeds": 2,
@@ -72,7 +75,7 @@ _SAME = 1e-9  #: relative difference under which two α (or w) are the same poin
 _NOT_RULE = {"alpha", "m", "w", "presets", "grids", "workers", "progress", "cache", "compute"}
 
 
-def rule() -> dict:
+def rule() -> dict[str, Any]:
     """Today's tuning rule, as a shipped file records it: :data:`!RULE_VERSION`, the defaults of every argument of
     :func:`isl_core.tune` that shapes a tuning (seeds, horizon, burn, …), w, the families' knobs, the grids and the
     presets."""
@@ -86,12 +89,13 @@ def rule() -> dict:
         "grids": asdict(grids),
         "presets": {k: [label, s0, repr(sc)] for k, (label, s0, sc) in PRESETS.items()},
     }
-    return json.loads(json.dumps(record, default=repr))
+    out: dict[str, Any] = json.loads(json.dumps(record, default=repr))
+    return out
 
 
 def equivalent_alpha(alpha: float, m: int, w: float) -> float:
     """The α at w = 3 whose tuning is that of (α, m, w): α·(w/3)^(1/(1/2 − m)) (module docstring)."""
-    return alpha * (w / W_GRID) ** (1.0 / (0.5 - m))
+    return float(alpha * (w / W_GRID) ** (1.0 / (0.5 - m)))
 
 
 @dataclass(frozen=True)
@@ -105,7 +109,7 @@ class ShippedTuning:
     m: int
     asked: tuple[float, float]
     exact: bool
-    knobs: tuple[dict, ...]
+    knobs: tuple[dict[str, Any], ...]
     figures: tuple[tuple[float, float, float, str], ...]
     seeds: tuple[int, ...]
     grids: TuningGrids
@@ -116,11 +120,11 @@ class ShippedTuning:
         """The index of ``family``'s knob in ``knobs``."""
         return list(FAMILIES).index(family)
 
-    def tuned_filters(self, model: Model) -> list:
+    def tuned_filters(self, model: Model) -> list[FilterSpec]:
         """Every family's filter at its shipped knob for ``model``, in :data:`!FAMILIES` order."""
         return [family_filter(f, model, k, self.grids) for f, k in zip(FAMILIES, self.knobs, strict=True)]
 
-    def grid_filters(self, model: Model) -> list:
+    def grid_filters(self, model: Model) -> list[FilterSpec]:
         """Every variant of the grids for ``model``, as :meth:`isl_core.Tuning.grid_filters`: a run beside them gets
         the tuning's step h."""
         return [family_filter(f, model, k, self.grids) for f, k in grid_variants(self.grids)]
@@ -131,10 +135,10 @@ class ShippedGrid:
     """The shipped file: its ``rule``, the grid's ``ms``, its ``entries`` (dicts of :func:`entry_from`) and its
     ``probe`` (:func:`probe_record`)."""
 
-    rule: dict
+    rule: dict[str, Any]
     ms: tuple[int, ...]
-    entries: tuple[dict, ...]
-    probe: dict
+    entries: tuple[dict[str, Any], ...]
+    probe: dict[str, Any]
     path: str
 
     def alphas(self, m: int) -> tuple[float, ...]:
@@ -172,7 +176,7 @@ def stale(grid: ShippedGrid) -> str | None:
     )
 
 
-def _words(alphas) -> str:
+def _words(alphas: Iterable[float]) -> str:
     return "{" + ", ".join(f"{a:g}" for a in alphas) + "}"
 
 
@@ -208,7 +212,7 @@ def why_not_shipped(alpha: float, m: int, *, path: str | None = None) -> str:
     return ""
 
 
-def shipped_json(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None) -> dict:
+def shipped_json(alpha: float, m: int, w: float = W_GRID, *, path: str | None = None) -> dict[str, Any]:
     """The shipped tuning :func:`shipped_tuning` gives (α, m, w), as JSON: its label (nearest grid point or exact),
     the point and each family's knob and minimax figure — or why there is none."""
     found = shipped_tuning(alpha, m, w, path=path)
@@ -227,7 +231,7 @@ def shipped_json(alpha: float, m: int, w: float = W_GRID, *, path: str | None = 
     }
 
 
-def _shipped(grid: ShippedGrid, entry: dict, alpha: float, w: float, target: float) -> ShippedTuning:
+def _shipped(grid: ShippedGrid, entry: dict[str, Any], alpha: float, w: float, target: float) -> ShippedTuning:
     tune_args = grid.rule["tune"]
     grids = TuningGrids(**{k: tuple(v) for k, v in grid.rule["grids"].items()})
     point = f"α = {entry['alpha']:g}, m = {entry['m']}"
@@ -259,7 +263,7 @@ def _shipped(grid: ShippedGrid, entry: dict, alpha: float, w: float, target: flo
     )
 
 
-def entry_from(tuning: Tuning) -> dict:
+def entry_from(tuning: Tuning) -> dict[str, Any]:
     """What the shipped file keeps of ``tuning``: its point, each family's minimax knob and figure (ratio, low, high
     at its worst cell, that cell) and its computing time."""
     ratio, low, high = tuning.stats()
@@ -297,7 +301,7 @@ def probe_tuning(workers: int | None = None) -> Tuning:
     return tuning
 
 
-def probe_record(tuning: Tuning) -> dict:
+def probe_record(tuning: Tuning) -> dict[str, Any]:
     """The probe as the shipped file keeps it: :data:`PROBE`, the SHA-256 of its cells (the seeds' contributions,
     bit for bit) and its knobs."""
     return {

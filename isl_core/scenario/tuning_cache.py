@@ -6,12 +6,18 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..kernels.cache import sources_digest
+
+if TYPE_CHECKING:
+    from .base import Scenario
+    from .variants import TuningGrids
 
 __all__ = ["RULE_VERSION", "cache_dir", "cache_key", "load", "save"]
 
@@ -30,7 +36,17 @@ def cache_dir() -> Path:
     return Path(base) / "isl"
 
 
-def cache_key(alpha, m, w, seeds, horizon, burn, presets, grids, refine=0) -> dict:
+def cache_key(
+    alpha: float,
+    m: int,
+    w: float,
+    seeds: Sequence[int],
+    horizon: float,
+    burn: float,
+    presets: Mapping[str, tuple[str, float, Scenario]],
+    grids: TuningGrids,
+    refine: int = 0,
+) -> dict[str, Any]:
     """What a cached tuning was computed from: the rule's version, its arguments (the presets at their reading rate,
     the step's refinement), the grids and the digest of the core's sources."""
     return {
@@ -48,7 +64,7 @@ def cache_key(alpha, m, w, seeds, horizon, burn, presets, grids, refine=0) -> di
     }
 
 
-def save(path: Path, y: np.ndarray, seconds: float, key: dict) -> bool:
+def save(path: Path, y: np.ndarray, seconds: float, key: dict[str, Any]) -> bool:
     """Store a tuning's statistics ``y`` under ``key`` at ``path``; False if the directory is not writable."""
     meta = {"key": key, "seconds": seconds}
     try:
@@ -61,7 +77,7 @@ def save(path: Path, y: np.ndarray, seconds: float, key: dict) -> bool:
         return False
 
 
-def load(path: Path, key: dict) -> tuple[np.ndarray, float] | None:
+def load(path: Path, key: dict[str, Any]) -> tuple[np.ndarray, float] | None:
     """The statistics and computing time stored at ``path`` if they were computed from ``key``, else None."""
     try:
         with np.load(path, allow_pickle=False) as data:
