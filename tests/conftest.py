@@ -43,6 +43,18 @@ def _own_tuning_cache(tmp_path_factory):
         os.environ["ISL_CACHE_DIR"] = old
 
 
+@pytest.fixture(autouse=True)
+def _server_patches(request: pytest.FixtureRequest) -> None:
+    """The dashboard's tests that build pages in this process, without the server (``tests/app``), run with the
+    patches of Panel and Bokeh that the server's start-up installs (:func:`app.serving.patches.install`, idempotent).
+    A fixture of this file rather than a ``conftest.py`` of ``tests/app``: two modules named ``conftest`` in folders
+    without ``__init__.py`` collide when the doctests collect them."""
+    if request.node.path.is_relative_to(HERE / "app"):
+        from app.serving import patches
+
+        patches.install()
+
+
 @pytest.fixture(scope="module")
 def app_server(tmp_path_factory):
     """URL of the dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads,
