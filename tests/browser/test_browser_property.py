@@ -330,7 +330,10 @@ def scenario_preset(page, rng: random.Random) -> str:
 
 
 def test_after_every_random_action_the_page_draws_the_run_its_link_describes(app_server):
-    seed = int(os.environ.get("ISL_PROPERTY_SEED") or random.SystemRandom().randrange(2**32))
+    # one fixed sequence by default, as the project's Hypothesis profile (a failure is seen again, never by luck);
+    # ISL_PROPERTY_SEED=random explores a fresh one, any integer replays one
+    chosen = os.environ.get("ISL_PROPERTY_SEED") or "0"
+    seed = random.SystemRandom().randrange(2**32) if chosen == "random" else int(chosen)
     rng = random.Random(seed)
     done: list[str] = []
     url, _ = app_server
@@ -345,6 +348,6 @@ def test_after_every_random_action_the_page_draws_the_run_its_link_describes(app
                 done.append(act(page, rng, want["state"]))
                 want = settle_all(page, f"after {done[-1]}", cache)
                 assert not errors, f"the page raised {errors}"
-        except AssertionError as exc:
-            raise AssertionError(f"ISL_PROPERTY_SEED={seed}, after {len(done)} actions {done[-8:]}: {exc}") from None
+        except Exception as exc:  # an assertion or a wait that timed out: either way, the sequence that led to it
+            raise AssertionError(f"ISL_PROPERTY_SEED={seed}, after {len(done)} actions {done[-8:]}: {exc!r}") from exc
     assert len(done) == ACTIONS
