@@ -18,6 +18,7 @@ from typing import ClassVar
 
 import param
 
+from isl_core import M_MAX
 from isl_core.series import DATASETS, Series
 
 from ..jobs import LongTask, Outcome
@@ -49,7 +50,7 @@ class DataRoom(Room):
 
     order = param.Integer(
         0,
-        bounds=(0, 6),
+        bounds=(0, M_MAX),
         label="order m (0: by BIC)",
         doc="The model's order m, 1 to 6; 0 fits every m and keeps the one of least BIC (a long series: minutes).",
     )
