@@ -162,8 +162,7 @@ class AppState(SessionInputs):
         """Assign input ``key`` a value from outside (a widget): one the declaration refuses is refused beside the
         input, in words naming it and its range, and the last good run stays on screen. Whether it was taken."""
         text = self._assign(key, value, {})
-        if text is None:
-            self._lift(key)
+        if text is None:  # its refusal was lifted as it was assigned (a refused run may have put a new one since)
             return True
         kept = "The last good run is kept." if self.run is not None else "Nothing was simulated for it."
         self.say(f"Refused: {text}. {kept}", "danger", inline=True)

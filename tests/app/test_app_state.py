@@ -148,12 +148,17 @@ def test_too_many_steps_is_refused_at_the_horizon_which_returns_to_the_run_on_sc
     assert set(state.refusals) == {"horizon"} and "horizon (× 1/rₘᵢₙ) = 1000" in state.refusals["horizon"]
 
 
-def test_a_value_refused_only_with_the_others_is_refused_at_the_input_just_moved(state):
+@pytest.mark.parametrize("path", ["code", "widget"])
+def test_a_value_refused_only_with_the_others_is_refused_at_the_input_just_moved(state, path):
     """α = 100 is in range, σ = 741 too; together (at horizon 10) the run needs ~3 million steps: α goes back to the
-    run on screen's, the refusal stands beside α, names it and says so in the page's message."""
+    run on screen's, the refusal stands beside α, names it and says so in the page's message — whether α was set in
+    code or came through the widgets' boundary (which must not lift the refusal the run has just made)."""
     state.sigma = 741.0
     run, alpha = state.run, state.alpha
-    state.alpha = 100.0
+    if path == "code":
+        state.alpha = 100.0
+    else:
+        assert state.set("alpha", 100.0)  # taken: the run refuses it afterwards
     assert state.run is run and state.alpha == alpha and state.run_inputs() == state.shown_inputs
     assert set(state.refusals) == {"alpha"} and state.refusals["alpha"] == state.message
     assert "α = 100" in state.message and f"α is back at {alpha:g}" in state.message
