@@ -50,19 +50,22 @@ def _checks_during(action) -> tuple[collections.Counter, dict[str, set[str]]]:
     return calls, places
 
 
-@pytest.mark.parametrize(("name", "value"), [("sigma", 55.0), ("alpha", 2.0), ("horizon", 20.0)])
+@pytest.mark.parametrize(("name", "value"), [("sigma", 55.0), ("alpha", 2.0), ("nu", 5.0), ("horizon", 20.0)])
 def test_one_slider_request_checks_each_input_in_at_most_two_places(name, value):
     """The moved input is judged once by its declaration, and every input of the run at most by one constructor of
-    the core besides (a Model checks α, β, σ and m; the run's plan its horizon; the simulation its seed)."""
+    the core besides (a Model checks α, β, σ and m; the ISL filter ν; the run's plan its horizon; the simulation its
+    seed) — however many models and filters the run makes, none is checked again by the functions it goes through."""
     state = AppState()
     state.start()
     slider = log_slider(state, name, lo=ALPHA_SLIDER_LOW if name == "alpha" else None)
     calls, places = _checks_during(lambda: setattr(slider, "value", math.log10(value)))
-    assert getattr(state.run.model if name != "horizon" else state, name) == value  # the request ran
+    ran = state.run.model if name in ("sigma", "alpha") else state.run if name == "nu" else state
+    assert getattr(ran, name) == value  # the request ran
     assert places[name] >= {"declaration"} and calls[name] >= 2, (calls, places)  # the boundary, then the core
-    for each in ("alpha", "beta", "sigma", "seed", "horizon", "w"):
+    for each in ("alpha", "beta", "w", "sigma", "nu", "m", "seed", "horizon"):
         assert len(places[each]) + (each != name) <= 2, (each, places[each])
-    assert places["sigma"] - {"declaration"} == {"model.py:__post_init__"}, places["sigma"]
+    assert places["sigma"] - {"declaration"} == places["m"] == {"model.py:__post_init__"}, places
+    assert places["nu"] - {"declaration"} == {"isl.py:isl_filter"}, places["nu"]
 
 
 @pytest.mark.parametrize("name", ["alpha", "beta", "w", "sigma", "nu", "m", "seed", "horizon"])
