@@ -1,6 +1,6 @@
 """Three heavy pages in chromium beside a default page: how long ``/liveness`` waits.
 
-    PYTHONPATH=. python benchmarks/bench_heavy_pages.py [--duration 300] [--procs 1,0]
+    PYTHONPATH=. python benchmarks/bench_heavy_pages.py [--duration 300] [--procs 1,0] [--before CHECKOUT]
 
 Starts ``python -m app.serving`` on a free loopback port, once per ``--procs`` value (one column each: 1 process,
 then the default, one per core), and opens in Debian's chromium (Playwright), as a class's browsers would:
@@ -18,7 +18,8 @@ printed: figures compare only on an otherwise idle machine.
 
 Each probe that waited :data:`LATE_S` or more is printed with the stalls the server logged over its wait
 (:mod:`app.serving.stalls`: which process's loop, how long, running / waiting for a core / blocked, and where its
-thread was); ``--stall-log MS`` sets the server's threshold (default 100 ms).
+thread was); ``--stall-log MS`` sets the server's threshold (default 100 ms). With ``--before CHECKOUT`` (a
+checkout of an older commit) its servers run first, then this one's, in one run: one column each.
 """
 
 from __future__ import annotations
@@ -152,10 +153,14 @@ def logged_stalls(log: Path) -> list[tuple[float, stall_log.Stall]]:
     return found
 
 
-def measure(procs: str, duration: float, stall_ms: int) -> Figures:
+def measure(procs: str, duration: float, stall_ms: int, repo: Path | None = None) -> Figures:
+    """One column: the server of checkout ``repo`` (default: this one) with ``--num-procs procs``."""
     port = sc.free_port()
     log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-heavy-pages-{port}.log"
-    proc = sc.start_server(port, log, ["--num-procs", procs, "--stall-log", str(stall_ms)])
+    repo = (repo or sc.REPO).resolve()
+    logs_stalls = (repo / "app" / "serving" / "stalls.py").is_file()  # an older checkout has no --stall-log
+    extra = ["--num-procs", procs] + (["--stall-log", str(stall_ms)] if logs_stalls else [])
+    proc = sc.start_server(port, log, extra, repo=repo)
     try:
         sc.wait_healthy(port, 180, proc)
         figures = asyncio.run(scenario(f"http://127.0.0.1:{port}", duration))
@@ -219,12 +224,17 @@ def main() -> int:
     p.add_argument("--duration", type=float, default=300.0, help="seconds the pages run (default 300)")
     p.add_argument("--procs", default="1,0", help="--num-procs of each server, comma-separated (0: one per core)")
     p.add_argument("--stall-log", type=int, default=100, metavar="MS", help="the servers' stall threshold (ms)")
+    p.add_argument("--before", type=Path, help="a checkout of an older commit: its columns first, in the same run")
     opts = p.parse_args()
     procs = [v.strip() for v in opts.procs.split(",") if v.strip()]
     if not procs or not all(v.isdigit() for v in procs):
         p.error(f"--procs takes process counts (0: one per core) separated by commas, got {opts.procs!r}")
+    names = {"0": "one per core", "1": "1 process"}
+    checkouts = [("before, ", opts.before), ("after, ", None)] if opts.before else [("", None)]
     columns = {
-        {"0": "one per core", "1": "1 process"}.get(n, n): measure(n, opts.duration, opts.stall_log) for n in procs
+        f"{label}{names.get(n, n)}": measure(n, opts.duration, opts.stall_log, repo)
+        for label, repo in checkouts
+        for n in procs
     }
     print(
         f"three heavy pages and a default page in chromium, {opts.duration:g} s "

@@ -305,6 +305,9 @@ def _serve_command(
             from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
+            from app.serving import static
+
+            static.install(server._tornado)  # static files compressed once, on a thread (the transform: on the loop)
             from app.serving import docs
 
             docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)

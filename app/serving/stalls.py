@@ -38,7 +38,8 @@ log = logging.getLogger("isl.stall")
 
 BEAT_S = 0.05  #: the heartbeat's period on the loop, and the watcher's between looks
 SAMPLE_S = 0.005  #: the watcher's period while a beat is late
-FRAMES = 4  #: innermost frames of the loop thread's stack named in a stall's line
+FRAMES = 4  #: innermost frames of the loop thread's stack named with their file and line in a stall's line
+CALLERS = 8  #: and the functions that called them, by name
 LATE_WAKE_S = 0.02  #: a watcher's wake-up this late samples the other threads too
 #: innermost functions of a thread that waits (for work, a lock, a child process, a socket): not what held the loop
 IDLE = re.compile(r"^(wait|_wait_for_tstate_lock|select|poll|_poll|accept|recv_bytes|_recv|get|_worker|sleep) \(")
@@ -55,12 +56,14 @@ def _schedstat(tid: int) -> tuple[float, float]:
         return 0.0, 0.0
 
 
-def _where(frame, depth: int = FRAMES) -> str:
-    """``func (file:line) < caller (file:line) …`` for the innermost ``depth`` frames of ``frame``."""
+def _where(frame, depth: int = FRAMES, callers: int = CALLERS) -> str:
+    """``func (file:line) < caller (file:line) … < outer < outer`` for the innermost ``depth`` frames of ``frame``
+    and the names of the ``callers`` frames out from them."""
     names: list[str] = []
-    while frame is not None and len(names) < depth:
+    while frame is not None and len(names) < depth + callers:
         code = frame.f_code
-        names.append(f"{code.co_name} ({os.path.basename(code.co_filename)}:{frame.f_lineno})")
+        where = f" ({os.path.basename(code.co_filename)}:{frame.f_lineno})" if len(names) < depth else ""
+        names.append(code.co_name + where)
         frame = frame.f_back
     return " < ".join(names)
 
@@ -88,7 +91,10 @@ class StallWatch:
         while True:
             time.sleep(BEAT_S)
             if time.monotonic() - self.beat > 2 * BEAT_S and self.tid:
-                self._sample()
+                try:
+                    self._sample()
+                except Exception:  # the watcher must outlive a stall it could not describe
+                    log.exception("could not describe a stall of the event loop")
 
     def _sample(self) -> None:
         """Sample the loop thread while its beat is late; log the stall if it lasted ``threshold``."""
@@ -140,7 +146,7 @@ def _busy(frames: dict) -> list[str]:
     found = []
     for ident, frame in frames.items():
         if ident != threading.get_ident():
-            where = _where(frame, 3)
+            where = _where(frame, 3, 3)
             if not IDLE.match(where):
                 found.append(f"{names.get(ident, ident)}: {where}")
     return found
