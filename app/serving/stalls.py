@@ -7,7 +7,8 @@ watcher thread beside it. Once a beat is late, the watcher samples the loop thre
 (``isl.stall``, a warning) with
 
 * how long the loop did not answer, in which process;
-* how that time splits, from the kernel's own accounts of the loop's thread (``/proc/self/task/TID/schedstat``):
+* how that time splits, from the kernel's own accounts of the loop's thread (``/proc/self/task/TID/schedstat``,
+  read by the watcher at each of its looks, so the split starts at most :data:`BEAT_S` before the stall):
   *running* (the thread ran on a core: it was busy with the work its stack shows), *waiting for a core* (runnable
   but not scheduled: the machine's cores were all taken), and the rest, *blocked* (asleep in the kernel: waiting for
   the interpreter lock, another lock, or I/O);
@@ -88,21 +89,26 @@ class StallWatch:
         self.loop.call_later(BEAT_S, self._beat)
 
     def _watch(self) -> None:
+        baseline = (0.0, 0.0)
         while True:
+            t = time.monotonic()
             time.sleep(BEAT_S)
+            woke = time.monotonic() - t - BEAT_S  # how late the watcher itself came
             if time.monotonic() - self.beat > 2 * BEAT_S and self.tid:
                 try:
-                    self._sample()
+                    self._sample(baseline, woke)
                 except Exception:  # the watcher must outlive a stall it could not describe
                     log.exception("could not describe a stall of the event loop")
+            # the loop thread's accounts at most BEAT_S before a stall begins: a stall the watcher itself saw late
+            # (it needs the interpreter lock too) is still split from its start
+            baseline = _schedstat(self.tid) if self.tid else baseline
 
-    def _sample(self) -> None:
+    def _sample(self, baseline: tuple[float, float], woke: float) -> None:
         """Sample the loop thread while its beat is late; log the stall if it lasted ``threshold``."""
-        began, tid = self.beat, self.tid
-        run0, wait0 = _schedstat(tid)
+        began = self.beat
+        run0, wait0 = baseline
         seen: Counter[str] = Counter()
         others: Counter[str] = Counter()
-        woke = time.monotonic() - began - 2 * BEAT_S  # the first look: how late the watcher came
         late = max(0.0, woke)
         while self.beat == began:
             frames = sys._current_frames()
@@ -119,7 +125,7 @@ class StallWatch:
         stalled = self.beat - began - BEAT_S
         if stalled < self.threshold:
             return
-        run1, wait1 = _schedstat(tid)
+        run1, wait1 = _schedstat(self.tid)
         running, waiting = run1 - run0, wait1 - wait0
         top, count = seen.most_common(1)[0] if seen else ("(not sampled)", 0)
         self.stalls += 1

@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import gzip
 import logging
+import sys
 import threading
 import time
 
@@ -55,6 +56,25 @@ def test_a_stall_is_logged_with_its_length_and_where_the_loop_was():
     assert stall is not None and stall.ms >= 400 - 1e3 * stalls.BEAT_S, record.getMessage()
     assert "_hold_the_loop (test_stalls.py:" in stall.detail, stall.detail
     assert stalls.parse("isl stats: sessions=1") is None
+
+
+def test_the_threads_named_beside_a_stall_are_those_not_waiting():
+    stop, waiting = threading.Event(), threading.Event()
+    busy = threading.Thread(target=lambda: [_hold_the_loop(0.01) for _ in iter(stop.is_set, True)], name="spinning")
+    idle = threading.Thread(target=waiting.wait, name="waiting")
+    busy.start(), idle.start()
+    named: list[str] = []
+    try:  # sampled until the spinning thread is seen inside its work (not between two calls of it)
+        for _ in range(1000):
+            named += stalls._busy(sys._current_frames())
+            if any("_hold_the_loop (test_stalls.py:" in n for n in named):
+                break
+            time.sleep(0.001)
+    finally:
+        stop.set(), waiting.set()
+        busy.join(10), idle.join(10)
+    assert any(n.startswith("spinning: ") and "_hold_the_loop (test_stalls.py:" in n for n in named), named
+    assert not any(n.startswith("waiting: ") for n in named), named
 
 
 @pytest.fixture
