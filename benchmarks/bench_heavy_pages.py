@@ -19,7 +19,9 @@ printed: figures compare only on an otherwise idle machine.
 Each probe that waited :data:`LATE_S` or more is printed with the stalls the server logged over its wait
 (:mod:`app.serving.stalls`: which process's loop, how long, running / waiting for a core / blocked, and where its
 thread was); ``--stall-log MS`` sets the server's threshold (default 100 ms). With ``--before CHECKOUT`` (a
-checkout of an older commit) its servers run first, then this one's, in one run: one column each.
+checkout of an older commit) its servers run first, then this one's, in one run: one column each. With
+``--browser-nice N`` chromium runs N steps lower in CPU priority than the server: in a class the browsers are on
+other machines, and here their drawing competes with the server's loop for the same two cores.
 """
 
 from __future__ import annotations
@@ -117,12 +119,29 @@ async def default_pages(browser, base: str, figures: Figures) -> None:
         await asyncio.sleep(max(0.0, t0 + REOPEN_S - time.perf_counter()))  # a pace, not a wait for an event
 
 
-async def scenario(base: str, duration: float) -> Figures:
+def browser_at(nice: int) -> str:
+    """Debian's chromium, or a script that starts it ``nice`` steps below this process's CPU priority (its renderers
+    inherit it): in a class the browsers run on the students' machines, here on the server's cores."""
+    if nice <= 0:
+        return CHROMIUM
+    import tempfile
+
+    fd, path = tempfile.mkstemp(prefix="isl-chromium-", suffix=".sh")
+    with os.fdopen(fd, "w") as f:
+        f.write(f'#!/bin/sh\nexec nice -n {nice} {CHROMIUM} "$@"\n')
+    os.chmod(path, 0o700)
+    return path
+
+
+async def scenario(base: str, duration: float, browser_nice: int = 0) -> Figures:
     from playwright.async_api import async_playwright
 
     figures = Figures()
     async with async_playwright() as p:
-        browser = await p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        executable = browser_at(browser_nice)
+        browser = await p.chromium.launch(executable_path=executable, args=ARGS)
+        if executable != CHROMIUM:
+            os.unlink(executable)  # started: the script is no longer needed
         probe = LivenessProbe(base)
         tasks = [asyncio.ensure_future(new_noise(browser, base, figures)) for _ in range(2)]
         tasks += [asyncio.ensure_future(worst_case(browser, base, figures))]
@@ -153,7 +172,7 @@ def logged_stalls(log: Path) -> list[tuple[float, stall_log.Stall]]:
     return found
 
 
-def measure(procs: str, duration: float, stall_ms: int, repo: Path | None = None) -> Figures:
+def measure(procs: str, duration: float, stall_ms: int, repo: Path | None = None, browser_nice: int = 0) -> Figures:
     """One column: the server of checkout ``repo`` (default: this one) with ``--num-procs procs``."""
     port = sc.free_port()
     log = Path(os.environ.get("TMPDIR", "/tmp")) / f"isl-heavy-pages-{port}.log"
@@ -163,7 +182,7 @@ def measure(procs: str, duration: float, stall_ms: int, repo: Path | None = None
     proc = sc.start_server(port, log, extra, repo=repo)
     try:
         sc.wait_healthy(port, 180, proc)
-        figures = asyncio.run(scenario(f"http://127.0.0.1:{port}", duration))
+        figures = asyncio.run(scenario(f"http://127.0.0.1:{port}", duration, browser_nice))
     finally:
         sc.stop_server(proc)
     figures.stalls = logged_stalls(log)
@@ -224,6 +243,13 @@ def main() -> int:
     p.add_argument("--duration", type=float, default=300.0, help="seconds the pages run (default 300)")
     p.add_argument("--procs", default="1,0", help="--num-procs of each server, comma-separated (0: one per core)")
     p.add_argument("--stall-log", type=int, default=100, metavar="MS", help="the servers' stall threshold (ms)")
+    p.add_argument(
+        "--browser-nice",
+        type=int,
+        default=0,
+        metavar="N",
+        help="run chromium N steps lower in CPU priority (default 0)",
+    )
     p.add_argument("--before", type=Path, help="a checkout of an older commit: its columns first, in the same run")
     opts = p.parse_args()
     procs = [v.strip() for v in opts.procs.split(",") if v.strip()]
@@ -232,12 +258,12 @@ def main() -> int:
     names = {"0": "one per core", "1": "1 process"}
     checkouts = [("before, ", opts.before), ("after, ", None)] if opts.before else [("", None)]
     columns = {
-        f"{label}{names.get(n, n)}": measure(n, opts.duration, opts.stall_log, repo)
+        f"{label}{names.get(n, n)}": measure(n, opts.duration, opts.stall_log, repo, opts.browser_nice)
         for label, repo in checkouts
         for n in procs
     }
     print(
-        f"three heavy pages and a default page in chromium, {opts.duration:g} s "
+        f"three heavy pages and a default page in chromium (nice +{opts.browser_nice}), {opts.duration:g} s "
         f"(load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores)"
     )
     print(report(columns))
