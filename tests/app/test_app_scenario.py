@@ -189,16 +189,16 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     """With a tuning for the page's α, m and w, the filters that do not know σ(t) take its minimax knobs, run on its
     grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point
     and each preset's own best (the oracle reference)."""
+    from isl_core import Execution, Sampling
     from isl_core.scenario.tuning import TuningGrids, tune
 
     grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,), imm_modes=(6,))
     small = tune(
         1.0,
-        seeds=2,
-        horizon=12.0,
+        sampling=Sampling.first(2, horizon=12.0, burn=2.0),
         grids=grids,
         presets={k: v for k, v in TABLE_PRESETS.items() if k in ("sigma_drop", "constant")},
-        cache=False,
+        execution=Execution(cache=False),
     )
     monkeypatch.setattr(scenario_picture, "tuning_for", lambda req: small)
     state.set_inputs({"alpha": 1.0, "sc_runs": 2, "sc_horizon": 12.0})
