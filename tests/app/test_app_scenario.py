@@ -247,6 +247,20 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     )
 
 
+def test_the_tune_button_hands_the_long_job_a_tuning_that_reports_its_progress(state, monkeypatch):
+    """The job the Tune button starts takes ``progress=`` (as every long job does) and gives it to the core's tuning
+    for the page's α, m and w through its execution."""
+    started, asked = [], []
+    monkeypatch.setattr(state.scenarios._tune_task, "start", lambda fn, apply, note: started.append(fn))
+    monkeypatch.setattr("app.state.scenarios.tune", lambda alpha, **kw: asked.append((alpha, kw)))
+    state.set_inputs({"alpha": 0.5, "m": 2})
+    state.scenarios.compute_tuning()
+    (fn,) = started
+    fn(progress=print)
+    ((alpha, kw),) = asked
+    assert alpha == 0.5 and kw["m"] == 2 and kw["execution"].progress is print and kw["execution"].cache
+
+
 def test_the_map_runs_as_a_long_job_and_marks_ties(state):
     state.set_inputs({"sc_map": "sensor", "sc_map_seeds": 2})
     state.scenarios.compute_map()
