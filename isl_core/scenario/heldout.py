@@ -109,9 +109,10 @@ def held_out(
     ((2, 3, 4, 5, 6, 7, 8, 9), (8, 1, 9, 3))
     """
     execution = local_threads(execution)
-    count = (
-        REPORT_FACTOR * len(tuning.seeds) if n_seeds is None else check_int("report seeds", n_seeds, lo=2, hi=100_000)
-    )
+    if n_seeds is None:
+        count = REPORT_FACTOR * len(tuning.seeds)
+    else:
+        count = check_int("n_seeds (report seeds)", n_seeds, lo=2, hi=100_000)
     first = max(tuning.seeds) + 1
     seed_ids = tuple(range(first, first + count))
     columns = report_columns(tuning)

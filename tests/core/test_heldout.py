@@ -108,3 +108,12 @@ def test_a_learner_with_a_range_keeps_its_estimate_inside_it_and_variational_bay
     adaptive, robust, vb = (run.sigma_hat[:, run.learning.index(n)] for n in ("kbf_adaptive", "kbf_robust", "vb"))
     assert np.all(adaptive <= 200.0 * (1 + 1e-12)) and np.all(robust <= 200.0 * (1 + 1e-12))
     assert adaptive[-1] > 190.0 and vb[-1] > 1000.0  # at the top of its range, mostly
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [({"n_seeds": 1}, r"^n_seeds \(report seeds\)"), ({"execution": Execution(executor=object())}, "executor")],
+)
+def test_bad_held_out_settings_are_named_before_any_run(tuning, kwargs, named):
+    with pytest.raises(ValueError, match=named):
+        held_out(tuning, **kwargs)
