@@ -15,7 +15,7 @@ option                          environment              default
 ``--check-unused-sessions``     —                        2 s between sweeps for unused sessions
 ``--stats-interval``            —                        60 s between ``isl stats`` log lines
 ``--trim-interval``             —                        5 s between looks for ended sessions' memory
-``--stall-log``                 —                        log the event loop's stalls of 250 ms or more
+``--stall-log``                 —                        log each long stall of the event loop, with its cause
 ==============================  =======================  ====================================================
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`!app.serving.webguard`, with the

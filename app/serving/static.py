@@ -3,8 +3,7 @@
 Every page loads about 2 MB of scripts and style sheets from the server's static routes, and the server compresses
 text answers (:mod:`!app.serving.webguard`, tornado's ``GZipContentEncoding``). That transform compresses each
 answer as it is written, chunk by chunk, on the event loop: for every page a browser opens without those files in
-its cache, about half a second of the loop's time on a busy 2-core machine, during which it answers no session and
-no ``/liveness`` (:ref:`performance-serving`).
+its cache, the loop answers no session and no ``/liveness`` while it compresses them (:ref:`performance-stalls`).
 
 :func:`install` wraps the tornado application's static-file handlers so that a file's compressed form is made once
 per process — on :data:`POOL`, not on the loop — kept, and sent as it is (``Content-Encoding: gzip``, so the transform
@@ -25,7 +24,7 @@ import tornado.web
 
 __all__ = ["MAX_BYTES", "POOL", "install", "precompressed"]
 
-MAX_BYTES = 16 * 1024 * 1024  #: larger files are not kept compressed (the page's largest, BokehJS, is ≈ 1 MB)
+MAX_BYTES = 16 * 1024 * 1024  #: larger files are not kept compressed (the page's scripts are far smaller)
 MIN_BYTES = tornado.web.GZipContentEncoding.MIN_LENGTH  #: as the transform: smaller answers are sent as they are
 LEVEL = tornado.web.GZipContentEncoding.GZIP_LEVEL  #: the transform's compression level
 #: compresses the files (zlib releases the interpreter lock while it compresses)
