@@ -6,8 +6,7 @@
 * one session's browser events are processed one at a time (:func:`serialize_session_events`);
 * Panel lifts read-only and constant flags on a widget's own parameter objects, and on its process-wide ``state``
   under one lock (:func:`per_instance_readonly_edits`);
-* a link whose value Panel's own query parser cannot convert opens the page (:func:`tolerant_query_parser`);
-* every stylesheet of the page is served by the server itself (:func:`local_stylesheets`).
+* a link whose value Panel's own query parser cannot convert opens the page (:func:`tolerant_query_parser`).
 
 :func:`install` also sets Panel's public ``exception_handler`` (:func:`app.serving.session.handle_exception`) and
 ``notifications``; :func:`quiet_closed_websockets` is the event loop's exception handler (asyncio's public API).
@@ -48,28 +47,7 @@ def install() -> None:
         serialize_session_events()
         per_instance_readonly_edits()
         tolerant_query_parser()
-        local_stylesheets()
         _installed = True
-
-
-def local_stylesheets() -> None:
-    """Panel points a stylesheet at its CDN (cdn.holoviz.org) when the document it builds a component for has no
-    ``dist_url`` — the warm-up's document has none — and shares that stylesheet model between documents: a page
-    asked the CDN for ``loading.css`` when the who-wins map started to compute (a classroom without internet then
-    waits on a request that fails). The server serves Panel's files itself: no stylesheet is pointed at the CDN."""
-    from panel import reactive
-    from panel.io import resources
-
-    original = resources.patch_stylesheet
-    if getattr(original, "_isl_local", False):
-        return
-
-    def local(stylesheet, dist_url):
-        return original(stylesheet, resources.LOCAL_DIST if dist_url == resources.CDN_DIST else dist_url)
-
-    mark(local, _isl_local=True)
-    resources.patch_stylesheet = local
-    reactive.patch_stylesheet = local
 
 
 def tolerant_query_parser() -> None:

@@ -86,13 +86,6 @@ PATCHES = (
         "panel-parse-query-long-digits.md",
     ),
     Patch(
-        "hardening.local_stylesheets",
-        "panel",
-        "1.9.4",
-        {"panel.io.resources:patch_stylesheet": "b3d712f5a60a3517"},
-        "panel-stylesheet-cdn-without-dist-url.md",
-    ),
-    Patch(
         "fastpath.skip_unused_design_params",
         "panel",
         "1.9.4",

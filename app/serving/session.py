@@ -8,7 +8,8 @@ where its page is being built. Nothing here replaces library code: the patches o
 * :func:`building_page`, :func:`prebuild`, :func:`session_loop` — the page built on the server's page thread
   (:func:`app.serving.offloop.build_pages_off_loop`), parts' models built before they are swapped in, and the loop
   that serves a session;
-* :func:`settle_markup_stylesheets` — markup panes' stylesheets as their first update would send them.
+* :func:`settle_markup_stylesheets` — markup panes' stylesheets as their first update would send them;
+* :func:`serve_panel_files` — every stylesheet of the page served by the server itself, none by Panel's CDN.
 
 Usage inside a session (e.g. in ``create_app()``)::
 
@@ -39,6 +40,7 @@ __all__ = [
     "prebuild",
     "release_on_destroy",
     "release_session",
+    "serve_panel_files",
     "session_lock",
     "session_loop",
     "settle_markup_stylesheets",
@@ -215,3 +217,22 @@ def settle_markup_stylesheets(doc) -> None:
                     sheets = pane._get_properties(doc).get("stylesheets")
                     if sheets is not None and sheets != model.stylesheets:
                         model.stylesheets = sheets
+
+
+def serve_panel_files(doc) -> None:
+    """Make every stylesheet Panel builds for ``doc`` point at the server's own copy of Panel's files (nothing
+    without a document); called before the page is built.
+
+    Panel points a component's stylesheets at its document's ``dist_url`` template variable and, where the document
+    has none, at its CDN (cdn.holoviz.org). It sets that variable when it renders the page's HTML — after the app
+    script has built the page, and never for the warm-up's document — and some stylesheet models are shared between
+    documents: a page once asked the CDN for ``loading.css`` when the who-wins map started to compute (a classroom
+    without internet then waits on a request that fails). Set here first, through bokeh's public
+    ``Document.template_variables``, to what Panel's server sets later (its ``static/extensions/panel/`` under the
+    page's relative path), no stylesheet of any document is pointed at the CDN."""
+    if doc is None:
+        return
+    from panel.io.resources import LOCAL_DIST
+
+    rel_path = pn.state.rel_path
+    doc.template_variables.setdefault("dist_url", f"{rel_path}/{LOCAL_DIST}" if rel_path else LOCAL_DIST)

@@ -180,6 +180,31 @@ def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog)
     assert f"incident {incident}" in caplog.text and "SECRET-DETAIL" in caplog.text
 
 
+def test_no_stylesheet_of_a_page_points_at_panels_cdn():
+    """Panel points the stylesheets of a part built for a document it has not rendered yet (a page being built, the
+    warm-up's) at its CDN, and a classroom without internet waited on that request (a part shown loading asked for
+    ``loading.css``); with the server's own files named first, no stylesheet of the page points elsewhere."""
+    from bokeh.models import ImportedStyleSheet
+    from panel.io.resources import CDN_DIST
+    from panel.io.state import set_curdoc
+
+    from app.page import LocalFast
+
+    def urls(prepare) -> list[str]:
+        doc = Document()
+        with set_curdoc(doc):
+            prepare(doc)
+            part = pn.Column(pn.pane.HTML("<b>x</b>"), pn.widgets.FloatSlider(), design=LocalFast)
+            doc.add_root(part.get_root(doc))
+            part.loading = True  # what the who-wins map did when it started to compute
+        return [str(m.url) for m in doc.models if isinstance(m, ImportedStyleSheet)]
+
+    plain = urls(lambda doc: None)
+    assert any(url.startswith(CDN_DIST) for url in plain)  # Panel's own fallback (if it stops, this can go)
+    served = urls(session.serve_panel_files)
+    assert served and [url for url in served if url.startswith(("http:", "https:", "//"))] == []
+
+
 def _held_changes(doc: Document, change) -> list:
     """The events ``change()`` makes while ``doc`` is on hold (Panel holds a document while a thread updates it)."""
     doc.hold("collect")
