@@ -43,13 +43,6 @@ class Patch:
 
 PATCHES = (
     Patch(
-        "hardening.quiet_error_replies",
-        "bokeh",
-        "3.9.2",
-        {"bokeh.protocol.messages.error:error.create": "b19208ec6f4f02cd"},
-        "bokeh-error-reply-traceback.md",
-    ),
-    Patch(
         "hardening.keep_unsent_models_new",
         "bokeh",
         "3.9.2",

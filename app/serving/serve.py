@@ -297,13 +297,14 @@ def _serve_command(
             from app.serving import docs
 
             docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
-            from app.serving.hardening import quiet_closed_websockets
+            from app.serving.hardening import quiet_closed_websockets, quiet_error_replies
             from app.serving.offloop import build_pages_off_loop
 
             for context in server._tornado._applications.values():
                 build_pages_off_loop(context._application)  # the app script runs on a thread, not on the loop
 
             quiet_closed_websockets(server.io_loop.asyncio_loop)  # a tab closed mid-write is not an error
+            quiet_error_replies(server._tornado)  # no traceback, no internal text in a websocket ERROR reply
             return super().customize_server(server)
 
     return StrictServe
