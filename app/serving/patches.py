@@ -121,13 +121,6 @@ PATCHES = (
         "bokeh-initialize-document-on-loop.md",
     ),
     Patch(
-        "memory.quiet_garbage_collection",
-        "panel",
-        "1.9.4",
-        {"panel.io.document:_garbage_collect": "4621a1d47527340f"},
-        "panel-full-collection-per-session.md",
-    ),
-    Patch(
         "a11y.A11Y_SCRIPT",
         "bokehjs, paneljs",
         "3.9.2, 1.9.4",
@@ -229,8 +222,7 @@ def _declaration(text: str, cls: str, method: str) -> str | None:
 def install() -> None:
     """Install the Python patches of :data:`PATCHES` that apply to the whole process (idempotent): hardening's,
     the fast path's and the threads'. The server also calls :func:`app.serving.offloop.build_pages_off_loop` for its
-    application and :func:`app.serving.memory.quiet_garbage_collection` once it is warm; the browser's are sent by
-    each page."""
+    application; the browser's are sent by each page."""
     from . import fastpath, hardening, offloop
 
     hardening.install()

@@ -59,7 +59,7 @@ from collections.abc import Sequence
 from importlib.util import find_spec
 
 from app.serving import workers
-from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, log_stats, quiet_garbage_collection
+from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, freeze_warm_heap, log_stats
 from app.serving.warmup import AppStartupError, check_app, raise_if_failed, warm_core, warm_long_jobs
 
 log = logging.getLogger("isl.serve")
@@ -289,7 +289,7 @@ def _serve_command(
 
             if stats_interval_ms > 0:
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
-            quiet_garbage_collection()
+            freeze_warm_heap()
             PeriodicCallback(MemoryTrimmer(server), trim_interval_ms).start()
             from app.serving import webguard
 
