@@ -98,16 +98,16 @@ class MemoryTrimmer:
     the last one, a full garbage collection (:func:`full_collection`); then glibc's ``malloc_trim`` (a no-op
     elsewhere). Sessions are built and updated on worker threads, so their memory lives in per-thread malloc arenas
     that glibc does not shrink by itself: without trimming, the RSS of a server stays at the peak of its busiest
-    class. If no session has ended: the young generations are collected and what has lived so far is frozen
-    (:func:`young_then_freeze`).
+    class. Without a full collection (no session has ended, or a class is still open), the young generations are
+    collected and what has lived so far is frozen (:func:`young_then_freeze`).
 
     Why so: a full collection walks every object of the heap while holding the interpreter lock, whichever thread
     runs it, and the event loop, ``/liveness`` and every student's update wait for it; the heap of a server with a
     class open takes long to walk (:ref:`performance-serving`). Panel schedules one (``gc.collect()``) after every
     session's end, and Python's own collector runs one whenever its oldest generation has grown by 25 %, which a class
     opening its pages does often. Frozen objects are not walked, so these collections walk only what is new since
-    the last look, which is why every look that runs no full collection freezes (:func:`young_then_freeze`); a closed session's objects that hold each other in cycles are freed by the next full collection: when
-    the class has left, or after :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's
+    the last look; a closed session's objects that hold each other in cycles are freed by the next full collection:
+    when the class has left, or after :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's
     caches are emptied first (:func:`isl_core.clear_caches`): what a class computed goes with it
     (:ref:`performance-memory-release`).
     """
