@@ -4,8 +4,7 @@
 * models the browser has not been sent stay "new" when a browser change arrives (:func:`keep_unsent_models_new`);
 * one session's browser events are processed one at a time (:func:`serialize_session_events`);
 * Panel lifts read-only and constant flags on a widget's own parameter objects, and on its process-wide ``state``
-  under one lock (:func:`per_instance_readonly_edits`);
-* a link whose value Panel's own query parser cannot convert opens the page (:func:`tolerant_query_parser`).
+  under one lock (:func:`per_instance_readonly_edits`).
 
 :func:`install` also sets Panel's public ``exception_handler`` (:func:`app.serving.session.handle_exception`) and
 ``notifications``; :func:`quiet_closed_websockets` is the event loop's exception handler (asyncio's public API),
@@ -47,38 +46,7 @@ def install() -> None:
         keep_unsent_models_new()
         serialize_session_events()
         per_instance_readonly_edits()
-        tolerant_query_parser()
         _installed = True
-
-
-def tolerant_query_parser() -> None:
-    """Panel parses the page's query when it makes ``pn.state.location`` and turns every all-digit value into an
-    ``int``; Python refuses to convert more than 4300 digits (``ValueError``), so a link such as ``?seed=`` followed
-    by 5000 digits failed the page's script before the dashboard's own parser (:mod:`app.urlsync`, which refuses the
-    value in words) could read it, and the page stayed blank. Values Panel cannot convert stay text (the dashboard
-    reads the raw query, never Panel's parsed one)."""
-    from panel.io import location
-    from panel.util import parse_query
-
-    if getattr(location.parse_query, "_isl_tolerant", False):
-        return
-
-    def tolerant(query: str) -> dict:
-        try:
-            return parse_query(query)
-        except ValueError:
-            import urllib.parse as urlparse
-
-            out = {}
-            for key, text in urlparse.parse_qsl(query[1:]):
-                try:
-                    out.update(parse_query(f"?{urlparse.urlencode({key: text})}"))
-                except ValueError:
-                    out[key] = text
-            return out
-
-    mark(tolerant, _isl_tolerant=True)
-    location.parse_query = tolerant
 
 
 def quiet_closed_websockets(loop) -> None:

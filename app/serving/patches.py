@@ -72,13 +72,6 @@ PATCHES = (
         "panel-edit-readonly-shared-parameters.md",
     ),
     Patch(
-        "hardening.tolerant_query_parser",
-        "panel",
-        "1.9.4",
-        {"panel.util:parse_query": "10d6cf179144c432"},
-        "panel-parse-query-long-digits.md",
-    ),
-    Patch(
         "fastpath.skip_unused_design_params",
         "panel",
         "1.9.4",
