@@ -72,25 +72,11 @@ PATCHES = (
         "panel-edit-readonly-shared-parameters.md",
     ),
     Patch(
-        "fastpath.skip_unused_design_params",
-        "panel",
-        "1.9.4",
-        {"panel.reactive:Reactive._update_properties": "df57c8323fecc968"},
-        "panel-design-params-every-change.md",
-    ),
-    Patch(
         "fastpath.serialize_set_properties_only",
         "bokeh",
         "3.9.2",
         {"bokeh.core.has_props:HasProps.query_properties_with_values": "3c62051e2c2db1ce"},
         "bokeh-query-properties-reads-defaults.md",
-    ),
-    Patch(
-        "fastpath.lazy_serializer_references",
-        "bokeh",
-        "3.9.2",
-        {"bokeh.core.serialization:Serializer.__init__": "6b921b5420b71172"},
-        "bokeh-serializer-references-eager.md",
     ),
     Patch(
         "offloop.install (curdoc per thread, link registry, execute)",
