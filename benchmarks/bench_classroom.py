@@ -178,14 +178,20 @@ async def students(
             if not await c.widgets():
                 figures.errors.append("student: no controls within 120 s")
 
+    # one sequence per student across the phases, and the last value each sent: a generator restarted at each phase
+    # repeats the baseline's values, and the client's copy of the slider does not follow the client's own changes (the
+    # server does not echo them back), so a phase's first change could be the value the server already held — not a
+    # change, and nothing to answer
+    rngs = [random.Random(k) for k in range(len(clients))]
+    sent: list[float | None] = [None] * len(clients)
+
     async def one(k: int, client, until: float, out: list[float]) -> None:
-        rng = random.Random(k)
-        last = None
+        rng = rngs[k]
         await asyncio.sleep(rng.uniform(0, 3.0))
         while time.perf_counter() < until and not client.closed:
             slider = sc.find_slider(client.doc, "σ")
-            previous, shown = last, slider.value  # the last value sent, the one the server last showed this client
-            value = last = sc.new_value(slider, rng, last)
+            previous, shown = sent[k], slider.value  # the last value sent, the one the server last sent this client
+            value = sent[k] = sc.new_value(slider, rng, sent[k])
             msgid, t0 = await client.change(slider, value=value, value_throttled=value)
             if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 30.0):
                 out.append(client.data_update_after(t0) - t0)
@@ -195,8 +201,8 @@ async def students(
                 late = await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 90.0)
                 came = client.data_update_after(t0)
                 figures.errors.append(
-                    f"student: no plot update within 30 s (σ slider sent {value:.3f}, last sent {previous}, shown "
-                    f"{shown:.3f}; {seen}; "
+                    f"student: no plot update within 30 s (σ slider sent {value:.3f}, last sent {previous}, last set by"
+                    f" the server {shown:.3f}; {seen}; "
                     + (f"the update came {came - t0:.1f} s after the change)" if late and came else "none in 120 s)")
                 )
             await asyncio.sleep(3.0 * rng.uniform(0.75, 1.25))
