@@ -24,51 +24,71 @@ from app.views import controls
 BROWSER = object()  # the setter of the browser's changes (the server session, when served)
 
 
+#: the page's widget for an input: σ's log-scale slider, m's whole-number slider (as the sidebar builds them)
+WIDGETS = {
+    "sigma": lambda state: controls.log_slider(state, "sigma"),
+    "m": lambda state: controls._plain(state, "m", controls.IntSlider(start=1, end=6)),
+}
+
+
 @pytest.fixture
 def page(monkeypatch):
     """A session whose every run is followed on release only, and whose σ ≥ 100 needs too many steps (so that a
-    few-thousand-step run stands for the large ones: a default run is 1,458 steps, σ = 251 needs 2,950)."""
+    few-thousand-step run stands for the large ones: a default run is 1,458 steps, σ = 251 needs 2,950); ``bind(key)``
+    gives the widget of input ``key`` in a document, and a function releasing it at a value."""
     monkeypatch.setattr(session, "LIVE_MAX_STEPS", 0)
     monkeypatch.setattr(pipeline, "APP_MAX_STEPS", 2_000)
-    asked: list[float] = []  # σ of every run the session asked for
+    asked: list = []  # the request of every run the session asked for
 
     def compute(request, **kwargs):
-        asked.append(request.sigma)
+        asked.append(request)
         return pipeline.compute(request, **kwargs)
 
     monkeypatch.setattr(session, "compute", compute)
     state = AppState()
     state.start()  # runs inline outside a server
-    slider = controls.log_slider(state, "sigma")
-    doc = Document()
-    model = slider.get_root(doc)
-    doc.add_root(model)
 
-    def release(value: float) -> None:
-        """The slider let go at log10 σ = ``value``: both properties sent, as the classroom's scripted students send
-        them; bokeh applies the one that changed (a browser sends only that one)."""
-        events = [ModelChangedEvent(doc, model, attr, value) for attr in ("value", "value_throttled")]
-        Protocol().create("PATCH-DOC", events).apply_to_document(doc, BROWSER)
+    def bind(key: str):
+        doc = Document()
+        model = WIDGETS[key](state).get_root(doc)
+        doc.add_root(model)
 
-    return state, model, asked, release
+        def release(value: float) -> None:
+            """The widget let go at ``value``: both properties sent, as the classroom's scripted students send them;
+            bokeh applies the one that changed (a browser sends only that one)."""
+            events = [ModelChangedEvent(doc, model, attr, value) for attr in ("value", "value_throttled")]
+            Protocol().create("PATCH-DOC", events).apply_to_document(doc, BROWSER)
+
+        return model, release
+
+    return state, asked, bind
 
 
 def test_a_release_at_a_refused_value_is_refused_again_each_time(page):
-    state, model, asked, release = page
-    assert not state.live and asked == [20.0]
+    state, asked, bind = page
+    model, release = bind("sigma")
+    assert not state.live and [r.sigma for r in asked] == [20.0]
     release(2.4)  # σ = 251: its run needs too many steps, σ goes back to 20
-    assert asked == [20.0, 251.0] and "σ = 251" in state.message and state.sigma == 20.0
+    assert [r.sigma for r in asked] == [20.0, 251.0] and "σ = 251" in state.message and state.sigma == 20.0
     assert math.isclose(model.value, math.log10(20.0)) and model.value_throttled == 2.4  # moved back, not released
     state.say("")  # the page's message read: the next answer must say it again
     release(2.4)
-    assert asked == [20.0, 251.0, 251.0]  # unfixed: [20.0, 251.0], no run, no message
+    assert [r.sigma for r in asked] == [20.0, 251.0, 251.0]  # unfixed: [20.0, 251.0], no run, no message
     assert "σ = 251" in state.message and state.sigma == 20.0
 
 
-def test_a_release_at_the_last_released_value_after_a_preset_moved_the_slider_runs(page):
-    state, model, asked, release = page
-    release(1.5)  # σ = 31.6
-    state.sigma = 10.0  # the server moves it (a preset, a link)
-    assert model.value_throttled == 1.5 and model.value == 1.0
-    release(1.5)
-    assert asked == [20.0, 31.6, 10.0, 31.6] and state.run.model.sigma == 31.6  # unfixed: no 31.6 again, 10 shown
+@pytest.mark.parametrize(
+    ("key", "released", "value", "moved", "shown"),
+    [("sigma", 1.5, 31.6, 10.0, 1.0), ("m", 2, 2, 3, 3)],
+)
+def test_a_release_at_the_last_released_value_after_the_server_moved_the_widget_runs(
+    page, key, released, value, moved, shown
+):
+    state, asked, bind = page
+    model, release = bind(key)
+    release(released)
+    state.set(key, moved)  # the server moves it (a preset, a link)
+    assert model.value_throttled == released and model.value == shown
+    release(released)
+    # unfixed: no run of the released value again, the moved one's kept on screen
+    assert [getattr(r, key) for r in asked][1:] == [value, moved, value] and state.get(key) == value
