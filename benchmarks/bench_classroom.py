@@ -114,12 +114,22 @@ def _button(doc, label: str):
     return next((m for m in doc.models if getattr(m, "label", None) == label and type(m).__name__ == "Button"), None)
 
 
+async def woken_at(stop: asyncio.Event, client) -> None:
+    """Wake ``client``'s waits when ``stop`` is set: they end at the stop, not at the next message of a run that, on a
+    loaded machine, may come minutes later."""
+    await stop.wait()
+    client.wake()
+
+
 async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open HEAVY and press "new noise" each time its run is shown."""
     client = await sc.open_page(base, HEAVY)
+    waker = asyncio.ensure_future(woken_at(stop, client))
     try:
         await client.widgets()
-        await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]), 300.0)
+        await client.wait_until(
+            lambda: stop.is_set() or (_traj(client.doc) is not None and len(_traj(client.doc).data["y"])), 300.0
+        )
         while not stop.is_set() and not client.closed:
             before = list(_traj(client.doc).data["y"][:8])
             await client.send_event(ButtonClick(_button(client.doc, "new noise")))
@@ -132,6 +142,7 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
             elif not changed:
                 figures.errors.append("heavy: no new run within 300 s")
     finally:
+        waker.cancel()
         figures.errors.extend(client.errors)
         await client.close()
 
@@ -139,6 +150,7 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
 async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open the worst-case tab at its maximum and press Compute each time a table or a refusal is shown."""
     client = await sc.open_page(base, WORST)
+    waker = asyncio.ensure_future(woken_at(stop, client))
     try:
         tabs = next(m for m in client.doc.models if type(m).__name__ == "Tabs")
         await client.change(tabs, active=2)
@@ -158,6 +170,7 @@ async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
                 figures.worst_tables += 1
                 await client.wait_until(lambda: stop.is_set(), 2.0)  # a student reads the table, then asks again
     finally:
+        waker.cancel()
         figures.errors.extend(client.errors)
         await client.close()
 
