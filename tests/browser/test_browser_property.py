@@ -277,12 +277,19 @@ def history(page, rng: random.Random) -> str:
 def reopened_tab(page, tab: str) -> str:
     """A page reopened on ``tab`` (its link's) shows that tab, drawn for the link's run, and the test goes back to the
     trajectories (the property's subject). The test opens no tab but the Scenarios one."""
-    from playwright.sync_api import Error as PlaywrightError
-
     assert tab == "scenarios", f"the link {page.url} names the tab {tab!r}, which no action opens"
     page.wait_for_function(TAB_OPEN, arg=SCENARIOS, timeout=30_000)
     state = link_state(page.url)
-    want = scenario_legend(state.sigma, state.nu)
+    scenario_drawn(page, state.sigma, state.nu, f"reopened at {page.url}")
+    return "to the Scenarios tab (drawn), then the trajectories"
+
+
+def scenario_drawn(page, sigma0: float, nu: float, what: str) -> None:
+    """Wait until the open Scenarios tab's legend names the run at σ(0) = ``sigma0`` and ``nu`` (``what`` set it),
+    then open the trajectories again."""
+    from playwright.sync_api import Error as PlaywrightError
+
+    want = [f"Kalman–Bucy for constant σ = σ(0) = {sigma0:g}", f"ISL (ν = {nu:.4g})"]
     try:
         page.wait_for_function(
             f"(want) => {{ const got = ({SCENARIO_LABELS})(); return want.every(w => got.includes(w)); }}",
@@ -290,17 +297,9 @@ def reopened_tab(page, tab: str) -> str:
             timeout=120_000,
         )
     except PlaywrightError:
-        raise AssertionError(
-            f"reopened at {page.url}: legend {page.evaluate(SCENARIO_LABELS)}, the link's {want}"
-        ) from None
+        raise AssertionError(f"{what}: legend {page.evaluate(SCENARIO_LABELS)}, the run's {want}") from None
     page.get_by_role("tab", name=TRAJECTORIES).click()
     page.wait_for_function(TAB_OPEN, arg=TRAJECTORIES, timeout=30_000)
-    return "to the Scenarios tab (drawn), then the trajectories"
-
-
-def scenario_legend(sigma0: float, nu: float) -> list[str]:
-    """The legend labels the scenario plots give the run at σ(0) = ``sigma0`` and ``nu``."""
-    return [f"Kalman–Bucy for constant σ = σ(0) = {sigma0:g}", f"ISL (ν = {nu:.4g})"]
 
 
 def act(page, rng: random.Random, state: AppState) -> str:
@@ -348,26 +347,12 @@ def act(page, rng: random.Random, state: AppState) -> str:
 
 def scenario_preset(page, rng: random.Random) -> str:
     """Open the Scenarios tab, click a preset, check its legend names the run it set, and come back."""
-    from playwright.sync_api import Error as PlaywrightError
-
     label = rng.choice(list(SCENARIO_PRESETS))
     page.get_by_role("tab", name=SCENARIOS).click()
     page.wait_for_function(TAB_OPEN, arg=SCENARIOS, timeout=30_000)
     page.get_by_label("scenario preset (the table's columns)").select_option(label=label)
     inputs = SCENARIO_PRESETS[label]
-    want = scenario_legend(inputs["sigma"], inputs["nu"])
-    try:
-        page.wait_for_function(
-            f"(want) => {{ const got = ({SCENARIO_LABELS})(); return want.every(w => got.includes(w)); }}",
-            arg=want,
-            timeout=120_000,
-        )
-    except PlaywrightError:
-        raise AssertionError(
-            f"scenario preset {label}: legend {page.evaluate(SCENARIO_LABELS)}, the run's {want}"
-        ) from None
-    page.get_by_role("tab", name=TRAJECTORIES).click()
-    page.wait_for_function(TAB_OPEN, arg=TRAJECTORIES, timeout=30_000)
+    scenario_drawn(page, inputs["sigma"], inputs["nu"], f"scenario preset {label}")
     return f"scenario preset {label}"
 
 
