@@ -366,8 +366,8 @@ def seeds() -> list[int]:
 
 
 def diagnosis(page, log, console: list[str]) -> str:
-    """What a failure report needs beyond the actions: the page's address, the documents BokehJS holds and the tab it
-    shows, the page's console errors and the server's last warnings and errors."""
+    """What a failure report needs beyond the actions: the page's address, the documents BokehJS holds (none: no
+    session reached the page), the page's console errors and the server's last warnings and errors."""
     try:
         held = page.evaluate(
             """() => [window.location.href, window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null]"""
