@@ -59,7 +59,7 @@ from collections.abc import Sequence
 from importlib.util import find_spec
 
 from app.serving import workers
-from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, log_stats, quiet_garbage_collection
+from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, freeze_warm_heap, log_stats
 from app.serving.warmup import AppStartupError, check_app, raise_if_failed, warm_core, warm_long_jobs
 
 log = logging.getLogger("isl.serve")
@@ -289,7 +289,7 @@ def _serve_command(
 
             if stats_interval_ms > 0:
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
-            quiet_garbage_collection()
+            freeze_warm_heap()
             PeriodicCallback(MemoryTrimmer(server), trim_interval_ms).start()
             from app.serving import webguard
 
@@ -297,13 +297,14 @@ def _serve_command(
             from app.serving import docs
 
             docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
-            from app.serving.hardening import quiet_closed_websockets
+            from app.serving.hardening import quiet_closed_websockets, quiet_error_replies
             from app.serving.offloop import build_pages_off_loop
 
             for context in server._tornado._applications.values():
                 build_pages_off_loop(context._application)  # the app script runs on a thread, not on the loop
 
             quiet_closed_websockets(server.io_loop.asyncio_loop)  # a tab closed mid-write is not an error
+            quiet_error_replies(server._tornado)  # no traceback, no internal text in a websocket ERROR reply
             return super().customize_server(server)
 
     return StrictServe
