@@ -12,7 +12,9 @@
   hand back to the loop (callbacks, link registrations) made safe to hand over;
 * :mod:`app.serving.workers` — one server process per core: how many, forked how, and stopped together;
 * :mod:`app.serving.memory` — garbage collection and heap trimming that do not stall a class;
-* :mod:`app.serving.fastpath` — less of bokeh's Python when a page's models are serialized (set properties only).
+* :mod:`app.serving.fastpath` — less of bokeh's Python when a page's models are serialized (set properties only);
+* :mod:`app.serving.static` — the page's static files compressed once per process, on a thread;
+* :mod:`app.serving.stalls` — each long stall of the event loop logged with what held it.
 
 The session's own jobs (:mod:`app.jobs.threads`) and the server's long-job queue (:mod:`app.jobs.long`) belong to the
 dashboard's pipeline and stay beside it.

@@ -15,6 +15,7 @@ option                          environment              default
 ``--check-unused-sessions``     —                        2 s between sweeps for unused sessions
 ``--stats-interval``            —                        60 s between ``isl stats`` log lines
 ``--trim-interval``             —                        5 s between looks for ended sessions' memory
+``--stall-log``                 —                        log each long stall of the event loop, with its cause
 ==============================  =======================  ====================================================
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`!app.serving.webguard`, with the
@@ -70,6 +71,7 @@ DEFAULT_NUM_THREADS = 4
 UNUSED_SESSION_LIFETIME_MS = 10_000
 CHECK_UNUSED_SESSIONS_MS = 2_000
 STATS_INTERVAL_MS = 60_000
+STALL_LOG_MS = 250  #: a stall of the event loop this long is logged with what held it (app.serving.stalls)
 # Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
 WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 LIVENESS_ENDPOINT = "liveness"
@@ -136,6 +138,7 @@ def check_counts(opts: argparse.Namespace) -> None:
         "check_unused_sessions": (100, 10**8),
         "stats_interval": (0, 10**8),
         "trim_interval": (100, 10**8),
+        "stall_log": (0, 10**8),
     }
     for name, (lo, hi) in limits.items():
         value = getattr(opts, name)
@@ -207,6 +210,13 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"how often to look for ended sessions and hand their memory back (default {TRIM_INTERVAL_MS})",
     )
     p.add_argument(
+        "--stall-log",
+        type=int,
+        default=STALL_LOG_MS,
+        metavar="MS",
+        help=f"log each stall of the event loop of at least MS, with what held it, 0 = never (default {STALL_LOG_MS})",
+    )
+    p.add_argument(
         "--frame-ancestors",
         action="append",
         default=[],
@@ -260,6 +270,7 @@ def _serve_command(
     stats_interval_ms: int,
     ancestors: Sequence[str] = (),
     trim_interval_ms: int = TRIM_INTERVAL_MS,
+    stall_log_ms: int = STALL_LOG_MS,
 ):
     """Panel's ``serve`` sub-command with a strict warm-up and a URL banner (imports panel lazily)."""
     from panel.command.serve import Serve
@@ -294,6 +305,9 @@ def _serve_command(
             from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
+            from app.serving import static
+
+            static.install(server._tornado)  # static files compressed once, on a thread (the transform: on the loop)
             from app.serving import docs
 
             docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
@@ -305,6 +319,9 @@ def _serve_command(
 
             quiet_closed_websockets(server.io_loop.asyncio_loop)  # a tab closed mid-write is not an error
             quiet_error_replies(server._tornado)  # no traceback, no internal text in a websocket ERROR reply
+            from app.serving import stalls
+
+            stalls.watch(server.io_loop.asyncio_loop, stall_log_ms / 1000)  # what held the loop, when it stalls
             return super().customize_server(server)
 
     return StrictServe
@@ -336,7 +353,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     slot = workers.long_job_slot()  # one long job at a time for the whole server (app.jobs.long.machine_slot)
     argv = panel_argv(opts, app_script(), origins)
     parser = argparse.ArgumentParser(prog="panel serve")
-    command = _serve_command(origins, opts.stats_interval, ancestors, opts.trim_interval)(parser=parser)
+    command = _serve_command(origins, opts.stats_interval, ancestors, opts.trim_interval, opts.stall_log)(parser=parser)
     args = parser.parse_args(argv)
     try:
         command.invoke(args)
