@@ -36,7 +36,7 @@ from app.urlsync import UrlSync, after_pause, follow_history
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
 from app.views.about import docs_link
 from app.views.compare import CompareView
-from app.views.data import DataView, install_size_guard
+from app.views.data import DataView
 from app.views.filters_panel import FiltersPanel
 from app.views.paint import skip_same_stylesheet
 from app.views.scenario import ScenarioView
@@ -275,7 +275,6 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
         raw_css=[PAGE_CSS, *([PRESENTER_CSS] if present else [])],
     )
     a11y.install(pn.state.curdoc)
-    install_size_guard(pn.state.curdoc)  # the Your data tab's file input sends no file over its limit
     if gate is not None and building_page():
         gate.apply_here()
     return page

@@ -11,7 +11,7 @@ each is there; ``docs/upstream/`` holds a drafted report for each.
 
 The views never import the modules that patch (:mod:`app.serving.hardening`, :mod:`app.serving.fastpath`,
 :mod:`app.serving.offloop`); what a page needs of the server is in :mod:`app.serving.session`. The browser's patches
-are scripts a page sends with itself (:mod:`app.views.a11y`, :mod:`app.views.paint`, :mod:`app.views.data`).
+are scripts a page sends with itself (:mod:`app.views.a11y`, :mod:`app.views.paint`).
 """
 
 from __future__ import annotations
@@ -135,13 +135,6 @@ PATCHES = (
         "3.9.2",
         {"bokehjs:core/visuals/visual:VisualProperties._get_css_value": "bd524febbbbe4157"},
         "bokehjs-css-variable-lookups.md",
-    ),
-    Patch(
-        "data.SIZE_GUARD_JS",
-        "bokehjs",
-        "3.9.2",
-        {"bokehjs:models/widgets/file_input:FileInputView.load_files": "13471dfed7061944"},
-        "bokehjs-file-input-size-limit.md",
     ),
 )
 

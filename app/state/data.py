@@ -131,7 +131,8 @@ class DataRoom(LongJobRoom):
         self._read(None, None)
 
     def too_large(self, filename, size: str) -> None:
-        """The browser did not send a file over the limit (:data:`app.views.data.SIZE_GUARD_JS`): refused in words."""
+        """The browser did not send a file over the limit (:class:`app.views.file_picker.FilePicker`): refused in
+        words."""
         name = str(filename or "the file")[:80]
         n = int(size) if str(size).isdigit() and len(str(size)) < 16 else None
         what = f"{n:,} bytes" if n is not None else "more"

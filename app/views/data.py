@@ -27,12 +27,13 @@ from ..colors import KBF
 from ..state import AppState, declaration
 from ..state.data_job import MAX_UPLOAD
 from .fields import REFUSAL_CSS, field
+from .file_picker import FilePicker
 from .filters_panel import bind
 from .filters_panel import number as number_box
 from .scenario_tables import SCENARIO_COLORS
 from .style import SCENARIO_DASHES, TEXT_FONT, job_buttons, px, styled, text_scale
 
-__all__ = ["COLORS", "DASHES", "TOO_LARGE", "DataView", "diagnostics_html", "fit_html", "install_size_guard"]
+__all__ = ["COLORS", "DASHES", "DataView", "diagnostics_html", "fit_html"]
 
 #: each filter's colour and line pattern, as in the scenario plots (the Kalman filter at the fitted σ_r: the green
 #: of the Kalman–Bucy filter that knows σ)
@@ -129,34 +130,6 @@ DIAGNOSTICS_NOTE = (
 )
 
 
-#: what the browser reports instead of sending a file over the limit (the file input's ``mime_type``, then its size)
-TOO_LARGE = "isl/too-large;"
-#: in the browser, once per page: a file input given a file over the limit does not read or send it (the page's
-#: connection carries 20 MB in one message — bokeh's server closes one that sends more); it reports the
-#: file's name and size instead, and the server refuses it in words beside the input
-SIZE_GUARD_JS = """
-const M = Bokeh.Models.get('FileInput'), V = M && M.prototype.default_view;
-if (V && !V.prototype._isl_guarded) {
-    const load = V.prototype.load_files;
-    V.prototype.load_files = async function (files) {
-        const big = Array.from(files).find(f => f.size > limit);
-        if (!big) return load.call(this, files);
-        this.input_el.value = '';
-        this.model.setv({filename: big.name, mime_type: tag + big.size});
-    };
-    V.prototype._isl_guarded = true;
-}
-"""
-
-
-def install_size_guard(doc) -> None:
-    """Install :data:`SIZE_GUARD_JS` in the page of ``doc`` when it is ready (nothing without a document)."""
-    if doc is not None:
-        from bokeh.models import CustomJS
-
-        doc.js_on_event("document_ready", CustomJS(code=SIZE_GUARD_JS, args={"limit": MAX_UPLOAD, "tag": TOO_LARGE}))
-
-
 class DataView(Viewer):
     """Inputs, the fit's job, the fit and order tables, the plot, the diagnostics and the downloads."""
 
@@ -245,21 +218,17 @@ class DataView(Viewer):
 
     def _file_input(self) -> pn.Column:
         room = self.state.data
-        upload = pn.widgets.FileInput(
-            label=f"your CSV file (at most {MAX_UPLOAD // 1_000_000} MB)",
+        mb = MAX_UPLOAD // 1_000_000
+        upload = FilePicker(
+            on_file=room.upload,
+            on_too_large=room.too_large,
+            label=f"your CSV file (at most {mb} MB)",
+            hint=f"UTF-8 text, at most {mb} MB and {MAX_ROWS:,} rows",
             accept=".csv,.txt,text/csv,text/plain",
-            multiple=False,
+            max_size=MAX_UPLOAD,
             width=px(self.state, 280),
             margin=(5, 10, 0, 10),
-            description=f"A CSV file of at most {MAX_UPLOAD // 1_000_000} MB and {MAX_ROWS:,} rows",
         )
-        upload.param.watch(lambda event: room.upload(event.new, upload.filename), "value")
-
-        def too_large(event) -> None:  # the browser's report of a file it did not send (SIZE_GUARD_JS)
-            if isinstance(event.new, str) and event.new.startswith(TOO_LARGE):
-                room.too_large(upload.filename, event.new[len(TOO_LARGE) :])
-
-        upload.param.watch(too_large, "mime_type")
         return pn.Column(upload, self._refusal, margin=0, width=px(self.state, 300))
 
     def _columns(self) -> pn.Row:

@@ -4,6 +4,7 @@ downloads, and the data set in links."""
 
 from __future__ import annotations
 
+import base64
 import json
 import logging
 
@@ -16,6 +17,8 @@ from app.state import AppState
 from app.state import data as data_room
 from app.state.data_job import MAX_UPLOAD
 from app.urlsync import read_query
+from app.views.data import DataView
+from app.views.file_picker import FilePicker
 
 pytest.importorskip("pandas", reason="the data extra: pip install 'isl[data]'")
 
@@ -80,12 +83,33 @@ def test_a_file_over_the_limit_is_refused_before_it_is_parsed(fits, monkeypatch)
 
 def test_a_file_the_browser_did_not_send_is_refused_in_words():
     state = AppState()
-    state.data.too_large("huge.csv", "16000000")  # what the page's guard reports instead of the file
+    state.data.too_large("huge.csv", "16000000")  # what the page's file picker reports instead of the file
     assert (
         state.data.upload_note == "Refused: huge.csv has 16,000,000 bytes, over the limit of 10 MB. Nothing was fitted."
     )
     state.data.too_large(None, "9" * 40)  # whatever a hostile page reports
     assert state.data.upload_note.startswith("Refused: the file has more, over the limit of 10 MB.")
+
+
+def test_the_file_pickers_messages_reach_the_room_a_file_or_only_its_size(fits):
+    """What the page's file picker sends (app.views.file_picker): a file within the limit, base64, read as the upload;
+    over the limit, its name and size only, refused in words; a message that cannot be decoded refused in words."""
+    state = AppState()
+    picker = DataView(state=state)._file_input()[0]
+    assert isinstance(picker, FilePicker) and picker.max_size == MAX_UPLOAD
+    fits.clear()  # (the view asked for the default data set's)
+    picker._handle_msg({"name": "mine.csv", "data": base64.b64encode(_small()).decode()})
+    assert state.data.upload_note == "" and len(fits) == 1 and fits[0] is state.data.series and fits[0].n == 50
+    picker._handle_msg({"name": "huge.csv", "size": 16_000_000})
+    assert state.data.upload_note == (
+        "Refused: huge.csv has 16,000,000 bytes, over the limit of 10 MB. Nothing was fitted."
+    )
+    for hostile in ({"name": "bad.csv", "data": "not base64!"}, {"name": "bad.csv", "data": 7}):
+        state.data.upload_note = ""
+        picker._handle_msg(hostile)
+        assert state.data.upload_note.startswith("Refused: the file could not be read"), hostile
+    picker._handle_msg(["not", "a", "message"])  # ignored
+    assert len(fits) == 1
 
 
 def _small() -> bytes:

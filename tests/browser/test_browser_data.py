@@ -1,6 +1,7 @@
 """The "Your data" tab in the browser: a CSV file uploaded, fitted, and the estimates BokehJS draws (its views' arrays)
 equal to the core's (:func:`isl_core.series.judge`) for that file; a file with unsorted times refused beside the file
-input, nothing fitted; a file over the limit refused by the browser before it is sent."""
+input, nothing fitted; a file over the limit refused by the browser before it is sent; nothing asked of another
+host."""
 
 from __future__ import annotations
 
@@ -40,7 +41,9 @@ def test_an_uploaded_csv_is_drawn_as_the_core_fits_it_and_unsorted_times_are_ref
     url, log = app_server
     data = _csv()
     j = judge(read_csv(data, name="mine.csv"), holdout=0.2)
-    with dashboard(url + "?tab=data&data_set=upload", ready=f"() => ({TAB_OPEN})('Your data')") as page:
+    requested: list[str] = []
+    ready = f"() => ({TAB_OPEN})('Your data')"
+    with dashboard(url + "?tab=data&data_set=upload", ready=ready, on_request=requested.append) as page:
         page.locator("input[type=file]").set_input_files(
             files=[{"name": "mine.csv", "mimeType": "text/csv", "buffer": data}]
         )
@@ -91,3 +94,7 @@ def test_an_uploaded_csv_is_drawn_as_the_core_fits_it_and_unsorted_times_are_ref
     names = [s[2] for s in stops]
     assert any(n == "Fit" for n in names) and "Estimates (CSV)" in names, names
     assert "Traceback" not in log.read_text()
+    # the file picker (a Panel custom component) and its module loader came from this server, nothing from another host
+    origin = url.rsplit("/", 1)[0]
+    assert [u for u in requested if not u.startswith((origin, origin.replace("http", "ws", 1), "data:", "blob:"))] == []
+    assert any("es-module-shims" in u for u in requested), "the custom component's loader was not requested"
