@@ -4,9 +4,10 @@
 
 * **URL → state**, when the session opens (Back and Forward reopen it at their address, :func:`follow_history`) and
   when the page's Location reports a new address: each known query
-  parameter is read by the strict parser of :mod:`app.inputs` (no ``json``, no recursion, bounded length: a
-  hostile spelling gets a message, never an exception) and set on the state in one batch, which validates it like
-  a value typed in the page. Every value that cannot be used is reported — all of them, in one message naming
+  parameter is read by the strict parser of :mod:`app.inputs` for its declaration (no ``json``, no recursion,
+  bounded length: a hostile spelling gets a message, never an exception) and set on the state in one batch
+  (:meth:`app.state.AppState.set_inputs`), whose declarations judge it like a value typed in the page.
+  Every value that cannot be used is reported — all of them, in one message naming
   each input and its range — and keeps its previous setting; the rest of the link still applies, and the URL is
   then rewritten to what the page shows. Inputs missing from the query take their defaults.
 * **state → URL**: the query holds the inputs that differ from their defaults (``?sigma=200&nu=0.5``). In a served
@@ -28,7 +29,7 @@ from collections.abc import Callable
 
 from . import inputs
 from .serving.session import session_loop
-from .state import ALL_INPUTS, KINDS, PARAMS, AppState, input_label
+from .state import ALL_INPUTS, AppState, declaration, input_label
 
 __all__ = [
     "URL_INPUTS",
@@ -104,13 +105,13 @@ def read_query(search: str) -> tuple[dict[str, object], dict[str, str]]:
     for key, text in pairs:
         if key not in URL_INPUTS:
             continue
-        kind = KINDS[key]
+        p = declaration(key)
         try:
-            values[key] = inputs.parse_text(text, kind)
+            values[key] = inputs.parse_text(text, p)
             problems.pop(key, None)
         except ValueError as exc:
             values.pop(key, None)
-            problems[key] = f"{input_label(key, link=True)} must be {kind.describe()}; {exc}"
+            problems[key] = f"{input_label(key, link=True)} must be {inputs.allowed(p)}; {exc}"
     return values, problems
 
 
@@ -124,7 +125,7 @@ def query_string(state: AppState, search: str = "") -> str:
     kept = [
         (k, v) for k, v in urllib.parse.parse_qsl(search.lstrip("?"), keep_blank_values=True) if k not in URL_INPUTS
     ]
-    ours = [(n, _encode(state.get(n))) for n in URL_INPUTS if state.get(n) != PARAMS[n].default]
+    ours = [(n, _encode(state.get(n))) for n in URL_INPUTS if state.get(n) != declaration(n).default]
     query = urllib.parse.urlencode(kept + ours, safe="[],:")
     return f"?{query}" if query else ""
 
@@ -159,7 +160,7 @@ class UrlSync:
         """Set the state's inputs from ``search``: the query's values, defaults for the inputs it lacks; every bad
         value is reported (one message) and the URL then shows what the page shows."""
         values, problems = read_query(search)
-        wanted = {n: PARAMS[n].default for n in URL_INPUTS}
+        wanted = {n: declaration(n).default for n in URL_INPUTS}
         wanted.update(values)
         changed = {n: v for n, v in wanted.items() if not _same(self.state.get(n), v)}
         bad = self.state.set_inputs(changed, problems, link=True)  # in one batch: one new run for the whole link

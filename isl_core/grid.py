@@ -186,9 +186,8 @@ def grid(
 def check_filters(model: Model, nu: float, extra: object) -> list[FilterSpec]:
     if not isinstance(model, Model):
         raise ValueError(f"model must be an isl_core.Model, got {type(model).__name__}")
-    nu = BOUNDS.nu.real(nu)
     extra = check_specs("extra", model, extra, allow_empty=True)
-    return [isl_filter(model, nu), *extra]
+    return [isl_filter(model, nu), *extra]  # the ISL filter's constructor checks ν
 
 
 def check_specs(name: str, model: Model, specs: object, *, allow_empty: bool) -> list[FilterSpec]:

@@ -23,7 +23,7 @@ from functools import lru_cache
 import numpy as np
 
 from .bounds import BOUNDS
-from .riccati import G_matrix
+from .riccati import normalized_care
 from .validate import check_real
 
 __all__ = ["gamma_abs", "gamma_moments", "isl_exponents", "isl_gains", "linearization", "linearization_at", "phi"]
@@ -73,7 +73,12 @@ def isl_exponents(m: int) -> np.ndarray:
     >>> isl_exponents(2).tolist()
     [0.5, 0.0]
     """
-    m = BOUNDS.m.whole(m)
+    return exponents_at(BOUNDS.m.whole(m))
+
+
+def exponents_at(m: int) -> np.ndarray:
+    """:func:`isl_core.isl_exponents` of an m already checked (a filter's size): a filter's φ is read at every step
+    of its run and need not check its own size each time."""
     return 1.0 - np.arange(1, m + 1) / m
 
 
@@ -100,10 +105,14 @@ def isl_gains(m: int, nu: float) -> np.ndarray:
     >>> c.shape, bool(np.all(c > 0))
     ((3,), True)
     """
-    m = BOUNDS.m.whole(m)
-    nu = BOUNDS.nu.real(nu)
-    g1 = G_matrix(m)[:, 0]
-    q = isl_exponents(m)
+    return gains_at(BOUNDS.m.whole(m), BOUNDS.nu.real(nu))
+
+
+def gains_at(m: int, nu: float) -> np.ndarray:
+    """:func:`isl_core.isl_gains` of an m and a ν already checked (the ISL filter's: its model's m, and the ν its
+    constructor checks), so that a run checks each once."""
+    g1 = normalized_care(m, 0.0)[:, 0]  # G(m), (A.10)
+    q = exponents_at(m)
     i = np.arange(1, m + 1)
     gam = np.array([gamma_abs(2.0 * qi) for qi in q])
     coef: np.ndarray = g1 / np.sqrt(gam) * nu ** (i / m)  # (A.17)

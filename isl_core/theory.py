@@ -40,7 +40,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .bounds import BOUNDS
 from .filters.base import FilterSpec
 from .filters.isl import isl_filter
 from .filters.kalman import mismatched_kbf
@@ -179,8 +178,7 @@ def predicted_covariance(model: Model, spec: FilterSpec, *, h: float | None = No
 
 
 def _isl_spec(model: Model, nu: float, damp: float | None) -> FilterSpec:
-    nu = BOUNDS.nu.real(nu)
-    spec = isl_filter(model, nu)
+    spec = isl_filter(model, nu)  # checks ν
     if damp is not None:
         spec = dataclasses.replace(spec, damp=check_real("damp", damp, lo=0.0))
     return spec

@@ -17,11 +17,12 @@ PRESENT = "present"  #: the one link input that changes the page's HTML
 def page_key(request) -> tuple[str, bool]:
     """Which start-up page answers ``request`` (a tornado request): its path, and whether its link asks for presenter
     mode as the page reads it (the last ``present``, a switch; a value that is not one reads as off)."""
-    from app.inputs import Kind, parse_text
+    from app.inputs import parse_text
+    from app.state import declaration
 
     values = request.arguments.get(PRESENT) or [b""]
     try:
-        present = parse_text(values[-1].decode("utf-8", "replace"), Kind("switch")) is True
+        present = parse_text(values[-1].decode("utf-8", "replace"), declaration(PRESENT)) is True
     except ValueError:
         present = False
     return request.path.rstrip("/") or "/", present  # "/app/" is "/app": bokeh routes both to the page
@@ -36,7 +37,7 @@ def build_pages(applications: dict) -> None:
     from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
 
     from app.serving.warmup import raise_if_failed
-    from app.state.session import PARAMS
+    from app.state import declaration
 
     for path, application in applications.items():
         state._sessions.pop(path, None)  # Panel's warm-up page: keyed by the path alone
@@ -47,11 +48,11 @@ def build_pages(applications: dict) -> None:
             )
             # A page built outside a connection does not see its request's query (Panel's location of such a page
             # is empty): presenter mode is this page's default while it is built, as the link would set it.
-            default, PARAMS[PRESENT].default = PARAMS[PRESENT].default, present
+            default, declaration(PRESENT).default = declaration(PRESENT).default, present
             try:
                 session = generate_session(application, request=request, payload={"arguments": request.arguments})
             finally:
-                PARAMS[PRESENT].default = default
+                declaration(PRESENT).default = default
             raise_if_failed([application])
             with set_curdoc(session.document):
                 state._sessions[(path, present)] = session

@@ -8,11 +8,10 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import param
-
 from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES, SIGMA_BOUNDS, SIGMA_DESIGN, SIGMA_RANGE
+from ..inputs import Names, Real
 from .room import Room
 
 __all__ = ["BaselinesRoom"]
@@ -28,25 +27,25 @@ class BaselinesRoom(Room):
         "sigma_max": "sigma_max",
     }
 
-    extra_filters = param.ListSelector(
+    extra_filters = Names(
         default=[],
         objects=list(EXTRA_NAMES),
         label="extra filters",
         doc=("Baselines drawn on the same run (same noise): " + ", ".join(LABELS[n] for n in EXTRA_NAMES) + "."),
     )
-    sigma_design = param.Number(
+    sigma_design = Real(
         SIGMA_DESIGN,
         bounds=SIGMA_BOUNDS,
         label="σ̄ of the KBF for mid σ",
         doc=("The σ the mismatched Kalman–Bucy filter is designed for (its gain solves the CARE, A.23, at σ̄)."),
     )
-    sigma_min = param.Number(
+    sigma_min = Real(
         SIGMA_RANGE[0],
         bounds=SIGMA_BOUNDS,
         label="σ min",
         doc=("Bottom of the plausible σ range (below σ max): the adaptive filter's table, the worst-case table."),
     )
-    sigma_max = param.Number(
+    sigma_max = Real(
         SIGMA_RANGE[1],
         bounds=SIGMA_BOUNDS,
         label="σ max",

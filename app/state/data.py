@@ -21,16 +21,17 @@ import param
 from isl_core import M_MAX
 from isl_core.series import DATASETS, Series
 
-from ..jobs import LongTask, Outcome
+from ..inputs import Real, Whole
+from ..jobs import Outcome
 from .data_job import MAX_UPLOAD, DataResult, estimates_csv, fit_json, load, read_upload
-from .room import Room
+from .room import LongJobRoom
 
 __all__ = ["SOURCES", "DataRoom"]
 
 SOURCES = (*DATASETS, "upload")  #: the data set input's choices: the shipped sets, and the user's own file
 
 
-class DataRoom(Room):
+class DataRoom(LongJobRoom):
     """Inputs, series, fit and downloads of the "Your data" tab (the module docstring); keys ``data_…``."""
 
     KEYS: ClassVar[dict[str, str]] = {"data_set": "source", "data_holdout": "holdout", "data_m": "order"}
@@ -41,14 +42,14 @@ class DataRoom(Room):
         label="data set",
         doc="A data set shipped with the packages (nile, co2, long), or upload for a CSV file of your own.",
     )
-    holdout = param.Number(
+    holdout = Real(
         0.2,
         bounds=(0.05, 0.9),
         label="held-out share",
         doc="Share of the times at the end kept out of the fit: the filters are judged on them (0.05 to 0.9).",
     )
 
-    order = param.Integer(
+    order = Whole(
         0,
         bounds=(0, M_MAX),
         label="order m (0: by BIC)",
@@ -61,13 +62,9 @@ class DataRoom(Room):
     time_column = param.String("", precedence=-1)
     value_column = param.String("", precedence=-1)
     upload_note = param.String("", precedence=-1, doc="Why the uploaded file was refused (shown beside the input).")
-    busy = param.Boolean(False, precedence=-1)
-    progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
-    note = param.String("", precedence=-1, doc="Status line of the fit.")
 
     def __init__(self, host, **params) -> None:
         super().__init__(host, **params)
-        self._task = LongTask(self, busy="busy", progress="progress", note="note")
         self._wanted = False  # the series is read and fitted once the tab is open
         self._file: bytes | None = None  # the uploaded file, in this session's memory only
         self._file_name = ""
@@ -206,7 +203,7 @@ class DataRoom(Room):
     def cancel(self) -> None:
         """Stop the fit: dropped if it waits in the queue, else ended."""
         self._again = False
-        self._task.cancel()
+        super().cancel()
 
     def _on_busy(self, event) -> None:
         if not event.new and self._again:  # the fit before has ended: the one asked for since starts, once the

@@ -3,11 +3,13 @@
 A room is a ``param.Parameterized`` whose inputs are named as the concern names them (``runs``, ``horizon``) and
 whose :attr:`Room.KEYS` gives each input its *key*: its name in links, messages and refusals (``sc_runs``,
 ``sweep_horizon``) — one namespace for the whole page, so that a link or a refusal never needs to know which room
-holds an input. Every value assigned to an input — from a widget, a link, a script, a test — is checked by the
-session (:meth:`app.state.AppState.admit`): a bad one is refused in words, beside its input, and never set.
+holds an input. An input's declaration is its only check: param refuses a bad value when it is assigned, and the
+session's boundary (:meth:`app.state.AppState.set`, :meth:`app.state.AppState.set_inputs`) puts that refusal in
+words beside the input.
 
 A room reaches the rest of the session only through its host: the model's inputs, the session's jobs
-(:meth:`later`, :meth:`describe`, :attr:`jobs`) and the refusals.
+(:meth:`later`, :meth:`describe`, :attr:`jobs`) and the refusals. A room with one long job of the server's queue
+(the ν-sweep, the worst case, the data fit) is a :class:`LongJobRoom`.
 """
 
 from __future__ import annotations
@@ -16,7 +18,9 @@ from typing import Any, ClassVar
 
 import param
 
-__all__ = ["Room"]
+from ..jobs import LongTask
+
+__all__ = ["LongJobRoom", "Room"]
 
 
 class Room(param.Parameterized):
@@ -28,15 +32,6 @@ class Room(param.Parameterized):
     def __init__(self, host: Any, **params) -> None:
         super().__init__(**params)
         self._host = host
-        self._key_of = {name: key for key, name in self.KEYS.items()}
-
-    def __setattr__(self, name: str, value) -> None:
-        key = self.__dict__.get("_key_of", {}).get(name)
-        if key is not None:
-            admitted, value = self._host.admit(key, value)
-            if not admitted:
-                return
-        super().__setattr__(name, value)
 
     @property
     def jobs(self):
@@ -54,3 +49,20 @@ class Room(param.Parameterized):
     def refused_among(self, keys) -> str:
         """Why a computation over inputs ``keys`` does not start (:meth:`app.state.AppState.refused_among`)."""
         return self._host.refused_among(keys)
+
+
+class LongJobRoom(Room):
+    """A room whose computation is one long job of the server's queue (:class:`app.jobs.LongTask`): whether it runs,
+    how far it is, and its status line, declared once for every such room."""
+
+    busy = param.Boolean(False, precedence=-1, doc="The room's long job is queued or running.")
+    progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1, doc="How far the long job is, 0 to 1.")
+    note = param.String("", precedence=-1, doc="Status line of the room's long job.")
+
+    def __init__(self, host: Any, **params) -> None:
+        super().__init__(host, **params)
+        self._task = LongTask(self, busy="busy", progress="progress", note="note")
+
+    def cancel(self) -> None:
+        """Stop the long job: dropped if it waits in the queue, else ended (:meth:`app.jobs.LongTask.cancel`)."""
+        self._task.cancel()

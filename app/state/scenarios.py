@@ -1,7 +1,7 @@
 """The Scenario tab's room: σ that changes, heavy-tailed noise, a coarse sensor — against a clairvoyant filter.
 
 The model inputs (α, β, m, ν, seed) are the session's; σ is σ(0), where the scenario starts. :class:`ScenarioRoom`
-holds the scenario's own inputs (keys ``sc_…``: checked, linked in the URL and refused in words like every other
+holds the scenario's own inputs (keys ``sc_…``: declared, linked in the URL and refused in words like every other
 input) and computes three things through the core:
 
 * **the picture** (:func:`app.scenario_picture.scenario_picture`): every filter over ``runs`` seeds (the seed input
@@ -31,6 +31,7 @@ from isl_core.scenario.presets import DEFAULT_RATE
 from isl_core.scenario.table import PRESETS as TABLE_PRESETS
 from isl_core.scenario.tuning import Tuning, tune
 
+from ..inputs import Real, Whole
 from ..jobs import LongTask
 from ..scenario_picture import Picture, ScenarioRequest, picture_csv, scenario_picture, tuning_for
 from ..text import R_MIN, num, per_r_min
@@ -120,13 +121,13 @@ class ScenarioRoom(Room):
         label="σ change",
         doc=("How σ changes: not at all, one step, or a log-linear drift from σ(0) to the value after it."),
     )
-    change_at = param.Number(
+    change_at = Real(
         10.0,
         bounds=(0.1, 1000.0),
         label=f"change at (× 1/{R_MIN})",
         doc=(f"When σ has changed: the step's time, or the end of the drift, in units of 1/{R_MIN} at σ(0)."),
     )
-    sigma_after = param.Number(
+    sigma_after = Real(
         2.0, bounds=BOUNDS.sigma.range, label="σ after", doc=("σ after the change (σ before it is the σ input).")
     )
     noise = param.Selector(
@@ -135,22 +136,22 @@ class ScenarioRoom(Room):
         label="noise law",
         doc="The observation noise's law per step, scaled so that σ stays its intensity.",
     )
-    dof = param.Number(
+    dof = Real(
         3.0,
         bounds=(2.1, 1000.0),
         label="Student-t degrees of freedom",
         doc=("d of the Student-t noise (d > 2: finite variance); small d, heavy tails."),
     )
-    outlier_rate = param.Number(
+    outlier_rate = Real(
         0.01,
         bounds=(0.0, 0.5),
         label="outlier fraction",
         doc=("Fraction ε of the steps whose noise is k times larger."),
     )
-    outlier_scale = param.Number(
+    outlier_scale = Real(
         30.0, bounds=(1.0, 1000.0), label="outlier size k", doc=("How much larger an outlier's noise is (k).")
     )
-    sensor = param.Number(
+    sensor = Real(
         0.0,
         bounds=(0.0, 5.0),
         label=f"sensor interval (× 1/{R_MIN})",
@@ -159,19 +160,19 @@ class ScenarioRoom(Room):
             "scenario table's reading rate, 100 readings per 1/r_min."
         ),
     )
-    horizon = param.Number(
+    horizon = Real(
         30.0,
         bounds=(5.0, 500.0),
         label=f"scenario horizon (× 1/{R_MIN})",
         doc=(f"Length of each scenario run in units of 1/{R_MIN} at σ(0)."),
     )
-    window = param.Number(
+    window = Real(
         1.0,
         bounds=(0.1, 50.0),
         label=f"rolling window (× 1/{R_MIN})",
         doc=("Width of the window over which each point's RMSE ratio is taken."),
     )
-    runs = param.Integer(
+    runs = Whole(
         32,
         bounds=(1, 256),
         label="runs averaged",
@@ -186,7 +187,7 @@ class ScenarioRoom(Room):
             "or the sensor interval."
         ),
     )
-    map_seeds = param.Integer(16, bounds=(2, 128), label="map seeds", doc="Independent runs per cell of the map.")
+    map_seeds = Whole(16, bounds=(2, 128), label="map seeds", doc="Independent runs per cell of the map.")
 
     picture = param.ClassSelector(class_=Picture, default=None, allow_None=True, precedence=-1)
     preset_note = param.String("", precedence=-1, doc="What the last scenario preset set beyond the scenario.")
@@ -231,7 +232,7 @@ class ScenarioRoom(Room):
             dof=self.dof,
             outlier_rate=self.outlier_rate,
             outlier_scale=self.outlier_scale,
-            sensor_interval=max(self.sensor, 1.0 / DEFAULT_RATE),  # the table's reading rate, or a slower sensor
+            sensor_interval=max(float(self.sensor), 1.0 / DEFAULT_RATE),  # the table's reading rate, or a slower sensor
         )
         if self.window > self.horizon:
             raise ValueError(

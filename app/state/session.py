@@ -6,9 +6,11 @@ tab, presenter mode), the latest run and the page's message; the other concerns 
 (:class:`app.state.Room`): :attr:`~AppState.baselines` (the extra filters), :attr:`~AppState.sweep` (the ν-sweep),
 :attr:`~AppState.worstcase` and :attr:`~AppState.scenarios`.
 
-Every input has a *key* — its name in links, messages and refusals (``sigma``, ``sc_runs``); every assignment to an
-input, in any room, from a widget, a link or a script, is checked here, once (:meth:`AppState.admit`): a bad value is
-refused beside its input, naming it and its range, and the last good run stays on screen. A run the core refuses
+Every input has a *key* — its name in links, messages and refusals (``sigma``, ``sc_runs``) — and one check, its
+declaration: param refuses a bad value when it is assigned (``state.sigma = "x"`` raises its ``ValueError``). Values
+from outside — a widget, a link, a script — come in through :meth:`AppState.set` and :meth:`AppState.set_inputs`,
+which put a refusal in words beside its input, naming it and its range, while the last good run stays on screen; the
+σ range's two ends, judged together, are the one check made there. A run the core refuses
 (too many steps, a diverged filter) takes its inputs back to the run on screen (:mod:`app.state.refused_run`). Runs
 (:mod:`app.pipeline`) are jobs (:class:`app.jobs.Jobs`): off the event loop when served, inline in tests and scripts.
 """
@@ -43,12 +45,13 @@ __all__ = [
     "ALL_INPUTS",
     "DISPLAY_INPUTS",
     "INPUTS",
-    "KINDS",
-    "PARAMS",
+    "OWNERS",
     "ROOMS",
+    "SIGMA_ENDS",
     "TABS",
     "VIEWS",
     "AppState",
+    "declaration",
     "input_label",
 ]
 
@@ -66,19 +69,27 @@ OWNERS: dict[str, tuple[str | None, str]] = {
     **{key: (attr, name) for attr, cls in ROOMS.items() for key, name in cls.KEYS.items()},
 }
 ALL_INPUTS = tuple(OWNERS)  #: every input's key: what a link carries
+SIGMA_ENDS = ("sigma_min", "sigma_max")  #: the σ range's ends: each must stay on its side of the other
+
+
+def declaration(key: str) -> param.Parameter:
+    """The declaration of input ``key`` (a ``param.Parameter``: its label, doc, bounds and default), on its class."""
+    attr, name = OWNERS[key]
+    return (AppState if attr is None else ROOMS[attr]).param[name]
 
 
 def input_label(name: str, link: bool = False) -> str:
     """How messages name input ``name`` (a key): its label, and with ``link`` how a link spells it (``σ (sigma=… in
     the link)``)."""
-    label = PARAMS[name].label
+    label = declaration(name).label
     if not link:
         return label
     return f"{name}=… in the link" if label == name else f"{label} ({name}=… in the link)"
 
 
 class AppState(SessionInputs):
-    """The session's inputs, validated on assignment, its run and message, and its rooms (the module docstring)."""
+    """The session's inputs (each refuses a bad value on assignment), its run and message, and its rooms (the module
+    docstring)."""
 
     run = param.ClassSelector(class_=RunView, default=None, allow_None=True, precedence=-1, doc="The run on screen.")
     traces = param.ClassSelector(class_=Traces, default=None, allow_None=True, precedence=-1)
@@ -109,6 +120,8 @@ class AppState(SessionInputs):
         self.data = DataRoom(self)
         self.param.watch(self._on_inputs, list(INPUTS))
         self.baselines.param.watch(self._on_extra_inputs, list(self.baselines.KEYS.values()))
+        self._key_of = {(id(self.owner(k)[0]), self.owner(k)[1]): k for k in ALL_INPUTS}  # (holder, name) → key
+        self.watch(self._on_any_input, ALL_INPUTS)
         if rest := {k: v for k, v in params.items() if k not in own}:  # inputs of the rooms, by key
             self.set_inputs(rest)
 
@@ -122,11 +135,6 @@ class AppState(SessionInputs):
         """The value of input ``key``."""
         obj, name = self.owner(key)
         return getattr(obj, name)
-
-    def set(self, key: str, value) -> None:
-        """Assign input ``key`` (checked: a bad value is refused in words and not set)."""
-        obj, name = self.owner(key)
-        setattr(obj, name, value)
 
     def watch(self, fn, keys) -> None:
         """Call ``fn(*events)`` when any of the inputs ``keys`` changes (one watcher per room)."""
@@ -149,42 +157,55 @@ class AppState(SessionInputs):
         """The session's rooms, in the order of :data:`ROOMS`."""
         return tuple(getattr(self, attr) for attr in ROOMS)
 
-    # ---- validation at the boundary -------------------------------------------------------------------
-    def __setattr__(self, name: str, value) -> None:
-        if name in OWNERS and OWNERS[name][0] is None:
-            admitted, value = self.admit(name, value)
-            if not admitted:
-                return
-        super().__setattr__(name, value)
+    # ---- the boundary: values from outside ------------------------------------------------------------
+    def set(self, key: str, value) -> bool:
+        """Assign input ``key`` a value from outside (a widget): one the declaration refuses is refused beside the
+        input, in words naming it and its range, and the last good run stays on screen. Whether it was taken."""
+        text = self._assign(key, value, {})
+        if text is None:  # its refusal was lifted as it was assigned (a refused run may have put a new one since)
+            return True
+        kept = "The last good run is kept." if self.run is not None else "Nothing was simulated for it."
+        self.say(f"Refused: {text}. {kept}", "danger", inline=True)
+        self.refusals = {key: f"Refused: {text}. {kept}"}
+        return False
 
-    def admit(self, key: str, value) -> tuple[bool, object]:
-        """Whether ``value`` may be assigned to input ``key`` (here or in a room), and the clean value. A bad one is
-        refused beside its input, with a message; a good one lifts that input's earlier refusal."""
+    def _assign(self, key: str, value, pending: dict, link: bool = False) -> str | None:
+        """Assign input ``key``; None, or why it was refused (in words, :func:`app.inputs.refusal`). ``pending``: the
+        other values set with it (the σ range's ends are judged as they will be)."""
+        obj, name = self.owner(key)
+        p = obj.param[name]
+        value = inputs.shape(p, value)
+        if key in SIGMA_ENDS and isinstance(value, float) and math.isfinite(value):
+            ends: dict[str, float] = {"sigma_min": self.baselines.sigma_min, "sigma_max": self.baselines.sigma_max}
+            ends.update({k: v for k, v in pending.items() if isinstance(v, int | float) and not isinstance(v, bool)})
+            ends[key] = value
+            try:  # the σ range stays a range: a combination of two inputs, judged with both as they will be
+                check_order(ends["sigma_min"], ends["sigma_max"])
+            except ValueError as exc:
+                return str(exc)
+        self._lift(key)  # before the input's watchers run: a computation they start sees no refusal of it
         try:
-            value = self.clean(key, value)
-        except ValueError as exc:
-            self._refuse(key, exc)
-            return False, None
-        if key in self.refusals:  # the refused input has a good value again
-            left = {k: v for k, v in self.refusals.items() if k != key}
+            setattr(obj, name, value)
+        except ValueError:
+            return inputs.refusal(p, value, input_label(key, link))
+        return None
+
+    def _lift(self, *keys: str) -> None:
+        """Inputs ``keys`` hold a good value again: their refusals go (and the message, with the last of them)."""
+        if any(key in self.refusals for key in keys):
+            left = {k: v for k, v in self.refusals.items() if k not in keys}
             if left:
                 self.refusals = left
             else:
                 self._clear()
-        if key == "alpha" and value > 0.0:
-            self.alpha_before_zero = value
-        return True, value
 
-    def clean(self, name: str, value, pending: dict | None = None, link: bool = False):
-        """``value`` checked for input ``name`` (:mod:`app.inputs`): the clean value or a ``ValueError`` in words.
-
-        ``pending``: other inputs about to be set with it (the σ range is checked against its new other end).
-        """
-        value = inputs.clean(input_label(name, link), value, KINDS[name])
-        if name in ("sigma_min", "sigma_max"):  # the σ range stays a range, with its other end as it will be
-            ends, room = {**(pending or {}), name: value}, self.baselines
-            check_order(ends.get("sigma_min", room.sigma_min), ends.get("sigma_max", room.sigma_max))
-        return value
+    def _on_any_input(self, *events) -> None:
+        """An input changed in code (a recommendation, a button): it holds a good value, so its refusal goes — unless a
+        refused run has already taken it back (its refusal then stands)."""
+        now = [self._key_of[id(e.obj), e.name] for e in events if getattr(e.obj, e.name) == e.new]
+        self._lift(*now)
+        if any(e.name == "alpha" and e.obj is self for e in events) and self.alpha > 0.0:
+            self.alpha_before_zero = self.alpha
 
     def set_inputs(self, values: dict, problems: dict[str, str] | None = None, *, link: bool = False) -> list[str]:
         """Set every good value of ``values`` (by key) in one batch (one new run); report every bad one, and those in
@@ -192,18 +213,11 @@ class AppState(SessionInputs):
 
         ``link``: the values come from a URL (messages then give each input's name in links too)."""
         bad = dict(problems or {})
-        good: dict[int, tuple[param.Parameterized, dict]] = {}
-        for key, value in values.items():
-            try:
-                clean = self.clean(key, value, {k: v for k, v in values.items() if k != key}, link)
-            except ValueError as exc:
-                bad[key] = str(exc)
-                continue
-            obj, name = self.owner(key)
-            good.setdefault(id(obj), (obj, {}))[1][name] = clean
         with self.batch():
-            for obj, update in good.values():
-                obj.param.update(**update)
+            for key, value in values.items():
+                text = self._assign(key, value, {k: v for k, v in values.items() if k in SIGMA_ENDS}, link)
+                if text is not None:
+                    bad[key] = text
         if bad:
             kept = "the last good run is kept" if self.run is not None else "nothing was simulated for them"
             what = "a value" if len(bad) == 1 else f"{len(bad)} values"
@@ -212,14 +226,6 @@ class AppState(SessionInputs):
             )
             self.refusals = {key: f"Refused: {text}." for key, text in bad.items() if key in OWNERS}
         return list(bad.values())
-
-    def _refuse(self, key: str, exc: ValueError) -> None:
-        """A refusal stays on screen, beside the input, until that input gets a good value (or a preset, or another
-        message)."""
-        kept = "The last good run is kept." if self.run is not None else "Nothing was simulated for it."
-        text = f"Refused: {exc}. {kept}"
-        self.say(text, "danger", inline=True)
-        self.refusals = {key: text}
 
     def say(self, text: str, kind: str = "info", *, inline: bool = False) -> None:
         """Show a message (``inline``: one input's refusal, shown beside it); a run requested before it will not clear
@@ -252,7 +258,7 @@ class AppState(SessionInputs):
 
     def refused_among(self, keys) -> str:
         """Why a computation over inputs ``keys`` does not start: one of them still shows a refused value."""
-        bad = ", ".join(PARAMS[k].label for k in keys if k in self.refusals)
+        bad = ", ".join(declaration(k).label for k in keys if k in self.refusals)
         return f"Not started: correct the refused value of {bad} first (it would use the previous one)." if bad else ""
 
     def later(self, fn) -> None:
@@ -336,7 +342,7 @@ class AppState(SessionInputs):
         if res.adjusted and not superseded:
             self._quiet = True  # the input now shows what was simulated; that starts no second run
             try:
-                self.horizon = res.request.horizon
+                self.param.update(horizon=res.request.horizon)
             finally:
                 self._quiet = False
         self.shown_request, self.shown_inputs = res.request, {**asked, "horizon": res.request.horizon}
@@ -391,10 +397,3 @@ class AppState(SessionInputs):
         for room in self.rooms():
             if hasattr(room, "release"):
                 room.release()
-
-
-#: every input's declaration (a param.Parameter: label, doc, bounds), by key
-PARAMS = {key: (AppState if attr is None else ROOMS[attr]).param[name] for key, (attr, name) in OWNERS.items()}
-_ITEMS = {k: v for cls in ROOMS.values() for k, v in getattr(cls, "ITEM_BOUNDS", {}).items()}  # of list inputs
-#: kind and range of every input (:mod:`app.inputs`), from the declarations above
-KINDS = inputs.kinds_of(ALL_INPUTS, PARAMS, _ITEMS)

@@ -16,9 +16,10 @@ import param
 from isl_core import BOUNDS
 
 from .. import sweeps
-from ..jobs import LongTask, Outcome
+from ..inputs import Real, Reals
+from ..jobs import Outcome
 from ..text import R_MIN
-from .room import Room
+from .room import LongJobRoom
 
 __all__ = ["SWEEP_SIGMA_BOUNDS", "SweepRoom"]
 
@@ -28,21 +29,19 @@ _LO, _HI = SWEEP_SIGMA_BOUNDS
 CONTEXT = ("alpha", "beta_from_w", "w", "beta", "m")
 
 
-class SweepRoom(Room):
+class SweepRoom(LongJobRoom):
     """Inputs, curves, points and jobs of the ν-sweep (the module docstring); keys ``sweep_…``."""
 
     KEYS: ClassVar[dict[str, str]] = {"sweep_sigmas": "sigmas", "sweep_horizon": "horizon"}
-    #: the range of each entry of a list input
-    ITEM_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {"sweep_sigmas": SWEEP_SIGMA_BOUNDS}
 
-    sigmas = param.List(
+    sigmas = Reals(
         [2.0, 20.0, 200.0],
-        item_type=float,
+        item_bounds=SWEEP_SIGMA_BOUNDS,
         bounds=(1, 5),
         label="σ values",
         doc=(f"σ of the sweep's curves (1 to 5 values in [{_LO:g}, {_HI:g}]); paper A, Fig. 2: 2, 20, 200."),
     )
-    horizon = param.Number(
+    horizon = Real(
         200.0,
         bounds=(20.0, 2000.0),
         label=f"sweep horizon (× 1/{R_MIN})",
@@ -52,14 +51,10 @@ class SweepRoom(Room):
     curves = param.ClassSelector(class_=sweeps.SweepCurves, default=None, allow_None=True, precedence=-1)
     curves_note = param.String("", precedence=-1, doc="Why there are no theory curves, if there are none.")
     points = param.ClassSelector(class_=sweeps.SweepPoints, default=None, allow_None=True, precedence=-1)
-    busy = param.Boolean(False, precedence=-1)
-    progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
-    note = param.String("", precedence=-1, doc="Status line of the simulated sweep / recommendation.")
 
     def __init__(self, host, **params) -> None:
         super().__init__(host, **params)
         self._wanted = False  # the theory curves: computed once the sweep's tab is open
-        self._task = LongTask(self, busy="busy", progress="progress", note="note")
         self._note_context: tuple | None = None  # the sweep context (α, β, m, σs) that ``note`` reports on
         host.param.watch(self._on_context, list(CONTEXT))
         host.baselines.param.watch(self._on_context, list(host.baselines.KEYS.values()))
@@ -115,10 +110,6 @@ class SweepRoom(Room):
             self.param.update(curves=outcome.value, curves_note="")
         elif not superseded:
             self.param.update(curves=None, curves_note=f"No theory curves: {self.describe(outcome.error)}.")
-
-    def cancel(self) -> None:
-        """Stop the sweep or recommendation: dropped if it waits in the queue, else ended (see LongTask.cancel)."""
-        self._task.cancel()
 
     def simulate(self) -> None:
         """Simulate the sweep's points for the current context (progress in ``progress``; cancellable)."""

@@ -14,34 +14,32 @@ import param
 from isl_core import SWEEP_BURN, WORST_CASE_FILTERS, WorstCaseTable
 
 from ..extras import ALPHA_BOUNDS, worst_case_table
-from ..jobs import LongTask
+from ..inputs import Real, Reals, Whole
 from ..text import R_MIN, per_r_min
-from .room import Room
+from .room import LongJobRoom
 
 __all__ = ["WorstCaseRoom"]
 
 
-class WorstCaseRoom(Room):
+class WorstCaseRoom(LongJobRoom):
     """Inputs, table and job of the worst case over σ (the module docstring); keys ``wc_…``."""
 
     KEYS: ClassVar[dict[str, str]] = {"wc_alphas": "alphas", "wc_n_sigma": "n_sigma", "wc_horizon": "horizon"}
-    #: the range of each entry of a list input
-    ITEM_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {"wc_alphas": ALPHA_BOUNDS}
 
-    alphas = param.List(
+    alphas = Reals(
         [0.04, 0.2, 1.0, 5.0, 25.0],
-        item_type=float,
+        item_bounds=ALPHA_BOUNDS,
         bounds=(1, 5),
         label="α values",
         doc=("Rows of the worst-case table: 1 to 5 values of α in [0.001, 100]; paper A, Fig. 2: 0.04 … 25."),
     )
-    n_sigma = param.Integer(
+    n_sigma = Whole(
         5,
         bounds=(2, 11),
         label="σ grid points",
         doc=("Log-spaced σ values (both ends included) over which each worst case is taken."),
     )
-    horizon = param.Number(
+    horizon = Real(
         100.0,
         bounds=(20.0, 2000.0),
         label=f"worst-case horizon (× 1/{R_MIN})",
@@ -49,13 +47,6 @@ class WorstCaseRoom(Room):
     )
 
     table = param.ClassSelector(class_=WorstCaseTable, default=None, allow_None=True, precedence=-1)
-    busy = param.Boolean(False, precedence=-1)
-    progress = param.Number(0.0, bounds=(0.0, 1.0), precedence=-1)
-    note = param.String("", precedence=-1, doc="Status line of the worst-case table.")
-
-    def __init__(self, host, **params) -> None:
-        super().__init__(host, **params)
-        self._task = LongTask(self, busy="busy", progress="progress", note="note")
 
     def compute(self) -> None:
         """Simulate the worst-case table as the session's long job (progress in ``progress``; cancellable)."""
@@ -79,10 +70,6 @@ class WorstCaseRoom(Room):
             self._apply,
             (f"Simulating {len(self.alphas)} α × {self.n_sigma} σ, {len(WORST_CASE_FILTERS)} filters on each run …"),
         )
-
-    def cancel(self) -> None:
-        """Stop the worst-case computation: dropped if it waits in the queue, else ended (see LongTask.cancel)."""
-        self._task.cancel()
 
     def _apply(self, outcome) -> None:
         """Show a computed worst-case table and where its numbers come from."""

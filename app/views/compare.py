@@ -74,11 +74,11 @@ class CompareView(Viewer):
     """The run on screen beside the same run at another σ (a tab of its own, built when first opened)."""
 
     state = param.ClassSelector(class_=AppState)
-    sigma_b = param.Number(200.0, bounds=BOUNDS.sigma.range, label="σ of the second run")
+    sigma_b = inputs.Real(200.0, bounds=BOUNDS.sigma.range, label="σ of the second run")
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self.sigma_b = other_sigma(self.state.sigma)
+        self.param.update(sigma_b=other_sigma(self.state.sigma))
         self._image = pn.pane.PNG(None, sizing_mode="scale_width", max_width=1400, margin=(0, 10))
         self._table = pn.pane.HTML("", stylesheets=[TABLE_CSS], margin=(0, 10))
         self._note = pn.pane.Markdown("", margin=(0, 10))
@@ -101,11 +101,13 @@ class CompareView(Viewer):
 
     def _take(self, value) -> None:
         """σ of the second run from the box, or its refusal beside the box (the previous σ is kept)."""
+        p = self.param.sigma_b
+        value = inputs.shape(p, value)
         try:
-            self.sigma_b = inputs.clean_declared(self.param.sigma_b, value)
+            self.param.update(sigma_b=value)
             self._refusal.param.update(object="", visible=False)
-        except ValueError as exc:
-            text = html.escape(f"Refused: {exc}. The comparison keeps σ = {self.sigma_b:g}.")
+        except ValueError:
+            text = html.escape(f"Refused: {inputs.refusal(p, value)}. The comparison keeps σ = {self.sigma_b:g}.")
             self._refusal.param.update(object=f"<div class='isl-refusal' role='alert'>{text}</div>", visible=True)
             revert(self.state, self._input, lambda: self.sigma_b)
 

@@ -16,7 +16,7 @@ from bokeh.models import CustomJSTickFormatter
 from panel.viewable import Viewer
 
 from ..presets import PAPER_PRESETS
-from ..state import PARAMS, AppState
+from ..state import AppState, declaration
 from ..text import num
 from .fields import field, refusal
 from .widgets import Guarded, IntSlider, NumberInput, Slider, WholeInput, resend, revert, same
@@ -112,7 +112,7 @@ class _Binding:
 def log_slider(state: AppState, name: str, *, lo: float | None = None, step: float = 0.01) -> pn.widgets.FloatSlider:
     """A slider over log10 of input ``name`` across the input's bounds (from ``lo`` when its lower bound is 0, which
     a log scale cannot reach)."""
-    p = PARAMS[name]
+    p = declaration(name)
     a, b = math.log10(p.bounds[0] if lo is None else lo), math.log10(p.bounds[1])
     widget = Slider(
         label=p.label,
@@ -265,7 +265,7 @@ class ControlsView(Viewer):
         spinner = pn.indicators.LoadingSpinner(value=s.param.busy, visible=s.param.busy, size=20, margin=(0, 10))
 
         def helped(name: str, widget):
-            return field(s, name, with_help(widget, PARAMS[name].doc), sizing_mode="stretch_width")
+            return field(s, name, with_help(widget, declaration(name).doc), sizing_mode="stretch_width")
 
         return pn.Column(
             self._status,

@@ -24,7 +24,7 @@ from isl_core.series import SERIES_FILTERS
 from isl_core.series.sources import MAX_ROWS
 
 from ..colors import KBF
-from ..state import PARAMS, AppState
+from ..state import AppState, declaration
 from ..state.data_job import MAX_UPLOAD
 from .fields import REFUSAL_CSS, field
 from .file_picker import FilePicker
@@ -255,7 +255,7 @@ class DataView(Viewer):
     def _controls(self) -> pn.Column:
         s = self.state
         p = s.data.param
-        decl = PARAMS["data_set"]
+        decl = declaration("data_set")
         source = field(
             s,
             "data_set",

@@ -15,7 +15,7 @@ from panel.viewable import Viewer
 from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
-from ..state import PARAMS, AppState
+from ..state import AppState, declaration
 from .fields import field
 from .style import EXTRA_COLORS, NOTE_FONT
 from .widgets import Guarded, NumberInput, WholeInput, revert, same
@@ -60,7 +60,7 @@ def number(state: AppState, name: str, **widget):
     """A number box for input ``name``, with its label and doc. The state checks what is typed and says why a value is
     refused; the box itself has no range (BokehJS's box drops a value outside its range without a word, and the
     page kept showing it while the run stayed as it was)."""
-    p = PARAMS[name]
+    p = declaration(name)
     kind = WholeInput if isinstance(p, param.Integer) else NumberInput
     return bind(state, name, kind(label=p.label, description=p.doc, **widget))
 

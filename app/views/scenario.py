@@ -17,7 +17,7 @@ from bokeh.models import ColumnDataSource, DataRange1d, Legend, LegendItem, Rang
 from bokeh.plotting import figure
 from panel.viewable import Viewer
 
-from ..state import PARAMS, AppState
+from ..state import AppState, declaration
 from ..state.scenarios import CHOICE_LABELS, PRESETS
 from ..text import R_MIN
 from .fields import field
@@ -188,7 +188,7 @@ class ScenarioView(Viewer):
             return field(s, name, number_box(s, name, width=px(s, width), **kw))
 
         def choice(name: str, width: int = 130):
-            decl = PARAMS[name]
+            decl = declaration(name)
             options = {CHOICE_LABELS[name][v]: v for v in decl.objects}
             return field(
                 s,
@@ -240,7 +240,7 @@ class ScenarioView(Viewer):
 
     def _map_controls(self) -> pn.Column:
         s = self.state
-        p, decl = s.scenarios.param, PARAMS["sc_map"]
+        p, decl = s.scenarios.param, declaration("sc_map")
         kind = field(
             s,
             "sc_map",

@@ -33,7 +33,7 @@ from typing import cast
 import numpy as np
 
 from ..model import Model
-from ..nonlinearity import isl_exponents, linearization_at
+from ..nonlinearity import exponents_at, linearization_at
 
 __all__ = [
     "KIND_ADAPTIVE",
@@ -153,7 +153,7 @@ class FilterSpec:
     def exponents(self) -> np.ndarray:
         """Exponents q_i of φ: all 1 for a linear gain, ``1 − i/m`` for the power law (A.17)."""
         m = len(self.coef)
-        return isl_exponents(m) if self.power else np.ones(m)
+        return exponents_at(m) if self.power else np.ones(m)
 
 
 def linearized_matrix(model: Model, spec: FilterSpec) -> np.ndarray:

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 
+from ..bounds import BOUNDS
 from ..model import Model
-from ..nonlinearity import isl_gains
+from ..nonlinearity import gains_at
 from .base import FilterSpec
 
 __all__ = ["isl_filter", "model_aware_isl"]
@@ -41,8 +42,8 @@ def isl_filter(model: Model, nu: float) -> FilterSpec:
     >>> spec.name, spec.coef.shape
     ('isl', (3,))
     """
-    coef = isl_gains(model.m, nu)  # validates nu
-    return FilterSpec("isl", f"ISL (ν = {float(nu):.4g})", 0.0, coef, True)
+    nu = BOUNDS.nu.real(nu)  # the filter's one check of ν; m is its model's, checked when the model was made
+    return FilterSpec("isl", f"ISL (ν = {nu:.4g})", 0.0, gains_at(model.m, nu), True)
 
 
 def model_aware_isl(model: Model, nu: float) -> FilterSpec:

@@ -42,7 +42,7 @@ def test_a_number_too_long_for_a_float_is_named_as_such_not_as_inf(state):
     box._process_events({"value": math.inf})  # what BokehJS reads from "1e400" or 5000 digits
     text = state.refusals["seed"]
     assert "too long for a float" in text and "inf" not in text.replace("infinity", "")
-    state.seed = math.inf  # a script's inf is what it is
+    state.set("seed", math.inf)  # a script's inf is what it is
     assert "inf is not a finite number" in state.refusals["seed"]
 
 

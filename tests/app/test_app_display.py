@@ -24,12 +24,12 @@ def state():
 
 
 def test_a_refusal_is_kept_beside_its_input_until_it_gets_a_good_value(state):
-    state.seed = -5
+    state.set("seed", -5)  # as the box sends it
     assert set(state.refusals) == {"seed"} and state.message_inline
     assert "seed must be a whole number from 0 to 2147483647; -5 is below that range" in state.refusals["seed"]
     state.sigma = 30.0  # another input's good value leaves the refusal where it is
     assert "seed" in state.refusals
-    state.seed = 4
+    state.seed = 4  # a good value, from anywhere
     assert state.refusals == {} and state.message == ""
 
 

@@ -13,7 +13,7 @@ from _loop import ManualLoop
 from app import extras
 from app.extras import EXTRA_NAMES
 from app.jobs import Jobs, LongJobQueue
-from app.state import PARAMS, AppState
+from app.state import AppState, declaration
 from app.views.numbers import numbers_html
 from app.views.worstcase import WorstCaseView, worst_case_html
 from isl_core import WORST_CASE_FILTERS as FILTERS
@@ -95,16 +95,16 @@ def test_bad_values_are_refused_with_a_message(state, name, bad):
     run, before = state.run, state.get(name)
     state.set(name, bad)
     assert state.get(name) == before and state.run is run
-    label = PARAMS[name].label
+    label = declaration(name).label
     assert state.message.startswith("Refused: ") and label in state.message and " must be " in state.message
 
 
 def test_sigma_range_needs_min_below_max(state):
-    state.baselines.sigma_min = 200.0
+    state.set("sigma_min", 200.0)
     assert state.baselines.sigma_min == 2.0 and "σ min (sigma_min) must be below σ max (sigma_max)" in state.message
-    state.baselines.sigma_max = 300.0
-    state.baselines.sigma_min = 250.0
-    assert state.baselines.sigma_range == (250.0, 300.0)
+    assert "sigma_min" in state.refusals
+    state.set_inputs({"sigma_max": 300.0, "sigma_min": 250.0})  # judged with both ends as they will be
+    assert state.baselines.sigma_range == (250.0, 300.0) and state.refusals == {}
 
 
 def test_sweep_curves_of_the_extra_filters(state):

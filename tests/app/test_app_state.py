@@ -104,8 +104,13 @@ BAD = [float("nan"), float("inf"), -float("inf"), -1.0, 1e308, "x", None, True, 
 @pytest.mark.parametrize("name", [n for n in INPUTS if n != "beta_from_w"])
 @pytest.mark.parametrize("bad", BAD, ids=repr)
 def test_bad_values_are_refused_with_a_message(state, name, bad):
+    """From outside (a widget, a link, a script's set), a bad value is refused in words beside its input; assigned in
+    code, it is param's own refusal, a ValueError that names the parameter."""
     run, value = state.run, getattr(state, name)
-    setattr(state, name, bad)
+    with pytest.raises(ValueError, match=f"parameter 'AppState.{name}'"):
+        setattr(state, name, bad)
+    assert state.run is run and getattr(state, name) == value and state.message == ""
+    state.set(name, bad)
     assert state.run is run and getattr(state, name) == value
     assert state.message_kind == "danger"
     label = state.param[name].label
@@ -116,19 +121,19 @@ def test_bad_values_are_refused_with_a_message(state, name, bad):
 @pytest.mark.parametrize("bad", ["true", 1, None, float("nan")], ids=repr)
 def test_bad_switch_values_are_refused(state, bad):
     run = state.run
-    state.param.update(beta_from_w=bad)
+    state.set("beta_from_w", bad)
     assert state.run is run and state.beta_from_w is True
     assert state.message.startswith("Refused: β from w must be on or off (true or false)")
 
 
 def test_scripted_batch_update_keeps_the_good_values(state):
-    state.param.update(sigma=float("nan"), nu=1.5)
+    state.set_inputs({"sigma": float("nan"), "nu": 1.5})
     assert "σ must be a number from 0.1 to 1000; nan is not a finite number" in state.message
     assert state.sigma == 20.0 and state.run.nu == 1.5  # the good value of the batch is applied
 
 
 def test_a_good_change_clears_the_message(state):
-    state.sigma = "x"
+    state.set("sigma", "x")
     assert state.message
     state.sigma = 30.0
     assert state.message == "" and state.run.model.sigma == 30.0
@@ -143,12 +148,17 @@ def test_too_many_steps_is_refused_at_the_horizon_which_returns_to_the_run_on_sc
     assert set(state.refusals) == {"horizon"} and "horizon (× 1/rₘᵢₙ) = 1000" in state.refusals["horizon"]
 
 
-def test_a_value_refused_only_with_the_others_is_refused_at_the_input_just_moved(state):
+@pytest.mark.parametrize("path", ["code", "widget"])
+def test_a_value_refused_only_with_the_others_is_refused_at_the_input_just_moved(state, path):
     """α = 100 is in range, σ = 741 too; together (at horizon 10) the run needs ~3 million steps: α goes back to the
-    run on screen's, the refusal stands beside α, names it and says so in the page's message."""
+    run on screen's, the refusal stands beside α, names it and says so in the page's message — whether α was set in
+    code or came through the widgets' boundary (which must not lift the refusal the run has just made)."""
     state.sigma = 741.0
     run, alpha = state.run, state.alpha
-    state.alpha = 100.0
+    if path == "code":
+        state.alpha = 100.0
+    else:
+        assert state.set("alpha", 100.0)  # taken: the run refuses it afterwards
     assert state.run is run and state.alpha == alpha and state.run_inputs() == state.shown_inputs
     assert set(state.refusals) == {"alpha"} and state.refusals["alpha"] == state.message
     assert "α = 100" in state.message and f"α is back at {alpha:g}" in state.message
@@ -206,10 +216,12 @@ def test_alpha_zero_in_w_mode_switches_to_beta(state):
 
 
 def test_sweep_sigmas_are_validated_and_sorted(state):
-    state.sweep.sigmas = [200, 2.0, 20]
+    state.set("sweep_sigmas", [200, 2.0, 20])
     assert state.sweep.sigmas == [2.0, 20.0, 200.0]
     for bad in (["a"], [], [1.0] * 6, "2, 20", [0.0], [float("nan")]):
-        state.sweep.sigmas = bad
+        with pytest.raises(ValueError, match=r"parameter 'SweepRoom\.sigmas'"):
+            state.sweep.sigmas = bad
+        state.set("sweep_sigmas", bad)
         assert state.sweep.sigmas == [2.0, 20.0, 200.0]
         assert state.message.startswith("Refused: σ values must be a list of 1 to 5 numbers from 0.1 to 1000; ")
 

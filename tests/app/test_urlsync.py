@@ -68,7 +68,7 @@ def test_the_url_holds_the_non_default_inputs_and_keeps_foreign_keys():
 
 def test_a_refused_value_never_reaches_the_url():
     state, location = linked()
-    state.sigma = -1.0
+    state.set("sigma", -1.0)  # as the page's box sends it
     assert "Refused" in state.message and location.search == ""
 
 

@@ -13,7 +13,7 @@ import pytest
 from _browser import NAMED, PLOT_DATA, dashboard
 from playwright.sync_api import expect
 
-from app.state import PARAMS
+from app.state import declaration
 
 pytestmark = [pytest.mark.browser]
 
@@ -130,7 +130,7 @@ def test_a_whole_number_box_takes_whole_numbers_only(app_server):
     """The scenario's number of runs: "1e400" is refused as too long, not read as 1400."""
     url, _ = app_server
     with dashboard(url + "?tab=scenarios", ready="() => true") as page:
-        label = PARAMS["sc_runs"].label
+        label = declaration("sc_runs").label
         box = page.get_by_role("textbox", name=label)
         box.wait_for(timeout=60_000)
         before = box.input_value()
@@ -145,7 +145,7 @@ def test_a_whole_number_box_takes_whole_numbers_only(app_server):
 @pytest.mark.parametrize(
     ("tab", "label", "typed", "said"),
     [
-        ("trajectories", PARAMS["sigma_design"].label, "-5", "-5 is below that range"),
+        ("trajectories", declaration("sigma_design").label, "-5", "-5 is below that range"),
         ("sweep", "σ values (comma separated)", "2, 1e400", "too long for a float"),
         ("worstcase", "α values (comma separated)", "1, NaN", "nan is not a finite number"),
         ("compare", "σ of the second run", FIVE_THOUSAND_DIGITS, "too long for a float"),

@@ -32,7 +32,7 @@ from _browser import BAND_OFFSETS, PLOT_DATA, SCENARIO_TEXT, TAB_OPEN, dashboard
 
 from app.page import TAB_TITLES
 from app.pipeline import APP_MAX_STEPS, compute, plan
-from app.state import PARAMS, AppState
+from app.state import AppState, declaration
 from app.state.scenarios import PRESETS as SCENARIO_PRESETS
 from app.urlsync import parse_query
 from app.views.trajectories import KEY_LABELS, shown_series
@@ -64,7 +64,7 @@ CONTROLS = """(titles) => { const models = Array.from(Bokeh.documents[0].all_mod
     return Object.fromEntries(Object.entries(titles).map(([key, title]) => {
         const m = models.find(m => (m.type === 'Slider' || m.type === 'Spinner') && m.title === title);
         return [key, m ? m.value : null]; })); }"""
-CONTROL_TITLES = {k: PARAMS[k].label for k in ("alpha", "sigma", "nu", "m", "horizon", "seed")}
+CONTROL_TITLES = {k: declaration(k).label for k in ("alpha", "sigma", "nu", "m", "horizon", "seed")}
 CONTROL_TITLES["m"] = "m (state dimension)"
 EXTRA_BOXES = ("KBF for mid σ", "KBF adaptive", "ISL model-aware")
 
@@ -238,11 +238,11 @@ def refused_end(page, rng: random.Random, state: AppState) -> str:
     if not refused:
         return typed_seed(page, rng)
     key = rng.choice(refused)
-    name = SLIDERS.get(key) or PARAMS[key].label
+    name = SLIDERS.get(key) or declaration(key).label
     handle = page.get_by_role("slider", name=name)
     handle.focus()
     handle.press("End")
-    page.locator(".isl-refusal", has_text=f"{PARAMS[key].label} = {ENDS[key]:g}").wait_for(timeout=30_000)
+    page.locator(".isl-refusal", has_text=f"{declaration(key).label} = {ENDS[key]:g}").wait_for(timeout=30_000)
     return f"{key} End (refused)"
 
 

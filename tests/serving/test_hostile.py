@@ -27,7 +27,7 @@ from _serving import run, served, session_client
 from bokeh.models import Checkbox, ColumnDataSource, CustomJSTickFormatter, Slider, Spinner, TextInput
 
 from app import extras
-from app.state import ALL_INPUTS, DISPLAY_INPUTS, KINDS, PARAMS, AppState
+from app.state import ALL_INPUTS, DISPLAY_INPUTS, AppState, declaration
 from app.state.sweep import SWEEP_SIGMA_BOUNDS
 
 SEED = 20251122
@@ -95,7 +95,7 @@ def _integral(value: float, lo: float) -> int:
 
 def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
     """``n`` values that input ``key`` (in the session or one of its rooms) must refuse."""
-    p = PARAMS[key]
+    p = declaration(key)
     nonfinite = [math.nan, math.inf, -math.inf, 1e308, -1e308, np.float64("nan"), np.float32("inf"), None, True, False]
     if isinstance(p, param.Boolean):
         pool = [None, 0, 1, 1.0, "true", "False", math.nan, [], "yes", np.int64(1)]
@@ -129,7 +129,7 @@ def bad_values(key: str, rng: np.random.Generator, n: int) -> Iterator[object]:
         def picks():
             return pool[rng.integers(len(pool))]
     elif isinstance(p, param.List):
-        lo, hi = KINDS[key].lo, KINDS[key].hi  # of its entries
+        lo, hi = p.item_bounds  # of its entries
 
         def picks():
             k = rng.integers(6)
@@ -180,7 +180,7 @@ def test_state_refuses_every_bad_value_with_a_message_and_keeps_the_run(state):
     run0, traces0, values0 = state.run, state.traces, {n: state.get(n) for n in names}
     tried, answered, escaped = 0, 0, []
     for name in names:
-        label = PARAMS[name].label
+        label = declaration(name).label
         for value in bad_values(name, rng, per_input):
             tried += 1
             state.message = ""
@@ -206,12 +206,12 @@ def test_unhashable_filter_names_are_refused_with_a_message(state):
     run0 = state.run
     for value in ([[extras.EXTRA_NAMES[0]]], [{}]):
         state.message = ""
-        state.baselines.extra_filters = value
+        state.set("extra_filters", value)
         assert "Refused" in state.message and state.run is run0
 
 
 # -------------------------------------------------------------------------------- raw document changes
-LABELS = {PARAMS[n].label: PARAMS[n] for n in ALL_INPUTS if n not in DISPLAY_INPUTS}
+LABELS = {declaration(n).label: declaration(n) for n in ALL_INPUTS if n not in DISPLAY_INPUTS}
 
 
 def widget_range(model) -> tuple[float, float]:
