@@ -2,6 +2,7 @@
 
 * :mod:`app.serving.serve` — the ``isl serve`` / ``python -m app.serving`` command: ``panel serve app/app.py`` with
   safe defaults, a strict warm-up, ``--check`` and ``--health``;
+* :mod:`app.serving.options` — that command's options, their environment variables, defaults and checks;
 * :mod:`app.serving.webguard` — security headers, the host check, compression and ``/liveness`` on every answer;
 * :mod:`app.serving.patches` — every patch of Panel, Bokeh and BokehJS in one table, and the one ``install()`` of the
   Python ones at the server's start-up;

@@ -1,22 +1,7 @@
 """Serve the dashboard: ``panel serve app/app.py`` with safe defaults.
 
-Run as ``isl serve``, ``python -m app.serving`` or ``./scripts/serve``; ``--help`` lists the options. Every option
-also has an environment variable, so a container is configured at ``docker run`` time:
-
-==============================  =======================  ====================================================
-option                          environment              default
-==============================  =======================  ====================================================
-``--address``                   ``ISL_ADDRESS``          ``127.0.0.1`` (this machine only; the image: 0.0.0.0)
-``--port``                      ``ISL_PORT``             5006
-``--allow-websocket-origin``    ``ISL_ALLOWED_ORIGINS``  ``localhost:PORT,127.0.0.1:PORT``; never ``*``
-``--num-procs``                 ``ISL_NUM_PROCS``        0: one process per usable core (:ref:`serving-many`)
-``--num-threads``               ``ISL_NUM_THREADS``      4 threads run the callbacks (the kernel is nogil)
-``--unused-session-lifetime``   —                        10 s after the last connection closes
-``--check-unused-sessions``     —                        2 s between sweeps for unused sessions
-``--stats-interval``            —                        60 s between ``isl stats`` log lines
-``--trim-interval``             —                        5 s between looks for ended sessions' memory
-``--stall-log``                 —                        log each long stall of the event loop, with its cause
-==============================  =======================  ====================================================
+Run as ``isl serve``, ``python -m app.serving`` or ``./scripts/serve``; its options and their environment
+variables are :mod:`!app.serving.options`'s (``--help`` lists them).
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`!app.serving.webguard`, with the
 security headers, the host check and compression), the built documentation at ``/docs/`` (:mod:`!app.serving.docs`),
@@ -61,28 +46,19 @@ from importlib.util import find_spec
 
 from app.serving import workers
 from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, freeze_warm_heap, log_stats
+from app.serving.options import (
+    ENV,
+    STALL_LOG_MS,
+    build_parser,
+    check_counts,
+)
 from app.serving.warmup import AppStartupError, check_app, raise_if_failed, warm_core, warm_long_jobs
 
 log = logging.getLogger("isl.serve")
 
-DEFAULT_ADDRESS = "127.0.0.1"
-DEFAULT_PORT = 5006
-DEFAULT_NUM_THREADS = 4
-UNUSED_SESSION_LIFETIME_MS = 10_000
-CHECK_UNUSED_SESSIONS_MS = 2_000
-STATS_INTERVAL_MS = 60_000
-STALL_LOG_MS = 250  #: a stall of the event loop this long is logged with what held it (app.serving.stalls)
 # Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
 WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 LIVENESS_ENDPOINT = "liveness"
-ENV = {
-    "address": "ISL_ADDRESS",
-    "port": "ISL_PORT",
-    "origins": "ISL_ALLOWED_ORIGINS",
-    "frames": "ISL_FRAME_ANCESTORS",
-    "num_procs": "ISL_NUM_PROCS",
-    "num_threads": "ISL_NUM_THREADS",
-}
 # Bokeh reads this variable and lets it REPLACE the allow-list; the origins come from ISL_ALLOWED_ORIGINS only.
 BOKEH_ORIGIN_ENV = "BOKEH_ALLOW_WS_ORIGIN"
 
@@ -116,119 +92,6 @@ def allowed_origins(port: int, spec: str | None, extra: Sequence[str] = ()) -> l
         if entry_port and not (entry_port == "*" or entry_port.isdigit()):
             raise ValueError(f"websocket origin port must be a number, got {entry!r}")
     return list(dict.fromkeys(entries))
-
-
-def _env_int(name: str, default: int) -> int:
-    value = os.environ.get(name, "").strip()
-    if not value:
-        return default
-    try:
-        return int(value)
-    except ValueError:
-        raise SystemExit(f"{name} must be an integer, got {value!r}") from None
-
-
-def check_counts(opts: argparse.Namespace) -> None:
-    """``ValueError`` naming the option if a port, process, thread or interval count is out of range."""
-    limits = {
-        "port": (1, 65535),
-        "num_procs": (0, 256),
-        "num_threads": (1, 256),
-        "unused_session_lifetime": (100, 10**8),
-        "check_unused_sessions": (100, 10**8),
-        "stats_interval": (0, 10**8),
-        "trim_interval": (100, 10**8),
-        "stall_log": (0, 10**8),
-    }
-    for name, (lo, hi) in limits.items():
-        value = getattr(opts, name)
-        if not lo <= value <= hi:
-            raise ValueError(f"--{name.replace('_', '-')} must be an integer in [{lo}, {hi}], got {value}")
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """The ``isl serve`` / ``python -m app.serving`` command line."""
-    p = argparse.ArgumentParser(prog="isl serve", description="Serve the isl dashboard with safe defaults.")
-    p.add_argument(
-        "--address",
-        default=os.environ.get(ENV["address"], DEFAULT_ADDRESS),
-        help=f"interface to listen on; 0.0.0.0 for every interface (env {ENV['address']}, default {DEFAULT_ADDRESS})",
-    )
-    p.add_argument(
-        "--port",
-        type=int,
-        default=_env_int(ENV["port"], DEFAULT_PORT),
-        help=f"port to listen on, 1..65535 (env {ENV['port']}, default {DEFAULT_PORT})",
-    )
-    p.add_argument(
-        "--allow-websocket-origin",
-        action="append",
-        default=[],
-        metavar="HOST[:PORT]",
-        help=f"a host a browser may open the dashboard from (repeatable; added to env "
-        f"{ENV['origins']}, comma-separated; default localhost and 127.0.0.1 on PORT)",
-    )
-    p.add_argument(
-        "--num-procs",
-        type=int,
-        default=_env_int(ENV["num_procs"], 0),
-        help=f"server processes, 0 = one per usable core (env {ENV['num_procs']}, default 0)",
-    )
-    p.add_argument(
-        "--num-threads",
-        type=int,
-        default=_env_int(ENV["num_threads"], DEFAULT_NUM_THREADS),
-        help=f"threads per process that run callbacks and simulations (env {ENV['num_threads']}, "
-        f"default {DEFAULT_NUM_THREADS})",
-    )
-    p.add_argument(
-        "--unused-session-lifetime",
-        type=int,
-        default=UNUSED_SESSION_LIFETIME_MS,
-        metavar="MS",
-        help=f"how long a session outlives its last connection (default {UNUSED_SESSION_LIFETIME_MS})",
-    )
-    p.add_argument(
-        "--check-unused-sessions",
-        type=int,
-        default=CHECK_UNUSED_SESSIONS_MS,
-        metavar="MS",
-        help=f"interval of the sweep for unused sessions (default {CHECK_UNUSED_SESSIONS_MS})",
-    )
-    p.add_argument(
-        "--stats-interval",
-        type=int,
-        default=STATS_INTERVAL_MS,
-        metavar="MS",
-        help=f"log live sessions, connections and RSS this often, 0 = never (default {STATS_INTERVAL_MS})",
-    )
-    p.add_argument(
-        "--trim-interval",
-        type=int,
-        default=TRIM_INTERVAL_MS,
-        metavar="MS",
-        help=f"how often to look for ended sessions and hand their memory back (default {TRIM_INTERVAL_MS})",
-    )
-    p.add_argument(
-        "--stall-log",
-        type=int,
-        default=STALL_LOG_MS,
-        metavar="MS",
-        help=f"log each stall of the event loop of at least MS, with what held it, 0 = never (default {STALL_LOG_MS})",
-    )
-    p.add_argument(
-        "--frame-ancestors",
-        action="append",
-        default=[],
-        metavar="SITE",
-        help=f"a site that may show the dashboard in a frame, e.g. https://lms.example.edu (repeatable; "
-        f"added to env {ENV['frames']}; default: none, only the dashboard itself)",
-    )
-    p.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error", "critical"])
-    mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--check", action="store_true", help="run the warm-up (numba cache, the app once) and exit")
-    mode.add_argument("--health", action="store_true", help="exit 0 if a local server answers /liveness, else 1")
-    return p
 
 
 def panel_argv(opts: argparse.Namespace, script: str, origins: Sequence[str]) -> list[str]:

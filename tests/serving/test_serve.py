@@ -20,6 +20,7 @@ from bokeh.protocol import Protocol
 from panel.command.serve import Serve
 
 from app.serving import hardening, serve, session
+from app.serving import options as cli_options
 
 
 def panel_args(argv: list[str]) -> argparse.Namespace:
@@ -30,12 +31,12 @@ def panel_args(argv: list[str]) -> argparse.Namespace:
 
 
 def options(*argv: str) -> argparse.Namespace:
-    return serve.build_parser().parse_args(list(argv))
+    return cli_options.build_parser().parse_args(list(argv))
 
 
 @pytest.fixture
 def clean_env(monkeypatch):
-    for name in [*serve.ENV.values(), serve.BOKEH_ORIGIN_ENV]:
+    for name in [*cli_options.ENV.values(), serve.BOKEH_ORIGIN_ENV]:
         monkeypatch.delenv(name, raising=False)
     return monkeypatch
 
@@ -58,7 +59,7 @@ def test_wildcard_and_malformed_origins_are_refused(bad):
 
 
 def test_bad_origin_environment_exits_with_usage_error(clean_env):
-    clean_env.setenv(serve.ENV["origins"], "*")
+    clean_env.setenv(cli_options.ENV["origins"], "*")
     assert serve.main(["--health", "--port", "1"]) == 2
 
 
@@ -67,15 +68,17 @@ def test_panel_arguments_are_the_safe_defaults(clean_env):
     opts = options()
     argv = serve.panel_argv(opts, "app.py", serve.allowed_origins(opts.port, None))
     args = panel_args(argv)
-    assert (args.address, args.port) == (serve.DEFAULT_ADDRESS, serve.DEFAULT_PORT)
+    assert (args.address, args.port) == (cli_options.DEFAULT_ADDRESS, cli_options.DEFAULT_PORT)
     # /liveness is app.serving.webguard's: Panel's builds a session for ?endpoint=
     assert args.warm and not args.liveness
     assert not args.admin and not args.dev and not args.autoreload
     assert args.allow_websocket_origin == ["localhost:5006", "127.0.0.1:5006"]
-    assert args.num_threads == serve.DEFAULT_NUM_THREADS and args.num_procs == 0  # one per core (app.serving.workers)
+    assert (
+        args.num_threads == cli_options.DEFAULT_NUM_THREADS and args.num_procs == 0
+    )  # one per core (app.serving.workers)
     assert args.reuse_sessions  # a page's HTML does not build it: its websocket does, in the process it reaches
-    assert args.unused_session_lifetime == serve.UNUSED_SESSION_LIFETIME_MS
-    assert args.check_unused_sessions == serve.CHECK_UNUSED_SESSIONS_MS
+    assert args.unused_session_lifetime == cli_options.UNUSED_SESSION_LIFETIME_MS
+    assert args.check_unused_sessions == cli_options.CHECK_UNUSED_SESSIONS_MS
     assert args.websocket_max_message_size == serve.WEBSOCKET_MAX_MESSAGE_BYTES
     assert "*" not in " ".join(argv)
 
