@@ -15,11 +15,12 @@ if not __package__:  # run as a script (`panel serve app/app.py`): make `app` th
 import panel as pn
 
 from app.page import LONG_JOBS, TITLE, LocalFast, SessionGate, create_app, deferred, session_jobs
-from app.serving.session import settle_markup_stylesheets
+from app.serving.session import page_location, serve_panel_files, settle_markup_stylesheets
 
 __all__ = ["LONG_JOBS", "TITLE", "LocalFast", "SessionGate", "create_app", "deferred", "session_jobs"]
 
 if pn.state.served:
+    serve_panel_files(pn.state.curdoc)  # before anything is built: no stylesheet points at Panel's CDN
     with pn.state.curdoc.models.freeze():  # one walk of the page's models at the end, not one per root added
-        create_app().servable(title="isl — Kalman–Bucy vs ISL")
+        create_app().servable(title="isl — Kalman–Bucy vs ISL", location=page_location(pn.state.curdoc))
         settle_markup_stylesheets(pn.state.curdoc)  # their first update then changes no stylesheet

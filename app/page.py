@@ -23,7 +23,14 @@ from panel.viewable import Viewable
 from threadpoolctl import threadpool_limits
 
 from app.jobs import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs, LongJobQueue
-from app.serving.session import building_page, handle_exception, prebuild, release_on_destroy, session_lock
+from app.serving.session import (
+    building_page,
+    handle_exception,
+    page_location,
+    prebuild,
+    release_on_destroy,
+    session_lock,
+)
 from app.state import TABS, AppState
 from app.urlsync import UrlSync, after_pause, follow_history
 from app.views import ControlsView, NumbersView, SweepView, TrajectoriesView, a11y, about_card
@@ -208,8 +215,9 @@ def create_app(state: AppState | None = None) -> pn.template.FastListTemplate:
     gate = SessionGate(doc) if state is None and doc is not None and doc.session_context is not None else None
     if state is None:
         state = AppState(jobs=session_jobs(gate))
-    if pn.state.location is not None:
-        UrlSync(state, pn.state.location, after_pause(pn.state.curdoc))  # kept alive by the watchers it registers
+    location = page_location(doc)  # (the page's URL; given to the template by app/app.py)
+    if location is not None:
+        UrlSync(state, location, after_pause(pn.state.curdoc))  # kept alive by the watchers it registers
         follow_history(pn.state.curdoc)
     state.start()
     release_on_destroy(state.close)

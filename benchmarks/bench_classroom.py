@@ -114,12 +114,22 @@ def _button(doc, label: str):
     return next((m for m in doc.models if getattr(m, "label", None) == label and type(m).__name__ == "Button"), None)
 
 
+async def woken_at(stop: asyncio.Event, client) -> None:
+    """Wake ``client``'s waits when ``stop`` is set: they end at the stop, not at the next message of a run that, on a
+    loaded machine, may come minutes later."""
+    await stop.wait()
+    client.wake()
+
+
 async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open HEAVY and press "new noise" each time its run is shown."""
     client = await sc.open_page(base, HEAVY)
+    waker = asyncio.ensure_future(woken_at(stop, client))
     try:
         await client.widgets()
-        await client.wait_until(lambda: _traj(client.doc) is not None and len(_traj(client.doc).data["y"]), 300.0)
+        await client.wait_until(
+            lambda: stop.is_set() or (_traj(client.doc) is not None and len(_traj(client.doc).data["y"])), 300.0
+        )
         while not stop.is_set() and not client.closed:
             before = list(_traj(client.doc).data["y"][:8])
             await client.send_event(ButtonClick(_button(client.doc, "new noise")))
@@ -132,6 +142,7 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
             elif not changed:
                 figures.errors.append("heavy: no new run within 300 s")
     finally:
+        waker.cancel()
         figures.errors.extend(client.errors)
         await client.close()
 
@@ -139,6 +150,7 @@ async def heavy_runs(base: str, stop: asyncio.Event, figures: Figures) -> None:
 async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
     """Open the worst-case tab at its maximum and press Compute each time a table or a refusal is shown."""
     client = await sc.open_page(base, WORST)
+    waker = asyncio.ensure_future(woken_at(stop, client))
     try:
         tabs = next(m for m in client.doc.models if type(m).__name__ == "Tabs")
         await client.change(tabs, active=2)
@@ -158,6 +170,7 @@ async def worst_cases(base: str, stop: asyncio.Event, figures: Figures) -> None:
                 figures.worst_tables += 1
                 await client.wait_until(lambda: stop.is_set(), 2.0)  # a student reads the table, then asks again
     finally:
+        waker.cancel()
         figures.errors.extend(client.errors)
         await client.close()
 
@@ -178,14 +191,20 @@ async def students(
             if not await c.widgets():
                 figures.errors.append("student: no controls within 120 s")
 
+    # one sequence per student across the phases, and the last value each sent: a generator restarted at each phase
+    # repeats the baseline's values, and the client's copy of the slider does not follow the client's own changes (the
+    # server does not echo them back), so a phase's first change could be the value the server already held — not a
+    # change, and nothing to answer
+    rngs = [random.Random(k) for k in range(len(clients))]
+    sent: list[float | None] = [None] * len(clients)
+
     async def one(k: int, client, until: float, out: list[float]) -> None:
-        rng = random.Random(k)
-        last = None
+        rng = rngs[k]
         await asyncio.sleep(rng.uniform(0, 3.0))
         while time.perf_counter() < until and not client.closed:
             slider = sc.find_slider(client.doc, "σ")
-            previous, shown = last, slider.value  # the last value sent, the one the server last showed this client
-            value = last = sc.new_value(slider, rng, last)
+            previous, shown = sent[k], slider.value  # the last value sent, the one the server last sent this client
+            value = sent[k] = sc.new_value(slider, rng, sent[k])
             msgid, t0 = await client.change(slider, value=value, value_throttled=value)
             if await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 30.0):
                 out.append(client.data_update_after(t0) - t0)
@@ -195,8 +214,8 @@ async def students(
                 late = await client.wait_until(lambda t0=t0: client.data_update_after(t0) is not None, 90.0)
                 came = client.data_update_after(t0)
                 figures.errors.append(
-                    f"student: no plot update within 30 s (σ slider sent {value:.3f}, last sent {previous}, shown "
-                    f"{shown:.3f}; {seen}; "
+                    f"student: no plot update within 30 s (σ slider sent {value:.3f}, last sent {previous}, last set by"
+                    f" the server {shown:.3f}; {seen}; "
                     + (f"the update came {came - t0:.1f} s after the change)" if late and came else "none in 120 s)")
                 )
             await asyncio.sleep(3.0 * rng.uniform(0.75, 1.25))

@@ -41,6 +41,7 @@ from .scenario import (
     FAMILIES,
     MAPS,
     NOISE_LAWS,
+    TUNING_SAMPLING,
     Clairvoyant,
     Costs,
     Period,
@@ -69,13 +70,14 @@ from .scenario import (
     tune,
     who_wins_map,
 )
+from .scenario.cells import CellStats
 from .scenario.heldout import held_out
 from .scenario.map import AXIS_LABELS, STEP_AT
 from .scenario.presets import DEFAULT_RATE
 from .scenario.shipped import ShippedTuning, shipped_json, shipped_tuning, why_not_shipped
 from .scenario.table import PRESETS as SCENARIO_PRESETS
 from .scenario.table import beyond_rows, beyond_stats, knob_text
-from .scenario.tuning import paper_nu
+from .scenario.variants import paper_nu
 from .series import (
     SERIES_FILTERS,
     Diagnostics,
@@ -129,12 +131,14 @@ __all__ = [
     "STEP_AT",
     "SWEEP_BURN",
     "TUBE_THEORY",
+    "TUNING_SAMPLING",
     "WORST_CASE_FILTERS",
     "WORST_CASE_LABELS",
     "AdaptiveGain",
     "Bound",
     "Cancelled",
     "Candidates",
+    "CellStats",
     "Clairvoyant",
     "Costs",
     "Diagnostics",

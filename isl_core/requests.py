@@ -1,9 +1,10 @@
 """Requests as values: what a simulated grid samples (:class:`Sampling`) and how it runs (:class:`Execution`).
 
-:func:`isl_core.sweep`, :func:`isl_core.worst_case` and :func:`isl_core.recommend_nu` take one of each instead of
-eight loose keywords, so that a caller states a request once and hands it on (the recommendation passes its sampling
-to the sweep that verifies it). Both are frozen and checked at construction: a bad field raises ``ValueError`` naming
-it and its range, before any work starts.
+:func:`isl_core.sweep`, :func:`isl_core.worst_case`, :func:`isl_core.recommend_nu`, :func:`isl_core.tune` and
+:func:`isl_core.scenario_table` take one of each instead of eight loose keywords, so that a caller states a request
+once and hands it on (the recommendation passes its sampling to the sweep that verifies it, the scenario table its
+sampling to the tuning and its execution to the held-out runs). Both are frozen and checked at construction: a bad
+field raises ``ValueError`` naming it and its range, before any work starts.
 
 ``seeds`` is always a sequence of seeds; a count of them is ``n_seeds`` (:meth:`Sampling.first` takes seeds
 0 … ``n_seeds`` − 1).

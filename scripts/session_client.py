@@ -231,6 +231,11 @@ class BokehClient:
                 return predicate()
         return True
 
+    def wake(self) -> None:
+        """Have :meth:`wait_until` check its predicate now, not at the next message: something outside the session
+        that the predicate reads has changed (a benchmark's stop)."""
+        self._changed.set()
+
     async def widgets(self, timeout: float = 120.0) -> bool:
         """Wait until the page's controls have arrived (the dashboard builds them after the page connects)."""
         return await self.wait_until(lambda: bool(sliders(self.doc)), timeout)

@@ -23,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from isl_core import Execution
 from isl_core.scenario.shipped import COMMAND, SHIPPED, W_GRID, entry_from, probe_record, probe_tuning, rule
 from isl_core.scenario.tuning import tune
 
@@ -119,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         if (alpha, m) in kept:
             record["entries"].append(kept[alpha, m])
             continue
-        res = tune(alpha, m=m, w=W_GRID, workers=args.workers)
+        res = tune(alpha, m=m, w=W_GRID, execution=Execution(workers=args.workers))
         assert res is not None  # computed when not cached
         record["entries"].append(entry_from(res))
         record["seconds"] = round(probe.seconds + sum(e["seconds"] for e in record["entries"]), 1)

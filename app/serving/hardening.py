@@ -1,16 +1,15 @@
 """Server-side hardening shared by every dashboard session: patches of Panel and Bokeh (see
 :mod:`app.serving.patches`, which installs them once at the server's start-up, and the development page's table).
 
-* bokeh's websocket ``ERROR`` replies carry no server internals (:func:`quiet_error_replies`);
 * models the browser has not been sent stay "new" when a browser change arrives (:func:`keep_unsent_models_new`);
 * one session's browser events are processed one at a time (:func:`serialize_session_events`);
 * Panel lifts read-only and constant flags on a widget's own parameter objects, and on its process-wide ``state``
-  under one lock (:func:`per_instance_readonly_edits`);
-* a link whose value Panel's own query parser cannot convert opens the page (:func:`tolerant_query_parser`);
-* every stylesheet of the page is served by the server itself (:func:`local_stylesheets`).
+  under one lock (:func:`per_instance_readonly_edits`).
 
 :func:`install` also sets Panel's public ``exception_handler`` (:func:`app.serving.session.handle_exception`) and
-``notifications``; :func:`quiet_closed_websockets` is the event loop's exception handler (asyncio's public API).
+``notifications``; :func:`quiet_closed_websockets` is the event loop's exception handler (asyncio's public API),
+and :func:`quiet_error_replies` gives the server's websocket handlers, subclasses of bokeh's, replies without server
+internals (neither replaces library code).
 """
 
 from __future__ import annotations
@@ -23,6 +22,7 @@ import uuid
 from typing import Any
 
 import panel as pn
+import tornado.websocket
 
 from .mark import mark
 from .session import handle_exception, locked
@@ -43,63 +43,10 @@ def install() -> None:
     pn.config.exception_handler = handle_exception
     pn.config.notifications = True
     if not _installed:
-        quiet_error_replies()
         keep_unsent_models_new()
         serialize_session_events()
         per_instance_readonly_edits()
-        tolerant_query_parser()
-        local_stylesheets()
         _installed = True
-
-
-def local_stylesheets() -> None:
-    """Panel points a stylesheet at its CDN (cdn.holoviz.org) when the document it builds a component for has no
-    ``dist_url`` — the warm-up's document has none — and shares that stylesheet model between documents: a page
-    asked the CDN for ``loading.css`` when the who-wins map started to compute (a classroom without internet then
-    waits on a request that fails). The server serves Panel's files itself: no stylesheet is pointed at the CDN."""
-    from panel import reactive
-    from panel.io import resources
-
-    original = resources.patch_stylesheet
-    if getattr(original, "_isl_local", False):
-        return
-
-    def local(stylesheet, dist_url):
-        return original(stylesheet, resources.LOCAL_DIST if dist_url == resources.CDN_DIST else dist_url)
-
-    mark(local, _isl_local=True)
-    resources.patch_stylesheet = local
-    reactive.patch_stylesheet = local
-
-
-def tolerant_query_parser() -> None:
-    """Panel parses the page's query when it makes ``pn.state.location`` and turns every all-digit value into an
-    ``int``; Python refuses to convert more than 4300 digits (``ValueError``), so a link such as ``?seed=`` followed
-    by 5000 digits failed the page's script before the dashboard's own parser (:mod:`app.urlsync`, which refuses the
-    value in words) could read it, and the page stayed blank. Values Panel cannot convert stay text (the dashboard
-    reads the raw query, never Panel's parsed one)."""
-    from panel.io import location
-    from panel.util import parse_query
-
-    if getattr(location.parse_query, "_isl_tolerant", False):
-        return
-
-    def tolerant(query: str) -> dict:
-        try:
-            return parse_query(query)
-        except ValueError:
-            import urllib.parse as urlparse
-
-            out = {}
-            for key, text in urlparse.parse_qsl(query[1:]):
-                try:
-                    out.update(parse_query(f"?{urlparse.urlencode({key: text})}"))
-                except ValueError:
-                    out[key] = text
-            return out
-
-    mark(tolerant, _isl_tolerant=True)
-    location.parse_query = tolerant
 
 
 def quiet_closed_websockets(loop) -> None:
@@ -118,25 +65,51 @@ def quiet_closed_websockets(loop) -> None:
     loop.set_exception_handler(handler)
 
 
-def quiet_error_replies() -> None:
-    """Make bokeh's websocket ``ERROR`` replies carry no traceback and no internal exception text (idempotent)."""
-    from bokeh.protocol.messages.error import error
+def quiet_error_replies(application) -> None:
+    """Make the websocket handlers of a Tornado ``application`` (bokeh's, one per served app) send ``ERROR`` replies
+    without a traceback and without internal exception text (idempotent).
 
-    if getattr(error.create, "_isl_quiet", False):
-        return
-    create = error.create.__func__
+    bokeh answers a browser message it could not apply with an ``ERROR`` reply that carries the exception's text and
+    the server's traceback. Our handlers are subclasses of bokeh's whose ``send_message`` (bokeh's public method
+    through which every message to the browser goes) withholds both: a property-validation error's text stays (it is
+    safe and tells a client what it sent wrong, :data:`SAFE_ERROR_TEXT`), any other text becomes an incident number
+    whose text and traceback go to the server's log (:func:`withhold_internals`)."""
+    for rule in application.wildcard_router.rules:
+        target = rule.target
+        if (
+            isinstance(target, type)
+            and issubclass(target, tornado.websocket.WebSocketHandler)
+            and not getattr(target, "_isl_quiet", False)
+        ):
+            rule.target = _quiet(target)
 
-    def quiet_create(cls, request_id, text, **metadata):
-        if not SAFE_ERROR_TEXT.match(text or ""):
-            incident = uuid.uuid4().hex[:8]
-            log.error("websocket ERROR reply withheld [incident %s]: %s", incident, text)
-            text = ERROR_REPLY.format(incident=incident)
-        message = create(cls, request_id, text, **metadata)
-        message.content["traceback"] = None
-        return message
 
-    mark(quiet_create, _isl_quiet=True)
-    error.create = classmethod(quiet_create)
+def _quiet(handler: type) -> type:
+    """``handler`` (bokeh's websocket handler class) whose ``ERROR`` messages pass :func:`withhold_internals`."""
+
+    class Quiet(handler):
+        _isl_quiet = True
+
+        async def send_message(self, message):
+            if getattr(message, "msgtype", None) == "ERROR":
+                withhold_internals(message)
+            return await super().send_message(message)
+
+    Quiet.__name__ = Quiet.__qualname__ = f"Quiet{handler.__name__}"
+    return Quiet
+
+
+def withhold_internals(message) -> None:
+    """Take the traceback out of a bokeh ``ERROR`` ``message``, and its text unless :data:`SAFE_ERROR_TEXT`; what
+    is withheld goes to the log under an incident number that the reply names."""
+    content = dict(message.content)
+    text, traceback = content.get("text") or "", content.get("traceback")
+    if not SAFE_ERROR_TEXT.match(text):
+        incident = uuid.uuid4().hex[:8]
+        log.error("websocket ERROR reply withheld [incident %s]: %s\n%s", incident, text, traceback or "")
+        content["text"] = ERROR_REPLY.format(incident=incident)
+    content["traceback"] = None
+    message.content = content  # (bokeh's setter: the message's JSON is made anew)
 
 
 def keep_unsent_models_new() -> None:

@@ -1,6 +1,6 @@
 """The served dashboard's memory: closed sessions' garbage collected when it is cheap, freed heap handed back.
 
-:mod:`app.serving.serve` starts a :class:`MemoryTrimmer` and calls :func:`quiet_garbage_collection` from Panel's
+:mod:`app.serving.serve` starts a :class:`MemoryTrimmer` and calls :func:`freeze_warm_heap` from Panel's
 ``customize_server`` hook; :func:`log_stats` writes the periodic ``isl stats`` line.
 """
 
@@ -98,16 +98,16 @@ class MemoryTrimmer:
     the last one, a full garbage collection (:func:`full_collection`); then glibc's ``malloc_trim`` (a no-op
     elsewhere). Sessions are built and updated on worker threads, so their memory lives in per-thread malloc arenas
     that glibc does not shrink by itself: without trimming, the RSS of a server stays at the peak of its busiest
-    class. If no session has ended: the young generations are collected and what has lived so far is frozen
-    (:func:`young_then_freeze`).
+    class. Without a full collection (no session has ended, or a class is still open), the young generations are
+    collected and what has lived so far is frozen (:func:`young_then_freeze`).
 
     Why so: a full collection walks every object of the heap while holding the interpreter lock, whichever thread
     runs it, and the event loop, ``/liveness`` and every student's update wait for it; the heap of a server with a
-    class open takes long to walk (:ref:`performance-serving`). Panel schedules one after every session's end, and
-    Python's own collector runs one whenever its oldest generation has grown by 25 %, which a class opening its
-    pages does often. Frozen objects are not walked, so the automatic collections walk only what is new since the
-    last look; a closed session's objects that hold each other in cycles are freed by the next full collection: when
-    the class has left, or after :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's
+    class open takes long to walk (:ref:`performance-serving`). Panel schedules one (``gc.collect()``) after every
+    session's end, and Python's own collector runs one whenever its oldest generation has grown by 25 %, which a class
+    opening its pages does often. Frozen objects are not walked, so these collections walk only what is new since
+    the last look; a closed session's objects that hold each other in cycles are freed by the next full collection:
+    when the class has left, or after :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's
     caches are emptied first (:func:`isl_core.clear_caches`): what a class computed goes with it
     (:ref:`performance-memory-release`).
     """
@@ -135,6 +135,8 @@ class MemoryTrimmer:
                     isl_core.clear_caches()
                 full_collection()
                 self.ended = 0
+            else:
+                young_then_freeze()  # Panel's collection after these sessions' end walks only what comes next
             if self._trim is not None:
                 self._trim(0)
             # the event a memory measurement waits for (scripts/load_test.py), instead of a guess at the interval
@@ -193,12 +195,9 @@ def check_allocator() -> bool:
     return chosen
 
 
-def quiet_garbage_collection() -> None:
-    """The collector's part of serving (see :class:`MemoryTrimmer`): what exists once the app is warm (modules,
-    the warm-up's caches) is frozen out of every later collection, and Panel's full collection after each session's
-    end is left to :class:`MemoryTrimmer`."""
-    import panel.io.document as panel_document
-
-    panel_document._garbage_collect = lambda: None
+def freeze_warm_heap() -> None:
+    """What exists once the app is warm (modules, the warm-up's caches) collected once, then frozen out of every later
+    collection (Python's ``gc.freeze``): a collection — Panel's after each session's end, Python's automatic ones —
+    walks only what is newer (see :class:`MemoryTrimmer`, which freezes again at each look)."""
     gc.collect()
     gc.freeze()

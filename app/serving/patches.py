@@ -43,13 +43,6 @@ class Patch:
 
 PATCHES = (
     Patch(
-        "hardening.quiet_error_replies",
-        "bokeh",
-        "3.9.2",
-        {"bokeh.protocol.messages.error:error.create": "b19208ec6f4f02cd"},
-        "bokeh-error-reply-traceback.md",
-    ),
-    Patch(
         "hardening.keep_unsent_models_new",
         "bokeh",
         "3.9.2",
@@ -79,39 +72,11 @@ PATCHES = (
         "panel-edit-readonly-shared-parameters.md",
     ),
     Patch(
-        "hardening.tolerant_query_parser",
-        "panel",
-        "1.9.4",
-        {"panel.util:parse_query": "10d6cf179144c432"},
-        "panel-parse-query-long-digits.md",
-    ),
-    Patch(
-        "hardening.local_stylesheets",
-        "panel",
-        "1.9.4",
-        {"panel.io.resources:patch_stylesheet": "b3d712f5a60a3517"},
-        "panel-stylesheet-cdn-without-dist-url.md",
-    ),
-    Patch(
-        "fastpath.skip_unused_design_params",
-        "panel",
-        "1.9.4",
-        {"panel.reactive:Reactive._update_properties": "df57c8323fecc968"},
-        "panel-design-params-every-change.md",
-    ),
-    Patch(
         "fastpath.serialize_set_properties_only",
         "bokeh",
         "3.9.2",
         {"bokeh.core.has_props:HasProps.query_properties_with_values": "3c62051e2c2db1ce"},
         "bokeh-query-properties-reads-defaults.md",
-    ),
-    Patch(
-        "fastpath.lazy_serializer_references",
-        "bokeh",
-        "3.9.2",
-        {"bokeh.core.serialization:Serializer.__init__": "6b921b5420b71172"},
-        "bokeh-serializer-references-eager.md",
     ),
     Patch(
         "offloop.install (curdoc per thread, link registry, execute)",
@@ -133,13 +98,6 @@ PATCHES = (
             "bokeh.application.application:Application.initialize_document": "3189c63d07061478",
         },
         "bokeh-initialize-document-on-loop.md",
-    ),
-    Patch(
-        "memory.quiet_garbage_collection",
-        "panel",
-        "1.9.4",
-        {"panel.io.document:_garbage_collect": "4621a1d47527340f"},
-        "panel-full-collection-per-session.md",
     ),
     Patch(
         "a11y.A11Y_SCRIPT",
@@ -243,8 +201,7 @@ def _declaration(text: str, cls: str, method: str) -> str | None:
 def install() -> None:
     """Install the Python patches of :data:`PATCHES` that apply to the whole process (idempotent): hardening's,
     the fast path's and the threads'. The server also calls :func:`app.serving.offloop.build_pages_off_loop` for its
-    application and :func:`app.serving.memory.quiet_garbage_collection` once it is warm; the browser's are sent by
-    each page."""
+    application; the browser's are sent by each page."""
     from . import fastpath, hardening, offloop
 
     hardening.install()

@@ -15,6 +15,7 @@ option                          environment              default
 ``--check-unused-sessions``     —                        2 s between sweeps for unused sessions
 ``--stats-interval``            —                        60 s between ``isl stats`` log lines
 ``--trim-interval``             —                        5 s between looks for ended sessions' memory
+``--stall-log``                 —                        log each long stall of the event loop, with its cause
 ==============================  =======================  ====================================================
 
 Always on: ``GET /liveness`` (200 while the server's event loop answers; :mod:`!app.serving.webguard`, with the
@@ -59,7 +60,7 @@ from collections.abc import Sequence
 from importlib.util import find_spec
 
 from app.serving import workers
-from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, log_stats, quiet_garbage_collection
+from app.serving.memory import TRIM_INTERVAL_MS, MemoryTrimmer, check_allocator, freeze_warm_heap, log_stats
 from app.serving.warmup import AppStartupError, check_app, raise_if_failed, warm_core, warm_long_jobs
 
 log = logging.getLogger("isl.serve")
@@ -70,6 +71,7 @@ DEFAULT_NUM_THREADS = 4
 UNUSED_SESSION_LIFETIME_MS = 10_000
 CHECK_UNUSED_SESSIONS_MS = 2_000
 STATS_INTERVAL_MS = 60_000
+STALL_LOG_MS = 250  #: a stall of the event loop this long is logged with what held it (app.serving.stalls)
 # Clients only send widget changes and small events; cap what one websocket message may carry (tornado: 20 MB).
 WEBSOCKET_MAX_MESSAGE_BYTES = 2 * 1024 * 1024
 LIVENESS_ENDPOINT = "liveness"
@@ -136,6 +138,7 @@ def check_counts(opts: argparse.Namespace) -> None:
         "check_unused_sessions": (100, 10**8),
         "stats_interval": (0, 10**8),
         "trim_interval": (100, 10**8),
+        "stall_log": (0, 10**8),
     }
     for name, (lo, hi) in limits.items():
         value = getattr(opts, name)
@@ -207,6 +210,13 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"how often to look for ended sessions and hand their memory back (default {TRIM_INTERVAL_MS})",
     )
     p.add_argument(
+        "--stall-log",
+        type=int,
+        default=STALL_LOG_MS,
+        metavar="MS",
+        help=f"log each stall of the event loop of at least MS, with what held it, 0 = never (default {STALL_LOG_MS})",
+    )
+    p.add_argument(
         "--frame-ancestors",
         action="append",
         default=[],
@@ -260,6 +270,7 @@ def _serve_command(
     stats_interval_ms: int,
     ancestors: Sequence[str] = (),
     trim_interval_ms: int = TRIM_INTERVAL_MS,
+    stall_log_ms: int = STALL_LOG_MS,
 ):
     """Panel's ``serve`` sub-command with a strict warm-up and a URL banner (imports panel lazily)."""
     from panel.command.serve import Serve
@@ -289,21 +300,28 @@ def _serve_command(
 
             if stats_interval_ms > 0:
                 PeriodicCallback(lambda: log_stats(server), stats_interval_ms).start()
-            quiet_garbage_collection()
+            freeze_warm_heap()
             PeriodicCallback(MemoryTrimmer(server), trim_interval_ms).start()
             from app.serving import webguard
 
             webguard.install(server._tornado, origins, ancestors)  # headers, host check, gzip, /liveness
+            from app.serving import static
+
+            static.install(server._tornado)  # static files compressed once, on a thread (the transform: on the loop)
             from app.serving import docs
 
             docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
-            from app.serving.hardening import quiet_closed_websockets
+            from app.serving.hardening import quiet_closed_websockets, quiet_error_replies
             from app.serving.offloop import build_pages_off_loop
 
             for context in server._tornado._applications.values():
                 build_pages_off_loop(context._application)  # the app script runs on a thread, not on the loop
 
             quiet_closed_websockets(server.io_loop.asyncio_loop)  # a tab closed mid-write is not an error
+            quiet_error_replies(server._tornado)  # no traceback, no internal text in a websocket ERROR reply
+            from app.serving import stalls
+
+            stalls.watch(server.io_loop.asyncio_loop, stall_log_ms / 1000)  # what held the loop, when it stalls
             return super().customize_server(server)
 
     return StrictServe
@@ -335,7 +353,7 @@ def serve(opts: argparse.Namespace, origins: Sequence[str], ancestors: Sequence[
     slot = workers.long_job_slot()  # one long job at a time for the whole server (app.jobs.long.machine_slot)
     argv = panel_argv(opts, app_script(), origins)
     parser = argparse.ArgumentParser(prog="panel serve")
-    command = _serve_command(origins, opts.stats_interval, ancestors, opts.trim_interval)(parser=parser)
+    command = _serve_command(origins, opts.stats_interval, ancestors, opts.trim_interval, opts.stall_log)(parser=parser)
     args = parser.parse_args(argv)
     try:
         command.invoke(args)

@@ -8,7 +8,9 @@ where its page is being built. Nothing here replaces library code: the patches o
 * :func:`building_page`, :func:`prebuild`, :func:`session_loop` — the page built on the server's page thread
   (:func:`app.serving.offloop.build_pages_off_loop`), parts' models built before they are swapped in, and the loop
   that serves a session;
-* :func:`settle_markup_stylesheets` — markup panes' stylesheets as their first update would send them.
+* :func:`settle_markup_stylesheets` — markup panes' stylesheets as their first update would send them;
+* :func:`serve_panel_files` — every stylesheet of the page served by the server itself, none by Panel's CDN;
+* :func:`page_location` — the page's ``Location`` (its URL), one whose query Panel's parser cannot fail on.
 
 Usage inside a session (e.g. in ``create_app()``)::
 
@@ -21,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
+import urllib.parse
 import uuid
 import weakref
 from collections.abc import Callable
@@ -29,16 +32,21 @@ from typing import Any
 
 import panel as pn
 import param
+from panel.io.location import Location
+from panel.util import parse_query
 
 __all__ = [
     "PAGE_POOL",
+    "PageLocation",
     "building_page",
     "handle_exception",
     "live_release_hooks",
     "locked",
+    "page_location",
     "prebuild",
     "release_on_destroy",
     "release_session",
+    "serve_panel_files",
     "session_lock",
     "session_loop",
     "settle_markup_stylesheets",
@@ -215,3 +223,60 @@ def settle_markup_stylesheets(doc) -> None:
                     sheets = pane._get_properties(doc).get("stylesheets")
                     if sheets is not None and sheets != model.stylesheets:
                         model.stylesheets = sheets
+
+
+def serve_panel_files(doc) -> None:
+    """Make every stylesheet Panel builds for ``doc`` point at the server's own copy of Panel's files (nothing
+    without a document); called before the page is built.
+
+    Panel points a component's stylesheets at its document's ``dist_url`` template variable and, where the document
+    has none, at its CDN (cdn.holoviz.org). It sets that variable when it renders the page's HTML — after the app
+    script has built the page, and never for the warm-up's document — and some stylesheet models are shared between
+    documents: a page once asked the CDN for ``loading.css`` when the who-wins map started to compute (a classroom
+    without internet then waits on a request that fails). Set here first, through bokeh's public
+    ``Document.template_variables``, to what Panel's server sets later (its ``static/extensions/panel/`` under the
+    page's relative path), no stylesheet of any document is pointed at the CDN."""
+    if doc is None:
+        return
+    from panel.io.resources import LOCAL_DIST
+
+    rel_path = pn.state.rel_path
+    doc.template_variables.setdefault("dist_url", f"{rel_path}/{LOCAL_DIST}" if rel_path else LOCAL_DIST)
+
+
+_locations: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+class PageLocation(Location):
+    """Panel's ``Location`` (the browser's URL, synced both ways) whose :attr:`query_params` keeps as text a value
+    Panel's parser cannot convert, rather than raising.
+
+    Panel parses the query into typed values whenever the ``search`` of a ``Location`` changes — when it is made
+    from the request, and when the page reports the URL it was opened with — and turns every all-digit value into an
+    ``int``, which Python refuses beyond 4300 digits (``ValueError``): a link such as ``?seed=`` followed by 5000
+    digits failed the page's script before the dashboard's own parser (:mod:`app.urlsync`, which refuses the value
+    in words and reads the raw ``search``, never ``query_params``) could read it, and the page stayed blank."""
+
+    @property
+    def query_params(self) -> dict[str, Any]:
+        try:
+            return parse_query(self.search)
+        except ValueError:
+            out: dict[str, Any] = {}
+            for key, text in urllib.parse.parse_qsl(self.search[1:]):
+                try:
+                    out.update(parse_query(f"?{urllib.parse.urlencode({key: text})}"))
+                except ValueError:
+                    out[key] = text
+            return out
+
+
+def page_location(doc) -> Location | None:
+    """The :class:`PageLocation` of ``doc``'s served page, made from its request as Panel makes its own, the same
+    object at every call; the page's template is given it (``servable(location=...)``, Panel's public argument), so
+    Panel never makes its own. Outside a served session, Panel's ``pn.state.location``."""
+    if doc is None or doc.session_context is None:
+        return pn.state.location
+    if doc not in _locations:
+        _locations[doc] = PageLocation.from_request(doc.session_context.request)
+    return _locations[doc]

@@ -23,7 +23,7 @@ from typing import ClassVar
 
 import param
 
-from isl_core import BOUNDS, Scenario, WhoWinsMap, who_wins_map
+from isl_core import BOUNDS, TUNING_SAMPLING, Execution, Scenario, WhoWinsMap, who_wins_map
 from isl_core.paper import a31_nu_over_beta
 from isl_core.scenario import NOISE_LAWS
 from isl_core.scenario.map import MAPS
@@ -36,7 +36,7 @@ from ..scenario_picture import Picture, ScenarioRequest, picture_csv, scenario_p
 from ..text import R_MIN, num, per_r_min
 from .room import Room
 
-__all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "ScenarioRoom"]
+__all__ = ["CHOICE_LABELS", "INPUTS", "MAP_INPUTS", "PICTURE_INPUTS", "PRESETS", "ScenarioRoom", "tuning_job"]
 
 PICTURE_INPUTS = (
     "sc_change",
@@ -101,6 +101,12 @@ PRESETS = {label.replace("r_min", R_MIN): _preset_inputs(sigma0, sc) for label, 
 def _rate(interval: float) -> str:
     """A sensor interval (units of 1/r_min) as the page states it: the readings per 1/r_min."""
     return f"{1.0 / interval:.3g} times per 1/{R_MIN} at σ(0)"
+
+
+def tuning_job(alpha: float, m: int, w: float, *, progress) -> Tuning | None:
+    """The page's tuning as a long job (``fn(progress=…)``, run in a child process): :func:`isl_core.tune` with the
+    job's progress in its execution."""
+    return tune(alpha, m=m, w=w, execution=Execution(progress=progress))
 
 
 class ScenarioRoom(Room):
@@ -340,8 +346,11 @@ class ScenarioRoom(Room):
         if self._host.alpha <= 0.0:
             self.tune_note = "Not started: the tuning is for paper A's model, which needs α > 0."
             return
-        fn = partial(tune, self._host.alpha, m=self._host.m, w=self._model_w())
-        busy = f"Tuning every filter: 6 presets × 32 seeds, 268 variants, {DEFAULT_RATE:g} readings per 1/{R_MIN} …"
+        fn = partial(tuning_job, self._host.alpha, self._host.m, self._model_w())
+        busy = (
+            f"Tuning every filter: 6 presets × {TUNING_SAMPLING.n_seeds} seeds, 268 variants, {DEFAULT_RATE:g} "
+            f"readings per 1/{R_MIN} …"
+        )
         self._tune_task.start(fn, self._apply_tuning, busy)
 
     def cancel_tuning(self) -> None:

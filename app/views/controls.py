@@ -63,15 +63,17 @@ class _Binding:
             revert(self.state, self.widget, lambda: self._to_widget(self.state.get(self.name)))
 
     def _from_widget(self, *events) -> None:
-        """Small runs follow ``value`` (while dragging); large ones only ``value_throttled`` (on release).
+        """Small runs follow ``value`` (while dragging); large ones only ``value_throttled`` (on release), or a
+        ``value`` at the last release, which the browser does not send as a release again (:meth:`_released_again`).
 
         Only one of the two is used at a time: the throttled value lags behind the live one, and applying
         both would step the state back to an older position.
         """
         if self._quiet:
             return
-        want = "value_throttled" if "value_throttled" in self.widget.param and not self.state.live else "value"
-        released = "value_throttled" not in self.widget.param or any(e.name == "value_throttled" for e in events)
+        throttled = "value_throttled" in self.widget.param
+        want = "value_throttled" if throttled and not self.state.live and not self._released_again(events) else "value"
+        released = not throttled or any(e.name == "value_throttled" for e in events)
         if self._moved and released:  # the browser's value and the server's may have crossed: the browser then shows
             self._moved = False  # the older; sent again once the slider is let go (mid-drag, the handle jumped back)
             self.state.later(lambda: resend(self.widget))
@@ -84,6 +86,17 @@ class _Binding:
             self.state.set(self.name, value)
             if self.name in self.state.refusals:  # refused: the widget shows the state's value again
                 revert(self.state, self.widget, lambda: self._to_widget(self.state.get(self.name)))
+
+    def _released_again(self, events) -> bool:
+        """Whether ``events`` hold a value at the browser's last release, with no release of their own: once the server
+        has moved the widget (a refused run taking its input back, a preset, a link), the browser keeps its last
+        released value, and it sends only what its copy changes — a release at that same value comes as ``value``
+        alone, and waiting for ``value_throttled`` would leave it unanswered. Taken as the release it is (a drag that
+        only passes over that value starts a run the release then replaces)."""
+        if any(e.name == "value_throttled" for e in events):
+            return False
+        last = self.widget.value_throttled
+        return last is not None and any(e.name == "value" and same(e.new, last) for e in events)
 
     def _from_state(self, *events) -> None:
         value = self._to_widget(self.state.get(self.name))

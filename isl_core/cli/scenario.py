@@ -18,6 +18,7 @@ import numpy as np
 from .commands import UsageError, flat, nan_to_none, progress_bar, write_csv
 
 if TYPE_CHECKING:
+    from ..requests import Execution
     from ..scenario.table import ScenarioTable
     from ..scenario.tuning import Tuning
 
@@ -28,7 +29,15 @@ def _ratio(x: float) -> str:
     return "—" if x is None or not math.isfinite(x) else f"{x:.3f}" if x < 10 else f"{x:.2f}" if x < 100 else f"{x:.4g}"
 
 
+def _execution(args: argparse.Namespace, what: str, *, quiet: bool) -> Execution:
+    """How the command runs a job: ``--workers`` threads, ``--no-cache``, a progress bar for ``what``."""
+    from ..requests import Execution
+
+    return Execution(args.workers, progress=progress_bar(what, not quiet), cache=not args.no_cache)
+
+
 def _tuning(args: argparse.Namespace, *, quiet: bool) -> Tuning:
+    from ..requests import Sampling
     from ..scenario.table import PRESETS
     from ..scenario.tuning import tune
 
@@ -43,12 +52,8 @@ def _tuning(args: argparse.Namespace, *, quiet: bool) -> Tuning:
             m=args.m,
             w=args.w,
             presets={n: PRESETS[n] for n in names},
-            seeds=32 if args.seeds is None else args.seeds,
-            horizon=args.horizon,
-            burn=args.burn,
-            workers=args.workers,
-            cache=not args.no_cache,
-            progress=progress_bar("tuning", not quiet),
+            sampling=Sampling.first(32 if args.seeds is None else args.seeds, horizon=args.horizon, burn=args.burn),
+            execution=_execution(args, "tuning", quiet=quiet),
             rate=args.rate,
             refine=args.refine,
         ),
@@ -125,11 +130,7 @@ def _table_out(args: argparse.Namespace, res: Tuning) -> int:
     from .scenario_rows import beyond_data, table_rows
 
     report = held_out(
-        res,
-        args.report_seeds,
-        workers=args.workers,
-        cache=not args.no_cache,
-        progress=progress_bar("held-out runs", not (args.quiet or args.json)),
+        res, args.report_seeds, execution=_execution(args, "held-out runs", quiet=args.quiet or args.json)
     )
     assert report is not None  # computed when not cached
     tab = table_from(res, args.level, report)
@@ -147,7 +148,7 @@ def _table_out(args: argparse.Namespace, res: Tuning) -> int:
         }
         for c, k in enumerate(keys)
     ]
-    check = {k: bool(tab.low[0, c] <= 1.0 <= tab.high[0, c]) for c, k in enumerate(keys)}
+    check = {k: bool(tab.stats.low[0, c] <= 1.0 <= tab.stats.high[0, c]) for c, k in enumerate(keys)}
     if args.csv is not None:
         write_csv(
             args.csv,
@@ -237,6 +238,7 @@ def _print_table(
     from ..scenario.table import knob_text
 
     _print_head(res, tab)
+    st = tab.stats
     for p, name in enumerate(res.presets):
         cells = res.preset_cells(p)
         print(
@@ -253,8 +255,8 @@ def _print_table(
             print(
                 f"  {label[:64]:64}"
                 + "".join(
-                    f" | {f'{_ratio(tab.ratio[r, c])} [{_ratio(tab.low[r, c])}, {_ratio(tab.high[r, c])}]':>26}"
-                    f" X{tab.coordinate[r, c] + 1}"
+                    f" | {f'{_ratio(st.ratio[r, c])} [{_ratio(st.low[r, c])}, {_ratio(st.high[r, c])}]':>26}"
+                    f" X{st.coordinate[r, c] + 1}"
                     for c in cells
                 )
             )
@@ -264,12 +266,12 @@ def _print_table(
     )
     for r, row in enumerate(tab.rows):
         if row.role in ("tuned", "paper"):
-            c = int(np.argmax(np.where(np.isnan(tab.worst_seed[r]), np.inf, tab.worst_seed[r])))
+            c = int(np.argmax(np.where(np.isnan(st.worst_seed[r]), np.inf, st.worst_seed[r])))
             print(
                 f"  {row.name:14} {_ratio(tab.tuned_figure[r])} [{_ratio(tab.tuned_low[r])}, "
                 f"{_ratio(tab.tuned_high[r])}] -> {_ratio(tab.held_figure[r])} "
-                f"({tab.held_figure[r] / tab.tuned_figure[r]:.2f}x); worst seed {tab.worst_seed_id[r, c]} reads "
-                f"{_ratio(tab.worst_seed[r, c])} in {keys[c]}; {int(tab.above2[r].max())} seeds above 2x in one cell"
+                f"({tab.held_figure[r] / tab.tuned_figure[r]:.2f}x); worst seed {st.worst_seed_id[r, c]} reads "
+                f"{_ratio(st.worst_seed[r, c])} in {keys[c]}; {int(st.above2[r].max())} seeds above 2x in one cell"
                 f"{'; FLAGGED' if tab.flagged[r] else ''}; sigma range: {row.assumes}"
             )
     print(

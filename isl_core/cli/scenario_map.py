@@ -15,6 +15,7 @@ __all__ = ["scenario_map"]
 def scenario_map(args: argparse.Namespace) -> int:
     """``isl scenario --map KIND``: per cell the filter with the lowest ratio to the clairvoyant one, and its margin —
     with the table's tuning (computed if not cached; ``--untuned``: the constructors' defaults)."""
+    from ..requests import Execution
     from ..scenario.map import AXIS_LABELS, STEP_AT, who_wins_map
     from ..scenario.tuning import tune
 
@@ -24,17 +25,9 @@ def scenario_map(args: argparse.Namespace) -> int:
             f"isl scenario: --horizon must be at least {STEP_AT:g} (the sigma step's time) + --window "
             f"for the sigma_step map, got {args.horizon:g}"
         )
-    tuning = None
-    if not args.untuned:
-        tuning = tune(
-            args.alpha,
-            m=args.m,
-            w=args.w,
-            workers=args.workers,
-            cache=not args.no_cache,
-            progress=progress_bar("tuning", not (args.quiet or args.json)),
-            rate=args.rate,
-        )
+    quiet = args.quiet or args.json
+    run = Execution(args.workers, progress=progress_bar("tuning", not quiet), cache=not args.no_cache)
+    tuning = None if args.untuned else tune(args.alpha, m=args.m, w=args.w, execution=run, rate=args.rate)
     res = who_wins_map(
         args.map,
         args.alpha,
@@ -47,7 +40,7 @@ def scenario_map(args: argparse.Namespace) -> int:
         burn=args.burn,
         tuning=tuning,
         untuned=args.untuned,
-        progress=progress_bar("scenario map", not (args.quiet or args.json)),
+        progress=progress_bar("scenario map", not quiet),
     )
     winner, margin, tie = res.winner, res.margin, res.tie
     rows = [

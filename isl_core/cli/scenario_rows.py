@@ -9,14 +9,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from ..scenario.cells import CellStats
     from ..scenario.table import ScenarioTable
     from ..scenario.tuning import Tuning
 
 __all__ = ["beyond_data", "print_beyond", "table_rows"]
 
 
-def _cell(st: Any, r: int, c: int) -> dict[str, Any]:
-    """Row ``r``'s cell ``c`` of a table or of its cell statistics (the worst coordinate's ratio and interval, that
+def _cell(st: CellStats, r: int, c: int) -> dict[str, Any]:
+    """Row ``r``'s cell ``c`` of a table's cell statistics (the worst coordinate's ratio and interval, that
     coordinate 1-based, every coordinate's ratio, the worst seed, the seeds above 2× and those that diverged)."""
     return {
         "ratio": st.ratio[r, c],
@@ -37,7 +38,7 @@ def table_rows(res: Tuning, tab: ScenarioTable, keys: Sequence[str], ns: Mapping
     tuning-seed and held-out figures."""
     rows: list[dict[str, Any]] = []
     for r, row in enumerate(tab.rows):
-        cells = {k: _cell(tab, r, c) for c, k in enumerate(keys)}
+        cells = {k: _cell(tab.stats, r, c) for c, k in enumerate(keys)}
         presets = {}
         for p, name in enumerate(res.presets):
             worst, lo, hi = (a[r] for a in tab.preset(p))
@@ -62,8 +63,8 @@ def table_rows(res: Tuning, tab: ScenarioTable, keys: Sequence[str], ns: Mapping
                 },
                 "held_out_figure": tab.held_figure[r],
                 "held_out_over_tuning": tab.held_figure[r] / tab.tuned_figure[r],
-                "worst_seed": float(np.max(tab.worst_seed[r])),
-                "most_seeds_above_2x_in_a_cell": int(tab.above2[r].max()),
+                "worst_seed": float(np.max(tab.stats.worst_seed[r])),
+                "most_seeds_above_2x_in_a_cell": int(tab.stats.above2[r].max()),
                 "flagged": bool(tab.flagged[r]),
             }
         )

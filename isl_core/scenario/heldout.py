@@ -1,6 +1,6 @@
 """Verdicts out of sample: the tuned filters run again on seeds the tuning never saw.
 
-A tuning (:func:`isl_core.scenario.tuning.tune`) picks each family's knob on its seeds 0 … S − 1; a figure read on
+A tuning (:func:`isl_core.tune`) picks each family's knob on its seeds 0 … S − 1; a figure read on
 those same seeds is the minimum of a noisy curve, biased downwards, and blind to a learner that runs away on a seed
 it did not see. :func:`held_out` runs the table's filters — the two references, paper A's ISL filter and every
 family at its minimax knob — on **report seeds** disjoint from the tuning's (by default the 4·S seeds that follow
@@ -17,17 +17,20 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..requests import Execution
 from ..validate import check_int
 from .base import Scenario
+from .minimax import Tuning
 from .periods import Period, scenario_periods
 from .presets import BEYOND, at_rate
-from .tuning import FAMILIES, Tuning, plan_preset, run_cells
+from .tasks import local_threads, plan_preset, run_cells
 from .tuning_cache import cache_dir, cache_key, load, save
+from .variants import FAMILIES
 
 __all__ = ["HeldOut", "held_out", "report_columns"]
 
@@ -53,7 +56,7 @@ class HeldOut:
 
 def report_columns(tuning: Tuning) -> tuple[int, ...]:
     """The tuning's filters the table reports: the clairvoyant and σ(0) references, paper A's ISL filter and every
-    family's minimax variant (:data:`isl_core.scenario.tuning.FAMILIES` order; a variant once)."""
+    family's minimax variant (:data:`isl_core.FAMILIES` order; a variant once)."""
     cols = [0, 1, 2]
     for family in FAMILIES:
         j = tuning.minimax(family)
@@ -64,25 +67,23 @@ def report_columns(tuning: Tuning) -> tuple[int, ...]:
 
 def held_out(
     tuning: Tuning,
-    seeds: int | None = None,
+    n_seeds: int | None = None,
     *,
-    workers: int | None = None,
-    progress: Callable[[float], None] | None = None,
-    cache: bool = True,
+    execution: Execution | None = None,
     beyond: Mapping[str, tuple[str, float, Scenario]] = BEYOND,
     compute: bool = True,
 ) -> HeldOut | None:
-    """The table's filters (:func:`report_columns`) of ``tuning`` on ``seeds`` report seeds (default
+    """The table's filters (:func:`report_columns`) of ``tuning`` on ``n_seeds`` report seeds (default
     4 × the tuning's), numbered from the one after the tuning's last: disjoint from them (module docstring).
 
     Parameters
     ----------
     tuning : Tuning
         The tuning whose minimax knobs are run.
-    seeds : int, optional
+    n_seeds : int, optional
         How many report seeds (default :data:`REPORT_FACTOR` × the tuning's).
-    workers, progress, cache : int, callable, bool
-        As in :func:`isl_core.tune`.
+    execution : Execution, optional
+        As in :func:`isl_core.tune`: local threads, progress, cache.
     beyond : mapping
         More presets the table's filters run through (not tuned over; default :data:`BEYOND`).
     compute : bool, default True
@@ -96,17 +97,22 @@ def held_out(
 
     Examples
     --------
-    >>> from isl_core import TuningGrids, tune
+    >>> from isl_core import Execution, Sampling, TuningGrids, tune
     >>> from isl_core.scenario import PRESETS
     >>> from isl_core.scenario.heldout import held_out
     >>> grids = TuningGrids(isl_ell=(-2.0, 0.0), memory=(100.0,), robust_c=(2.0,), imm_switch=(1e-3,), imm_modes=(6,))
-    >>> tuning = tune(1.0, presets={"constant": PRESETS["constant"]}, seeds=2, horizon=5.0, grids=grids, cache=False,
-    ...               workers=1)
-    >>> report = held_out(tuning, cache=False, workers=1, beyond={})
+    >>> one_thread = Execution(workers=1, cache=False)
+    >>> tuning = tune(1.0, presets={"constant": PRESETS["constant"]}, sampling=Sampling.first(2, horizon=5.0, burn=2.0),
+    ...               grids=grids, execution=one_thread)
+    >>> report = held_out(tuning, execution=one_thread, beyond={})
     >>> report.seeds, report.y.shape  # seeds × cells × filters × coordinates
     ((2, 3, 4, 5, 6, 7, 8, 9), (8, 1, 9, 3))
     """
-    count = REPORT_FACTOR * len(tuning.seeds) if seeds is None else check_int("report seeds", seeds, lo=2, hi=100_000)
+    execution = local_threads(execution)
+    if n_seeds is None:
+        count = REPORT_FACTOR * len(tuning.seeds)
+    else:
+        count = check_int("n_seeds (report seeds)", n_seeds, lo=2, hi=100_000)
     first = max(tuning.seeds) + 1
     seed_ids = tuple(range(first, first + count))
     columns = report_columns(tuning)
@@ -137,7 +143,7 @@ def held_out(
         for per in scenario_periods(sc, tuning.horizon, burn=tuning.burn)
     )
     labels = {k: lab for k, (lab, _, _) in beyond.items()}
-    found = load(path, key) if cache else None
+    found = load(path, key) if execution.cache else None
     if found is not None:
         y, seconds, origin = found[0], found[1], f"{span}; read from the cache {path}"
     elif not compute:
@@ -151,9 +157,9 @@ def held_out(
             for s0, sc in (*tuning.scenarios, *((s0, sc) for _, s0, sc in beyond.values()))
         ]
         start = time.perf_counter()
-        y = np.concatenate(run_cells(plans, seed_ids, workers, progress), axis=1)
+        y = np.concatenate(run_cells(plans, seed_ids, execution), axis=1)
         seconds = time.perf_counter() - start
-        saved = cache and save(path, y, seconds, key)
+        saved = execution.cache and save(path, y, seconds, key)
         origin = f"{span}; computed now in {seconds:.0f} s, {'cached in ' + str(path) if saved else 'not cached'}"
     ncell = len(tuning.cells)
     return HeldOut(seed_ids, columns, y[:, :ncell], seconds, origin, labels, extra_cells, y[:, ncell:])

@@ -2,7 +2,7 @@
 
 :func:`who_wins_map` sweeps one parameter of a scenario (paper A's model with this α, σ(0) = 20, ``seeds``
 independent noises per cell) with the table's filters (:mod:`isl_core.scenario.table`): the clairvoyant reference,
-the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.scenario.tuning.FAMILIES` at its tuned knob — the
+the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.FAMILIES` at its tuned knob — the
 ``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else the shipped one nearest them
 (:mod:`isl_core.scenario.shipped`), else (said in each label and in ``origin``) the constructors' defaults. Per
 cell it reports every filter's period statistic (:mod:`isl_core.scenario.periods`: the worst coordinate's RMSE,
@@ -33,7 +33,7 @@ from typing import cast
 import numpy as np
 
 from ..filters.adaptive import adaptive_kbf
-from ..filters.base import FilterSpec
+from ..filters.base import SIGMA_RANGE, FilterSpec
 from ..filters.imm import imm_kbf
 from ..filters.isl import model_aware_isl
 from ..filters.robust import robust_kbf
@@ -43,10 +43,12 @@ from ..paper import M, W
 from ..validate import check_int, check_real, check_reals
 from .average import average_scenario
 from .base import Scenario
+from .minimax import Tuning
 from .periods import Period, edge_times, per_seed, worst_from, worst_margin
 from .presets import DEFAULT_RATE, read_at
 from .shipped import ShippedTuning, shipped_tuning
-from .tuning import SIGMA_RANGE, Tuning, paper_nu, tune
+from .tuning import tune
+from .variants import paper_nu
 
 __all__ = ["MAPS", "WhoWinsMap", "map_filters", "who_wins_map"]
 

@@ -41,9 +41,9 @@ from ..kernels.scenario import advance_scenario
 from ..model import Model
 from ..riccati import kalman_bucy
 from ..validate import check_int, check_real
-from .bank import learning_state, learns_sigma
 from .base import Scenario
 from .grid import MAX_SCENARIO_STEPS, scenario_grid
+from .learners import learning_state, learns_sigma
 from .windows import first_step, memory_time, window_edges, window_times
 
 __all__ = [

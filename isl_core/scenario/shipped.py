@@ -26,7 +26,7 @@ import inspect
 import json
 import math
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,11 +34,13 @@ import numpy as np
 
 from ..filters.base import FilterSpec
 from ..model import Model
+from ..requests import Execution
 from ..validate import check_int, check_real
+from .minimax import Tuning
 from .presets import PRESETS
-from .tuning import FAMILIES, Tuning, TuningGrids, family_filter, tune
+from .tuning import TUNING_SAMPLING, tune
 from .tuning_cache import RULE_VERSION
-from .variants import grid_variants
+from .variants import FAMILIES, TuningGrids, family_filter, grid_variants
 
 __all__ = [
     "COMMAND",
@@ -72,18 +74,26 @@ PROBE: dict[str, Any] = {
     "grids": {"isl_ell": [-2.0, 4.0], "memory": [10.0], "robust_c": [2.0], "imm_switch": [0.001], "imm_modes": [21]},
 }
 _SAME = 1e-9  #: relative difference under which two α (or w) are the same point: rounding, not another model
-_NOT_RULE = {"alpha", "m", "w", "presets", "grids", "workers", "progress", "cache", "compute"}
+_NOT_RULE = {"alpha", "m", "w", "presets", "sampling", "execution", "grids", "compute"}
 
 
 def rule() -> dict[str, Any]:
-    """Today's tuning rule, as a shipped file records it: :data:`!RULE_VERSION`, the defaults of every argument of
-    :func:`isl_core.tune` that shapes a tuning (seeds, horizon, burn, …), w, the families' knobs, the grids and the
+    """Today's tuning rule, as a shipped file records it: :data:`!RULE_VERSION`, the defaults of everything of
+    :func:`isl_core.tune` that shapes a tuning (its sampling's seeds — as a count, seeds 0 … n − 1 —, horizon and
+    burn-in, its other arguments' defaults: the rate, the refinement), w, the families' knobs, the grids and the
     presets."""
     params = inspect.signature(tune).parameters
     grids = params["grids"].default
+    sampling = TUNING_SAMPLING
+    assert sampling.seeds == tuple(range(sampling.n_seeds))  # recorded as a count
     record = {
         "version": RULE_VERSION,
-        "tune": {k: p.default for k, p in params.items() if k not in _NOT_RULE},
+        "tune": {
+            "seeds": sampling.n_seeds,
+            "horizon": sampling.horizon,
+            "burn": sampling.burn,
+            **{k: p.default for k, p in params.items() if k not in _NOT_RULE},
+        },
         "w": W_GRID,
         "families": {f: list(knobs) for f, (_, knobs) in FAMILIES.items()},
         "grids": asdict(grids),
@@ -291,11 +301,9 @@ def probe_tuning(workers: int | None = None) -> Tuning:
         p["alpha"],
         m=p["m"],
         w=W_GRID,
-        seeds=p["seeds"],
-        horizon=p["horizon"],
+        sampling=replace(TUNING_SAMPLING, seeds=tuple(range(p["seeds"])), horizon=p["horizon"]),
+        execution=Execution(workers=workers, cache=False),
         grids=grids,
-        workers=workers,
-        cache=False,
     )
     assert tuning is not None  # computed (compute=True)
     return tuning

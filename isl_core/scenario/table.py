@@ -11,7 +11,7 @@ above 2×:
 
 * **references** — the clairvoyant filter (knows σ(t); reads 1 up to sampling error: the check of the denominator)
   and the Kalman–Bucy filter optimal for σ(0) (knows σ at the start, learns nothing);
-* **tuned** — each family of :data:`isl_core.scenario.tuning.FAMILIES` (none knows σ(t)) at its minimax knob, the one
+* **tuned** — each family of :data:`isl_core.FAMILIES` (none knows σ(t)) at its minimax knob, the one
   tuning rule: the least, over the knob's grid, of the largest ratio over every cell of the table, on the tuning's
   seeds;
 * **paper** — paper A's ISL filter at table (A.31)'s ν, the paper's own value (where the table has this α);
@@ -30,19 +30,23 @@ Times are in units of 1/r_min of the model at σ(0).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import astuple, dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..paper import M, W
+from ..requests import Execution, Sampling
 from ..validate import check_real
 from .base import Scenario
 from .cells import CellStats, assumes, beyond_rows, beyond_stats, cell_stats
 from .heldout import HeldOut, held_out
+from .minimax import Tuning
 from .periods import worst_margin
 from .presets import DEFAULT_RATE, PRESETS
-from .tuning import FAMILIES, Tuning, TuningGrids, tune
+from .tasks import local_threads
+from .tuning import tune, tuning_sampling
+from .variants import FAMILIES, TuningGrids
 
 __all__ = [
     "PRESETS",
@@ -76,34 +80,24 @@ class TableRow:
 
 @dataclass(frozen=True)
 class ScenarioTable:
-    """``ratio[r, c]`` with ``low``/``high`` at ``level`` per row (``rows``) and cell (``tuning.cells``: preset
-    index, period), each at the worst ``coordinate[r, c]`` (0-based; ``coordinates[r, c]`` every coordinate's
-    ratio); ``worst_seed[r, c]`` the largest of the seeds' own ratios, on seed ``worst_seed_id[r, c]``, ``above2[r, c]``
-    how many seeds read above 2× and ``diverged[r, c]`` how many diverged; ``seeds[r]`` the seeds a row's figures
-    come from (the report seeds, or the tuning's for an oracle row, or for every row without a held-out run).
-    Per row the tuning-seed figure ``tuned_figure`` (its largest cell on the tuning's seeds) with that cell's
-    interval ``tuned_low``/``tuned_high``, and ``held_figure`` (its largest cell on the report seeds); ``flagged``
-    where a tuned or paper row's held-out figure leaves that interval. :meth:`preset` the largest over a preset's
-    cells; per cell ``winner``/``runner_up`` (row indices among the tuned and paper rows), ``margin`` (the
-    runner-up's ratio over the winner's) and ``margin_low`` its conservative lower bound; ``tie`` where that bound
-    is ≤ 1."""
+    """Per row (``rows``) and cell (``tuning.cells``: preset index, period) the :class:`CellStats` ``stats`` at
+    ``level``: the worst coordinate's ratio with its interval, every coordinate's, the worst seed and the seeds above
+    2× or diverged; ``seeds[r]`` the seeds a row's figures come from (the report seeds, or the tuning's for an oracle
+    row, or for every row without a held-out run). Per row the tuning-seed figure ``tuned_figure`` (its largest cell
+    on the tuning's seeds) with that cell's interval ``tuned_low``/``tuned_high``, and ``held_figure`` (its largest
+    cell on the report seeds); ``flagged`` where a tuned or paper row's held-out figure leaves that interval.
+    :meth:`preset` the largest over a preset's cells; per cell ``winner``/``runner_up`` (row indices among the tuned
+    and paper rows), ``margin`` (the runner-up's ratio over the winner's) and ``margin_low`` its conservative lower
+    bound; ``tie`` where that bound is ≤ 1."""
 
     tuning: Tuning
     rows: tuple[TableRow, ...]
-    ratio: np.ndarray
-    low: np.ndarray
-    high: np.ndarray
+    stats: CellStats
     level: float
     winner: np.ndarray
     runner_up: np.ndarray
     margin: np.ndarray
     margin_low: np.ndarray
-    coordinate: np.ndarray
-    coordinates: np.ndarray
-    worst_seed: np.ndarray
-    worst_seed_id: np.ndarray
-    above2: np.ndarray
-    diverged: np.ndarray
     seeds: tuple[tuple[int, ...], ...]
     tuned_figure: np.ndarray
     tuned_low: np.ndarray
@@ -114,12 +108,13 @@ class ScenarioTable:
 
     @property
     def tie(self) -> np.ndarray:
+        """Per cell, whether the winner and the runner-up tie (the margin's lower bound ≤ 1)."""
         return self.margin_low <= 1.0
 
     def preset(self, p: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per row, the largest ratio over preset ``p``'s periods and the largest ends of their intervals."""
-        cells = self.tuning.preset_cells(p)
-        return (self.ratio[:, cells].max(axis=1), self.low[:, cells].max(axis=1), self.high[:, cells].max(axis=1))
+        cells, st = self.tuning.preset_cells(p), self.stats
+        return (st.ratio[:, cells].max(axis=1), st.low[:, cells].max(axis=1), st.high[:, cells].max(axis=1))
 
 
 KNOB_TEXT = {
@@ -212,7 +207,7 @@ def _row_y(y: np.ndarray, cols: np.ndarray, index: Callable[[int], int]) -> np.n
 
 
 def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None) -> ScenarioTable:
-    """The fair table (module docstring) of a :class:`isl_core.scenario.tuning.Tuning`, its cells read on the report
+    """The fair table (module docstring) of a :class:`isl_core.Tuning`, its cells read on the report
     seeds of ``held`` (:func:`!isl_core.scenario.heldout.held_out`) — or, without it, on the tuning's own seeds.
 
     Parameters
@@ -231,11 +226,11 @@ def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None)
 
     Examples
     --------
-    >>> from isl_core import TuningGrids, table_from, tune
+    >>> from isl_core import Execution, Sampling, TuningGrids, table_from, tune
     >>> from isl_core.scenario import PRESETS
     >>> grids = TuningGrids(isl_ell=(-2.0, 0.0), memory=(100.0,), robust_c=(2.0,), imm_switch=(1e-3,), imm_modes=(6,))
-    >>> tuning = tune(1.0, presets={"sigma_drop": PRESETS["sigma_drop"]}, seeds=2, horizon=15.0, grids=grids,
-    ...               cache=False, workers=1)
+    >>> tuning = tune(1.0, presets={"sigma_drop": PRESETS["sigma_drop"]}, grids=grids,
+    ...               sampling=Sampling.first(2, horizon=15.0, burn=2.0), execution=Execution(workers=1, cache=False))
     >>> table_from(tuning, level=0.9).level
     0.9
     """
@@ -251,9 +246,8 @@ def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None)
         else:
             ys.append(_row_y(tuning.y, col[r], lambda j: j))
             seeds.append(tuning.seeds)
-    ratio, low, high, coordinate, coordinates, worst_seed, worst_id, above2, diverged = astuple(
-        cell_stats(ys, seeds, level)
-    )
+    stats = cell_stats(ys, seeds, level)
+    ratio = stats.ratio
     t_ratio, t_low, t_high = tuning.stats(level)
     worst_cell = np.array([int(np.argmax(np.nan_to_num(t_ratio[col[r], cells], nan=np.inf))) for r in range(len(rows))])
     pick: Callable[[np.ndarray], np.ndarray] = lambda a: np.array([a[col[r, c], c] for r, c in enumerate(worst_cell)])  # noqa: E731
@@ -272,20 +266,12 @@ def table_from(tuning: Tuning, level: float = 0.95, held: HeldOut | None = None)
     return ScenarioTable(
         tuning,
         tuple(rows),
-        ratio,
-        low,
-        high,
+        stats,
         level,
         winner,
         runner,
         margin,
         mlow,
-        coordinate,
-        coordinates,
-        worst_seed,
-        worst_id,
-        above2,
-        diverged,
         tuple(tuple(s) for s in seeds),
         tuned_figure,
         tuned_low,
@@ -302,22 +288,16 @@ def scenario_table(
     m: int = M,
     w: float = W,
     scenarios: Mapping[str, tuple[str, float, Scenario]] = PRESETS,
-    seeds: int = 32,
-    horizon: float = 30.0,
-    burn: float = 2.0,
-    level: float = 0.95,
+    sampling: Sampling | None = None,
+    execution: Execution | None = None,
     grids: TuningGrids = TuningGrids(),
-    workers: int | None = None,
-    progress: Callable[[float], None] | None = None,
-    cache: bool = True,
-    report_seeds: int | None = None,
+    n_report: int | None = None,
     rate: float | None = DEFAULT_RATE,
     refine: int = 0,
 ) -> ScenarioTable:
     """The fair table (module docstring) for paper A's model with this α (β = w√(2α), A.25) over ``scenarios``: the
-    tuning of :func:`isl_core.tune` with these arguments (cached), the held-out runs on
-    ``report_seeds`` seeds after the tuning's (default four times as many; cached), then :func:`table_from` at
-    ``level``.
+    tuning of :func:`isl_core.tune` with these arguments (cached), the held-out runs on ``n_report`` seeds after the
+    tuning's (default four times as many; cached), then :func:`table_from` at ``sampling.level``.
 
     Parameters
     ----------
@@ -325,14 +305,15 @@ def scenario_table(
         Paper A's model: α (default 1), the state dimension, the stationary std of X_m (β = w√(2α)).
     scenarios : mapping
         name → (label, σ(0), :class:`Scenario`), the table's columns and the set every knob is tuned over.
-    seeds, horizon, burn : int, float, float
-        Independent noises, run length and the start left out (units of 1/r_min).
-    level : float, default 0.95
-        Confidence level of the intervals.
-    grids, workers, progress, cache : TuningGrids, int, callable, bool
+    sampling : Sampling, optional
+        The tuning's seeds, horizon and burn-in as in :func:`isl_core.tune` (default
+        :data:`isl_core.TUNING_SAMPLING`), and the intervals' confidence ``level`` (at least 0.5).
+    execution : Execution, optional
+        As in :func:`isl_core.tune`; its ``progress`` follows the tuning, the held-out runs use its threads and cache.
+    grids : TuningGrids
         As in :func:`isl_core.tune`.
-    report_seeds : int, optional
-        Held-out seeds the table is read on (:func:`!isl_core.scenario.heldout.held_out`).
+    n_report : int, optional
+        How many held-out seeds the table is read on (:func:`!isl_core.scenario.heldout.held_out`).
     rate, refine : float or None, int
         Sensor readings per 1/r_min at σ(0) and the step's halvings, as in :func:`isl_core.tune`.
 
@@ -345,30 +326,29 @@ def scenario_table(
     --------
     A small table: one scenario, two seeds, a short run and coarse grids of the knobs.
 
-    >>> from isl_core import TuningGrids, scenario_table
+    >>> from isl_core import Execution, Sampling, TuningGrids, scenario_table
     >>> from isl_core.scenario import PRESETS
     >>> grids = TuningGrids(isl_ell=(-2.0, 0.0), memory=(100.0,), robust_c=(2.0,), imm_switch=(1e-3,), imm_modes=(6,))
-    >>> table = scenario_table(1.0, scenarios={"sigma_drop": PRESETS["sigma_drop"]}, seeds=2, horizon=15.0,
-    ...                        grids=grids, cache=False, workers=1)
+    >>> table = scenario_table(1.0, scenarios={"sigma_drop": PRESETS["sigma_drop"]}, grids=grids,
+    ...                        sampling=Sampling.first(2, horizon=15.0, burn=2.0),
+    ...                        execution=Execution(workers=1, cache=False))
     >>> [row.name for row in table.rows][:3]
     ['clairvoyant', 'kbf', 'isl']
     """
-    level = check_real("level", level, lo=0.5, hi=1.0, hi_open=True)
+    sampling = tuning_sampling(sampling)
+    level = check_real("sampling.level", sampling.level, lo=0.5, hi=1.0, hi_open=True)
+    execution = local_threads(execution)
     res = tune(
         alpha,
         m=m,
         w=w,
         presets=scenarios,
-        seeds=seeds,
-        horizon=horizon,
-        burn=burn,
+        sampling=sampling,
+        execution=execution,
         grids=grids,
-        workers=workers,
-        progress=progress,
-        cache=cache,
         rate=rate,
         refine=refine,
     )
     assert res is not None  # tune computes what is not cached (compute=True)
-    report = held_out(res, report_seeds, workers=workers, cache=cache)
+    report = held_out(res, n_report, execution=replace(execution, progress=None))
     return table_from(res, level, report)

@@ -25,7 +25,7 @@ from ..filters.base import FilterSpec
 from ..kernels.imm import imm_state
 from ..kernels.series import imm_series, spec_series, vb_series
 from ..model import Model
-from ..scenario.bank import learning_state
+from ..scenario.learners import learning_state
 from ..validate import check_real, short
 from .discretize import ONE_THREAD, Steps, steps, van_loan
 from .likelihood import ReadingModel, kalman_track

@@ -189,16 +189,16 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     """With a tuning for the page's α, m and w, the filters that do not know σ(t) take its minimax knobs, run on its
     grid (a memory of W readings spans what it spanned there), and say so; the tuning curves mark the minimax point
     and each preset's own best (the oracle reference)."""
+    from isl_core import Execution, Sampling
     from isl_core.scenario.tuning import TuningGrids, tune
 
     grids = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(0.01,), imm_modes=(6,))
     small = tune(
         1.0,
-        seeds=2,
-        horizon=12.0,
+        sampling=Sampling.first(2, horizon=12.0, burn=2.0),
         grids=grids,
         presets={k: v for k, v in TABLE_PRESETS.items() if k in ("sigma_drop", "constant")},
-        cache=False,
+        execution=Execution(cache=False),
     )
     monkeypatch.setattr(scenario_picture, "tuning_for", lambda req: small)
     state.set_inputs({"alpha": 1.0, "sc_runs": 2, "sc_horizon": 12.0})
@@ -245,6 +245,20 @@ def test_a_tuned_model_runs_every_filter_at_its_tuned_knob_on_the_tunings_grid(s
     assert f"Out of sample (seeds 2–9, never used to tune): its worst cell reads {table.held_figure[r]:.3g}" in (
         view._note.object
     )
+
+
+def test_the_tune_button_hands_the_long_job_a_tuning_that_reports_its_progress(state, monkeypatch):
+    """The job the Tune button starts takes ``progress=`` (as every long job does) and gives it to the core's tuning
+    for the page's α, m and w through its execution."""
+    started, asked = [], []
+    monkeypatch.setattr(state.scenarios._tune_task, "start", lambda fn, apply, note: started.append(fn))
+    monkeypatch.setattr("app.state.scenarios.tune", lambda alpha, **kw: asked.append((alpha, kw)))
+    state.set_inputs({"alpha": 0.5, "m": 2})
+    state.scenarios.compute_tuning()
+    (fn,) = started
+    fn(progress=print)
+    ((alpha, kw),) = asked
+    assert alpha == 0.5 and kw["m"] == 2 and kw["execution"].progress is print and kw["execution"].cache
 
 
 def test_the_map_runs_as_a_long_job_and_marks_ties(state):

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from isl_core import Model, Scenario, simulate_scenario
+from isl_core import Execution, Model, Sampling, Scenario, simulate_scenario
 from isl_core.filters.adaptive import adaptive_kbf
 from isl_core.filters.robust import robust_kbf
 from isl_core.filters.variational import variational_kbf
@@ -23,17 +23,22 @@ PRESETS = {
 }
 GRIDS = TuningGrids(isl_ell=(-4.0, -2.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(1e-2,), imm_modes=(5,))
 # a reading every Euler step: the held-out logic does not depend on the rate, and this keeps its runs the smallest
-KW = {"presets": PRESETS, "horizon": 5.0, "grids": GRIDS, "cache": False, "rate": None}
+NO_CACHE = Execution(cache=False)
+KW = {"presets": PRESETS, "grids": GRIDS, "execution": NO_CACHE, "rate": None}
+
+
+def _first(n: int) -> Sampling:
+    return Sampling.first(n, horizon=5.0, burn=2.0)
 
 
 @pytest.fixture(scope="module")
 def tuning():
-    return tune(1.0, seeds=2, **KW)
+    return tune(1.0, sampling=_first(2), **KW)
 
 
 @pytest.fixture(scope="module")
 def report(tuning):
-    return held_out(tuning, cache=False)
+    return held_out(tuning, execution=NO_CACHE)
 
 
 def test_the_report_seeds_follow_the_tunings_and_their_runs_are_the_tunings_own(tuning, report):
@@ -41,7 +46,7 @@ def test_the_report_seeds_follow_the_tunings_and_their_runs_are_the_tunings_own(
     over those seeds makes of the same filter (the same grid, the same noise)."""
     assert tuning.seeds == (0, 1) and report.seeds == tuple(range(2, 10))
     assert report.columns == report_columns(tuning) and report.y.shape == (8, 4, len(report.columns), 3)
-    wider = tune(1.0, seeds=10, **KW)
+    wider = tune(1.0, sampling=_first(10), **KW)
     np.testing.assert_array_equal(report.y, wider.y[2:][:, :, list(report.columns)])
 
 
@@ -80,13 +85,13 @@ def test_a_cell_gives_every_coordinate_the_worst_one_the_worst_seed_and_a_diverg
     y[5, 3, imm, 1] = np.inf  # seed 7 diverged in the constant preset's cell, on X₂
     y[2, 0, imm, 0] = 9.0  # seed 4 reads 3× on X₁ just after the drop
     table = table_from(tuning, held=replace(report, y=y))
-    row = next(r for r, row in enumerate(table.rows) if row.name == "imm")
-    np.testing.assert_allclose(table.coordinates[row], np.sqrt(y[:, :, imm].mean(axis=0)), rtol=1e-12)
-    finite = np.isfinite(table.ratio[row])
-    np.testing.assert_array_equal(table.ratio[row][finite], table.coordinates[row].max(axis=1)[finite])
-    assert table.ratio[row, 3] == np.inf and table.coordinate[row, 3] == 1  # never averaged away
-    assert table.diverged[row].tolist() == [0, 0, 0, 1] and table.worst_seed_id[row, 3] == 7
-    assert table.worst_seed[row, 0] >= 3.0 and table.above2[row, 0] >= 1 and table.worst_seed_id[row, 0] == 4
+    row, st = next(r for r, row in enumerate(table.rows) if row.name == "imm"), table.stats
+    np.testing.assert_allclose(st.coordinates[row], np.sqrt(y[:, :, imm].mean(axis=0)), rtol=1e-12)
+    finite = np.isfinite(st.ratio[row])
+    np.testing.assert_array_equal(st.ratio[row][finite], st.coordinates[row].max(axis=1)[finite])
+    assert st.ratio[row, 3] == np.inf and st.coordinate[row, 3] == 1  # never averaged away
+    assert st.diverged[row].tolist() == [0, 0, 0, 1] and st.worst_seed_id[row, 3] == 7
+    assert st.worst_seed[row, 0] >= 3.0 and st.above2[row, 0] >= 1 and st.worst_seed_id[row, 0] == 4
     assert table.held_figure[row] == np.inf and table.flagged[row]
 
 
@@ -103,3 +108,12 @@ def test_a_learner_with_a_range_keeps_its_estimate_inside_it_and_variational_bay
     adaptive, robust, vb = (run.sigma_hat[:, run.learning.index(n)] for n in ("kbf_adaptive", "kbf_robust", "vb"))
     assert np.all(adaptive <= 200.0 * (1 + 1e-12)) and np.all(robust <= 200.0 * (1 + 1e-12))
     assert adaptive[-1] > 190.0 and vb[-1] > 1000.0  # at the top of its range, mostly
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [({"n_seeds": 1}, r"^n_seeds \(report seeds\)"), ({"execution": Execution(executor=object())}, "executor")],
+)
+def test_bad_held_out_settings_are_named_before_any_run(tuning, kwargs, named):
+    with pytest.raises(ValueError, match=named):
+        held_out(tuning, **kwargs)

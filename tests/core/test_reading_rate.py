@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from isl_core import Model, Scenario, plan_scenario
+from isl_core import Execution, Model, Sampling, Scenario, plan_scenario
 from isl_core.kernels.draws import split_ahead
 from isl_core.riccati import kalman_bucy
 from isl_core.scenario.presets import at_rate
@@ -78,7 +78,13 @@ PRESETS = {
 def test_halving_the_step_moves_no_cell_by_more_than_its_half_width(rate):
     """The table's h-convergence at small size: every variant's every cell at q and 2q steps per reading, same seeds,
     same path; the difference within the coarse cell's interval half-width (the tolerance of the table itself)."""
-    kw = {"presets": PRESETS, "seeds": 4, "horizon": 6.0, "grids": GRIDS, "cache": False, "workers": 1, "rate": rate}
+    kw = {
+        "presets": PRESETS,
+        "sampling": Sampling.first(4, horizon=6.0, burn=2.0),
+        "grids": GRIDS,
+        "execution": Execution(workers=1, cache=False),
+        "rate": rate,
+    }
     coarse, fine = tune(1.0, **kw), tune(1.0, refine=1, **kw)
     assert fine.substeps == tuple(2 * q for q in coarse.substeps) and fine.reading_time == pytest.approx(
         coarse.reading_time, rel=1e-12

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from isl_core import Scenario, scenario_table
+from isl_core import Execution, Sampling, Scenario, scenario_table
 from isl_core.cli import main
 from isl_core.scenario.heldout import held_out
 from isl_core.scenario.map import who_wins_map
@@ -27,11 +27,12 @@ GRIDS = TuningGrids(
     imm_switch=(1e-3, 1e-1),
     imm_modes=(5,),
 )
+NO_CACHE = Execution(cache=False)
 
 
 @pytest.fixture(scope="module")
 def tuning():
-    return tune(1.0, presets=SMALL, seeds=8, horizon=5.0, grids=GRIDS, cache=False)
+    return tune(1.0, presets=SMALL, sampling=Sampling.first(8, horizon=5.0, burn=2.0), grids=GRIDS, execution=NO_CACHE)
 
 
 @pytest.fixture(scope="module")
@@ -52,9 +53,9 @@ def test_each_tuned_row_sits_at_its_tuning_curves_minimax_point(tuning, table):
         row = next(i for i, r in enumerate(table.rows) if r.name == family)
         idx = tuning.variants(family)
         curve = ratio[:, idx].max(axis=0)
-        assert table.ratio[row].max() == pytest.approx(curve.min(), rel=1e-12)
+        assert table.stats.ratio[row].max() == pytest.approx(curve.min(), rel=1e-12)
         assert table.rows[row].tuning == tuning.knobs[idx[int(np.argmin(curve))]]
-        np.testing.assert_allclose(table.ratio[row], ratio[:, idx[int(np.argmin(curve))]], rtol=1e-12)
+        np.testing.assert_allclose(table.stats.ratio[row], ratio[:, idx[int(np.argmin(curve))]], rtol=1e-12)
 
 
 def test_every_row_states_its_tuning_and_origin_and_the_oracle_is_no_worse(tuning, table):
@@ -73,10 +74,11 @@ def test_every_row_states_its_tuning_and_origin_and_the_oracle_is_no_worse(tunin
 
 def test_the_winner_of_each_cell_is_the_lowest_contender_with_a_paired_margin(table):
     contenders = [i for i, r in enumerate(table.rows) if r.role in ("tuned", "paper")]
-    for c in range(table.ratio.shape[1]):
-        order = sorted(contenders, key=lambda i: table.ratio[i, c])
+    for c in range(table.stats.ratio.shape[1]):
+        order = sorted(contenders, key=lambda i: table.stats.ratio[i, c])
         assert (table.winner[c], table.runner_up[c]) == (order[0], order[1])
-        assert table.margin[c] == pytest.approx(table.ratio[order[1], c] / table.ratio[order[0], c], rel=1e-12)
+        ratio = table.stats.ratio
+        assert table.margin[c] == pytest.approx(ratio[order[1], c] / ratio[order[0], c], rel=1e-12)
         assert table.margin_low[c] <= table.margin[c] and table.tie[c] == (table.margin_low[c] <= 1.0)
 
 
@@ -84,7 +86,7 @@ def test_the_clairvoyant_row_reads_one_within_its_sampling_error(tuning, table):
     y = tuning.y[:, :, 0]
     se = y.std(axis=0, ddof=1) / math.sqrt(y.shape[0])
     assert np.all(np.abs(y.mean(axis=0) - 1.0) <= 4.5 * se)
-    assert np.all(table.low[0] <= table.ratio[0]) and np.all(table.ratio[0] <= table.high[0])
+    assert np.all(table.stats.low[0] <= table.stats.ratio[0]) and np.all(table.stats.ratio[0] <= table.stats.high[0])
 
 
 def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenarios(tmp_path, capsys):
@@ -187,14 +189,15 @@ def test_the_presets_are_the_issues_scenarios():
 def test_scenario_table_is_the_tuning_read_on_held_out_seeds():
     """``scenario_table`` = ``table_from`` of ``tune`` with its arguments, read on the report seeds after the
     tuning's (four times as many by default); a bad level is refused by name."""
-    args = dict(m=3, w=3.0, seeds=2, horizon=3.0, grids=GRIDS, workers=1)
-    got = scenario_table(1.0, scenarios={"drop": SMALL["drop"]}, level=0.9, **args)
-    res = tune(1.0, presets={"drop": SMALL["drop"]}, **args)  # from the cache the call above filled
-    want = table_from(res, 0.9, held_out(res, None, workers=1, cache=True))
-    np.testing.assert_array_equal(got.ratio, want.ratio)
-    np.testing.assert_array_equal(got.low, want.low)
+    few, one_thread = Sampling.first(2, horizon=3.0, burn=2.0, level=0.9), Execution(workers=1)
+    args = dict(m=3, w=3.0, grids=GRIDS, execution=one_thread)
+    got = scenario_table(1.0, scenarios={"drop": SMALL["drop"]}, sampling=few, **args)
+    res = tune(1.0, presets={"drop": SMALL["drop"]}, sampling=few, **args)  # from the cache the call above filled
+    want = table_from(res, 0.9, held_out(res, None, execution=one_thread))
+    for name in ("ratio", "low", "high", "coordinates", "worst_seed", "worst_seed_id"):
+        np.testing.assert_array_equal(getattr(got.stats, name), getattr(want.stats, name))
     assert [r.name for r in got.rows] == [r.name for r in want.rows] and got.level == 0.9
     tuned = next(i for i, r in enumerate(got.rows) if r.role == "tuned")
     assert got.seeds[tuned] == tuple(range(2, 2 + 4 * 2))
-    with pytest.raises(ValueError, match=r"^level must"):
-        scenario_table(1.0, scenarios={"drop": SMALL["drop"]}, level=1.0, **args)
+    with pytest.raises(ValueError, match=r"^sampling\.level must"):
+        scenario_table(1.0, scenarios={"drop": SMALL["drop"]}, sampling=Sampling.first(2, level=0.3), **args)

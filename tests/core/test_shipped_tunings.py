@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from isl_core import Model, TuningGrids, tune
+from isl_core import Execution, Model, Sampling, TuningGrids, tune
 from isl_core.scenario import PRESETS, shipped
 from isl_core.scenario.map import map_filters
 from isl_core.scenario.shipped import COMMAND, equivalent_alpha, shipped_json, shipped_tuning, why_not_shipped
@@ -132,7 +132,8 @@ def test_a_tuning_depends_on_alpha_and_w_only_through_the_equivalent_alpha():
     """Time rescaled by c = 2 (module docstring of isl_core.scenario.shipped): the model at (α/2, w·2^(1/2 − m)) has
     the same statistic in every cell as (α, w) — the same arithmetic up to rounding — so every knob's verdict too."""
     grids = TuningGrids(isl_ell=(-2.0, 0.0), memory=(10.0, 100.0), robust_c=(2.0,), imm_switch=(1e-3,), imm_modes=(6,))
-    kw = dict(m=2, seeds=2, horizon=12.0, grids=grids, cache=False, workers=1)
+    sampling, execution = Sampling.first(2, horizon=12.0, burn=2.0), Execution(workers=1, cache=False)
+    kw = dict(m=2, sampling=sampling, grids=grids, execution=execution)
     presets = {k: PRESETS[k] for k in ("sigma_drop", "sensor")}
     a = tune(1.0, w=3.0, presets=presets, **kw)
     b = tune(0.5, w=3.0 * 2.0**-1.5, presets=presets, **kw)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from isl_core import Model, Scenario, average_scenario
+from isl_core import Execution, Model, Sampling, Scenario, average_scenario
 from isl_core.riccati import kalman_bucy
 from isl_core.scenario.periods import edge_times, per_seed
 from isl_core.scenario.tuning import _MEMORY_CACHE, FAMILIES, TuningGrids, tune, variant_name
@@ -22,12 +22,13 @@ GRIDS = TuningGrids(
     imm_switch=(1e-3, 1e-1),
     imm_modes=(5,),
 )
-KW = {"presets": PRESETS, "seeds": 6, "horizon": 5.0, "grids": GRIDS}
+KW = {"presets": PRESETS, "sampling": Sampling.first(6, horizon=5.0, burn=2.0), "grids": GRIDS}
+NO_CACHE = Execution(cache=False)
 
 
 @pytest.fixture(scope="module")
 def tuning():
-    return tune(1.0, cache=False, **KW)
+    return tune(1.0, execution=NO_CACHE, **KW)
 
 
 def test_every_variant_of_every_family_rides_in_the_runs_with_its_knob(tuning):
@@ -114,7 +115,10 @@ def test_a_tuning_is_cached_on_disk_and_read_back_bit_for_bit(tmp_path, monkeypa
     again = tune(1.0, **KW)
     assert "read from the cache" in again.origin and again is not first
     np.testing.assert_array_equal(again.y, first.y)
-    assert tune(1.0, compute=False, **{**KW, "seeds": 7}) is None  # not cached: not computed either
+    more = Sampling.first(7, horizon=5.0, burn=2.0)
+    assert tune(1.0, compute=False, **{**KW, "sampling": more}) is None  # not cached: not computed either
+    shifted = Sampling(seeds=tuple(range(1, 7)), horizon=5.0, burn=2.0)  # as many seeds, other ones
+    assert tune(1.0, compute=False, **{**KW, "sampling": shifted}) is None  # the seeds themselves are keyed
 
 
 def test_an_unwritable_cache_keeps_the_tuning_in_memory(tmp_path, monkeypatch):
@@ -122,15 +126,31 @@ def test_an_unwritable_cache_keeps_the_tuning_in_memory(tmp_path, monkeypatch):
     blocker.write_text("not a directory")
     monkeypatch.setenv("ISL_CACHE_DIR", str(blocker / "isl"))
     _MEMORY_CACHE.clear()
-    small = {**KW, "presets": {"constant": PRESETS["constant"]}, "seeds": 2}
+    small = {**KW, "presets": {"constant": PRESETS["constant"]}, "sampling": Sampling.first(2, horizon=5.0, burn=2.0)}
     res = tune(1.0, **small)
     assert "kept in memory" in res.origin and tune(1.0, **small) is res
 
 
 @pytest.mark.parametrize(
     ("kwargs", "named"),
-    [({"seeds": 1}, "seeds"), ({"horizon": 0.0}, "horizon"), ({"alpha": 0.0}, "alpha"), ({"presets": {}}, "presets")],
+    [
+        ({"sampling": Sampling(seeds=(0,), batches=2)}, "sampling.seeds"),
+        ({"sampling": 32}, "sampling"),
+        ({"execution": Execution(executor=object())}, "execution.executor"),
+        ({"execution": "fast"}, "execution"),
+        ({"refine": -1}, "refine"),
+        ({"alpha": 0.0}, "alpha"),
+        ({"presets": {}}, "presets"),
+    ],
 )
 def test_bad_settings_are_named(kwargs, named):
     with pytest.raises(ValueError, match=named):
         tune(**{"alpha": 1.0, **kwargs})
+
+
+def test_any_seeds_of_a_sampling_give_those_seeds_runs(tuning):
+    """Seeds as a sequence: a tuning on seeds (4, 1) holds, seed by seed, the rows of those seeds in the tuning on
+    0 … 5 (each run depends on its seed only)."""
+    picked = tune(1.0, execution=NO_CACHE, **{**KW, "sampling": Sampling(seeds=(4, 1), horizon=5.0, burn=2.0)})
+    assert picked.seeds == (4, 1)
+    np.testing.assert_array_equal(picked.y, tuning.y[[4, 1]])

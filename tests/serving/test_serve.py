@@ -154,11 +154,36 @@ def test_install_is_idempotent():
     hardening.install()
     assert pn.config.exception_handler is session.handle_exception
     assert pn.config.notifications is True
-    assert getattr(Protocol().create("ERROR", "m", "x").__class__.create, "_isl_quiet", False)
+
+
+class _Sink:
+    """What bokeh's websocket handler's ``send_message`` is given to call last: it keeps the messages sent."""
+
+    def __init__(self, application, request) -> None:
+        self.sent: list = []
+
+    async def send_message(self, message) -> None:
+        self.sent.append(message)
 
 
 def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog):
-    hardening.install()
+    """bokeh's ERROR reply carries the exception's text and the server's traceback; the server's handlers (bokeh's,
+    subclassed: no library code replaced) send a validation error's text alone and any other as an incident number,
+    whose text and traceback go to the log. Other messages pass as they are."""
+    import asyncio
+
+    import tornado.routing
+    import tornado.web
+    import tornado.websocket
+
+    class Handler(_Sink, tornado.websocket.WebSocketHandler):
+        pass
+
+    application = tornado.web.Application([(r"/ws", Handler)])
+    hardening.quiet_error_replies(application)
+    hardening.quiet_error_replies(application)  # idempotent
+    quiet = application.wildcard_router.rules[0].target
+    assert issubclass(quiet, Handler) and quiet.__bases__ == (Handler,)
     protocol = Protocol()
     try:
         raise ValueError("failed to validate Slider(id='p1', ...).value: expected a value of type Real, got abc")
@@ -167,8 +192,14 @@ def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog)
     try:
         raise RuntimeError("SECRET-DETAIL in /srv/private/config.py")
     except RuntimeError as exc:
-        with caplog.at_level(logging.ERROR, logger="isl.app"):
-            internal = protocol.create("ERROR", "m2", repr(exc))
+        internal = protocol.create("ERROR", "m2", repr(exc))
+    assert validation.content["traceback"] and internal.content["traceback"]  # bokeh's own: what is withheld
+    other = protocol.create("ACK")
+    handler = quiet(application, None)
+    with caplog.at_level(logging.ERROR, logger="isl.app"):
+        for message in (validation, internal, other):
+            asyncio.run(handler.send_message(message))
+    assert handler.sent == [validation, internal, other]
     assert validation.content == {
         "text": repr(
             ValueError("failed to validate Slider(id='p1', ...).value: expected a value of type Real, got abc")
@@ -176,8 +207,35 @@ def test_websocket_error_replies_carry_no_traceback_and_no_internal_text(caplog)
         "traceback": None,
     }
     assert internal.content["traceback"] is None and "SECRET" not in internal.content["text"]
+    assert "SECRET" not in internal.content_json and "Traceback" not in internal.content_json  # what is sent
     incident = re.search(r"incident ([0-9a-f]{8})", internal.content["text"]).group(1)
-    assert f"incident {incident}" in caplog.text and "SECRET-DETAIL" in caplog.text
+    assert f"incident {incident}" in caplog.text and "SECRET-DETAIL" in caplog.text and "Traceback" in caplog.text
+    assert other.content == {}
+
+
+def test_no_stylesheet_of_a_page_points_at_panels_cdn():
+    """Panel points the stylesheets of a part built for a document it has not rendered yet (a page being built, the
+    warm-up's) at its CDN, and a classroom without internet waited on that request (a part shown loading asked for
+    ``loading.css``); with the server's own files named first, no stylesheet of the page points elsewhere."""
+    from bokeh.models import ImportedStyleSheet
+    from panel.io.resources import CDN_DIST
+    from panel.io.state import set_curdoc
+
+    from app.page import LocalFast
+
+    def urls(prepare) -> list[str]:
+        doc = Document()
+        with set_curdoc(doc):
+            prepare(doc)
+            part = pn.Column(pn.pane.HTML("<b>x</b>"), pn.widgets.FloatSlider(), design=LocalFast)
+            doc.add_root(part.get_root(doc))
+            part.loading = True  # what the who-wins map did when it started to compute
+        return [str(m.url) for m in doc.models if isinstance(m, ImportedStyleSheet)]
+
+    plain = urls(lambda doc: None)
+    assert any(url.startswith(CDN_DIST) for url in plain)  # Panel's own fallback (if it stops, this can go)
+    served = urls(session.serve_panel_files)
+    assert served and [url for url in served if url.startswith(("http:", "https:", "//"))] == []
 
 
 def _held_changes(doc: Document, change) -> list:
