@@ -1,7 +1,8 @@
 """Shared by the browser tests: Debian's chromium through Playwright, and the dashboard served as users serve it.
 
-``dashboard(url)`` opens a chromium page on it and waits for the first plot's data; ``NAMED`` / ``PLOT_DATA`` are
-the page-side functions the tests wait on.
+``dashboard(url)`` opens a chromium page on it and waits for the first plot's data; ``new_page()`` opens a blank one;
+``NAMED`` / ``PLOT_DATA`` are the page-side functions the tests wait on. A test module's pages share one chromium
+(:func:`browser`), each page in a fresh context of its own (cookies, storage and cache), as a new browser would be.
 """
 
 from __future__ import annotations
@@ -21,9 +22,12 @@ __all__ = [
     "PLOT_DATA",
     "ROOT",
     "TAB_OPEN",
+    "browser",
+    "close_browser",
     "dashboard",
     "free_port",
     "launch",
+    "new_page",
     "wait_http",
 ]
 
@@ -36,6 +40,46 @@ def launch(p):
     """Debian's chromium, headless: a missing browser fails the test (./scripts/test installs it), never skips it."""
     assert CHROMIUM.exists(), "Debian's chromium is not installed at /usr/bin/chromium: run ./scripts/test"
     return p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+
+
+#: the running test module's Playwright and chromium (:func:`browser`), empty between modules
+_SHARED: dict = {}
+
+
+def browser():
+    """The chromium of the running test module: launched at its first use, reused by the module's later tests (a
+    fresh context costs a fraction of a launch) and closed by :func:`close_browser` when the module ends
+    (``tests/conftest.py``); launched again if it has gone. One per module rather than per session: a started
+    Playwright keeps its event loop on the thread, where a later module's ``asyncio.run`` would find it running."""
+    from playwright import sync_api
+
+    shared = _SHARED.get("browser")
+    if shared is None or not shared.is_connected():
+        close_browser()
+        _SHARED["playwright"] = sync_api.sync_playwright().start()
+        _SHARED["browser"] = launch(_SHARED["playwright"])
+    return _SHARED["browser"]
+
+
+def close_browser() -> None:
+    """Close the module's chromium and stop its Playwright, if :func:`browser` started them."""
+    shared, playwright = _SHARED.pop("browser", None), _SHARED.pop("playwright", None)
+    try:
+        if shared is not None and shared.is_connected():
+            shared.close()
+    finally:
+        if playwright is not None:
+            playwright.stop()
+
+
+@contextlib.contextmanager
+def new_page(viewport: dict | None = None):
+    """A blank page of the module's chromium in a context of its own (as a new browser's), closed afterwards."""
+    context = browser().new_context(viewport=viewport or {"width": 1600, "height": 1000})
+    try:
+        yield context.new_page()
+    finally:
+        context.close()
 
 
 def free_port() -> int:
@@ -65,26 +109,21 @@ def dashboard(url: str, on_request=None, viewport: dict | None = None, ready: st
     fails if the page raised a script error meanwhile."""
     from playwright import sync_api
 
-    with sync_api.sync_playwright() as p:
-        browser = launch(p)
+    errors: list[str] = []
+    with new_page(viewport) as page:
+        if on_request is not None:
+            page.on("request", lambda request: on_request(request.url))
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.goto(url)
         try:
-            page = browser.new_page(viewport=viewport or {"width": 1600, "height": 1000})
-            if on_request is not None:
-                page.on("request", lambda request: on_request(request.url))
-            errors: list[str] = []
-            page.on("pageerror", lambda error: errors.append(str(error)))
-            page.goto(url)
-            try:
-                page.wait_for_function(ready or PLOT_DATA, timeout=30_000)
-            except sync_api.TimeoutError:
-                models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
-                raise AssertionError(
-                    f"no plot data within 30 s; page errors: {errors}; models: {models}; "
-                    f"page text: {page.inner_text('body')[:300]!r}"
-                ) from None
-            yield page
-        finally:
-            browser.close()
+            page.wait_for_function(ready or PLOT_DATA, timeout=30_000)
+        except sync_api.TimeoutError:
+            models = page.evaluate("() => window.Bokeh ? Bokeh.documents.map(d => d._all_models.size) : null")
+            raise AssertionError(
+                f"no plot data within 30 s; page errors: {errors}; models: {models}; "
+                f"page text: {page.inner_text('body')[:300]!r}"
+            ) from None
+        yield page
     # e.g. "reference p… isn't known": the browser dropped a change of the page (parts of it then stay empty)
     assert not errors, errors
 

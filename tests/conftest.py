@@ -4,7 +4,8 @@ Tests live in folders by layer (``tests/core``, ``tests/app``, ``tests/serving``
 ``tests/deploy``); each test is marked with its folder's layer (:data:`LAYERS`) — ``pytest -m core`` or
 ``pytest tests/core`` runs the numerical core alone — and the core's doctests (``isl_core/``) count as ``core``.
 The helpers (``_browser``, ``_serving``, ``_loop``) sit in ``tests/`` and are importable from any folder.
-Fixture: ``app_server``, the dashboard served as users serve it, once per module.
+Fixtures: ``app_server``, the dashboard served as users serve it, once per pytest-xdist worker; a test module's
+pages share one chromium (``_browser.browser``).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:  # the shared helpers, whichever folder a test module sits in
     sys.path.insert(0, str(HERE))
 
-from _browser import ROOT, free_port, wait_http  # noqa: E402  (after the path above)
+from _browser import ROOT, close_browser, free_port, wait_http  # noqa: E402  (after the path above)
 
 LAYERS = ("core", "app", "serving", "browser", "deploy")  #: test folders, each a marker of the same name
 
@@ -55,10 +56,25 @@ def _server_patches(request: pytest.FixtureRequest) -> None:
         patches.install()
 
 
-@pytest.fixture(scope="module")
-def app_server(tmp_path_factory):
-    """URL of the dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads,
-    long jobs in processes, the headers and the host check); the server's log file."""
+class ServerLog:
+    """The part of the shared server's log written since a test began (:func:`app_server`): read as a file's text, so a
+    test's ``"Traceback" not in log.read_text()`` speaks of its own pages only; ``parent``, the log's folder."""
+
+    def __init__(self, path: Path) -> None:
+        self.path, self.parent = path, path.parent
+        self.start = path.stat().st_size
+
+    def read_text(self, encoding: str | None = None, errors: str | None = None) -> str:
+        with open(self.path, "rb") as log:
+            log.seek(self.start)
+            return log.read().decode(encoding or "utf-8", errors or "strict")
+
+
+@pytest.fixture(scope="session")
+def _served_app(tmp_path_factory):
+    """The dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads, long jobs
+    in processes, the headers and the host check), started once per pytest-xdist worker at its first use: every
+    test opens pages of its own (new sessions) on it, as many users share one server. Its URL and log file."""
     port = free_port()
     log = tmp_path_factory.mktemp("serve") / "panel.log"
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
@@ -67,7 +83,7 @@ def app_server(tmp_path_factory):
         proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
     try:
         wait_http(f"http://127.0.0.1:{port}/app", proc)
-        yield f"http://127.0.0.1:{port}/app", log
+        yield f"http://127.0.0.1:{port}/app", log, proc
     finally:
         proc.terminate()
         try:
@@ -75,6 +91,21 @@ def app_server(tmp_path_factory):
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+
+
+@pytest.fixture
+def app_server(_served_app):
+    """URL of the served dashboard (:func:`_served_app`) and its log since this test began (:class:`ServerLog`)."""
+    url, log, proc = _served_app
+    assert proc.poll() is None, f"the shared server has exited (code {proc.returncode}):\n{log.read_text()[-3000:]}"
+    return url, ServerLog(log)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _one_chromium_per_module():
+    """The chromium a test module's pages share (``_browser.browser``, launched at first use) closes with it."""
+    yield
+    close_browser()
 
 
 def layer(path: Path) -> str | None:

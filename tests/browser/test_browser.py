@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _browser import NAMED, PLOT_DATA, dashboard, launch
+from _browser import NAMED, PLOT_DATA, dashboard, new_page
 from playwright.sync_api import expect
 
 pytestmark = [pytest.mark.browser]
@@ -141,18 +141,11 @@ def test_a_link_over_the_step_limit_opens_on_the_nearest_allowed_setting(app_ser
 def test_a_link_no_setting_can_serve_says_why_instead_of_empty_plots(app_server):
     url, _ = app_server
     hopeless = "?m=1&alpha=0&beta_from_w=false&beta=0.01&sigma=0.1&nu=10000&horizon=1000"
-    from playwright import sync_api
-
-    with sync_api.sync_playwright() as p:
-        browser = launch(p)
-        try:
-            page = browser.new_page(viewport={"width": 1600, "height": 1000})
-            page.goto(url + hopeless)
-            page.get_by_text("Nothing to show.").wait_for(timeout=60_000)
-            text = page.locator("p", has_text="Nothing to show.").inner_text()
-            boxes = page.evaluate(PLOT_BOXES)
-        finally:
-            browser.close()
+    with new_page({"width": 1600, "height": 1000}) as page:
+        page.goto(url + hopeless)
+        page.get_by_text("Nothing to show.").wait_for(timeout=60_000)
+        text = page.locator("p", has_text="Nothing to show.").inner_text()
+        boxes = page.evaluate(PLOT_BOXES)
     assert "even at the shortest horizon" in text and "lower ν or raise σ" in text
     assert [b for b in boxes if b[3] > 0 and b[4] > 0] == []  # no empty axes shown (the page's plots are hidden)
 

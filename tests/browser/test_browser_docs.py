@@ -15,7 +15,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 import pytest
-from _browser import ROOT, launch
+from _browser import ROOT, browser
 from test_browser_a11y import violations
 
 BUILT = ROOT / "docs" / "_build" / "html"
@@ -65,27 +65,23 @@ def docs_page():
     """A function opening a built page at 1280 px in one chromium; it returns the page and every host it asked."""
     if not (BUILT / "index.html").is_file():
         pytest.fail(f"the documentation is not built in {BUILT}: run ./scripts/docs (./scripts/test builds it)")
-    from playwright import sync_api
-
     server = _serve(BUILT)
     try:
-        with sync_api.sync_playwright() as p:
-            browser = launch(p)
-            try:
-                context = browser.new_context(viewport=VIEWPORT)
+        context = browser().new_context(viewport=VIEWPORT)
+        try:
 
-                def open_page(name: str):
-                    page = context.new_page()
-                    hosts: set[str] = set()
-                    errors: list[str] = []
-                    page.on("request", lambda request: hosts.add(urlsplit(request.url).netloc))
-                    page.on("pageerror", lambda error: errors.append(str(error)))
-                    page.goto(f"http://127.0.0.1:{server.server_port}/{name}.html")
-                    return page, hosts, errors
+            def open_page(name: str):
+                page = context.new_page()
+                hosts: set[str] = set()
+                errors: list[str] = []
+                page.on("request", lambda request: hosts.add(urlsplit(request.url).netloc))
+                page.on("pageerror", lambda error: errors.append(str(error)))
+                page.goto(f"http://127.0.0.1:{server.server_port}/{name}.html")
+                return page, hosts, errors
 
-                yield open_page
-            finally:
-                browser.close()
+            yield open_page
+        finally:
+            context.close()
     finally:
         server.shutdown()
         server.server_close()

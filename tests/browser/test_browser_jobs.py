@@ -9,7 +9,7 @@ import contextlib
 import re
 
 import pytest
-from _browser import NAMED, dashboard, free_port, launch
+from _browser import NAMED, dashboard, free_port, new_page
 
 pytestmark = [pytest.mark.browser]
 
@@ -89,23 +89,16 @@ def _framed(page_url: str, expect: str) -> str:
 
     Waits for the event that ``expect`` announces: chromium's console report of the refused frame ('blocked') or the
     dashboard's first drawing inside the frame ('shown'); a page that gives neither fails on the timeout."""
-    from playwright import sync_api
-
-    with sync_api.sync_playwright() as p:
-        browser = launch(p)
-        try:
-            page = browser.new_page()
-            frame = page.frame_locator("#isl")
-            drawn = frame.locator(".bk-Canvas, .bk-panel-models-layout-Column").first
-            if expect == "blocked":
-                with page.expect_console_message(lambda msg: "frame-ancestors" in msg.text, timeout=30_000):
-                    page.goto(page_url)
-                return "shown" if drawn.count() else "blocked"
-            page.goto(page_url)
-            drawn.wait_for(timeout=30_000)
-            return "shown"
-        finally:
-            browser.close()
+    with new_page() as page:
+        frame = page.frame_locator("#isl")
+        drawn = frame.locator(".bk-Canvas, .bk-panel-models-layout-Column").first
+        if expect == "blocked":
+            with page.expect_console_message(lambda msg: "frame-ancestors" in msg.text, timeout=30_000):
+                page.goto(page_url)
+            return "shown" if drawn.count() else "blocked"
+        page.goto(page_url)
+        drawn.wait_for(timeout=30_000)
+        return "shown"
 
 
 def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):

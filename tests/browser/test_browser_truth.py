@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from _browser import BAND_OFFSETS, DEEP, NAMED, PLOT_DATA, SCENARIO_TEXT, TAB_OPEN, dashboard, launch
+from _browser import BAND_OFFSETS, DEEP, NAMED, PLOT_DATA, SCENARIO_TEXT, TAB_OPEN, dashboard, new_page
 
 from isl_core import Model, kalman_bucy
 
@@ -242,19 +242,12 @@ def test_ratio_axes_tick_the_first_digits_and_never_overlap(lo, hi, px, expected
 
     ticker = ratio_ticker()
     args = {**ticker.args, "plot": {"inner_height": px}}
-    from playwright import sync_api
-
-    with sync_api.sync_playwright() as p:
-        browser = launch(p)
-        try:
-            page = browser.new_page()
-            ticks = page.evaluate(
-                "([code, args, cb_data]) => new Function('cb_data', ...Object.keys(args), code)"
-                "(cb_data, ...Object.values(args))",
-                [ticker.major_code, args, {"start": lo, "end": hi}],
-            )
-        finally:
-            browser.close()
+    with new_page() as page:
+        ticks = page.evaluate(
+            "([code, args, cb_data]) => new Function('cb_data', ...Object.keys(args), code)"
+            "(cb_data, ...Object.values(args))",
+            [ticker.major_code, args, {"start": lo, "end": hi}],
+        )
     assert ticks == pytest.approx(expected)
     gaps = [px * math.log(b / a) / math.log(hi / lo) for a, b in itertools.pairwise(ticks)]
     assert all(g >= TICK_GAP for g in gaps), gaps
