@@ -205,9 +205,33 @@ async def students(
         await asyncio.gather(*(c.close() for c in clients))
 
 
+def _command(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
+
+
+async def all_processes_up(pid: int, timeout: float = 60.0) -> bool:
+    """Whether each serving process of server ``pid`` has its long jobs' fork server, done with the warm-up's job (the
+    fork server alive, no child of it left): the server starts them after its port opens, and an idle figure taken
+    before would leave them out of idle but not out of after close."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        servers = [
+            [c for c in sc.descendants(w) if b"multiprocessing.forkserver" in _command(c)]
+            for w in sc.server_processes(pid)
+        ]
+        if all(len(f) == 1 and not sc.descendants(f[0]) for f in servers):
+            return True
+        await asyncio.sleep(0.1)
+    return False
+
+
 async def scenario(base: str, pid: int, log: Path | None, n: int, baseline: float, duration: float) -> Figures:
     fig = Figures()
-    await asyncio.sleep(2.0)
+    if not await all_processes_up(pid):
+        fig.errors.append("idle: a serving process has no long jobs' fork server after 60 s (idle RSS without it)")
     fig.rss_idle = fig.sample(pid)
     for _ in range(3):
         if (t := await page_ready(base, fig)) is not None:
