@@ -205,13 +205,6 @@ async def students(
         await asyncio.gather(*(c.close() for c in clients))
 
 
-def _command(pid: int) -> bytes:
-    try:
-        return Path(f"/proc/{pid}/cmdline").read_bytes()
-    except OSError:
-        return b""
-
-
 async def all_processes_up(pid: int, timeout: float = 60.0) -> bool:
     """Whether each serving process of server ``pid`` has its long jobs' fork server, done with the warm-up's job (the
     fork server alive, no child of it left): the server starts them after its port opens, and an idle figure taken
@@ -219,7 +212,7 @@ async def all_processes_up(pid: int, timeout: float = 60.0) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         servers = [
-            [c for c in sc.descendants(w) if b"multiprocessing.forkserver" in _command(c)]
+            [c for c in sc.descendants(w) if b"multiprocessing.forkserver" in sc.cmdline(c)]
             for w in sc.server_processes(pid)
         ]
         if all(len(f) == 1 and not sc.descendants(f[0]) for f in servers):

@@ -51,15 +51,16 @@ def rss_mb(pid: int) -> float:
     return total
 
 
+def cmdline(pid: int) -> bytes:
+    """The command line of process ``pid`` as ``/proc`` holds it (NUL-separated), or ``b""`` once it is gone."""
+    with contextlib.suppress(OSError):
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    return b""
+
+
 def server_processes(pid: int) -> list[int]:
     """The processes of server ``pid`` that serve sessions: its forked workers (children running the same command),
     or ``pid`` itself when it serves alone (its only children are then its long jobs' processes)."""
-
-    def cmdline(p: int) -> bytes:
-        with contextlib.suppress(OSError):
-            return Path(f"/proc/{p}/cmdline").read_bytes()
-        return b""
-
     own = cmdline(pid)
     workers = [p for p in descendants(pid) if cmdline(p) == own and own]
     return [p for p in workers if Path(f"/proc/{p}/stat").exists() and _parent(p) == pid] or [pid]

@@ -40,6 +40,7 @@ from server_control import (  # noqa: F401  (re-exported: the server's side, for
     REPO,
     SERVE_ENV,
     check_loopback,
+    cmdline,
     descendants,
     free_port,
     rss_mb,
