@@ -5,13 +5,18 @@ destroyed every session, run their release hooks and its full collection (the ``
 left), none of those pages' documents may still be alive: the line's ``closed_pages`` counts the documents of ended
 sessions still in memory among the ``pages_seen`` open at a look (:class:`app.serving.memory.MemoryTrimmer`). A page
 kept after its session — its document, models, state and results, about 5 MB for a default page — is a leak a class
-pays for page after page (:ref:`performance-memory-release`).
+pays for page after page (:ref:`performance-memory-release`). The long jobs' thread, idle between jobs, must not
+hold the last job either: its owner is a session's jobs, and through them the session's page.
 """
 
 from __future__ import annotations
 
 import asyncio
+import gc
 import re
+import threading
+import time
+import weakref
 from pathlib import Path
 
 import pytest
@@ -56,3 +61,23 @@ def test_no_page_of_a_closed_session_stays_in_memory(tmp_path):
         seen, closed = run(open_and_close(url, log, PAGES), 300)
     assert seen >= PAGES, f"the trimmer saw {seen} of the {PAGES} pages open"
     assert closed == 0, f"{closed} of the {seen} closed pages are still in the server's memory"
+
+
+class _Owner:
+    """Stands for a session's jobs (a long job's owner holds the session's page)."""
+
+
+def test_the_long_jobs_thread_lets_go_of_its_last_job_once_it_is_done():
+    from app.jobs.long import LongJobQueue
+
+    queue = LongJobQueue(workers=1)
+    owner, delivered = _Owner(), threading.Event()
+    alive = weakref.ref(owner)
+    queue.submit(owner, lambda cancel: "table", lambda outcome: delivered.set(), lambda ahead: None)
+    assert delivered.wait(10)
+    del owner
+    deadline = time.monotonic() + 5.0  # the thread goes back to wait for a job right after delivering this one
+    while alive() is not None and time.monotonic() < deadline:
+        gc.collect()
+        time.sleep(0.01)
+    assert alive() is None, "the queue's idle thread still holds the last job's owner"
