@@ -276,10 +276,7 @@ def _add_scenario(sub: _Sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--untuned", action="store_true", help="the map's filters at the constructors' defaults")
     p.add_argument(
-        "--n-seeds",
-        type=_whole,
-        default=None,
-        help="how many tuning seeds (default 32: seeds 0..31); a map's: how many seeds per cell",
+        "--n-seeds", type=_whole, default=None, help="how many tuning seeds (default 32: 0..31); a map's: per cell"
     )
     p.add_argument(
         "--n-report-seeds",
