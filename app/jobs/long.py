@@ -168,6 +168,9 @@ class LongJobQueue:
                 ticket.done(outcome)
             except Exception:
                 log.exception("delivering a long job's outcome failed")
+            # while this thread waits for the next job, it must not hold the last one: its ticket holds the session
+            # (its page, state and jobs) and the outcome its result, which would outlive the session's end
+            del ticket, outcome
 
 
 @contextlib.contextmanager

@@ -11,6 +11,7 @@ import gc
 import logging
 import os
 import time
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -109,11 +110,17 @@ class MemoryTrimmer:
     the last look; a closed session's objects that hold each other in cycles are freed by the next full collection:
     when the class has left, or after :data:`FULL_AFTER_ENDED` sessions have ended. When no session is left the core's
     caches are emptied first (:func:`isl_core.clear_caches`): what a class computed goes with it
-    (:ref:`performance-memory-release`).
+    (:ref:`performance-memory-release`). The ``isl trim`` line counts the pages (bokeh documents) of the sessions seen
+    open at a look, and those of them still in memory after their session ended (:meth:`closed_pages`).
     """
 
     def __init__(self, server) -> None:
         self.server, self.sessions, self.ended = server, 0, 0
+        #: the documents of the sessions open at each look, weakly held: one still alive after its session has ended
+        #: and a full collection has run is a closed page something holds — a leak (``closed_pages`` in the
+        #: ``isl trim`` line; :ref:`performance-memory-release`)
+        self.pages: weakref.WeakSet = weakref.WeakSet()
+        self.seen = 0  #: how many documents the looks have seen in all (``pages_seen``)
         self._trim: Callable[[int], Any] | None  # glibc's malloc_trim, None elsewhere
         try:
             self._trim = ctypes.CDLL("libc.so.6").malloc_trim
@@ -123,7 +130,12 @@ class MemoryTrimmer:
     def __call__(self) -> None:
         from app.serving import session
 
-        sessions, pending = len(self.server.get_sessions()), session.live_release_hooks()
+        live = self.server.get_sessions()
+        for doc in _documents(live):
+            if doc not in self.pages:
+                self.pages.add(doc)
+                self.seen += 1
+        sessions, pending = len(live), session.live_release_hooks()
         # a session's memory is free once it has ended *and* its release hooks have run: trim after either
         if sessions + pending < self.sessions:
             self.ended += self.sessions - (sessions + pending)
@@ -141,16 +153,30 @@ class MemoryTrimmer:
                 self._trim(0)
             # the event a memory measurement waits for (scripts/load_test.py), instead of a guess at the interval
             log.info(
-                "isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f pid=%d",
+                "isl trim: sessions=%d pending_releases=%d collected=%s rss_mb=%.1f pages_seen=%d closed_pages=%d"
+                " pid=%d",
                 sessions,
                 pending,
                 collected,
                 rss_mb(),
+                self.seen,
+                self.closed_pages(live),
                 os.getpid(),  # one server process of several: which one
             )
         else:
             young_then_freeze()
         self.sessions = sessions + pending
+
+    def closed_pages(self, live) -> int:
+        """How many documents of ended sessions are still in memory (of those seen at a look: a session opened and
+        closed between two looks is not counted). Right after a full collection, any is held by something."""
+        open_pages = {id(doc) for doc in _documents(live)}
+        return sum(1 for doc in list(self.pages) if id(doc) not in open_pages)
+
+
+def _documents(sessions) -> list:
+    """The documents of bokeh's server sessions (a stand-in session without one, as the unit tests pass, has none)."""
+    return [doc for s in sessions if (doc := getattr(s, "document", None)) is not None]
 
 
 def full_collection() -> None:

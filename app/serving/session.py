@@ -274,9 +274,25 @@ class PageLocation(Location):
 def page_location(doc) -> Location | None:
     """The :class:`PageLocation` of ``doc``'s served page, made from its request as Panel makes its own, the same
     object at every call; the page's template is given it (``servable(location=...)``, Panel's public argument), so
-    Panel never makes its own. Outside a served session, Panel's ``pn.state.location``."""
+    Panel never makes its own. Outside a served session, Panel's ``pn.state.location``.
+
+    The location is forgotten when the session ends. A weak key alone would never let the document go: the location
+    is watched by the page's URL sync, which holds the page's state, its jobs and, through them, the document — the
+    value keeps its own key alive, and every closed session's page stayed in memory with it
+    (:ref:`performance-memory-release`)."""
     if doc is None or doc.session_context is None:
         return pn.state.location
-    if doc not in _locations:
-        _locations[doc] = PageLocation.from_request(doc.session_context.request)
-    return _locations[doc]
+    location = _locations.get(doc)
+    if location is None:
+        location = _locations[doc] = PageLocation.from_request(doc.session_context.request)
+        doc.on_session_destroyed(_forget_location(weakref.ref(doc)))
+    return location
+
+
+def _forget_location(doc_ref: weakref.ref) -> Callable[[Any], None]:
+    def on_session_destroyed(session_context: Any) -> None:  # bokeh checks this exact signature
+        doc = doc_ref()  # (a weak reference: the document's own callback must not hold it)
+        if doc is not None:
+            _locations.pop(doc, None)
+
+    return on_session_destroyed
