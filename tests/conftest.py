@@ -125,7 +125,7 @@ def layer(path: Path) -> str | None:
 #: that they run side by side instead of one after the other on one worker (:class:`LongFilesSplit`)
 ONE_TEST_AT_A_TIME = (
     "tests/browser/test_browser_property.py",  # a random sequence of 40 actions per seed
-    "tests/browser/test_browser_jobs.py",  # long jobs clicked in the page, two servers for the frame policy
+    "tests/browser/test_browser_jobs.py",  # long jobs clicked in the page, a server of its own for the frame policy
     "tests/deploy/test_dockerfile.py",  # the kernels compiled from a cold cache, once per start-up case
 )
 
@@ -133,15 +133,17 @@ ONE_TEST_AT_A_TIME = (
 def pytest_collection_modifyitems(session, config, items) -> None:
     """Each test gets the marker of its layer (:func:`layer`). The longest work runs first (each file's own order
     kept): the units pytest-xdist hands out (a file, or a test of :data:`ONE_TEST_AT_A_TIME`) with a ``slow`` test,
-    then those with a ``browser`` test, then the rest — so that the long ones overlap and the short ones fill the
-    end, instead of a long one starting last and ending the run alone."""
+    then those with a ``browser`` or ``serving`` test (chromium, servers started), then the rest, the many short
+    files of the core and the dashboard's state — so that the long ones overlap and the short ones fill the end,
+    instead of a long one starting last and ending the run alone."""
     for item in items:
         name = layer(Path(item.path))
         if name is not None:
             item.add_marker(name)
     rank: dict[str, int] = {}
     for item in items:
-        weight = 0 if item.get_closest_marker("slow") else 1 if item.get_closest_marker("browser") else 2
+        busy = item.get_closest_marker("browser") or item.get_closest_marker("serving")  # chromium, servers
+        weight = 0 if item.get_closest_marker("slow") else 1 if busy else 2
         unit = LongFilesSplit.unit(item.nodeid)
         rank[unit] = min(rank.get(unit, weight), weight)
     items.sort(key=lambda item: rank[LongFilesSplit.unit(item.nodeid)])
