@@ -184,7 +184,7 @@ class LocalFast(pn.theme.Fast):
 
 def deferred(build: Callable[[], object], shown: bool = True):
     """``build()``'s result: built with the page when the server builds pages on its page thread
-    (:func:`app.serving.offloop.build_pages_off_loop`) and the part is ``shown`` at once; otherwise built after the
+    (:class:`app.serving.offloop.OffLoopApplication`) and the part is ``shown`` at once; otherwise built after the
     page is connected — on Panel's thread pool when the server has one (``--num-threads``), never while the session
     is being created on the event loop.
 

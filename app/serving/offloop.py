@@ -5,13 +5,14 @@ app script (``initialize_document``) right there. The script builds the page's P
 — while the loop answers nobody: not the other students' slider changes, not ``/liveness``
 (:ref:`performance-page-building`). Two changes move that work to a thread:
 
-* :func:`build_pages_off_loop` runs ``initialize_document`` on one page-building thread, awaited from the
-  ``on_session_created`` hook (which bokeh awaits; the session is registered as *pending* meanwhile, so a second
-  request for it waits for the same build), and makes bokeh's own call right after it a no-op for that document.
-  Nothing else can see the document yet: it has no session, no connection and no callbacks running. Once it is
-  built, Panel's record of the document's thread is set back to the event loop's, where the session lives from then
-  on. One thread, so that no two app scripts run at once (the script runner swaps ``sys.modules`` entries and
-  bokeh's output functions while it runs).
+* :class:`OffLoopApplication`, the application the server serves, runs the app script (Panel's
+  ``initialize_document``) on one page-building thread, awaited from its ``on_session_created``, which bokeh awaits
+  (the session is registered as *pending* meanwhile, so a second request for it waits for the same build); bokeh's
+  own call right after it does nothing for that document. Nothing else can see the document yet: it has no session,
+  no connection and no callbacks running. Once it is built, Panel's record of the document's thread is set back to
+  the event loop's, where the session lives from then on. One thread, so that no two app scripts run at once (the
+  script runner swaps ``sys.modules`` entries and bokeh's output functions while it runs). It is a subclass of
+  Panel's application, made by the serve command's public ``customize_applications``: no library code is replaced.
 * :func:`app.serving.session.prebuild` (called by :func:`app.page.deferred` on the thread that evaluates a deferred
   part) builds that part's bokeh models before Panel attaches it: Panel reuses a component's models when it already
   has them for the page's root, so the event loop only attaches them instead of building them.
@@ -37,8 +38,8 @@ stopped following its sliders (how rare, and how it was found: :ref:`performance
 ``execute`` hand such a callback to the
 session's loop first (tornado's thread-safe ``add_callback``), which registers it there.
 
-:func:`install` is idempotent; :func:`app.serving.patches.install` calls it at the server's start-up, and the server
-calls :func:`build_pages_off_loop` for its application.
+:func:`install` is idempotent; :func:`app.serving.patches.install` calls it at the server's start-up (and
+:meth:`OffLoopApplication.like` before it makes an application).
 """
 
 from __future__ import annotations
@@ -49,9 +50,11 @@ import os
 import threading
 import weakref
 
+from panel.io.application import Application
+
 from .session import PAGE_POOL, session_loop
 
-__all__ = ["PerThreadStack", "SnapshotRegistry", "build_pages_off_loop", "install"]
+__all__ = ["OffLoopApplication", "PerThreadStack", "SnapshotRegistry", "install"]
 
 log = logging.getLogger(__name__)
 pages_log = logging.getLogger("isl.pages")  #: one line per page built (its session and process: serving-many)
@@ -165,32 +168,48 @@ def _register(doc, callback) -> None:
         log.debug("dropped a callback of a destroyed session", exc_info=True)
 
 
-def build_pages_off_loop(application) -> None:
-    """Make ``application`` (a bokeh/Panel ``Application``) build each new session's document on
-    :data:`PAGE_POOL` instead of the event loop (idempotent)."""
-    if getattr(application, "_isl_pages_off_loop", False):
-        return
-    install()
-    from panel.io.state import state
+class OffLoopApplication(Application):
+    """Panel's application (``panel.io.application.Application``, what ``panel serve`` serves), building each new
+    session's document on :data:`PAGE_POOL` instead of the event loop.
 
-    created, initialize = application.on_session_created, application.initialize_document
-    built: weakref.WeakSet = weakref.WeakSet()
+    Bokeh awaits :meth:`on_session_created` (the session is registered as *pending* meanwhile, so a second request
+    for it waits for the same build) and then calls :meth:`initialize_document` on the loop. Here the first runs
+    Panel's and the handlers' session hooks, then Panel's own ``initialize_document`` on the page thread, awaited;
+    the second does nothing for a document built so. Every duty of Panel's and bokeh's ``initialize_document`` —
+    the app script's handlers with their error page, the session's URL prefix, the template, the document's
+    validation — is done as before, on the thread. The server serves applications of this class: the serve command
+    makes them (:meth:`like`) in bokeh's public ``customize_applications`` hook (:mod:`!app.serving.serve`)."""
 
-    async def on_session_created(session_context) -> None:
-        await created(session_context)
-        doc = session_context._document
-        loop_thread = threading.get_ident()
-        await asyncio.get_running_loop().run_in_executor(PAGE_POOL, initialize, doc)
-        state._thread_id_[doc] = loop_thread  # the session's document belongs to the loop from now on
-        built.add(doc)
+    def __init__(self, *handlers, **kwargs) -> None:
+        super().__init__(*handlers, **kwargs)
+        self._built: weakref.WeakSet = weakref.WeakSet()  # documents built in on_session_created, not yet initialized
+
+    @classmethod
+    def like(cls, application) -> OffLoopApplication:
+        """An application with ``application``'s handlers and metadata (one the serve command built), after
+        :func:`install`: what a build on a thread relies on."""
+        install()
+        return cls(*application.handlers, metadata=application.metadata)
+
+    async def on_session_created(self, session_context) -> None:
+        """Panel's and the handlers' session hooks (on the loop), then the session's document built on the page
+        thread (awaited)."""
+        await super().on_session_created(session_context)
+        await session_context.with_locked_document(self._build)  # before the session exists: the document alone
         pages_log.info("isl page: built for session %s in process %d", session_context.id, os.getpid())
 
-    def initialize_document(doc) -> None:
-        if doc in built:
-            built.discard(doc)
-            return
-        initialize(doc)
+    async def _build(self, doc) -> None:
+        from panel.io.state import state
 
-    application.on_session_created = on_session_created
-    application.initialize_document = initialize_document
-    application._isl_pages_off_loop = True
+        loop_thread = threading.get_ident()
+        await asyncio.get_running_loop().run_in_executor(PAGE_POOL, super().initialize_document, doc)
+        state._thread_id_[doc] = loop_thread  # Panel's record: the session's document belongs to the loop from now on
+        self._built.add(doc)
+
+    def initialize_document(self, doc) -> None:
+        """Nothing for a document :meth:`on_session_created` built; any other (a page built outside a session's
+        creation, such as the start-up pages of :func:`app.serving.pages.build_pages`) as Panel builds it."""
+        if doc in self._built:
+            self._built.discard(doc)
+            return
+        super().initialize_document(doc)

@@ -90,16 +90,6 @@ PATCHES = (
         "panel-documents-built-on-threads.md",
     ),
     Patch(
-        "offloop.build_pages_off_loop",
-        "bokeh",
-        "3.9.2",
-        {
-            "bokeh.application.application:Application.on_session_created": "74211770e0353b6e",
-            "bokeh.application.application:Application.initialize_document": "3189c63d07061478",
-        },
-        "bokeh-initialize-document-on-loop.md",
-    ),
-    Patch(
         "a11y.A11Y_SCRIPT",
         "bokehjs, paneljs",
         "3.9.2, 1.9.4",
@@ -192,9 +182,8 @@ def _declaration(text: str, cls: str, method: str) -> str | None:
 
 
 def install() -> None:
-    """Install the Python patches of :data:`PATCHES` that apply to the whole process (idempotent): hardening's,
-    the fast path's and the threads'. The server also calls :func:`app.serving.offloop.build_pages_off_loop` for its
-    application; the browser's are sent by each page."""
+    """Install the Python patches of :data:`PATCHES` (idempotent): hardening's, the fast path's and the threads'; the
+    browser's are sent by each page."""
     from . import fastpath, hardening, offloop
 
     hardening.install()

@@ -139,6 +139,18 @@ def _serve_command(
     from panel.command.serve import Serve
 
     class StrictServe(Serve):
+        def customize_applications(self, args, applications):
+            from app.serving.offloop import OffLoopApplication
+
+            # the app script runs on a page-building thread, not on the event loop (bokeh's public hook for the
+            # applications it serves); Panel's index route and the page's route share one application
+            applications = super().customize_applications(args, applications)
+            served = {}  # by id: one of ours for each application Panel built
+            for application in applications.values():
+                if id(application) not in served:
+                    served[id(application)] = OffLoopApplication.like(application)
+            return {path: served[id(application)] for path, application in applications.items()}
+
         def warm_applications(self, applications, *args, **kwargs):
             super().warm_applications(applications, *args, **kwargs)
             raise_if_failed(applications.values())
@@ -175,10 +187,6 @@ def _serve_command(
 
             docs.install(server._tornado)  # the built documentation at /docs/ (ISL_DOCS_DIR)
             from app.serving.hardening import quiet_closed_websockets, quiet_error_replies
-            from app.serving.offloop import build_pages_off_loop
-
-            for context in server._tornado._applications.values():
-                build_pages_off_loop(context._application)  # the app script runs on a thread, not on the loop
 
             quiet_closed_websockets(server.io_loop.asyncio_loop)  # a tab closed mid-write is not an error
             quiet_error_replies(server._tornado)  # no traceback, no internal text in a websocket ERROR reply

@@ -6,7 +6,7 @@ where its page is being built. Nothing here replaces library code: the patches o
 * :func:`release_on_destroy` — drop a session's large data as soon as the server destroys the session;
 * :func:`handle_exception` — Panel's ``exception_handler``: the traceback to the log, an incident id to the user;
 * :func:`building_page`, :func:`prebuild`, :func:`session_loop` — the page built on the server's page thread
-  (:func:`app.serving.offloop.build_pages_off_loop`), parts' models built before they are swapped in, and the loop
+  (:class:`app.serving.offloop.OffLoopApplication`), parts' models built before they are swapped in, and the loop
   that serves a session;
 * :func:`settle_markup_stylesheets` — markup panes' stylesheets as their first update would send them;
 * :func:`serve_panel_files` — every stylesheet of the page served by the server itself, none by Panel's CDN;
@@ -63,7 +63,7 @@ NOTIFICATION_MS = 8000
 # sweep's curves and points); on a param.Parameterized they are reset to their defaults.
 PAYLOAD_ATTRS = ("run", "traces", "prediction", "curves", "points")
 PAGE_THREAD = "isl-page"
-#: the one thread that runs the app script for new sessions (:func:`app.serving.offloop.build_pages_off_loop`)
+#: the one thread that runs the app script for new sessions (:class:`app.serving.offloop.OffLoopApplication`)
 PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix=PAGE_THREAD)
 
 _releases: dict[str, list[Callable[[], None]]] = {}

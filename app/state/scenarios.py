@@ -309,7 +309,8 @@ class ScenarioRoom(Room):
         if self._host.alpha <= 0.0:
             self.map_note = "Not started: the map is for paper A's model, which needs α > 0."
             return
-        fn = partial(who_wins_map, self.map, self._host.alpha, m=self._host.m, w=self._model_w(), seeds=self.map_seeds)
+        host = self._host
+        fn = partial(who_wins_map, self.map, host.alpha, m=host.m, w=self._model_w(), n_seeds=self.map_seeds)
         cells = len(MAPS[self.map])
         self._map_task.start(fn, self._apply_map, f"Simulating {cells} cells × {self.map_seeds} runs …")
 
@@ -370,7 +371,8 @@ class ScenarioRoom(Room):
             map_note=(
                 f"Simulated in {outcome.seconds:.2g} s: the page's model with σ(0) = 20 (α = {res.alpha:g}, "
                 f"β = {res.model.beta:.4g}, m = {res.model.m}: paper A's with w = β/√(2α) = "
-                f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {res.seeds} runs per cell, windows of "
+                f"{res.model.beta / math.sqrt(2.0 * res.alpha):.4g}); {len(res.seeds)} runs per cell (seeds "
+                f"{res.seeds[0]}–{res.seeds[-1]}), windows of "
                 f"{per_r_min(res.window)}; filters tuned as in the scenario table: {res.origin}."
             ),
         )

@@ -4,7 +4,7 @@
     isl sweep [--alphas ...] [--beta B] [--sigmas ...] [--ell-min L --ell-max L] [--horizon H] [--seeds ...] [--out DIR]
     isl recommend [--alphas ...] [--sigmas ...] [--horizon H] [--seeds ...] [--no-verify] [--json]
     isl worstcase [--alphas 0.04,0.2,1,5,25] [--sigma-min 2 --sigma-max 200] [--horizon H] [--seeds ...] [--json]
-    isl scenario [--alpha A] [--scenarios sigma_drop,...] [--seeds N] [--tune | --map KIND] [--json] [--csv FILE]
+    isl scenario [--alpha A] [--scenarios sigma_drop,...] [--n-seeds N] [--tune | --map KIND] [--json] [--csv FILE]
     isl data SOURCE [--m M] [--alpha A] [--time COL --value COL] [--holdout F] [--json]
 
 These are the core's (:func:`main`). The ``isl`` console script and ``python -m isl_core`` (:func:`console`) add the
@@ -276,13 +276,13 @@ def _add_scenario(sub: _Sub) -> argparse.ArgumentParser:
     )
     p.add_argument("--untuned", action="store_true", help="the map's filters at the constructors' defaults")
     p.add_argument(
-        "--seeds", type=_whole, default=None, help="tuning seeds (default 32: seeds 0..31); a map's seeds per cell"
+        "--n-seeds", type=_whole, default=None, help="how many tuning seeds (default 32: 0..31); a map's: per cell"
     )
     p.add_argument(
-        "--report-seeds",
+        "--n-report-seeds",
         type=_whole,
         default=None,
-        help="held-out seeds the table is read on, after the tuning's (default 4 x --seeds)",
+        help="how many held-out seeds the table is read on, after the tuning's (default 4 x --n-seeds)",
     )
     p.add_argument(
         "--window", type=positive, default=1.0, help="the sigma_step map's rows, units of 1/r_min (default 1)"

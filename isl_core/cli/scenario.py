@@ -52,7 +52,7 @@ def _tuning(args: argparse.Namespace, *, quiet: bool) -> Tuning:
             m=args.m,
             w=args.w,
             presets={n: PRESETS[n] for n in names},
-            sampling=Sampling.first(32 if args.seeds is None else args.seeds, horizon=args.horizon, burn=args.burn),
+            sampling=Sampling.first(32 if args.n_seeds is None else args.n_seeds, horizon=args.horizon, burn=args.burn),
             execution=_execution(args, "tuning", quiet=quiet),
             rate=args.rate,
             refine=args.refine,
@@ -130,7 +130,7 @@ def _table_out(args: argparse.Namespace, res: Tuning) -> int:
     from .scenario_rows import beyond_data, table_rows
 
     report = held_out(
-        res, args.report_seeds, execution=_execution(args, "held-out runs", quiet=args.quiet or args.json)
+        res, args.n_report_seeds, execution=_execution(args, "held-out runs", quiet=args.quiet or args.json)
     )
     assert report is not None  # computed when not cached
     tab = table_from(res, args.level, report)

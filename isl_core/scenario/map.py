@@ -1,6 +1,6 @@
 """Who wins where, as maps over a scenario's parameter: the filter with the lowest ratio to the clairvoyant one.
 
-:func:`who_wins_map` sweeps one parameter of a scenario (paper A's model with this α, σ(0) = 20, ``seeds``
+:func:`who_wins_map` sweeps one parameter of a scenario (paper A's model with this α, σ(0) = 20, ``n_seeds``
 independent noises per cell) with the table's filters (:mod:`isl_core.scenario.table`): the clairvoyant reference,
 the Kalman–Bucy filter for σ(0) and every family of :data:`isl_core.FAMILIES` at its tuned knob — the
 ``tuning`` given, else the one cached for (α, m, w) at the table's defaults, else the shipped one nearest them
@@ -83,7 +83,7 @@ class WhoWinsMap:
     filters: tuple[str, ...]
     labels: tuple[str, ...]
     ratio: np.ndarray
-    seeds: int
+    seeds: tuple[int, ...]  #: the seeds pooled in every cell
     window: float
     margin_low: np.ndarray
     model: Model  #: the model at σ(0) (paper A's with this α, w and m)
@@ -162,7 +162,7 @@ def who_wins_map(
     values: Sequence[float] | None = None,
     m: int = M,
     w: float = W,
-    seeds: int = 32,
+    n_seeds: int = 32,
     window: float = 1.0,
     after: float = 10.0,
     burn: float = 2.0,
@@ -180,8 +180,9 @@ def who_wins_map(
         Paper A's model at σ(0) = 20: α (default 1), the state dimension, the stationary std of X_m (β = w√(2α)).
     values : sequence of float, optional
         The swept values (default the kind's).
-    seeds : int, default 32
-        Independent noises pooled per cell.
+    n_seeds : int, default 32
+        How many independent noises are pooled per cell: seeds 0 … ``n_seeds`` − 1, or, with a tuning, the
+        ``n_seeds`` seeds after the tuning's (held out).
     window, after, burn : float
         The σ-step map's rows; how long after the σ step (the other maps: the whole run after ``burn``) is
         simulated; the start left out (units of 1/r_min).
@@ -200,7 +201,7 @@ def who_wins_map(
     Examples
     --------
     >>> from isl_core import who_wins_map
-    >>> tails = who_wins_map("tails", 1.0, values=[3.0, 30.0], seeds=2, untuned=True, after=5.0, burn=1.0)
+    >>> tails = who_wins_map("tails", 1.0, values=[3.0, 30.0], n_seeds=2, untuned=True, after=5.0, burn=1.0)
     >>> tails.ratio.shape, tails.filters[:3]  # rows × values × filters
     ((1, 2, 8), ('clairvoyant', 'kbf', 'isl'))
     """
@@ -215,12 +216,13 @@ def who_wins_map(
         lo_open=kind != "sensor",
         hi={"sigma_step": 100.0, "tails": 1e6, "sensor": 10.0}[kind],
     )
-    seeds = check_int("seeds", seeds, lo=2, hi=10_000)
+    n_seeds = check_int("n_seeds", n_seeds, lo=2, hi=10_000)
     window = check_real("window", window, lo=0.0, lo_open=True, hi=100.0)
     after = check_real("after", after, lo=window, hi=1e4)
     burn = check_real("burn", burn, lo=0.0, hi=after, hi_open=True)
     model = Model.from_w(alpha, w, SIGMA0, m)
     nu, nu_label, extra, origin, first = map_filters(model, alpha, m, w, tuning, untuned)
+    seeds = tuple(range(first, first + n_seeds))
     rate = tuning.rate if tuning is not None else DEFAULT_RATE  # read as the tuning read (the cached one: the default)
     periods, horizon = _periods(kind, window, after, burn)
     cells, lows = [], []
@@ -231,13 +233,13 @@ def who_wins_map(
             model,
             nu,
             read_at(_scenario(kind, value), rate),
-            seeds=range(first, first + seeds),
+            seeds=seeds,
             horizon=horizon,
             extra=extra,
             edges=edge_times(periods, horizon),
             progress=progress,
-            done=c * seeds,
-            total=len(grid) * seeds,
+            done=c * n_seeds,
+            total=len(grid) * n_seeds,
         )
         names = avg.run.names
         labels = (avg.run.labels[0], "Kalman–Bucy for constant σ = σ(0)", nu_label, *avg.run.labels[3:])

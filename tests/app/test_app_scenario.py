@@ -266,6 +266,7 @@ def test_the_map_runs_as_a_long_job_and_marks_ties(state):
     state.scenarios.compute_map()
     res = state.scenarios.map_result
     assert res is not None and res.kind == "sensor" and "Simulated in" in state.scenarios.map_note
+    assert f"2 runs per cell (seeds {res.seeds[0]}–{res.seeds[1]})" in state.scenarios.map_note and len(res.seeds) == 2
     page = map_html(res)
     assert page.count("class='cell") == len(res.x)
     assert page.count("≈ ") == int(res.tie.sum())
@@ -282,7 +283,7 @@ def test_the_map_runs_as_a_long_job_and_marks_ties(state):
 def test_the_map_cells_name_the_winner_in_text_that_reads_at_4_5_to_1():
     """A cell is its winner's colour (a tie: a light shade of it), its text black or white, whichever reads better:
     at least 4.5 : 1 (WCAG 2.1 AA) — white on cyan or yellow read at 2.1 : 1."""
-    res = who_wins_map("tails", 1.0, values=[3.0], seeds=3)
+    res = who_wins_map("tails", 1.0, values=[3.0], n_seeds=3)
     winner = res.winner[0, 0]
     color = SCENARIO_COLORS[res.filters[winner]]
     back = tint(color, 0.3) if res.tie[0, 0] else color

@@ -107,7 +107,7 @@ def test_bad_windows_are_named(average):
 
 
 def test_the_map_calls_a_tie_only_where_the_seeds_cannot_tell():
-    res = who_wins_map("sensor", 1.0, values=[0.0, 0.5], seeds=6, untuned=True)
+    res = who_wins_map("sensor", 1.0, values=[0.0, 0.5], n_seeds=6, untuned=True)
     assert res.margin_low.shape == res.margin.shape == (1, 2)
     assert np.all(res.margin_low <= res.margin + 1e-12)
     np.testing.assert_array_equal(res.tie, res.margin_low <= 1.0)

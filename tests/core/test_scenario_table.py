@@ -91,7 +91,7 @@ def test_the_clairvoyant_row_reads_one_within_its_sampling_error(tuning, table):
 
 def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenarios(tmp_path, capsys):
     out = tmp_path / "table.csv"
-    args = ["scenario", "--scenarios", "sensor,constant", "--seeds", "2", "--horizon", "6", "--no-cost"]
+    args = ["scenario", "--scenarios", "sensor,constant", "--n-seeds", "2", "--horizon", "6", "--no-cost"]
     assert main([*args, "--json", "--csv", str(out)]) == 0
     doc = json.loads(capsys.readouterr().out)
     meta, rows = doc["meta"], doc["rows"]
@@ -125,7 +125,7 @@ def test_the_command_prints_the_table_as_json_and_csv_and_refuses_unknown_scenar
 
 def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
     out = tmp_path / "curves.csv"
-    args = ["scenario", "--scenarios", "constant", "--seeds", "2", "--horizon", "6", "--tune"]
+    args = ["scenario", "--scenarios", "constant", "--n-seeds", "2", "--horizon", "6", "--tune"]
     assert main([*args, "--json", "--csv", str(out)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert set(doc["tuned"]) == set(FAMILIES)
@@ -142,10 +142,12 @@ def test_the_command_prints_the_tuning_curves(tmp_path, capsys):
 
 
 def test_the_sigma_step_map_has_a_row_per_period_after_the_step_with_the_tables_tuning(tuning):
-    res = who_wins_map("sigma_step", values=(0.1, 10.0), seeds=6, after=4.0, tuning=tuning)
+    res = who_wins_map("sigma_step", values=(0.1, 10.0), n_seeds=6, after=4.0, tuning=tuning)
     assert res.ratio.shape == (4, 2, len(res.filters)) and np.allclose(res.rows, [0.0, 1.0, 2.0, 3.0])
     assert res.filters == ("clairvoyant", "kbf", "isl", "isl_model", "kbf_adaptive", "vb", "kbf_robust", "imm")
     assert res.origin.startswith("tuned") and np.all(res.winner >= 1) and np.all(res.margin >= 1.0)
+    first = max(tuning.seeds) + 1  # held out: the six seeds after the tuning's
+    assert res.seeds == tuple(range(first, first + 6)) and f"seeds from {first} on" in res.origin
     # after σ drops tenfold the filter for σ(0) stays off (its gain is too small: 2.0 measured), the learners recover
     pooled = np.sqrt((res.ratio[:, 0] ** 2).mean(axis=0))  # over the 4/r_min after the step
     assert pooled[1] > 1.5 and pooled[4:].min() < pooled[1] / 1.3
@@ -153,7 +155,7 @@ def test_the_sigma_step_map_has_a_row_per_period_after_the_step_with_the_tables_
 
 
 def test_the_one_dimensional_maps_and_the_command(capsys):
-    res = who_wins_map("tails", values=(3.0, 100.0), seeds=2, after=6.0, untuned=True)
+    res = who_wins_map("tails", values=(3.0, 100.0), n_seeds=2, after=6.0, untuned=True)
     assert res.ratio.shape == (1, 2, len(res.filters)) and np.isnan(res.rows[0]) and res.origin.startswith("untuned")
     assert (
         main(
@@ -163,7 +165,7 @@ def test_the_one_dimensional_maps_and_the_command(capsys):
                 "sensor",
                 "--values",
                 "0,0.1",
-                "--seeds",
+                "--n-seeds",
                 "2",
                 "--horizon",
                 "6",
@@ -175,6 +177,7 @@ def test_the_one_dimensional_maps_and_the_command(capsys):
     )
     doc = json.loads(capsys.readouterr().out)
     assert doc["meta"]["map"] == "sensor" and [c["value"] for c in doc["cells"]] == [0.0, 0.1]
+    assert doc["meta"]["seeds"] == [0, 1]  # untuned: seeds 0 … --n-seeds − 1
     assert all(c["winner"] in doc["meta"]["filters"] and c["winner"] != "clairvoyant" for c in doc["cells"])
     assert main(["scenario", "--map", "sigma_step", "--horizon", "10", "--quiet"]) == 2
     assert "--horizon must be at least 10" in capsys.readouterr().err

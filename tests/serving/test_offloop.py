@@ -1,5 +1,7 @@
-"""The event loop's share of a page: pages built on a thread, bokeh's curdoc per thread, and when the server
-collects garbage (app.serving.offloop, app.serving.memory.MemoryTrimmer)."""
+"""The event loop's share of a page: what building pages on a thread relies on (bokeh's curdoc per thread, Panel's
+link registry, callbacks scheduled from threads, outcomes applied while a page is built) and when the server collects
+garbage (app.serving.offloop, app.serving.memory.MemoryTrimmer); the application that builds the pages there is
+test_offloop_application.py's."""
 
 from __future__ import annotations
 
@@ -13,12 +15,9 @@ from types import SimpleNamespace
 
 import panel as pn
 import pytest
-from bokeh.application import Application
-from bokeh.application.handlers import FunctionHandler
 from bokeh.document import Document
 from bokeh.document.events import DocumentChangedEvent, SessionCallbackAdded
 from bokeh.io.doc import curdoc, patch_curdoc
-from bokeh.server.contexts import ApplicationContext
 from panel.io.state import set_curdoc, state
 from tornado.ioloop import IOLoop
 
@@ -170,64 +169,6 @@ def test_a_callback_for_a_session_destroyed_meanwhile_is_dropped_quietly(caplog)
         offloop._register(doc, lambda: None)
     assert [r.getMessage() for r in caplog.records] == ["dropped a callback of a destroyed session"]
     assert curdoc() is before  # the destroyed document is not left as this thread's curdoc (a later export failed)
-
-
-def test_a_new_sessions_page_is_built_on_the_page_thread_and_then_belongs_to_the_loop():
-    built_on = []
-
-    def page(doc) -> None:
-        built_on.append(threading.current_thread().name)
-        doc.add_root(pn.pane.Markdown("built").get_root(doc))
-
-    application = Application(FunctionHandler(page))
-    offloop.build_pages_off_loop(application)
-    offloop.build_pages_off_loop(application)  # idempotent: one wrapper
-
-    async def create():
-        context = ApplicationContext(application, url="/page")
-        session = await context.create_session_if_needed("a-session-id")
-        return session, threading.get_ident()
-
-    session, loop_thread = asyncio.run(create())
-    assert built_on == ["isl-page_0"]  # once, on the page thread, not on the loop
-    assert len(session.document.roots) == 1
-    assert state._thread_id_[session.document] == loop_thread
-
-
-def test_the_dashboards_shown_parts_are_built_with_the_page_not_swapped_in_on_the_loop(monkeypatch):
-    """The dashboard's page, built off the loop as the server builds it: its controls and the trajectories' plots
-    are in the document the browser pulls (not placeholders that the loop fills in later, re-walking every model of
-    the page for each part), and the hidden tabs are left for when they are opened."""
-    from bokeh.command.util import build_single_handler_application
-    from bokeh.document.models import DocumentModelManager
-    from bokeh.models import ColumnDataSource, Slider
-
-    from app.serving.serve import app_script
-
-    walks: list[str] = []  # the thread of every walk of a document's models
-    recompute = DocumentModelManager.recompute
-    monkeypatch.setattr(
-        DocumentModelManager, "recompute", lambda self: walks.append(threading.current_thread().name) or recompute(self)
-    )
-    application = build_single_handler_application(app_script())
-    offloop.build_pages_off_loop(application)
-
-    async def create():
-        from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
-
-        request = HTTPServerRequest(
-            start_line=RequestStartLine("GET", "/app", "HTTP/1.1"), headers=HTTPHeaders({"Host": "127.0.0.1"})
-        )  # a browser's request, with no query
-        session = await ApplicationContext(application, url="/app").create_session_if_needed("a-page", request)
-        return session.document, threading.current_thread().name
-
-    doc, loop_thread = asyncio.run(create())
-    sliders = [m.title for m in doc.models if isinstance(m, Slider)]
-    assert any("σ" in title for title in sliders), sliders  # the controls
-    assert doc.get_model_by_name("traj-1-isl") is not None  # the plots of Fig. 3
-    assert doc.get_model_by_name("traj-1-isl").__class__ is ColumnDataSource
-    assert walks and loop_thread not in walks  # the page's models were walked on the page thread only
-    assert not any(m.name and m.name.startswith("sweep-") for m in doc.models)  # a hidden tab: not built yet
 
 
 def test_outcomes_that_arrive_while_the_page_is_built_go_out_with_it(monkeypatch):
