@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from hypothesis import settings
+from xdist.scheduler import LoadFileScheduling
 
 HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:  # the shared helpers, whichever folder a test module sits in
@@ -120,13 +121,52 @@ def layer(path: Path) -> str | None:
     return None
 
 
+#: test files whose tests each run for tens of seconds: pytest-xdist gives them to the workers one test at a time, so
+#: that they run side by side instead of one after the other on one worker (:class:`LongFilesSplit`)
+ONE_TEST_AT_A_TIME = (
+    "tests/browser/test_browser_property.py",  # a random sequence of 40 actions per seed
+    "tests/browser/test_browser_jobs.py",  # long jobs clicked in the page, a server of its own for the frame policy
+    "tests/deploy/test_dockerfile.py",  # the kernels compiled from a cold cache, once per start-up case
+)
+
+
 def pytest_collection_modifyitems(session, config, items) -> None:
-    """Each test gets the marker of its layer (:func:`layer`). Test files with a slow or a browser test run first
-    (each file's own order kept): with the files spread over pytest-xdist's workers (./scripts/test), the long ones
-    then overlap instead of running last, side by side."""
+    """Each test gets the marker of its layer (:func:`layer`). The longest work runs first (each file's own order
+    kept): the units pytest-xdist hands out (a file, or a test of :data:`ONE_TEST_AT_A_TIME`) with a ``slow`` test,
+    then those with a ``browser`` or ``serving`` test (chromium, servers started), then the rest, the many short
+    files of the core and the dashboard's state — so that the long ones overlap and the short ones fill the end,
+    instead of a long one starting last and ending the run alone."""
     for item in items:
         name = layer(Path(item.path))
         if name is not None:
             item.add_marker(name)
-    heavy = {item.path for item in items if item.get_closest_marker("slow") or item.get_closest_marker("browser")}
-    items.sort(key=lambda item: item.path not in heavy)
+    rank: dict[str, int] = {}
+    for item in items:
+        busy = item.get_closest_marker("browser") or item.get_closest_marker("serving")  # chromium, servers
+        weight = 0 if item.get_closest_marker("slow") else 1 if busy else 2
+        unit = LongFilesSplit.unit(item.nodeid)
+        rank[unit] = min(rank.get(unit, weight), weight)
+    items.sort(key=lambda item: rank[LongFilesSplit.unit(item.nodeid)])
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """With ``--dist loadfile`` (./scripts/test), pytest-xdist's file scheduling with the long files split
+    (:class:`LongFilesSplit`)."""
+    if config.getoption("dist", None) == "loadfile":
+        return LongFilesSplit(config, log)
+    return None
+
+
+class LongFilesSplit(LoadFileScheduling):
+    """pytest-xdist's ``loadfile`` scheduling (a file's tests on one worker, so that its module fixtures are set up
+    once), except that each test of :data:`ONE_TEST_AT_A_TIME` is a unit of its own. The units go out in the order
+    the tests were collected (``--no-loadscope-reorder``: the longest first, :func:`pytest_collection_modifyitems`)."""
+
+    @staticmethod
+    def unit(nodeid: str) -> str:
+        """The unit of work a test belongs to: its file, or itself in a file of :data:`ONE_TEST_AT_A_TIME`."""
+        path = nodeid.split("::", 1)[0]
+        return nodeid if path in ONE_TEST_AT_A_TIME else path
+
+    def _split_scope(self, nodeid: str) -> str:  # pytest-xdist's name for the unit of a test
+        return self.unit(nodeid)

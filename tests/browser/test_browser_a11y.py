@@ -120,6 +120,7 @@ TAB_TITLES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("present", [False, True], ids=["normal", "presenter"])
 def test_every_tab_meets_wcag_2_1_aa_and_fits_with_every_control_scrolled_into_view(app_server, present):
     """Every tab at 1280 × 720 and 1920 × 1080. The download buttons, grey #767676 on the sidebar's #f3f3f3

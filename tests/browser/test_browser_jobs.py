@@ -40,6 +40,7 @@ def test_simulated_sweep_points_and_the_worst_case_table_render(app_server):
     assert "Traceback" not in text, text[-3000:]
 
 
+@pytest.mark.slow
 def test_the_high_order_sweep_measures_the_optimal_filter_at_one(app_server):
     """m = 6, α = 0, the sweep's longest horizon (2000/r_min): the Kalman–Bucy check column sits at 1 within its
     interval or ±3 % — it read 1126–2302 while estimates and truth were integrated separately (X₁ ~ t^5.5)."""
@@ -101,13 +102,14 @@ def _framed(page_url: str, expect: str) -> str:
         return "shown"
 
 
-def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(tmp_path):
-    """By default the dashboard refuses to be framed by another origin (CSP frame-ancestors 'self'); a course page
-    named in ISL_FRAME_ANCESTORS shows it."""
+@pytest.mark.slow
+def test_another_site_cannot_frame_the_dashboard_unless_it_is_named(app_server, tmp_path):
+    """By default the dashboard refuses to be framed by another origin (CSP frame-ancestors 'self': the shared server
+    runs with the defaults); a course page named in ISL_FRAME_ANCESTORS shows it."""
     from _serving import served as serve_app
 
     lms_port = free_port()
-    with serve_app(tmp_path, "--stats-interval", "0") as (url, _, _), lms_page(url + "/app", lms_port) as lms:
+    with lms_page(app_server[0], lms_port) as lms:
         assert _framed(lms, "blocked") == "blocked"
     lms_origin = f"http://127.0.0.1:{lms_port}"
     with (

@@ -383,6 +383,7 @@ def diagnosis(page, log, console: list[str]) -> str:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", seeds())
 def test_after_every_random_action_the_page_draws_the_run_its_link_describes(app_server, seed):
     # fixed sequences (a failure is seen again, never by luck, as the project's Hypothesis profile); a run with

@@ -244,6 +244,7 @@ def _interpreter_for_another_user() -> str | None:
     return None
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0, reason="switching UID needs root")
 @pytest.mark.parametrize("tmp_writable", [True, False], ids=["tmp-cache", "no-cache-at-all"])
 def test_start_up_check_as_an_arbitrary_uid_with_a_read_only_tree_and_cache(tmp_writable):

@@ -134,26 +134,24 @@ def test_the_built_pages_load_nothing_from_another_site():
     assert fetched.findall('<script src="https://cdn.example/x.js"></script>')  # the pattern sees a remote script
 
 
-def test_the_server_serves_the_built_docs(tmp_path):
+def test_the_server_serves_the_built_docs(app_server):
+    """The shared dashboard server (tests/conftest.py), started without ``ISL_DOCS_DIR``: its pages are those of
+    ``docs/_build/html``, the default place."""
     built = _built()
-    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path), env={"ISL_DOCS_DIR": str(built)}) as (
-        url,
-        _,
-        _,
-    ):
-        status, headers, text = get(f"{url}/docs/")
-        assert status == 200 and headers["Content-Type"].startswith("text/html")
-        assert text == (built / "index.html").read_text(encoding="utf-8")
-        assert headers["X-Content-Type-Options"] == "nosniff"  # the dashboard's headers cover the pages too
-        status, _, text = get(f"{url}/docs/model.html")
-        assert status == 200 and text == (built / "model.html").read_text(encoding="utf-8")
-        status, headers, _ = get(f"{url}/docs/_static/mathjax/tex-chtml.js")  # the pages' math renderer, as a script
-        assert status == 200 and "javascript" in headers["Content-Type"]
-        status, headers, _ = get(f"{url}/docs")
-        assert status in (301, 302) and headers["Location"] == "docs/"  # relative: a proxy's prefix stays
-        assert get(f"{url}/docs/no-such-page.html")[0] == 404
-        assert get(f"{url}/docs/../pyproject.toml")[0] in (400, 403, 404)
-        assert get(f"{url}/docs/", host="evil.example:80")[0] == 403  # the host check applies
+    url = app_server[0].rsplit("/", 1)[0]
+    status, headers, text = get(f"{url}/docs/")
+    assert status == 200 and headers["Content-Type"].startswith("text/html")
+    assert text == (built / "index.html").read_text(encoding="utf-8")
+    assert headers["X-Content-Type-Options"] == "nosniff"  # the dashboard's headers cover the pages too
+    status, _, text = get(f"{url}/docs/model.html")
+    assert status == 200 and text == (built / "model.html").read_text(encoding="utf-8")
+    status, headers, _ = get(f"{url}/docs/_static/mathjax/tex-chtml.js")  # the pages' math renderer, as a script
+    assert status == 200 and "javascript" in headers["Content-Type"]
+    status, headers, _ = get(f"{url}/docs")
+    assert status in (301, 302) and headers["Location"] == "docs/"  # relative: a proxy's prefix stays
+    assert get(f"{url}/docs/no-such-page.html")[0] == 404
+    assert get(f"{url}/docs/../pyproject.toml")[0] in (400, 403, 404)
+    assert get(f"{url}/docs/", host="evil.example:80")[0] == 403  # the host check applies
 
 
 def test_without_a_build_docs_says_how_to_build_it(tmp_path):
