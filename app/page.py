@@ -18,6 +18,7 @@ from collections.abc import Callable
 from typing import Any, ClassVar
 
 import panel as pn
+from bokeh.document import Document
 from panel.io.resources import CDN_DIST
 from panel.viewable import Viewable
 from threadpoolctl import threadpool_limits
@@ -180,6 +181,18 @@ class LocalFast(pn.theme.Fast):
         **pn.theme.Fast.modifiers,
         Viewable: {"stylesheets": [*pn.theme.Fast.modifiers[Viewable]["stylesheets"], "theme.css"]},
     }
+
+    def params(self, viewable: Viewable, doc: Document | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Panel's parameters of the design for ``viewable`` in ``doc``, with the stylesheets of the session's
+        document where Panel names no document.
+
+        Panel updates a markup pane (HTML, Markdown, Alert) with the stylesheets of its model's document. A model
+        outside the page has none — a part whose models are built before it is swapped in
+        (:func:`app.serving.session.prebuild`), a hidden tab's content — and Panel then made the theme's stylesheets
+        (``default.css``, ``fast.css``) anew on its CDN, which the part carried into the page once shown. The
+        session's document (Panel's ``curdoc`` wherever the page is built or updated) holds them already pointed at
+        the server's files (:func:`app.serving.session.serve_panel_files`)."""
+        return super().params(viewable, doc if doc is not None else pn.state.curdoc)
 
 
 def deferred(build: Callable[[], object], shown: bool = True):

@@ -230,18 +230,23 @@ def serve_panel_files(doc) -> None:
     without a document); called before the page is built.
 
     Panel points a component's stylesheets at its document's ``dist_url`` template variable and, where the document
-    has none, at its CDN (cdn.holoviz.org). It sets that variable when it renders the page's HTML — after the app
-    script has built the page, and never for the warm-up's document — and some stylesheet models are shared between
-    documents: a page once asked the CDN for ``loading.css`` when the who-wins map started to compute (a classroom
-    without internet then waits on a request that fails). Set here first, through bokeh's public
-    ``Document.template_variables``, to what Panel's server sets later (its ``static/extensions/panel/`` under the
-    page's relative path), no stylesheet of any document is pointed at the CDN."""
+    has none, at its CDN (cdn.holoviz.org): a classroom without internet then waits on a request that fails. Panel
+    sets that variable when it renders the page's HTML — after the app script has built the page, and never for the
+    warm-up's document or a session's page, whose HTML is a start-up page's (:mod:`app.serving.pages`). Set here
+    first, through bokeh's public ``Document.template_variables``, to Panel's ``static/extensions/panel/`` under the
+    page's relative path.
+
+    Without a relative path that is ``./static/extensions/panel/`` (the same address from the page), not
+    ``static/…``: Panel also updates stylesheets for a document it cannot name — a part whose models are outside the
+    page (:class:`app.page.LocalFast`) — pointing them at its CDN, and it moves an address that starts with
+    ``static/`` there, but leaves one that starts with ``./`` or ``../`` as it is (as behind a URL prefix). The page's
+    stylesheet models are shared by its components, so one such update pointed every ``loading.css`` of the page at
+    the CDN."""
     if doc is None:
         return
     from panel.io.resources import LOCAL_DIST
 
-    rel_path = pn.state.rel_path
-    doc.template_variables.setdefault("dist_url", f"{rel_path}/{LOCAL_DIST}" if rel_path else LOCAL_DIST)
+    doc.template_variables.setdefault("dist_url", f"{pn.state.rel_path or '.'}/{LOCAL_DIST}")
 
 
 _locations: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -53,6 +53,7 @@ def test_every_view_of_the_page_meets_wcag_2_1_aa(app_server):
     found = {}
     requested: list[str] = []
     query = "?seed=-5&sc_runs=2&sc_horizon=8&sc_map=tails&sc_map_seeds=2"  # a refusal on screen from the start
+    origin = url.rsplit("/", 1)[0]
     with dashboard(url + query, viewport={"width": 1280, "height": 720}, on_request=requested.append) as page:
         page.get_by_role("alert").filter(has_text="seed").first.wait_for(timeout=20_000)
         found["trajectories, a refusal"] = violations(page)
@@ -64,10 +65,22 @@ def test_every_view_of_the_page_meets_wcag_2_1_aa(app_server):
         page.get_by_role("button", name="Compute map").click()
         page.locator("td.cell").first.wait_for(timeout=120_000)
         found["Scenarios, the who-wins map drawn"] = violations(page)
+        elsewhere = page.evaluate(SHEETS_ELSEWHERE, origin)
     assert {where: v for where, v in found.items() if v} == {}
-    # and none of it asked another host for anything (the map's start asked the CDN for Panel's loading.css)
-    origin = url.rsplit("/", 1)[0]
-    assert [u for u in requested if not u.startswith((origin, origin.replace("http", "ws", 1), "data:", "blob:"))] == []
+    # and none of it asked another host for anything (the map's start asked the CDN for Panel's loading.css, a part
+    # updated before it was shown for Panel's theme stylesheets)
+    foreign = [u for u in requested if not u.startswith((origin, origin.replace("http", "ws", 1), "data:", "blob:"))]
+    assert foreign == [], f"stylesheets of the page on another host (the class of the element they style): {elsewhere}"
+
+
+#: the page's stylesheet links to another host than ``origin`` (through every shadow root): [the class of the element
+#: whose shadow root holds the link (its bokeh model), URL], at most 10
+SHEETS_ELSEWHERE = """(origin) => { const out = [];
+    const look = (root, host) => { for (const link of root.querySelectorAll('link[rel=stylesheet]'))
+        if (!link.href.startsWith(origin)) out.push([host, link.href]); };
+    const walk = (root) => { for (const el of root.querySelectorAll('*')) if (el.shadowRoot) {
+        look(el.shadowRoot, String(el.className).slice(0, 80)); walk(el.shadowRoot); } };
+    look(document, 'document'); walk(document); return out.slice(0, 10); }"""
 
 
 #: scrolls ``[k, sidebar]``: the window — and the sidebar, if ``sidebar`` — to their ``k``-th screen (the last one
