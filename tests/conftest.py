@@ -71,6 +71,10 @@ class ServerLog:
             return log.read().decode(encoding or "utf-8", errors or "strict")
 
 
+#: the server's settings from the environment (app.serving.options), left out of the shared server's
+SERVING_SETTINGS = ("ISL_ALLOWED_ORIGINS", "ISL_DOCS_DIR", "ISL_FRAME_ANCESTORS", "ISL_NUM_PROCS", "ISL_NUM_THREADS")
+
+
 @pytest.fixture(scope="session")
 def _served_app(tmp_path_factory):
     """The dashboard served as users serve it (``python -m app.serving``: callbacks on its worker threads, long jobs
@@ -78,7 +82,9 @@ def _served_app(tmp_path_factory):
     test opens pages of its own (new sessions) on it, as many users share one server. Its URL and log file."""
     port = free_port()
     log = tmp_path_factory.mktemp("serve") / "panel.log"
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    # on its defaults, whatever the shell sets (the tests of the documentation and the frame policy read them)
+    env = {k: v for k, v in os.environ.items() if k not in SERVING_SETTINGS}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
     cmd = [sys.executable, "-m", "app.serving", "--port", str(port), "--address", "127.0.0.1", "--num-procs", "1"]
     with open(log, "w") as out:
         proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT)
@@ -149,6 +155,7 @@ def pytest_collection_modifyitems(session, config, items) -> None:
     items.sort(key=lambda item: rank[LongFilesSplit.unit(item.nodeid)])
 
 
+@pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist's: unknown to a run without it (-p no:xdist)
 def pytest_xdist_make_scheduler(config, log):
     """With ``--dist loadfile`` (./scripts/test), pytest-xdist's file scheduling with the long files split
     (:class:`LongFilesSplit`)."""
