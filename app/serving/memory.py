@@ -131,7 +131,8 @@ class MemoryTrimmer:
         from app.serving import session
 
         live = self.server.get_sessions()
-        for doc in _documents(live):
+        open_pages = _documents(live)
+        for doc in open_pages:
             if doc not in self.pages:
                 self.pages.add(doc)
                 self.seen += 1
@@ -160,18 +161,19 @@ class MemoryTrimmer:
                 collected,
                 rss_mb(),
                 self.seen,
-                self.closed_pages(live),
+                self.closed_pages(open_pages),
                 os.getpid(),  # one server process of several: which one
             )
         else:
             young_then_freeze()
         self.sessions = sessions + pending
 
-    def closed_pages(self, live) -> int:
-        """How many documents of ended sessions are still in memory (of those seen at a look: a session opened and
-        closed between two looks is not counted). Right after a full collection, any is held by something."""
-        open_pages = {id(doc) for doc in _documents(live)}
-        return sum(1 for doc in list(self.pages) if id(doc) not in open_pages)
+    def closed_pages(self, open_pages: list) -> int:
+        """How many documents of ended sessions are still in memory, ``open_pages`` being those of the sessions open
+        now (of those seen at a look: a session opened and closed between two looks is not counted). Right after a
+        full collection, any is held by something."""
+        still_open = set(open_pages)
+        return sum(1 for doc in list(self.pages) if doc not in still_open)
 
 
 def _documents(sessions) -> list:
