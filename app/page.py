@@ -350,7 +350,9 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
     def opened(*events) -> None:
         if state.tab == name and not started.is_set():
             started.set()
-            state.submit(f"tab:{name}", build_part, show, pool="view")
+            # from the loop, after the tab switch Panel has scheduled there (the tabs' models re-walked with the
+            # page's): the part's build then does not compete with that walk for the interpreter
+            state.later(lambda: state.submit(f"tab:{name}", build_part, show, pool="view"))
 
     state.param.watch(opened, "tab")
     return holder

@@ -1,6 +1,7 @@
 """What the page says and keeps, headless: refusals beside their input, the view and the tab in the link, α = 0
 unticked back to the α before, a scenario preset that says what it set, a theory that is refused where it does not
-hold, numbers written plainly, and widgets that turn an impossible browser value into a refusal."""
+hold, numbers written plainly, widgets that turn an impossible browser value into a refusal, and a tab's part built
+once the tab switch is done."""
 
 from __future__ import annotations
 
@@ -170,3 +171,30 @@ def test_distinct_filters_are_drawn_apart_by_colour_and_not_by_colour_alone():
         SCENARIO_DASHES
     )
     assert set(FILTER_MARKERS) == set(FILTER_COLORS) and len(set(FILTER_MARKERS.values())) == len(FILTER_MARKERS)
+
+
+def test_a_tab_opened_for_the_first_time_is_built_after_the_tab_switch_not_beside_it():
+    # Panel applies a tab switch to the page on the session's loop; the part's build is handed to that loop too (the
+    # state's ``later``), so it starts once the switch is applied instead of competing with it for the interpreter
+    import panel as pn
+
+    from app.jobs import Jobs, Outcome
+    from app.page import on_first_open
+
+    scheduled, submitted = [], []
+    jobs = Jobs(schedule=scheduled.append)
+    jobs.submit = lambda kind, fn, done, pool="run": submitted.append((kind, pool, fn, done))
+    state = AppState(jobs=jobs)
+    holder = on_first_open(state, "worstcase", lambda: pn.pane.Markdown("the part"))
+    state.tab = "worstcase"
+    assert submitted == [] and scheduled, "the build must wait for the loop"
+    while scheduled:
+        scheduled.pop(0)()
+    assert [(kind, pool) for kind, pool, _, _ in submitted] == [("tab:worstcase", "view")]
+    state.tab, state.tab = "trajectories", "worstcase"
+    while scheduled:
+        scheduled.pop(0)()
+    assert len(submitted) == 1  # built once
+    part = pn.pane.Markdown("the part")
+    submitted[0][3](Outcome(value=part), False)  # the build's outcome, shown
+    assert holder.objects == [part]
