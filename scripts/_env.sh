@@ -8,7 +8,5 @@ fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check --upgrade pip
 # the dashboard is the `app` extra (the core installs without it): both scripts serve or test it
 target=".[app${ISL_EXTRAS:+,${ISL_EXTRAS}}]"
-# requirements.lock pins every package (./scripts/lock regenerates it): a fresh clone installs what CI tested.
-# --no-compile: pip would compile every module of every package (their tests, sample data, …) to bytecode, half the
-# install's time; Python compiles those a process imports when it first imports them, once.
-.venv/bin/python -m pip install --quiet --disable-pip-version-check --no-compile -c requirements.lock -e "$target"
+# requirements.lock pins every package (./scripts/lock regenerates it): a fresh clone installs what CI tested
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -c requirements.lock -e "$target"
