@@ -354,7 +354,7 @@ def on_first_open(state: AppState, name: str, build: Callable[[], object]):
             # page's): the part's build then does not compete with that walk for the interpreter
             state.later(lambda: state.submit(f"tab:{name}", build_part, show, pool="view"))
 
-    state.param.watch(opened, "tab")
+    state.param.watch(opened, "tab", precedence=1)  # after the tabs follow the state (_link_tabs: precedence 0)
     return holder
 
 

@@ -130,7 +130,7 @@ def layer(path: Path) -> str | None:
 #: test files whose tests each run for tens of seconds: pytest-xdist gives them to the workers one test at a time, so
 #: that they run side by side instead of one after the other on one worker (:class:`LongFilesSplit`)
 ONE_TEST_AT_A_TIME = (
-    "tests/browser/test_browser_property.py",  # a random sequence of 40 actions per seed
+    "tests/browser/test_browser_property.py",  # a random sequence of 20–40 actions per seed
     "tests/browser/test_browser_jobs.py",  # long jobs clicked in the page, a server of its own for the frame policy
     "tests/deploy/test_dockerfile.py",  # the kernels compiled from a cold cache, once per start-up case
 )

@@ -173,7 +173,7 @@ def test_distinct_filters_are_drawn_apart_by_colour_and_not_by_colour_alone():
     assert set(FILTER_MARKERS) == set(FILTER_COLORS) and len(set(FILTER_MARKERS.values())) == len(FILTER_MARKERS)
 
 
-def test_a_tab_opened_for_the_first_time_is_built_after_the_tab_switch_not_beside_it():
+def test_a_tab_opened_for_the_first_time_is_built_from_the_sessions_loop_not_from_the_watcher(monkeypatch):
     # Panel applies a tab switch to the page on the session's loop; the part's build is handed to that loop too (the
     # state's ``later``), so it starts once the switch is applied instead of competing with it for the interpreter
     import panel as pn
@@ -183,7 +183,7 @@ def test_a_tab_opened_for_the_first_time_is_built_after_the_tab_switch_not_besid
 
     scheduled, submitted = [], []
     jobs = Jobs(schedule=scheduled.append)
-    jobs.submit = lambda kind, fn, done, pool="run": submitted.append((kind, pool, fn, done))
+    monkeypatch.setattr(jobs, "submit", lambda kind, fn, done, pool="run": submitted.append((kind, pool, fn, done)))
     state = AppState(jobs=jobs)
     holder = on_first_open(state, "worstcase", lambda: pn.pane.Markdown("the part"))
     state.tab = "worstcase"

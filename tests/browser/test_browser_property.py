@@ -11,9 +11,9 @@ the link's run, and the test then goes back to the trajectories. The expected va
 (the same request through the core), so the check holds for the run the page says it shows.
 
 Each run replays the sequences of :data:`SEEDS`, each to its length there (the test's id names the seed);
-``ISL_PROPERTY_SEED=random`` explores one fresh sequence instead, and an integer replays that one, of
-:data:`DEFAULT_ACTIONS` actions. ``ISL_PROPERTY_ACTIONS`` sets every sequence's length. A failure names the seed,
-the last actions, the page's address and what the page and the server logged.
+``ISL_PROPERTY_SEED=random`` explores one fresh sequence instead, and an integer replays that one (to its length in
+:data:`SEEDS`, else :data:`DEFAULT_ACTIONS`). ``ISL_PROPERTY_ACTIONS`` sets every sequence's length. A failure
+names the seed, the last actions, the page's address and what the page and the server logged.
 """
 
 from __future__ import annotations
@@ -42,10 +42,9 @@ from isl_core.filters.baselines import LABELS
 pytestmark = [pytest.mark.browser]
 
 #: the sequences every run replays, and how many actions each: seed 0, and three that go Back onto a link left on the
-#: Scenarios tab — 359 at its 7th action (it timed out there when the history action waited for the trajectories on
-#: every tab), 299 at its 14th, 313 at its 18th — each replayed a few actions past that
+#: Scenarios tab — 359 at its 7th action, 299 at its 14th, 313 at its 18th — each replayed a few actions past that
 SEEDS = {0: 40, 359: 20, 313: 20, 299: 20}
-DEFAULT_ACTIONS = 40  #: of a sequence ``ISL_PROPERTY_SEED`` names
+DEFAULT_ACTIONS = 40  #: of a sequence ``ISL_PROPERTY_SEED`` names that :data:`SEEDS` does not
 ACTIONS = os.environ.get("ISL_PROPERTY_ACTIONS")  #: every sequence's, if set
 TRAJECTORIES = TAB_TITLES["trajectories"]
 SCENARIOS = TAB_TITLES["scenarios"]

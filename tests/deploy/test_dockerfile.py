@@ -284,7 +284,7 @@ def _check_as_another_uid(python, base, tree, cache, tmp, tmp_writable):
         "PATH": "/usr/bin:/bin",
         "HOME": "/nonexistent",
         "NUMBA_CACHE_DIR": str(cache),
-        "NUMBA_OPT": "0",  # kernels compiled unoptimized, in a third less time: checked here is where they go
+        "NUMBA_OPT": "0",  # the kernels compiled unoptimized: checked here is where they go, not their speed
         "TMPDIR": str(tmp),
         "PYTHONDONTWRITEBYTECODE": "1",
         "PYTHONPATH": f"{tree}{os.pathsep}{site}",
