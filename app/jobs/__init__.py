@@ -8,7 +8,18 @@ on request, in the core's tasks and in the dashboard's jobs alike.
 
 from __future__ import annotations
 
-from .base import LARGE_NICE, LONG_NICE, RUN_NICE, Cancelled, Outcome, QueueFull, call, in_steps, lower_priority
+from .base import (
+    LARGE_NICE,
+    LONG_NICE,
+    PAGE_NICE,
+    RUN_NICE,
+    Cancelled,
+    Outcome,
+    QueueFull,
+    call,
+    in_steps,
+    lower_priority,
+)
 from .long import LongJobQueue, LongTask, Ticket, in_process, ping
 from .threads import LARGE_POOL, RUN_POOL, VIEW_POOL, Jobs, Superseded
 
@@ -16,6 +27,7 @@ __all__ = [
     "LARGE_NICE",
     "LARGE_POOL",
     "LONG_NICE",
+    "PAGE_NICE",
     "RUN_NICE",
     "RUN_POOL",
     "VIEW_POOL",

@@ -19,6 +19,7 @@ from isl_core.jobs import Cancelled
 __all__ = [
     "LARGE_NICE",
     "LONG_NICE",
+    "PAGE_NICE",
     "RUN_NICE",
     "Cancelled",
     "Outcome",
@@ -30,7 +31,10 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-RUN_NICE = 5  #: CPU priority of the threads computing runs: below the event loop (nice 0)
+#: CPU priority of the threads building a new page or a tab's part: someone waits for it, but below the event loop
+#: (nice 0), which answers every session and ``/liveness``
+PAGE_NICE = 2
+RUN_NICE = 5  #: of the threads computing runs: below the page builds
 LARGE_NICE = 8  #: of the thread computing large runs (over LIVE_MAX_STEPS steps): below the slider runs
 LONG_NICE = 10  #: and of the thread computing long jobs (sweeps, worst cases, recommendations): below the runs
 

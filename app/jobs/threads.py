@@ -19,7 +19,7 @@ from concurrent.futures import Executor, ThreadPoolExecutor
 from functools import partial
 from typing import Any
 
-from .base import LARGE_NICE, RUN_NICE, Outcome, QueueFull, call, lower_priority
+from .base import LARGE_NICE, PAGE_NICE, RUN_NICE, Outcome, QueueFull, call, lower_priority
 
 __all__ = ["LARGE_POOL", "RUN_POOL", "VIEW_POOL", "Jobs", "Superseded"]
 
@@ -31,8 +31,8 @@ log = logging.getLogger(__name__)
 #: leaves the cores to the work above it.
 RUN_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-run", initializer=lower_priority(RUN_NICE))
 LARGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-large", initializer=lower_priority(LARGE_NICE))
-#: builds a tab's part when a user first opens it (someone waits for it: the loop's priority, not the runs' lower one)
-VIEW_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-view")
+#: builds a tab's part when a user first opens it: someone waits for it, so above the runs, but below the loop
+VIEW_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-view", initializer=lower_priority(PAGE_NICE))
 
 
 class Superseded(Exception):

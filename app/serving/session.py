@@ -35,6 +35,8 @@ import param
 from panel.io.location import Location
 from panel.util import parse_query
 
+from app.jobs.base import PAGE_NICE, lower_priority
+
 __all__ = [
     "PAGE_POOL",
     "PageLocation",
@@ -64,7 +66,7 @@ NOTIFICATION_MS = 8000
 PAYLOAD_ATTRS = ("run", "traces", "prediction", "curves", "points")
 PAGE_THREAD = "isl-page"
 #: the one thread that runs the app script for new sessions (:class:`app.serving.offloop.OffLoopApplication`)
-PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix=PAGE_THREAD)
+PAGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix=PAGE_THREAD, initializer=lower_priority(PAGE_NICE))
 
 _releases: dict[str, list[Callable[[], None]]] = {}
 _session_locks: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
