@@ -284,7 +284,9 @@ def _check_as_another_uid(python, base, tree, cache, tmp, tmp_writable):
         "PATH": "/usr/bin:/bin",
         "HOME": "/nonexistent",
         "NUMBA_CACHE_DIR": str(cache),
-        "NUMBA_OPT": "0",  # the kernels compiled unoptimized: checked here is where they go, not their speed
+        # unoptimized, numba caches only the kernels without dynamic globals (the small ones: the display and scenario
+        # kernels are compiled, not cached): checked here is where a cache goes, not that it holds every kernel
+        "NUMBA_OPT": "0",
         "TMPDIR": str(tmp),
         "PYTHONDONTWRITEBYTECODE": "1",
         "PYTHONPATH": f"{tree}{os.pathsep}{site}",
