@@ -40,20 +40,20 @@ LONG_NICE = 10  #: and of the thread computing long jobs (sweeps, worst cases, r
 
 
 def lower_priority(nice: int) -> Callable[[], None]:
-    """A thread initializer that lowers the calling thread's CPU priority by ``nice`` (Linux: threads are scheduled
-    one by one, and a thread may lower its own priority without privileges; elsewhere: nothing).
+    """A thread initializer that sets the calling thread's CPU priority ``nice`` below the process's (Linux: threads
+    are scheduled one by one, and a thread may lower its own priority without privileges; elsewhere: nothing).
 
-    The event loop of a served dashboard answers every session and ``/liveness``; measured on 2 cores with two
-    sessions re-running 10⁶-step runs and two worst cases at their maximum, it got a small share of the CPU among
-    the compute threads and one slider answer took seconds. With the compute threads niced, the kernel still gets
-    every idle cycle, but the loop runs first.
+    The event loop of a served dashboard answers every session and ``/liveness``; among compute threads of its own
+    priority it gets a small share of the cores. With the other threads niced, the kernel still gives them every idle
+    cycle, but the loop runs first. The base is the process's priority (its main thread's, where the loop runs), not
+    that of the thread which happened to start the pool's thread: a page being built (itself niced) submits the page's
+    first run, and would otherwise start a run thread at the sum of both.
     """
 
     def initializer() -> None:
         try:
-            os.setpriority(
-                os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0) + nice)
-            )
+            base = os.getpriority(os.PRIO_PROCESS, os.getpid())  # the main thread's (Linux: a thread's own with 0)
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, base + nice))
         except (AttributeError, OSError):  # not Linux, or not allowed: same priority as the loop
             log.debug("could not lower a worker thread's priority", exc_info=True)
 

@@ -284,8 +284,8 @@ def _check_as_another_uid(python, base, tree, cache, tmp, tmp_writable):
         "PATH": "/usr/bin:/bin",
         "HOME": "/nonexistent",
         "NUMBA_CACHE_DIR": str(cache),
-        # unoptimized, numba caches only the kernels without dynamic globals (the small ones: the display and scenario
-        # kernels are compiled, not cached): checked here is where a cache goes, not that it holds every kernel
+        # unoptimized, numba caches only the kernels without dynamic globals (the display's and the scenario loop's are
+        # compiled but not cached): checked here is where a cache goes, not that it holds every kernel
         "NUMBA_OPT": "0",
         "TMPDIR": str(tmp),
         "PYTHONDONTWRITEBYTECODE": "1",
