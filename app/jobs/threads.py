@@ -31,7 +31,7 @@ log = logging.getLogger(__name__)
 #: leaves the cores to the work above it.
 RUN_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-run", initializer=lower_priority(RUN_NICE))
 LARGE_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isl-large", initializer=lower_priority(LARGE_NICE))
-#: builds a tab's part when a user first opens it: someone waits for it, so above the runs, but below the loop
+#: builds a tab's part when a user first opens it, at the page builds' priority (PAGE_NICE)
 VIEW_POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="isl-view", initializer=lower_priority(PAGE_NICE))
 
 
