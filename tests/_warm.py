@@ -4,28 +4,45 @@
 every pytest-xdist worker that meets it, at the same time, on the machine's two cores (the series filters, the
 clairvoyant recursion, the IMM and variational steps, the Euler kernel of ``simulate_rmse``). Each call below is a
 tiny run whose only purpose is that compilation; from the cache a later process loads the kernels in about a second.
+
+The kernels come in two groups of similar compile time (:data:`GROUPS`), which ``./scripts/test`` compiles in two
+processes side by side: ``python tests/_warm.py scenario`` and ``python tests/_warm.py others``; without an argument,
+both in turn.
 """
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 
-def warm_kernels() -> None:
-    """One tiny run through each family of kernels (module docstring)."""
-    from app.serving.serve import warm_core
-    from isl_core import Model, Scenario, adaptive_kbf, isl_filter, simulate_rmse, variational_kbf
+def warm_scenario() -> None:
+    """The scenario loop, the largest kernel (half of a server's warm-up, :func:`app.serving.warmup.warm_core`), with
+    every learner and noise."""
+    from isl_core import Model, Scenario, adaptive_kbf, variational_kbf
     from isl_core.filters import imm_kbf, robust_kbf
-    from isl_core.scenario import clairvoyant
     from isl_core.scenario.run import simulate_scenario
-    from isl_core.series import run_filters, series
-    from isl_core.series.likelihood import ReadingModel
 
-    warm_core()  # what a server compiles: the display run and its min/max fold, the plain scenario loop
     model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
+    simulate_scenario(model, 3.0, Scenario(), horizon=1.0, windows=1)
     learners = [adaptive_kbf(model), robust_kbf(model), variational_kbf(model), imm_kbf(model)]
     for scenario in (Scenario(noise="student", dof=4.0), Scenario(noise="outliers", sensor_interval=0.05)):
         simulate_scenario(model, 3.0, scenario, horizon=1.0, windows=2, extra=learners)
+
+
+def warm_others() -> None:
+    """The other half of a server's warm-up (the display run and its min/max fold, as
+    :func:`app.serving.warmup.warm_core` runs it), the clairvoyant recursion, the Euler kernel of ``simulate_rmse``
+    and the series filters."""
+    from isl_core import Model, Scenario, adaptive_kbf, isl_filter, simulate_rmse
+    from isl_core.runview import simulate_view
+    from isl_core.scenario import clairvoyant
+    from isl_core.series import run_filters, series
+    from isl_core.series.likelihood import ReadingModel
+
+    model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
+    simulate_view(model, 3.0, seed=0, horizon=1.0)
     clairvoyant(model, Scenario(sigma_knots=((0.5, 2.0),)), 0.01, 20)
     simulate_rmse(model, [isl_filter(model, 3.0), adaptive_kbf(model)], T=0.1, batches=2)
     rng = np.random.default_rng(0)
@@ -33,5 +50,16 @@ def warm_kernels() -> None:
     run_filters(readings, ReadingModel(2, 0.3, 0.4, 1.5))
 
 
+GROUPS = {"scenario": warm_scenario, "others": warm_others}  #: the two groups, by the name the command line takes
+
+
+def warm_kernels() -> None:
+    """Every group in turn (module docstring)."""
+    for warm in GROUPS.values():
+        warm()
+
+
 if __name__ == "__main__":
-    warm_kernels()
+    if len(sys.argv) > 2 or (len(sys.argv) == 2 and sys.argv[1] not in GROUPS):
+        sys.exit(f"usage: python tests/_warm.py [{' | '.join(GROUPS)}]")
+    GROUPS[sys.argv[1]]() if len(sys.argv) == 2 else warm_kernels()

@@ -39,7 +39,6 @@ from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
-from scipy.stats import t as student
 
 from ..validate import check_real
 from .base import Scenario
@@ -171,6 +170,8 @@ def _half(y: np.ndarray, level: float, axis: int = 0) -> np.ndarray:
     seeds = y.shape[axis]
     if seeds < 2:
         return np.full(np.delete(y.shape, axis), np.nan)
+    from scipy.stats import t as student  # here, not at the top: scipy.stats is the slowest import of a page's
+
     with np.errstate(invalid="ignore"):
         sd = y.std(axis=axis, ddof=1)
     return cast("np.ndarray", student.ppf((1 + level) / 2, seeds - 1) * sd / math.sqrt(seeds))

@@ -24,7 +24,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
 
 from ..validate import check_real
 from .mle import Fit, fit, select_order
@@ -96,6 +95,8 @@ def diagnose(track: SeriesTrack, tail: np.ndarray) -> Diagnostics:
     keep = tail & np.isfinite(track.innovation)
     v, s = track.innovation[keep], track.innovation_var[keep]
     n = len(v)
+    from scipy.stats import chi2  # here, not at the top: scipy.stats is the slowest import of a page's
+
     lo, hi = chi2.ppf([(1 - LEVEL) / 2, (1 + LEVEL) / 2], n) / n
     stated = bool(np.all(np.isfinite(s)) and np.all(s > 0))
     lags = max(1, min(10, n // 5))

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ..model import M_MAX
 from ..validate import check_int, check_real
@@ -128,6 +127,8 @@ def fit(series: Series, m: int, *, alpha: float | None = None, burn: int | None 
     Fit
         The parameters, their standard errors, log L, AIC and BIC.
     """
+    from scipy.optimize import minimize  # here, not at the top: only a fit needs it, and a page imports this module
+
     m = check_int("m", m, lo=1, hi=M_MAX)
     if np.ptp(series.z[series.present]) == 0.0:
         raise ValueError("the readings are all equal: there is no motion or noise to fit")
