@@ -4,8 +4,20 @@ fork server started, the app script run once in a session (:ref:`performance-war
 from __future__ import annotations
 
 import logging
+from typing import TYPE_CHECKING
 
-__all__ = ["AppStartupError", "check_app", "raise_if_failed", "warm_core", "warm_long_jobs"]
+if TYPE_CHECKING:
+    from isl_core import Model
+
+__all__ = [
+    "AppStartupError",
+    "check_app",
+    "raise_if_failed",
+    "warm_core",
+    "warm_long_jobs",
+    "warm_scenario_loop",
+    "warm_view",
+]
 
 log = logging.getLogger("isl.serve")
 
@@ -26,15 +38,32 @@ def raise_if_failed(applications) -> None:
 
 def warm_core() -> None:
     """Compile (or load from the numba cache) every kernel a session calls, each with one short run: the display
-    run's (the simulation and its min/max fold) and the scenario loop's, so that no session compiles one while
-    holding the interpreter lock the event loop needs (:ref:`performance-warm-up`)."""
-    from isl_core import Model, Scenario
+    run's (``warm_view``) and the scenario loop's (``warm_scenario_loop``), so that no session compiles one
+    while holding the interpreter lock the event loop needs (:ref:`performance-warm-up`)."""
+    warm_view()
+    warm_scenario_loop()
+
+
+def _warm_model() -> Model:
+    """The model of the warm-up's short runs."""
+    from isl_core import Model
+
+    return Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
+
+
+def warm_view() -> None:
+    """The display run's kernels: the simulation and its min/max fold, in one short run."""
     from isl_core.runview import simulate_view
+
+    simulate_view(_warm_model(), 3.0, seed=0, horizon=1.0)
+
+
+def warm_scenario_loop() -> None:
+    """The scenario loop's kernel, in one short run."""
+    from isl_core import Scenario
     from isl_core.scenario.run import simulate_scenario
 
-    model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
-    simulate_view(model, 3.0, seed=0, horizon=1.0)
-    simulate_scenario(model, 3.0, Scenario(), horizon=1.0, windows=1)
+    simulate_scenario(_warm_model(), 3.0, Scenario(), horizon=1.0, windows=1)
 
 
 def warm_long_jobs() -> None:

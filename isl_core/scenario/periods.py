@@ -170,7 +170,7 @@ def _half(y: np.ndarray, level: float, axis: int = 0) -> np.ndarray:
     seeds = y.shape[axis]
     if seeds < 2:
         return np.full(np.delete(y.shape, axis), np.nan)
-    from scipy.stats import t as student  # here, not at the top: scipy.stats is the slowest import of a page's
+    from scipy.stats import t as student  # here, not at the top: the page imports this module
 
     with np.errstate(invalid="ignore"):
         sd = y.std(axis=axis, ddof=1)

@@ -95,7 +95,7 @@ def diagnose(track: SeriesTrack, tail: np.ndarray) -> Diagnostics:
     keep = tail & np.isfinite(track.innovation)
     v, s = track.innovation[keep], track.innovation_var[keep]
     n = len(v)
-    from scipy.stats import chi2  # here, not at the top: scipy.stats is the slowest import of a page's
+    from scipy.stats import chi2  # here, not at the top: the page imports this module
 
     lo, hi = chi2.ppf([(1 - LEVEL) / 2, (1 + LEVEL) / 2], n) / n
     stated = bool(np.all(np.isfinite(s)) and np.all(s > 0))
