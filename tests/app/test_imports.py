@@ -4,19 +4,11 @@ imported where that computation runs, not at the top of a module the page import
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
+from _imports import loaded_by
 
 #: imported by a fit (scipy.optimize), an interval (scipy.stats), a recorded series (statsmodels, pandas), a figure
 ONLY_FOR_A_COMPUTATION = ("scipy.stats", "scipy.optimize", "statsmodels", "pandas", "matplotlib")
 
 
 def test_importing_the_page_and_the_server_loads_no_library_only_a_computation_needs():
-    code = (
-        "import json, sys\n"
-        "import isl_core, app.app, app.page, app.serving.serve\n"
-        f"print(json.dumps([m for m in {ONLY_FOR_A_COMPUTATION!r} if m in sys.modules]))\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300)
-    assert json.loads(out.stdout.strip().splitlines()[-1]) == []
+    assert loaded_by("import isl_core, app.app, app.page, app.serving.serve", ONLY_FOR_A_COMPUTATION) == []
