@@ -20,13 +20,13 @@ import numpy as np
 def warm_scenario() -> None:
     """The scenario loop, the largest kernel (half of a server's warm-up: :func:`app.serving.warmup.warm_core`), with
     every learner and noise."""
-    from app.serving.warmup import warm_scenario_loop
-    from isl_core import Model, Scenario, adaptive_kbf, variational_kbf
+    from app.serving.warmup import warm_model, warm_scenario_loop
+    from isl_core import Scenario, adaptive_kbf, variational_kbf
     from isl_core.filters import imm_kbf, robust_kbf
     from isl_core.scenario.run import simulate_scenario
 
     warm_scenario_loop()
-    model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
+    model = warm_model()
     learners = [adaptive_kbf(model), robust_kbf(model), variational_kbf(model), imm_kbf(model)]
     for scenario in (Scenario(noise="student", dof=4.0), Scenario(noise="outliers", sensor_interval=0.05)):
         simulate_scenario(model, 3.0, scenario, horizon=1.0, windows=2, extra=learners)
@@ -35,14 +35,14 @@ def warm_scenario() -> None:
 def warm_others() -> None:
     """The other half of a server's warm-up (the display run's kernels), the clairvoyant recursion, the Euler kernel of
     ``simulate_rmse`` and the series filters."""
-    from app.serving.warmup import warm_view
-    from isl_core import Model, Scenario, adaptive_kbf, isl_filter, simulate_rmse
+    from app.serving.warmup import warm_model, warm_view
+    from isl_core import Scenario, adaptive_kbf, isl_filter, simulate_rmse
     from isl_core.scenario import clairvoyant
     from isl_core.series import run_filters, series
     from isl_core.series.likelihood import ReadingModel
 
     warm_view()
-    model = Model.from_w(alpha=0.5, w=3.0, sigma=20.0, m=3)
+    model = warm_model()
     clairvoyant(model, Scenario(sigma_knots=((0.5, 2.0),)), 0.01, 20)
     simulate_rmse(model, [isl_filter(model, 3.0), adaptive_kbf(model)], T=0.1, batches=2)
     rng = np.random.default_rng(0)

@@ -15,6 +15,7 @@ __all__ = [
     "raise_if_failed",
     "warm_core",
     "warm_long_jobs",
+    "warm_model",
     "warm_scenario_loop",
     "warm_view",
 ]
@@ -44,7 +45,7 @@ def warm_core() -> None:
     warm_scenario_loop()
 
 
-def _warm_model() -> Model:
+def warm_model() -> Model:
     """The model of the warm-up's short runs."""
     from isl_core import Model
 
@@ -55,7 +56,7 @@ def warm_view() -> None:
     """The display run's kernels: the simulation and its min/max fold, in one short run."""
     from isl_core.runview import simulate_view
 
-    simulate_view(_warm_model(), 3.0, seed=0, horizon=1.0)
+    simulate_view(warm_model(), 3.0, seed=0, horizon=1.0)
 
 
 def warm_scenario_loop() -> None:
@@ -63,7 +64,7 @@ def warm_scenario_loop() -> None:
     from isl_core import Scenario
     from isl_core.scenario.run import simulate_scenario
 
-    simulate_scenario(_warm_model(), 3.0, Scenario(), horizon=1.0, windows=1)
+    simulate_scenario(warm_model(), 3.0, Scenario(), horizon=1.0, windows=1)
 
 
 def warm_long_jobs() -> None:
