@@ -30,6 +30,7 @@ import re
 import sys
 import threading
 import time
+import types
 from collections import Counter
 from dataclasses import dataclass
 
@@ -59,9 +60,13 @@ def _schedstat(tid: int) -> tuple[float, float]:
 
 def _where(frame, depth: int = FRAMES, callers: int = CALLERS) -> str:
     """``func (file:line) < caller (file:line) … < outer < outer`` for the innermost ``depth`` frames of ``frame``
-    and the names of the ``callers`` frames out from them."""
+    and the names of the ``callers`` frames out from them.
+
+    The frames are another thread's, read while that thread may run (the watcher can lose the interpreter lock between
+    two steps), and CPython 3.11 then once gave a ``cell`` object as a frame's ``f_back``: the walk ends at the first
+    object that is not a frame, with what it has named so far."""
     names: list[str] = []
-    while frame is not None and len(names) < depth + callers:
+    while isinstance(frame, types.FrameType) and len(names) < depth + callers:
         code = frame.f_code
         where = f" ({os.path.basename(code.co_filename)}:{frame.f_lineno})" if len(names) < depth else ""
         names.append(code.co_name + where)

@@ -9,6 +9,7 @@ import logging
 import sys
 import threading
 import time
+import types
 
 import pytest
 import tornado.web
@@ -134,3 +135,11 @@ def test_static_files_are_compressed_once_on_a_thread(static_server, monkeypatch
     assert gzip.decompress(fetch("a.js", **{"Accept-Encoding": "gzip"}).body) == changed
     assert len(threads) == 2
     assert fetch("../outside.js", **{"Accept-Encoding": "gzip"}).code in (403, 404)
+
+
+def test_where_names_the_frames_up_to_the_first_object_that_is_not_a_frame():
+    """Another thread's stack read while it runs gave a ``cell`` as a frame's ``f_back`` once (CPython 3.11): the
+    watcher named no stall and logged a traceback instead. The walk now ends there."""
+    here = stalls._where(sys._getframe(), depth=1, callers=0)
+    assert here.startswith("test_where_names_the_frames_up_to_the_first_object_that_is_not_a_frame (test_stalls.py:")
+    assert stalls._where(types.CellType(), depth=1, callers=0) == ""
