@@ -9,6 +9,8 @@ once and updated in place.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import panel as pn
 import param
@@ -33,6 +35,15 @@ __all__ = ["ScenarioView"]
 def _finite(a: np.ndarray) -> np.ndarray:
     """Positive finite values kept, the rest NaN (a gap on a log axis)."""
     return np.where(np.isfinite(a) & (a > 0), a, np.nan)
+
+
+def _one_recompute(model, adding: bool):
+    """While glyphs are added to ``model``'s plots (``adding``): Bokeh recomputes the document's set of models once, at
+    the end, instead of after each property that refers to models (a new glyph, the legend's items, a range's
+    renderers), each a walk of every model of the page (:meth:`bokeh.document.models.DocumentModelManager.freeze`).
+    Otherwise (a later picture only relabels) and outside a document, nothing to do: the freeze ends in a walk."""
+    doc = model.document
+    return doc.models.freeze() if adding and doc is not None else contextlib.nullcontext()
 
 
 def _relabel(item: LegendItem, label: str) -> None:
@@ -113,7 +124,8 @@ class ScenarioView(Viewer):
         if pic is None:
             return
         roll, run = pic.rolling, pic.average.run
-        with pn.io.hold():
+        adding = not self._sigma_fig.legend[0].items or any(n not in self._legend_items for n in run.names)
+        with pn.io.hold(), _one_recompute(self._ratio_fig, adding):
             data = {"t": roll.t}
             for f, name in enumerate(run.names):  # a diverged filter's windows (inf) are left blank
                 data[name] = _finite(roll.ratio[:, f])
