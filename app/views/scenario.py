@@ -37,13 +37,23 @@ def _finite(a: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(a) & (a > 0), a, np.nan)
 
 
+@contextlib.contextmanager
 def _one_recompute(model, adding: bool):
     """While glyphs are added to ``model``'s plots (``adding``): Bokeh recomputes the document's set of models once, at
     the end, instead of after each property that refers to models (a new glyph, the legend's items, a range's
     renderers), each a walk of every model of the page (:meth:`bokeh.document.models.DocumentModelManager.freeze`).
-    Otherwise (a later picture only relabels) and outside a document, nothing to do: the freeze ends in a walk."""
+    Otherwise (a later picture only relabels) and outside a document, nothing to do: the freeze ends in a walk. The
+    freeze ends even if the drawing fails (Bokeh's own context manager would leave the document frozen)."""
     doc = model.document
-    return doc.models.freeze() if adding and doc is not None else contextlib.nullcontext()
+    if not adding or doc is None:
+        yield
+        return
+    frozen = doc.models.freeze()
+    frozen.__enter__()
+    try:
+        yield
+    finally:
+        frozen.__exit__(None, None, None)
 
 
 def _relabel(item: LegendItem, label: str) -> None:
@@ -125,7 +135,7 @@ class ScenarioView(Viewer):
             return
         roll, run = pic.rolling, pic.average.run
         adding = not self._sigma_fig.legend[0].items or any(n not in self._legend_items for n in run.names)
-        with pn.io.hold(), _one_recompute(self._ratio_fig, adding):
+        with pn.io.hold(self._ratio_fig.document), _one_recompute(self._ratio_fig, adding):
             data = {"t": roll.t}
             for f, name in enumerate(run.names):  # a diverged filter's windows (inf) are left blank
                 data[name] = _finite(roll.ratio[:, f])
@@ -172,10 +182,10 @@ class ScenarioView(Viewer):
                     renderers=[self._sigma_fig.line("t", "sigma", source=self._sigma_src, color="#000", line_width=2)],
                 )
             ]
-            for name in learning:
+            for name in learning:  # labelled here: new models, attached to the document once the drawing ends
                 items.append(
                     LegendItem(
-                        label=value(""),
+                        label=value(f"σ̂: {run.labels[run.names.index(name)]}"),
                         renderers=[
                             self._sigma_fig.line(
                                 "t",

@@ -7,11 +7,10 @@ says otherwise) with the loop's own three filters — the clairvoyant, the σ(0)
     ns/step(f) = (min over repeats of t(base + copies of f) − min over repeats of t(base)) / (copies · N)
 
 and the base's own ns/step. Copies fill the loop's lanes of four (:mod:`isl_core.kernels.scenario`) as a table with
-several filters does, so a lane filter's figure is its share of a full lane, not the cost of an idle lane's
-padding; the IMM filter's bank runs outside the lanes and costs per mode, so it is measured with one copy (more would
-only multiply the time the measurement takes: a bank of 16 modes costs more per step than the loop's three filters).
-Timings depend on the machine and on what else runs on it: they are figures to compare side by side in one call, not
-constants.
+several filters does, so a lane filter's figure is its share of a full lane, not the cost of an idle lane's padding; the
+IMM filter's bank runs outside the lanes and costs per mode, so it is measured with one copy (more would only multiply
+the measurement's time; its share of a lane, then left out, is small beside its bank's cost). Timings depend on the
+machine and on what else runs on it: they are figures to compare side by side in one call, not constants.
 """
 
 from __future__ import annotations
