@@ -301,3 +301,28 @@ def test_closing_the_session_drops_the_picture(state):
     assert state.scenarios.picture is not None
     state.close()
     assert state.scenarios.picture is None and state.scenarios.map_result is None
+
+
+def test_the_first_picture_is_drawn_with_one_recompute_of_the_documents_models(state, monkeypatch):
+    """The first picture in a page adds every filter's glyphs and legend items: each model-valued property set would
+    walk every model of the page again; the view asks Bokeh for one walk at the end. A later picture relabels: none."""
+    from bokeh.document import Document
+
+    state.set_inputs({"sc_runs": 256, "sc_horizon": 500.0})  # refused: nothing drawn yet
+    view = ScenarioView(state=state)
+    assert state.scenarios.picture is None and not view._legend_items
+    doc = Document()
+    doc.add_root(view._ratio_fig)
+    doc.add_root(view._sigma_fig)
+    walks: list[int] = []
+    recompute = doc.models.recompute
+    monkeypatch.setattr(doc.models, "recompute", lambda: walks.append(1) or recompute())
+    for runs, once in ((2, 1), (3, 0)):  # the first picture drawn in the document, then the next one
+        walks.clear()
+        state.set_inputs({"sc_runs": runs, "sc_horizon": 13.0})
+        assert state.scenarios.picture.request.runs == runs
+        assert len(walks) == once, walks
+    names = state.scenarios.picture.average.run.names
+    assert len(view._ratio_fig.legend[0].items) == len(names) and set(view._legend_items) == set(names)
+    item = view._ratio_fig.legend[0].items[0]
+    assert doc.get_model_by_id(item.id) is item  # the new models are the document's

@@ -4,6 +4,7 @@ for the run they started.
 Headless: a stand-in for ``pn.state.location`` (only its ``search`` matters) and the state's own job runner.
 """
 
+import threading
 import urllib.parse
 from concurrent.futures import ThreadPoolExecutor
 
@@ -149,6 +150,7 @@ def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is
     have rested URL_PAUSE s and their run is answered, instead of riding ahead of the plots or landing in the middle
     of a drag's next update."""
     loop, pool, deferred, now = ManualLoop(), ThreadPoolExecutor(max_workers=1), [], [0.0]
+    held = threading.Event()  # set at the latest when the test ends (the pool's thread waits on it)
     try:
         state, location = AppState(jobs=Jobs({"run": pool, "theory": pool}, schedule=loop.schedule)), Location()
         UrlSync(state, location, lambda fn, after: deferred.append((after, fn)), clock=lambda: now[0])
@@ -173,10 +175,14 @@ def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is
         now[0] = 1.0
         state.sigma = 70.0
         loop.pump(lambda: not state.computing)
-        state.seed = 3  # a run still in flight when the pause ends: written once it is answered
+        # a run still in flight when the pause ends: written once it is answered. Held in flight behind a job that
+        # waits for the test (the pool has one thread): a run that ended first would be answered before the pause
+        pool.submit(held.wait, 60.0)
+        state.seed = 3
         now[0] = 1.4
         deferred.pop()[1]()
         assert not deferred
+        held.set()
         loop.pump(lambda: not state.computing and loop.q.empty())
         assert location.search == "?sigma=60" and len(deferred) == 1  # the answer armed the next pause
         now[0] = 1.8
@@ -190,6 +196,7 @@ def test_in_a_served_session_the_url_follows_once_the_inputs_rest_and_the_run_is
         loop.q.get_nowait()()
         assert location.search == "?sigma=70&seed=3&sweep_sigmas=[3,30]"
     finally:
+        held.set()
         pool.shutdown(wait=True)
 
 

@@ -28,3 +28,21 @@ def test_every_filter_gets_a_figure_per_step_on_the_grid_of_them_all():
 def test_bad_settings_are_named():
     with pytest.raises(ValueError, match="copies"):
         filter_costs(MODEL, [], copies=0)
+
+
+def test_lane_filters_are_measured_in_copies_and_the_imm_bank_alone(monkeypatch):
+    """Copies fill the loop's lanes; the IMM's bank runs outside them, so its copies would only multiply the time."""
+    from isl_core.scenario import cost
+
+    measured, narrowed = {}, cost._narrowed
+
+    def counting(model, scenario, horizon, extra, grid=None):
+        if extra:
+            measured[extra[0].name] = len(extra)
+        return narrowed(model, scenario, horizon, extra, grid)
+
+    monkeypatch.setattr(cost, "_narrowed", counting)
+    specs = [isl_filter(MODEL, MODEL.beta), imm_kbf(MODEL, modes=3)]
+    costs = filter_costs(MODEL, specs, horizon=2.0, copies=3, repeats=1)
+    assert measured == {specs[0].name: 3, "imm": 1} and costs.copies == 3
+    assert "of the IMM filter, one" in costs.how
