@@ -9,8 +9,6 @@ painting).
 
 from __future__ import annotations
 
-import contextlib
-
 import numpy as np
 from bokeh.core.properties import value
 from bokeh.models import ColumnDataSource, GlyphRenderer, LegendItem
@@ -19,6 +17,7 @@ from bokeh.plotting import figure
 from isl_core.filters.baselines import LABELS
 
 from ..extras import EXTRA_NAMES
+from .batch import one_walk
 from .style import EXTRA_COLORS, EXTRA_DASHES, line
 
 __all__ = ["KEY_DATA", "Overlay", "follow"]
@@ -108,11 +107,9 @@ class Overlay:
         click in the browser, not for a change made on the server); a filter already drawn keeps whatever a
         legend click made of it.
         """
-        doc = self._keys[EXTRA_NAMES[0]].document
         building = any(n not in sources for n in names for sources in self._sources)
-        # lines built here (a filter ticked on a live page): the page's models are re-walked once, not once a line;
-        # only then: leaving a freeze re-walks them even if nothing was added (the event loop's time, at every run)
-        with doc.models.freeze() if doc is not None and building else contextlib.nullcontext():
+        # lines built here (a filter ticked on a live page): the page's models are re-walked once, not once a line
+        with one_walk(self._keys[EXTRA_NAMES[0]], building):
             for n, item in zip(EXTRA_NAMES, self.items, strict=True):
                 item.visible = n in names
                 if (n in names) != (n in self._shown):

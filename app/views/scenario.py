@@ -9,8 +9,6 @@ once and updated in place.
 
 from __future__ import annotations
 
-import contextlib
-
 import numpy as np
 import panel as pn
 import param
@@ -22,6 +20,7 @@ from panel.viewable import Viewer
 from ..state import AppState, declaration
 from ..state.scenarios import CHOICE_LABELS, PRESETS
 from ..text import R_MIN
+from .batch import one_walk
 from .fields import field
 from .filters_panel import bind
 from .filters_panel import number as number_box
@@ -35,25 +34,6 @@ __all__ = ["ScenarioView"]
 def _finite(a: np.ndarray) -> np.ndarray:
     """Positive finite values kept, the rest NaN (a gap on a log axis)."""
     return np.where(np.isfinite(a) & (a > 0), a, np.nan)
-
-
-@contextlib.contextmanager
-def _one_recompute(model, adding: bool):
-    """While glyphs are added to ``model``'s plots (``adding``): Bokeh recomputes the document's set of models once, at
-    the end, instead of after each property that refers to models (a new glyph, the legend's items, a range's
-    renderers), each a walk of every model of the page (:meth:`bokeh.document.models.DocumentModelManager.freeze`).
-    Otherwise (a later picture only relabels) and outside a document, nothing to do: the freeze ends in a walk. The
-    freeze ends even if the drawing fails (Bokeh's own context manager would leave the document frozen)."""
-    doc = model.document
-    if not adding or doc is None:
-        yield
-        return
-    frozen = doc.models.freeze()
-    frozen.__enter__()
-    try:
-        yield
-    finally:
-        frozen.__exit__(None, None, None)
 
 
 def _relabel(item: LegendItem, label: str) -> None:
@@ -135,7 +115,7 @@ class ScenarioView(Viewer):
             return
         roll, run = pic.rolling, pic.average.run
         adding = not self._sigma_fig.legend[0].items or any(n not in self._legend_items for n in run.names)
-        with pn.io.hold(self._ratio_fig.document), _one_recompute(self._ratio_fig, adding):
+        with pn.io.hold(self._ratio_fig.document), one_walk(self._ratio_fig, adding):
             data = {"t": roll.t}
             for f, name in enumerate(run.names):  # a diverged filter's windows (inf) are left blank
                 data[name] = _finite(roll.ratio[:, f])
