@@ -11,7 +11,9 @@ target=".[app${ISL_EXTRAS:+,${ISL_EXTRAS}}]"
 # requirements.lock pins every package (./scripts/lock regenerates it): a fresh clone installs what CI tested.
 # Byte-compiled afterwards on every core rather than by pip on one: the same files, and pip's own compilation was two
 # thirds of a fresh install's time. An up-to-date file is skipped; as with pip, one that does not compile is left to
-# its import
+# its import. Skipped too: the test suites the libraries ship, and pip, setuptools and mypy (which runs its compiled
+# modules), none of which the scripts import — a third of the files, and of the time (17 → 11 s on two cores)
 .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-compile -c requirements.lock -e "$target"
 site=$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
-.venv/bin/python -m compileall -qq -j 0 "$site" || true
+skip='/tests?/|/site-packages/(pip|setuptools|_distutils_hack|pkg_resources|mypy|mypyc)/'
+.venv/bin/python -m compileall -qq -j 0 -x "$skip" "$site" || true

@@ -113,10 +113,17 @@ class IntSlider(Guarded, pn.widgets.IntSlider):
 def resend(widget) -> None:
     """Send ``widget``'s value to the browser again. A preset moves a slider from the server while a key moves it in
     the browser: each side's message crosses the other's, and the browser ends on the preset's value while the server
-    (and the link, and the run) took the key's. Bokeh sends a property only when its server copy changes, and that copy
-    holds the browser's value already: the value is sent as a change to itself."""
+    (and the link, and the run) took the key's. Bokeh sends a property only when its server copy changes. That copy
+    usually holds the browser's value already, and the value is then sent as a change to itself. It can also hold the
+    preset's: Bokeh writes a browser's value into it when the message arrives, Panel hands the value to the widget
+    later on its thread pool, and a preset applied in between writes its own value over the copy (the widget then
+    takes the browser's value, the copy keeps the preset's). The widget's value is what the run was made from: the copy
+    takes it, and that change is what is sent."""
     for model, _ in list(widget._models.values()):
-        model.trigger("value", model.value, model.value)
+        if model.value == widget.value:
+            model.trigger("value", model.value, model.value)
+        else:
+            model.value = widget.value
 
 
 def revert(state, widget, shown: Callable[[], Any]) -> None:

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import param
 import pytest
+from bokeh.document import Document
+from bokeh.document.events import ModelChangedEvent
 
 from app.state import AppState
-from app.views import controls
+from app.views import controls, widgets
 
 
 @pytest.fixture
@@ -30,3 +32,25 @@ def test_a_value_moved_by_the_server_is_sent_again_at_the_release_not_mid_drag(s
     assert sent == [slider]
     slider.value = 2.2  # a later drag, no server move since: nothing to send
     assert sent == [slider]
+
+
+def test_a_resend_sends_the_widget_s_value_even_where_a_preset_wrote_over_its_model_copy():
+    """Bokeh writes the browser's value into the widget's model copy when it arrives, and Panel hands it to the widget
+    later: a preset applied in between leaves its own value in the copy, and sending the copy again would show the
+    preset beside a run made from the browser's value. Sent is the widget's value: the run's."""
+    doc = Document()
+    slider = widgets.Slider(label="σ", start=0.0, end=3.0, step=0.01, value=1.3)
+    doc.add_root(slider.get_root(doc))
+    (model, _), *_ = slider._models.values()
+    sent: list = []
+    doc.on_change(lambda event: sent.append((event.attr, event.new)) if isinstance(event, ModelChangedEvent) else None)
+
+    widgets.resend(slider)  # the copy holds the widget's value: sent as a change to itself
+    assert sent == [("value", 1.3)]
+
+    slider.value = 2.3  # the preset, written into the copy
+    with param.discard_events(slider):  # the browser's value, handed to the widget after the preset: not to the copy
+        slider.value = 1.31
+    sent.clear()
+    widgets.resend(slider)
+    assert model.value == 1.31 and sent == [("value", 1.31)]
