@@ -113,17 +113,22 @@ class IntSlider(Guarded, pn.widgets.IntSlider):
 def resend(widget) -> None:
     """Send ``widget``'s value to the browser again. A preset moves a slider from the server while a key moves it in
     the browser: each side's message crosses the other's, and the browser ends on the preset's value while the server
-    (and the link, and the run) took the key's. Bokeh sends a property only when its server copy changes. That copy
-    usually holds the browser's value already, and the value is then sent as a change to itself. It can also hold the
-    preset's: Bokeh writes a browser's value into it when the message arrives, Panel hands the value to the widget
-    later on its thread pool, and a preset applied in between writes its own value over the copy (the widget then
-    takes the browser's value, the copy keeps the preset's). The widget's value is what the run was made from: the copy
-    takes it, and that change is what is sent."""
+    (and the link, and the run) took the key's. Bokeh sends a property only when its server copy (the model's) changes.
+
+    Bokeh writes a browser's value into that copy when the message arrives; Panel hands it to the widget later, on its
+    thread pool. So the copy holds either the browser's newest value — the one the widget took, or a newer one Panel
+    has still queued (a key pressed again) — and it is sent as a change to itself; or the preset's, written over the
+    browser's value in between, while the widget took the browser's value (the run's): the copy then takes the
+    widget's value, and that change is sent. Runs on the session's loop with its lock held: the loop alone queues the
+    browser's values, and Panel takes them only under that lock. Any input widget (a checkbox's model holds its value
+    as ``active``)."""
+    ((prop, value),) = widget._process_param_change({"value": widget.value}).items()
     for model, _ in list(widget._models.values()):
-        if model.value == widget.value:
-            model.trigger("value", model.value, model.value)
+        held = getattr(model, prop)
+        if prop in widget._events or held == value:
+            model.trigger(prop, held, held)
         else:
-            model.value = widget.value
+            setattr(model, prop, value)
 
 
 def revert(state, widget, shown: Callable[[], Any]) -> None:

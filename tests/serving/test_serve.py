@@ -6,6 +6,7 @@ import argparse
 import logging
 import os
 import re
+import signal
 import subprocess
 import sys
 
@@ -406,6 +407,18 @@ def test_callback_error_is_logged_server_side_and_the_user_gets_a_short_message(
     incident = re.search(r"incident ([0-9a-f]{8})", messages[0]).group(1)
     assert "SECRET-DETAIL" not in messages[0] and "Traceback" not in messages[0] and ".py" not in messages[0]
     assert f"incident {incident}" in text and "Traceback (most recent call last)" in text
+
+
+def test_a_crash_in_native_code_writes_every_thread_s_stack_to_the_log(tmp_path):
+    """A segmentation fault (a kernel or a library writing out of bounds) ends the process; the log says where each
+    thread was, instead of nothing."""
+    with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (_, proc, log):
+        os.kill(proc.pid, signal.SIGSEGV)
+        code = proc.wait(60)
+        text = log.read_text()
+    assert code == -signal.SIGSEGV
+    assert "Fatal Python error: Segmentation fault" in text, text[-3000:]
+    assert "Current thread" in text and 'File "' in text, text[-3000:]  # the Python stacks
 
 
 def test_a_page_closed_mid_write_is_not_logged_as_an_error(caplog):
