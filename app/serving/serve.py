@@ -37,6 +37,7 @@ HEALTHCHECK uses it (no curl in a slim image).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import faulthandler
 import logging
 import os
@@ -259,8 +260,10 @@ def main(argv: list[str] | None = None) -> int:
     if opts.health:
         return health(opts.port)
     # a crash in native code (a kernel, a library) writes every thread's Python stack to the log before the process
-    # ends, where it would otherwise end with a signal and no word of where
-    faulthandler.enable(all_threads=True)
+    # ends, where it would otherwise end with a signal and no word of where (not when there is no standard error to
+    # write to: the server starts all the same)
+    with contextlib.suppress(RuntimeError, ValueError, OSError):
+        faulthandler.enable(all_threads=True)
     from app.serving import patches
 
     patches.install()  # once, before any session exists: the Python patches of Panel and Bokeh (docs: development)

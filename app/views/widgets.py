@@ -120,8 +120,8 @@ def resend(widget) -> None:
     has still queued (a key pressed again) — and it is sent as a change to itself; or the preset's, written over the
     browser's value in between, while the widget took the browser's value (the run's): the copy then takes the
     widget's value, and that change is sent. Runs on the session's loop with its lock held: the loop alone queues the
-    browser's values, and Panel takes them only under that lock. Any input widget (a checkbox's model holds its value
-    as ``active``)."""
+    browser's values, and Panel takes them only under that lock. Any widget whose value is one property of its model
+    (a checkbox's model holds it as ``active``)."""
     ((prop, value),) = widget._process_param_change({"value": widget.value}).items()
     for model, _ in list(widget._models.values()):
         held = getattr(model, prop)

@@ -6,6 +6,7 @@ import argparse
 import logging
 import os
 import re
+import resource
 import signal
 import subprocess
 import sys
@@ -413,6 +414,7 @@ def test_a_crash_in_native_code_writes_every_thread_s_stack_to_the_log(tmp_path)
     """A segmentation fault (a kernel or a library writing out of bounds) ends the process; the log says where each
     thread was, instead of nothing."""
     with served(tmp_path, "--stats-interval", "0", script=fixture_app(tmp_path)) as (_, proc, log):
+        resource.prlimit(proc.pid, resource.RLIMIT_CORE, (0, 0))  # no core file of the server in the checkout
         os.kill(proc.pid, signal.SIGSEGV)
         code = proc.wait(60)
         text = log.read_text()
